@@ -1,0 +1,419 @@
+// picoscan: the command-line front end. Argument parsing and printing only; the work is in the core.
+#include "picoscan/calibration.h"
+#include "picoscan/capture_set.h"
+#include "picoscan/decode.h"
+#include "picoscan/error.h"
+#include "picoscan/io.h"
+#include "picoscan/patterns.h"
+#include "picoscan/preview.h"
+#include "picoscan/simulate.h"
+#include "picoscan/triangulate.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using namespace picoscan;
+
+namespace {
+
+const char* kUsage = R"(picoscan - structured-light 3D scanning with a projector and a webcam
+
+Usage: picoscan COMMAND [OPTIONS]
+
+Commands:
+  patterns      write the projector patterns (PNG) and their sequence.json manifest
+  simulate      render a capture set of a virtual scene with the simulated rig
+  reconstruct   decode a capture set and triangulate it into a point cloud (and mesh)
+  manifest      write a sequence.json describing a capture set made by another system
+  demo          simulated scan of the built-in part -> demo-output/ (PLY, STL, PNG)
+
+Run 'picoscan COMMAND --help' for the options of one command.
+
+A typical session:
+  picoscan patterns --projector 854x480 --out patterns/      # show these on the projector
+  picoscan simulate --out scan/                              # or capture them with a camera
+  picoscan reconstruct --calibration scan/calibration.yml --captures scan/ \
+                       --out part.ply --mesh part.stl
+)";
+
+const char* kPatternsHelp = R"(picoscan patterns --projector WxH --out DIR [options]
+
+Writes one 8-bit PNG per projector frame, named in projection order, and DIR/sequence.json.
+The sequence: white, black, Gray code bits of the projector columns (each followed by its
+inverse), phase-shifted sinusoids of the columns, then the same for the rows.
+
+  --projector WxH      projector resolution in pixels, e.g. 854x480 (required)
+  --shifts K           phase shifts per axis, 3..64 (default 24; more shifts average out noise)
+  --period-bits N      fringe period = 2^N projector pixels (default 4, i.e. 16 px)
+  --rows | --no-rows   also encode projector rows (default --rows; rows allow ray-ray triangulation)
+  --out DIR            output folder (created if needed)
+)";
+
+const char* kSimulateHelp = R"(picoscan simulate --out DIR [options]
+
+Renders the capture set a real rig would record, with the seed-like rig (1600x1200 camera,
+854x480 projector, 150 mm baseline, 400 mm working distance) unless --calibration is given.
+Writes the images, DIR/sequence.json and the exact rig as DIR/calibration.yml.
+
+  --out DIR            output folder (must be empty or not exist)
+  --scene FILE         scene description (YAML/JSON, see docs/formats.md); default: built-in part
+  --calibration FILE   rig to simulate (default: the seed-like rig)
+  --shifts K, --period-bits N, --rows | --no-rows    pattern options as for 'patterns'
+  --noise SIGMA        camera noise in grey levels (default 1)
+  --gamma G            projector response exponent (default 1)
+  --blur SIGMA         defocus blur in camera pixels (default 0.7)
+  --seed N             noise seed (default 1)
+)";
+
+const char* kReconstructHelp = R"(picoscan reconstruct --calibration FILE --captures DIR --out CLOUD.ply [options]
+
+Decodes the Gray code and phase-shift frames of a capture set (hybrid unwrapping) and
+triangulates every camera pixel. Writes an organised point cloud with colour, normals and
+quality, and optionally a grid mesh that does not bridge depth jumps.
+
+  --calibration FILE   camera-projector calibration (PicoScan YAML, SLMaster caliInfo.yml or
+                       SLStudio calibration.xml)
+  --captures DIR       capture set folder
+  --manifest FILE      sequence.json to use instead of DIR/sequence.json (for foreign sets)
+  --out FILE           point cloud (.ply, binary unless --ascii)
+  --mesh FILE          grid mesh too (.stl, .ply or .obj)
+  --preview FILE       shaded PNG preview of the scan
+  --binary-only        Gray code only, ignore the phase frames (for comparison)
+  --ascii              write ASCII PLY/STL instead of binary
+  --min-contrast DN    white-black contrast below this is shadow (default 15)
+  --min-modulation DN  fringe amplitude below this is rejected (default 4)
+)";
+
+const char* kManifestHelp = R"(picoscan manifest --preset NAME --projector WxH --out FILE [options]
+
+Writes a sequence.json that describes a capture set made by another system, so that
+'picoscan reconstruct --manifest FILE' can read it in place.
+
+  --preset opencv-graycode   OpenCV structured_light GrayCodePattern: (pattern, inverse) pairs,
+                             columns then rows, then white, black. Files PREFIX<K>SUFFIX.
+           --prefix P --suffix S --first-index K   (defaults: "", ".png", 1)
+  --preset slstudio-gray     SLStudio Gray code: white, black, column bits without inverses
+           --bits N          projected bits (default: all)
+  --preset slmaster-cgc      SLMaster sinusoid + complementary Gray code
+           --shifts K --periods N   (defaults 12 and 32)
+  --projector WxH            the projector resolution of that system
+  --out FILE                 the manifest to write
+)";
+
+const char* kDemoHelp = R"(picoscan demo [--out DIR]
+
+Simulates a scan of the built-in part with the seed-like rig and reconstructs it.
+Writes DIR/cloud.ply, DIR/part.stl, DIR/preview.png and the capture set in DIR/captures/.
+Default DIR: demo-output
+)";
+
+// Parsed "--key value" and "--flag" arguments of one command.
+class Arguments {
+public:
+    Arguments(int argc, char** argv, int first, const std::set<std::string>& flags) {
+        for (int index = first; index < argc; ++index) {
+            std::string key = argv[index];
+            if (key.rfind("--", 0) != 0) throw Error(key, "unexpected argument (options start with --)");
+            if (key == "--help" || key == "-h" || flags.count(key)) {
+                values_[key] = "";
+                continue;
+            }
+            if (index + 1 >= argc) throw Error(key, "needs a value");
+            values_[key] = argv[++index];
+        }
+    }
+    bool has(const std::string& key) const { return values_.count(key) > 0; }
+    std::string text(const std::string& key, const std::string& fallback = "") const {
+        used_.insert(key);
+        auto found = values_.find(key);
+        return found == values_.end() ? fallback : found->second;
+    }
+    std::string required(const std::string& key) const {
+        if (!has(key)) throw Error(key, "is required (see --help)");
+        return text(key);
+    }
+    double number(const std::string& key, double fallback) const {
+        if (!has(key)) return used_.insert(key), fallback;
+        const std::string value = text(key);
+        try {
+            size_t end = 0;
+            const double parsed = std::stod(value, &end);
+            if (end != value.size()) throw std::invalid_argument(value);
+            return parsed;
+        } catch (const std::exception&) {
+            throw Error(key, "expects a number, got '" + value + "'");
+        }
+    }
+    int integer(const std::string& key, int fallback) const {
+        const double value = number(key, fallback);
+        if (value != double(int(value))) throw Error(key, "expects a whole number");
+        return int(value);
+    }
+    bool flag(const std::string& key) const { return used_.insert(key), has(key); }
+    cv::Size size(const std::string& key) const {
+        const std::string value = required(key);
+        int width = 0, height = 0;
+        char separator = 0, extra = 0;
+        if (std::sscanf(value.c_str(), "%d%c%d%c", &width, &separator, &height, &extra) != 3 || separator != 'x')
+            throw Error(key, "expects WIDTHxHEIGHT, e.g. 854x480, got '" + value + "'");
+        return {width, height};
+    }
+    // Unknown options are mistakes (a typo would otherwise be silently ignored).
+    void reject_unknown() const {
+        for (const auto& [key, value] : values_)
+            if (!used_.count(key)) throw Error(key, "unknown option (see --help)");
+    }
+
+private:
+    std::map<std::string, std::string> values_;
+    mutable std::set<std::string> used_;
+};
+
+// A one-line progress bar on a terminal; silent when stderr is not one.
+ProgressCallback terminal_progress() {
+    if (!isatty(STDERR_FILENO)) return nullptr;
+    return [](double fraction, const std::string& stage) {
+        const int width = 30, filled = int(fraction * width + 0.5);
+        std::fprintf(stderr, "\r%-12s [%s%s] %3d%%", stage.c_str(), std::string(filled, '#').c_str(),
+                     std::string(width - filled, ' ').c_str(), int(fraction * 100 + 0.5));
+        if (fraction >= 1.0) std::fprintf(stderr, "\n");
+        std::fflush(stderr);
+        return true;
+    };
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+PatternOptions pattern_options(const Arguments& arguments, cv::Size projector_size) {
+    PatternOptions options;
+    options.projector_size = projector_size;
+    options.shifts = arguments.integer("--shifts", options.shifts);
+    options.period_bits = arguments.integer("--period-bits", options.period_bits);
+    if (arguments.flag("--rows") && arguments.flag("--no-rows")) throw Error("--rows", "conflicts with --no-rows");
+    options.rows = !arguments.flag("--no-rows");
+    return options;
+}
+
+fs::path absolute_path(const std::string& path) { return fs::weakly_canonical(fs::absolute(path)); }
+
+bool is_inside(const fs::path& path, const fs::path& directory) {
+    const fs::path relative = path.lexically_relative(directory);
+    return !relative.empty() && *relative.begin() != "..";
+}
+
+void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encoding) {
+    const std::string extension = fs::path(path).extension().string();
+    if (extension == ".stl" || extension == ".STL") write_stl(mesh, path, encoding);
+    else if (extension == ".ply" || extension == ".PLY") write_ply(mesh, path, encoding);
+    else if (extension == ".obj" || extension == ".OBJ") write_obj(mesh, path);
+    else throw Error(path, "mesh file must end in .stl, .ply or .obj");
+}
+
+int run_patterns(const Arguments& arguments) {
+    const PatternOptions options = pattern_options(arguments, arguments.size("--projector"));
+    const std::string directory = arguments.required("--out");
+    arguments.reject_unknown();
+    const PatternSequence sequence = make_pattern_sequence(options);
+    write_pattern_images(sequence, directory);
+    std::printf("wrote %zu patterns (%d column bits, %d row bits, %d shifts, period %g px) and sequence.json to %s\n",
+                sequence.frames.size(), sequence.columns.gray_bits, sequence.rows.gray_bits, options.shifts,
+                sequence.columns.period_px, directory.c_str());
+    return 0;
+}
+
+struct ReconstructRequest {
+    std::string calibration, captures, manifest, cloud, mesh, preview;
+    DecodeOptions decode;
+    Encoding encoding = Encoding::Binary;
+};
+
+int reconstruct(const ReconstructRequest& request) {
+    const auto start = std::chrono::steady_clock::now();
+    const fs::path capture_directory = absolute_path(request.captures);
+    for (const std::string& output : {request.cloud, request.mesh, request.preview}) {
+        if (output.empty()) continue;
+        const fs::path target = absolute_path(output);
+        if (target == capture_directory || is_inside(target, capture_directory))
+            throw Error(output, "output must not be written into the capture directory " + request.captures);
+        if (target == absolute_path(request.calibration) || (!request.manifest.empty() && target == absolute_path(request.manifest)))
+            throw Error(output, "output would overwrite an input file");
+    }
+    const Calibration calibration = read_calibration(request.calibration);
+    const ProgressCallback progress = terminal_progress();
+    const CaptureSet captures = load_capture_set(request.captures, request.manifest, progress);
+    if (captures.images.front().size() != calibration.camera_size)
+        throw Error(request.calibration, "camera_size " + std::to_string(calibration.camera_size.width) + "x" +
+                                             std::to_string(calibration.camera_size.height) + " differs from the captures' " +
+                                             std::to_string(captures.images.front().cols) + "x" +
+                                             std::to_string(captures.images.front().rows));
+    const CorrespondenceMap correspondences = decode(captures, request.decode, progress);
+    const ScanView view = triangulate(correspondences, calibration, captures.white_colour, {}, progress);
+    const PointCloud cloud = to_point_cloud(view);
+    if (cloud.points.empty()) throw Error(request.captures, "no pixel could be decoded and triangulated");
+    write_ply(cloud, request.cloud, request.encoding);
+    std::printf("%zu points (%.1f %% of the camera pixels), %d fringe orders corrected -> %s\n", cloud.points.size(),
+                100.0 * cloud.points.size() / view.points.total(), correspondences.order_corrections, request.cloud.c_str());
+    if (!request.mesh.empty()) {
+        const Mesh mesh = grid_mesh(view, calibration.camera_matrix(0, 0));
+        write_mesh_file(mesh, request.mesh, request.encoding);
+        std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
+    }
+    if (!request.preview.empty()) {
+        write_preview_png(view, request.preview);
+        std::printf("preview -> %s\n", request.preview.c_str());
+    }
+    std::printf("done in %.2f s\n", seconds_since(start));
+    return 0;
+}
+
+int run_reconstruct(const Arguments& arguments) {
+    ReconstructRequest request;
+    request.calibration = arguments.required("--calibration");
+    request.captures = arguments.required("--captures");
+    request.manifest = arguments.text("--manifest");
+    request.cloud = arguments.required("--out");
+    request.mesh = arguments.text("--mesh");
+    request.preview = arguments.text("--preview");
+    request.decode.binary_only = arguments.flag("--binary-only");
+    request.decode.min_contrast = arguments.number("--min-contrast", request.decode.min_contrast);
+    request.decode.min_modulation = arguments.number("--min-modulation", request.decode.min_modulation);
+    request.encoding = arguments.flag("--ascii") ? Encoding::Ascii : Encoding::Binary;
+    arguments.reject_unknown();
+    return reconstruct(request);
+}
+
+SimulationOptions simulation_options(const Arguments& arguments) {
+    SimulationOptions options;
+    options.noise_sigma_dn = arguments.number("--noise", options.noise_sigma_dn);
+    options.projector_gamma = arguments.number("--gamma", options.projector_gamma);
+    options.blur_sigma_px = arguments.number("--blur", 0.7);
+    options.seed = uint64_t(arguments.integer("--seed", 1));
+    if (options.noise_sigma_dn < 0) throw Error("--noise", "must be >= 0");
+    if (options.projector_gamma <= 0) throw Error("--gamma", "must be > 0");
+    if (options.blur_sigma_px < 0) throw Error("--blur", "must be >= 0");
+    return options;
+}
+
+void require_empty_output(const std::string& directory) {
+    if (fs::exists(directory) && (!fs::is_directory(directory) || !fs::is_empty(directory)))
+        throw Error(directory, "output folder exists and is not empty (nothing is overwritten)");
+}
+
+int run_simulate(const Arguments& arguments) {
+    const std::string directory = arguments.required("--out");
+    const Calibration calibration =
+        arguments.has("--calibration") ? read_calibration(arguments.text("--calibration")) : seed_rig_calibration();
+    const Scene scene = arguments.has("--scene") ? read_scene(arguments.text("--scene")) : demo_scene();
+    const PatternOptions patterns = pattern_options(arguments, calibration.projector_size);
+    const SimulationOptions options = simulation_options(arguments);
+    arguments.reject_unknown();
+    require_empty_output(directory);
+    const CaptureSet captures =
+        simulate_capture(make_pattern_sequence(patterns), calibration, scene, options, terminal_progress());
+    write_capture_set(captures, directory);
+    write_calibration(calibration, (fs::path(directory) / "calibration.yml").string());
+    std::printf("wrote %zu simulated frames, sequence.json and calibration.yml to %s\n", captures.images.size(),
+                directory.c_str());
+    return 0;
+}
+
+int run_manifest(const Arguments& arguments) {
+    const std::string preset = arguments.required("--preset");
+    const cv::Size projector = arguments.size("--projector");
+    const std::string out = arguments.required("--out");
+    PatternSequence sequence;
+    if (preset == "opencv-graycode") {
+        sequence = make_opencv_graycode_sequence(projector, arguments.text("--prefix", ""),
+                                                 arguments.text("--suffix", ".png"), arguments.integer("--first-index", 1));
+    } else if (preset == "slstudio-gray") {
+        sequence = make_slstudio_gray_sequence(projector, arguments.integer("--bits", gray_bits_for(projector.width)));
+    } else if (preset == "slmaster-cgc") {
+        sequence = make_slmaster_cgc_sequence(projector, arguments.integer("--shifts", 12), arguments.integer("--periods", 32));
+    } else {
+        throw Error("--preset", "unknown preset '" + preset + "' (opencv-graycode, slstudio-gray, slmaster-cgc)");
+    }
+    arguments.reject_unknown();
+    write_manifest(sequence, out);
+    std::printf("wrote %s (%zu frames, %s)\n", out.c_str(), sequence.frames.size(), preset.c_str());
+    return 0;
+}
+
+int run_demo(const Arguments& arguments) {
+    const fs::path directory = arguments.text("--out", "demo-output");
+    arguments.reject_unknown();
+    const fs::path captures = directory / "captures";
+    if (fs::exists(captures)) {
+        // Replace only the demo's own previous capture set, never anything else.
+        if (!fs::is_regular_file(captures / "sequence.json"))
+            throw Error(captures.string(), "exists and is not a capture set from an earlier demo; choose another --out");
+        fs::remove_all(captures);
+    }
+    const Calibration calibration = seed_rig_calibration();
+    std::printf("simulating a scan of the built-in part (1600x1200 camera, 854x480 projector)...\n");
+    PatternOptions patterns;
+    patterns.projector_size = calibration.projector_size;
+    SimulationOptions options;
+    options.blur_sigma_px = 0.7;
+    const CaptureSet simulated =
+        simulate_capture(make_pattern_sequence(patterns), calibration, demo_scene(), options, terminal_progress());
+    write_capture_set(simulated, captures.string());
+    write_calibration(calibration, (directory / "calibration.yml").string());
+    ReconstructRequest request;
+    request.calibration = (directory / "calibration.yml").string();
+    request.captures = captures.string();
+    request.cloud = (directory / "cloud.ply").string();
+    request.mesh = (directory / "part.stl").string();
+    request.preview = (directory / "preview.png").string();
+    return reconstruct(request);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const std::string command = argc > 1 ? argv[1] : "";
+    if (command.empty() || command == "--help" || command == "-h" || command == "help") {
+        std::fputs(kUsage, command.empty() ? stderr : stdout);
+        return command.empty() ? 2 : 0;
+    }
+    struct Command {
+        const char* help;
+        int (*run)(const Arguments&);
+        std::set<std::string> flags;
+    };
+    const std::map<std::string, Command> commands{
+        {"patterns", {kPatternsHelp, run_patterns, {"--rows", "--no-rows"}}},
+        {"simulate", {kSimulateHelp, run_simulate, {"--rows", "--no-rows"}}},
+        {"reconstruct", {kReconstructHelp, run_reconstruct, {"--binary-only", "--ascii"}}},
+        {"manifest", {kManifestHelp, run_manifest, {}}},
+        {"demo", {kDemoHelp, run_demo, {}}},
+    };
+    const auto found = commands.find(command);
+    if (found == commands.end()) {
+        std::fprintf(stderr, "picoscan: unknown command '%s' (see picoscan --help)\n", command.c_str());
+        return 2;
+    }
+    try {
+        const Arguments arguments(argc, argv, 2, found->second.flags);
+        if (arguments.has("--help") || arguments.has("-h")) {
+            std::fputs(found->second.help, stdout);
+            return 0;
+        }
+        return found->second.run(arguments);
+    } catch (const std::exception& error) {
+        // After a progress bar, start the error on a fresh line.
+        std::fprintf(stderr, "%spicoscan %s: error: %s\n", isatty(STDERR_FILENO) ? "\n" : "", command.c_str(),
+                     error.what());
+        return 1;
+    }
+}

@@ -1,0 +1,29 @@
+// A capture set: one camera image per frame of a PatternSequence, plus the manifest.
+#pragma once
+
+#include "picoscan/patterns.h"
+#include "picoscan/progress.h"
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+struct CaptureSet {
+    std::string directory;
+    PatternSequence sequence;
+    std::vector<cv::Mat> images;  // one per frame, single channel, CV_8U or CV_16U, all one size
+    cv::Mat white_colour;         // the white frame in colour (CV_8UC3), for the cloud's colour
+};
+
+// Loads the images named by the manifest. `manifest_path` empty means
+// "<directory>/sequence.json". Throws Error naming the file for missing, unreadable or
+// corrupt images, mismatched sizes or bit depths, and extra image files in the directory.
+CaptureSet load_capture_set(const std::string& directory, const std::string& manifest_path = "",
+                            const ProgressCallback& progress = nullptr);
+
+// Writes images and manifest into `directory` (each file through a temporary + rename).
+void write_capture_set(const CaptureSet& captures, const std::string& directory);
+
+}  // namespace picoscan

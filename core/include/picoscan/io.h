@@ -1,0 +1,29 @@
+// Reading and writing clouds and meshes: PLY (ASCII/binary), STL (ASCII/binary), OBJ.
+// Every writer goes through a temporary file in the same folder and a rename, so a
+// failure leaves no half-written output. Readers throw Error naming the file.
+#pragma once
+
+#include "picoscan/cloud.h"
+
+#include <string>
+
+namespace picoscan {
+
+enum class Encoding { Binary, Ascii };
+
+void write_ply(const PointCloud& cloud, const std::string& path, Encoding encoding = Encoding::Binary);
+void write_ply(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
+void write_stl(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
+void write_obj(const Mesh& mesh, const std::string& path);
+
+// PLY with or without faces (a point cloud reads as a Mesh with no faces).
+Mesh read_ply(const std::string& path);
+// STL, binary or ASCII (detected); vertices are merged where exactly equal.
+Mesh read_stl(const std::string& path);
+// Any of the above by extension (.ply, .stl).
+Mesh read_mesh(const std::string& path);
+
+// Writes `bytes` to `path` through a temporary file and a rename.
+void write_file_atomically(const std::string& path, const std::string& bytes);
+
+}  // namespace picoscan

@@ -1,0 +1,88 @@
+// A deterministic virtual rig: ray-casts a calibrated camera-projector pair looking at a
+// scene of analytic shapes and triangle meshes, and renders camera images of any pattern.
+#pragma once
+
+#include "picoscan/calibration.h"
+#include "picoscan/capture_set.h"
+#include "picoscan/cloud.h"
+#include "picoscan/patterns.h"
+#include "picoscan/progress.h"
+
+#include <opencv2/core.hpp>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+// All shapes in camera coordinates, mm. albedo in 0..1.
+struct Sphere { cv::Vec3d centre; double radius_mm = 10; double albedo = 0.8; };
+struct Plane { cv::Vec3d point; cv::Vec3d normal{0, 0, -1}; double albedo = 0.8; };
+struct Box { cv::Vec3d centre; cv::Vec3d half_size_mm{10, 10, 10}; cv::Matx33d rotation = cv::Matx33d::eye(); double albedo = 0.8; };
+struct Cylinder { cv::Vec3d base_centre; cv::Vec3d axis{0, 1, 0}; double radius_mm = 10; double height_mm = 20; double albedo = 0.8; };  // capped
+struct TriangleMesh { Mesh mesh; double albedo = 0.8; };
+
+struct Scene {
+    std::vector<Sphere> spheres;
+    std::vector<Plane> planes;
+    std::vector<Box> boxes;
+    std::vector<Cylinder> cylinders;
+    std::vector<TriangleMesh> meshes;
+};
+
+struct SimulationOptions {
+    double full_scale_dn = 220.0;   // camera level of a white-lit, albedo-1 surface facing the projector
+    double ambient_dn = 12.0;       // level from ambient light on an albedo-1 surface
+    double projector_black = 0.02;  // projector black level relative to white (light leakage)
+    double projector_gamma = 1.0;   // projector response: light = level^gamma
+    double noise_sigma_dn = 1.0;    // camera noise (Gaussian, DN)
+    double blur_sigma_px = 0.0;     // defocus, Gaussian sigma in camera pixels
+    int bit_depth = 8;              // 8 or 16 bit camera images
+    uint64_t seed = 1;              // noise seed: the same seed renders the same images
+};
+
+// Ground truth per camera pixel, from the scene geometry alone.
+struct SimulatedGeometry {
+    cv::Mat points;      // CV_32FC3, camera frame, NaN where the ray hits nothing
+    cv::Mat normals;     // CV_32FC3
+    cv::Mat projector;   // CV_32FC2, projector (u, v) of the point (distorted pixel coords), NaN outside
+    cv::Mat lit;         // CV_8U, 255 where the projector sees the point (not in shadow)
+    cv::Mat shading;     // CV_32F, albedo * cos(incidence) towards the projector
+    cv::Mat albedo;      // CV_32F
+};
+
+class Simulator {
+public:
+    // Ray-casts the scene once; each render() then only samples the pattern.
+    Simulator(const Calibration& calibration, const Scene& scene, const SimulationOptions& options = {});
+    ~Simulator();
+
+    const SimulatedGeometry& geometry() const;
+    // Camera image (CV_8U or CV_16U) of the projector showing `pattern` (CV_8U, projector size).
+    // `frame_index` selects the noise realisation.
+    cv::Mat render(const cv::Mat& pattern, int frame_index) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+// Renders every frame of `sequence` into a capture set (in memory).
+CaptureSet simulate_capture(const PatternSequence& sequence, const Calibration& calibration,
+                            const Scene& scene, const SimulationOptions& options = {},
+                            const ProgressCallback& progress = nullptr);
+
+// The seed-like rig: 1600x1200 camera, 854x480 projector, ~150 mm baseline, converging
+// on a working distance of 400 mm, mild lens distortion on both.
+Calibration seed_rig_calibration();
+
+// The built-in demo part (a bracket-like block with a hole, a boss and a sphere) on a
+// background plane, placed at the seed rig's working distance.
+Scene demo_scene();
+
+// Scene description file (YAML/JSON via OpenCV FileStorage): lists of spheres, planes,
+// boxes, cylinders and meshes (file paths relative to the scene file).
+Scene read_scene(const std::string& path);
+
+}  // namespace picoscan

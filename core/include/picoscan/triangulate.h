@@ -1,0 +1,41 @@
+// Triangulation of camera -> projector correspondences into an organised point cloud.
+#pragma once
+
+#include "picoscan/calibration.h"
+#include "picoscan/cloud.h"
+#include "picoscan/decode.h"
+#include "picoscan/progress.h"
+
+namespace picoscan {
+
+struct TriangulateOptions {
+    bool use_rows = true;           // ray-ray least squares where projector v is known
+    int distortion_iterations = 4;  // refinements of the projector column plane for lens distortion
+    double min_depth_mm = 1.0;      // points nearer than this (or behind) are dropped
+    double max_depth_mm = 1e5;
+};
+
+// Triangulates with one calibration many times: the camera's per-pixel rays and the
+// projector's undistortion table are computed once, in the constructor.
+class Triangulator {
+public:
+    explicit Triangulator(const Calibration& calibration);
+
+    // Camera ray ∩ projector column plane (ray-ray where v is known too), honouring both
+    // lenses' distortion. `colour` (CV_8UC3, optional) colours the points.
+    ScanView triangulate(const CorrespondenceMap& correspondences, const cv::Mat& colour = cv::Mat(),
+                         const TriangulateOptions& options = {}, const ProgressCallback& progress = nullptr) const;
+
+private:
+    Calibration calibration_;
+    cv::Mat camera_rays_;           // CV_64FC2, undistorted normalised camera coordinates per pixel
+    cv::Mat projector_rays_;        // CV_64FC2, undistorted normalised projector coordinates per pixel
+    int projector_table_margin_ = 0;
+};
+
+// One-off convenience: builds a Triangulator and triangulates.
+ScanView triangulate(const CorrespondenceMap& correspondences, const Calibration& calibration,
+                     const cv::Mat& colour = cv::Mat(), const TriangulateOptions& options = {},
+                     const ProgressCallback& progress = nullptr);
+
+}  // namespace picoscan

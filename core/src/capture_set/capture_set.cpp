@@ -1,0 +1,145 @@
+// Loading and writing capture sets.
+#include "picoscan/capture_set.h"
+
+#include "picoscan/error.h"
+#include "picoscan/io.h"
+
+#include "common/parallel.h"
+#include "common/progress_reporter.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <mutex>
+#include <set>
+
+namespace fs = std::filesystem;
+
+namespace picoscan {
+
+namespace {
+
+bool is_image_file(const fs::path& path) {
+    std::string extension = path.extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), ::tolower);
+    static const std::set<std::string> extensions{".png", ".bmp", ".jpg", ".jpeg", ".tif", ".tiff"};
+    return extensions.count(extension) > 0;
+}
+
+std::string describe(const Frame& frame, size_t index) {
+    std::string text = "frame " + std::to_string(index) + " (" + to_string(frame.kind);
+    if (frame.kind == FrameKind::Gray || frame.kind == FrameKind::GrayInverse)
+        text += " " + to_string(frame.axis) + " bit " + std::to_string(frame.bit);
+    if (frame.kind == FrameKind::Phase) text += " " + to_string(frame.axis) + " shift " + std::to_string(frame.shift);
+    return text + ")";
+}
+
+}  // namespace
+
+CaptureSet load_capture_set(const std::string& directory, const std::string& manifest_path,
+                            const ProgressCallback& progress) {
+    if (!fs::is_directory(directory)) throw Error(directory, "capture directory not found");
+    const bool own_manifest = manifest_path.empty();
+    const std::string manifest = own_manifest ? (fs::path(directory) / "sequence.json").string() : manifest_path;
+
+    CaptureSet captures;
+    captures.directory = directory;
+    captures.sequence = read_manifest(manifest);
+    const auto& frames = captures.sequence.frames;
+
+    for (size_t index = 0; index < frames.size(); ++index) {
+        const fs::path file = fs::path(directory) / frames[index].file;
+        if (!fs::is_regular_file(file))
+            throw Error(file.string(), "missing " + describe(frames[index], index) + " listed in " + manifest);
+    }
+    if (own_manifest) {
+        // A stray image usually means a capture of another sequence was mixed in.
+        std::set<std::string> listed;
+        for (const Frame& frame : frames) listed.insert(frame.file);
+        for (const auto& entry : fs::directory_iterator(directory))
+            if (entry.is_regular_file() && is_image_file(entry.path()) && !listed.count(entry.path().filename().string()))
+                throw Error(entry.path().string(), "extra image not listed in " + manifest);
+    }
+
+    captures.images.resize(frames.size());
+    std::vector<std::string> errors(frames.size());
+    detail::ProgressReporter reporter(progress, "load", int(frames.size()));
+    detail::parallel_rows(static_cast<int>(frames.size()), [&](int begin, int end) {
+        for (int index = begin; index < end && !reporter.cancelled(); ++index) {
+            const std::string file = (fs::path(directory) / frames[index].file).string();
+            cv::Mat image;
+            try {
+                image = cv::imread(file, cv::IMREAD_UNCHANGED);
+            } catch (const cv::Exception&) {
+                image.release();
+            }
+            if (image.empty()) {
+                errors[index] = file + ": unreadable or corrupt image";
+                continue;
+            }
+            if (image.depth() != CV_8U && image.depth() != CV_16U) {
+                errors[index] = file + ": images must be 8 or 16 bit per channel";
+                continue;
+            }
+            if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
+            if (frames[index].kind == FrameKind::White && image.channels() == 3 && image.depth() == CV_8U)
+                captures.white_colour = image.clone();
+            if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
+            captures.images[index] = image;
+            reporter.advance();
+        }
+    });
+    if (reporter.cancelled()) throw Error("cancelled", "loading of " + directory + " cancelled");
+    for (const std::string& error : errors)
+        if (!error.empty()) throw Error("", error);
+
+    const cv::Mat& first = captures.images.front();
+    for (size_t index = 1; index < frames.size(); ++index) {
+        const cv::Mat& image = captures.images[index];
+        const std::string file = (fs::path(directory) / frames[index].file).string();
+        if (image.size() != first.size())
+            throw Error(file, "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                                  " but " + frames[0].file + " is " + std::to_string(first.cols) + "x" +
+                                  std::to_string(first.rows));
+        if (image.depth() != first.depth())
+            throw Error(file, "bit depth differs from " + frames[0].file);
+    }
+    if (captures.white_colour.empty()) {
+        for (size_t index = 0; index < frames.size(); ++index)
+            if (frames[index].kind == FrameKind::White && captures.images[index].depth() == CV_8U)
+                cv::cvtColor(captures.images[index], captures.white_colour, cv::COLOR_GRAY2BGR);
+    }
+    return captures;
+}
+
+void write_capture_set(const CaptureSet& captures, const std::string& directory) {
+    const auto& frames = captures.sequence.frames;
+    if (frames.size() != captures.images.size())
+        throw Error(directory, "capture set has " + std::to_string(captures.images.size()) + " images for " +
+                                   std::to_string(frames.size()) + " frames");
+    std::error_code error;
+    fs::create_directories(directory, error);
+    if (!fs::is_directory(directory)) throw Error(directory, "cannot create the capture directory");
+    std::vector<std::string> errors(frames.size());
+    detail::parallel_rows(static_cast<int>(frames.size()), [&](int begin, int end) {
+        for (int index = begin; index < end; ++index) {
+            const std::string file = (fs::path(directory) / frames[index].file).string();
+            std::string extension = fs::path(file).extension().string();
+            std::vector<uint8_t> bytes;
+            try {
+                if (!cv::imencode(extension, captures.images[index], bytes)) throw Error(file, "cannot encode image");
+                write_file_atomically(file, std::string(bytes.begin(), bytes.end()));
+            } catch (const std::exception& failure) {
+                errors[index] = failure.what();
+            }
+        }
+    });
+    for (const std::string& message : errors)
+        if (!message.empty()) throw Error("", message);
+    write_manifest(captures.sequence, (fs::path(directory) / "sequence.json").string());
+}
+
+}  // namespace picoscan

@@ -1,0 +1,303 @@
+// Gray code + phase-shift decoding with hybrid unwrapping.
+#include "picoscan/decode.h"
+
+#include "picoscan/error.h"
+
+#include "common/parallel.h"
+#include "common/progress_reporter.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace picoscan {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Where each frame of one axis sits in the capture set.
+struct AxisFrames {
+    AxisCode code;
+    std::vector<int> gray;          // per bit, frame index of the pattern
+    std::vector<int> gray_inverse;  // per bit, frame index of the inverse or -1
+    std::vector<int> phase;         // per shift, frame index
+    std::vector<float> shift_cos, shift_sin;
+    bool decode_phase = false;
+};
+
+struct Plan {
+    int white = -1, black = -1;
+    AxisFrames columns, rows;
+    bool has_rows = false;
+    float scale = 1.0f;  // thresholds are given for 8-bit levels
+};
+
+AxisFrames plan_axis(const PatternSequence& sequence, Axis axis, bool binary_only, const std::string& source) {
+    AxisFrames frames;
+    frames.code = sequence.code(axis);
+    frames.gray.assign(frames.code.gray_bits, -1);
+    frames.gray_inverse.assign(frames.code.gray_bits, -1);
+    frames.phase.assign(frames.code.shifts, -1);
+    for (size_t index = 0; index < sequence.frames.size(); ++index) {
+        const Frame& frame = sequence.frames[index];
+        if (frame.axis != axis) continue;
+        if (frame.kind == FrameKind::Gray) frames.gray[frame.bit] = int(index);
+        if (frame.kind == FrameKind::GrayInverse) frames.gray_inverse[frame.bit] = int(index);
+        if (frame.kind == FrameKind::Phase) frames.phase[frame.shift] = int(index);
+    }
+    const std::string axis_name = to_string(axis);
+    for (int bit = 0; bit < frames.code.gray_bits; ++bit)
+        if (frames.gray[bit] < 0)
+            throw Error(source, "no frame for " + axis_name + " Gray bit " + std::to_string(bit));
+    for (int shift = 0; shift < frames.code.shifts; ++shift)
+        if (frames.phase[shift] < 0)
+            throw Error(source, "no frame for " + axis_name + " phase shift " + std::to_string(shift));
+    if (frames.code.gray_bits == 0)
+        throw Error(source, axis_name + " have phase frames but no Gray code to unwrap them");
+    frames.decode_phase = frames.code.shifts > 0 && !binary_only;
+    for (int shift = 0; shift < frames.code.shifts; ++shift) {
+        const double delta = frames.code.shift_sign * 2 * kPi * shift / frames.code.shifts;
+        frames.shift_cos.push_back(float(std::cos(delta)));
+        frames.shift_sin.push_back(float(std::sin(delta)));
+    }
+    return frames;
+}
+
+// Per-row scratch buffers, one set per worker chunk.
+struct RowBuffers {
+    std::vector<float> reference, contrast, brightest, sum_sin, sum_cos, sum, margin;
+    std::vector<uint32_t> code;
+    explicit RowBuffers(int width)
+        : reference(width), contrast(width), brightest(width), sum_sin(width), sum_cos(width), sum(width),
+          margin(width), code(width) {}
+};
+
+template <typename Pixel>
+const Pixel* row_of(const CaptureSet& captures, int frame, int y) {
+    return captures.images[frame].ptr<Pixel>(y);
+}
+
+template <typename Pixel>
+void accumulate_phase(const CaptureSet& captures, const AxisFrames& axis, int y, int width, RowBuffers& buffers) {
+    float* sum_sin = buffers.sum_sin.data();
+    float* sum_cos = buffers.sum_cos.data();
+    float* sum = buffers.sum.data();
+    std::fill_n(sum_sin, width, 0.0f);
+    std::fill_n(sum_cos, width, 0.0f);
+    std::fill_n(sum, width, 0.0f);
+    for (size_t shift = 0; shift < axis.phase.size(); ++shift) {
+        const Pixel* intensity = row_of<Pixel>(captures, axis.phase[shift], y);
+        const float c = axis.shift_cos[shift], s = axis.shift_sin[shift];
+        for (int x = 0; x < width; ++x) {
+            const float value = float(intensity[x]);
+            sum_sin[x] += value * s;
+            sum_cos[x] += value * c;
+            sum[x] += value;
+        }
+    }
+}
+
+// Binary fringe/stripe code of every pixel of one row, and the smallest bit margin.
+template <typename Pixel>
+void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, int width, RowBuffers& buffers) {
+    uint32_t* code = buffers.code.data();
+    float* margin = buffers.margin.data();
+    const float* reference = buffers.reference.data();
+    std::fill_n(code, width, 0u);
+    std::fill_n(margin, width, std::numeric_limits<float>::max());
+    for (int bit = 0; bit < axis.code.gray_bits; ++bit) {
+        const Pixel* pattern = row_of<Pixel>(captures, axis.gray[bit], y);
+        const Pixel* inverse = axis.gray_inverse[bit] >= 0 ? row_of<Pixel>(captures, axis.gray_inverse[bit], y) : nullptr;
+        for (int x = 0; x < width; ++x) {
+            const float against = inverse ? float(inverse[x]) : reference[x];
+            const float difference = float(pattern[x]) - against;
+            const uint32_t gray_bit = difference > 0.0f;
+            // Gray -> binary: each binary bit is the previous binary bit xor the Gray bit.
+            code[x] = (code[x] << 1) | ((code[x] & 1u) ^ gray_bit);
+            margin[x] = std::min(margin[x], std::fabs(difference));
+        }
+    }
+}
+
+struct AxisResult {
+    cv::Mat* position;  // projector u or v
+    float* quality_row = nullptr;
+};
+
+template <typename Pixel>
+void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptions& options, int row_begin,
+                 int row_end, CorrespondenceMap& map, std::atomic<int>& corrections, std::atomic<int>& valid_pixels,
+                 float& max_contrast) {
+    const int width = captures.images.front().cols;
+    RowBuffers buffers(width);
+    const float min_contrast = float(options.min_contrast) * plan.scale;
+    const float min_margin = float(options.min_bit_margin) * plan.scale;
+    const float saturation = float(options.saturation_level) * plan.scale;
+    const float min_modulation = float(options.min_modulation) * plan.scale;
+    const bool has_white_black = plan.white >= 0 && plan.black >= 0;
+    const AxisFrames* reference_axis = plan.columns.code.shifts > 0 ? &plan.columns
+                                     : (plan.rows.code.shifts > 0 ? &plan.rows : nullptr);
+    int local_corrections = 0, local_valid = 0;
+    float local_max_contrast = 0;
+
+    for (int y = row_begin; y < row_end; ++y) {
+        float* reference = buffers.reference.data();
+        float* contrast = buffers.contrast.data();
+        float* brightest = buffers.brightest.data();
+        if (has_white_black) {
+            const Pixel* white = row_of<Pixel>(captures, plan.white, y);
+            const Pixel* black = row_of<Pixel>(captures, plan.black, y);
+            for (int x = 0; x < width; ++x) {
+                reference[x] = 0.5f * (float(white[x]) + float(black[x]));
+                contrast[x] = float(white[x]) - float(black[x]);
+                brightest[x] = float(white[x]);
+            }
+        } else {
+            // No white/black frames (e.g. SLMaster): the fringe mean and amplitude stand in.
+            accumulate_phase<Pixel>(captures, *reference_axis, y, width, buffers);
+            const float inverse_count = 1.0f / reference_axis->phase.size();
+            for (int x = 0; x < width; ++x) {
+                const float mean = buffers.sum[x] * inverse_count;
+                const float amplitude = 2.0f * inverse_count * std::sqrt(buffers.sum_sin[x] * buffers.sum_sin[x] +
+                                                                         buffers.sum_cos[x] * buffers.sum_cos[x]);
+                reference[x] = mean;
+                contrast[x] = 2.0f * amplitude;
+                brightest[x] = mean + amplitude;
+            }
+        }
+
+        uint8_t* status = map.status.ptr<uint8_t>(y);
+        for (int x = 0; x < width; ++x) {
+            local_max_contrast = std::max(local_max_contrast, contrast[x]);
+            status[x] = contrast[x] < min_contrast ? kDark : (brightest[x] >= saturation ? kSaturated : kValid);
+        }
+
+        for (const AxisFrames* axis : {&plan.columns, &plan.rows}) {
+            if (!axis->code.used()) continue;
+            const bool is_columns = axis == &plan.columns;
+            const int axis_length = is_columns ? captures.sequence.projector_size.width : captures.sequence.projector_size.height;
+            float* position = (is_columns ? map.projector_u : map.projector_v).ptr<float>(y);
+            float* quality = map.quality.ptr<float>(y);
+
+            decode_gray_row<Pixel>(captures, *axis, y, width, buffers);
+            if (axis->decode_phase) accumulate_phase<Pixel>(captures, *axis, y, width, buffers);
+
+            const double unit = axis->code.gray_unit_px;
+            const double period = axis->code.period_px;
+            const float modulation_scale = axis->decode_phase ? 2.0f / axis->phase.size() : 0.0f;
+            for (int x = 0; x < width; ++x) {
+                uint8_t pixel_status = status[x];
+                float projector_position = kNaN;
+                float pixel_quality = contrast[x];
+                if (pixel_status == kValid && buffers.margin[x] < min_margin) pixel_status = kUndecidedBit;
+                if (pixel_status == kValid) {
+                    const double stripe_start = buffers.code[x] * unit;
+                    const double stripe_centre = stripe_start + 0.5 * (unit - 1.0);
+                    double decoded = stripe_centre;
+                    if (axis->decode_phase) {
+                        const float s = buffers.sum_sin[x], c = buffers.sum_cos[x];
+                        pixel_quality = modulation_scale * std::sqrt(s * s + c * c);
+                        // I_k = A + B cos(theta + delta_k): sum I sin(delta) = -K/2 B sin(theta).
+                        const double theta = std::atan2(-double(s), double(c)) - axis->code.phase_offset_rad;
+                        double phase_px = period * theta / (2 * kPi);
+                        phase_px -= period * std::floor(phase_px / period);
+                        // Fringe order from the binary code, sub-pixel position from the phase; the
+                        // two may disagree at a fringe edge, where one period is added or taken away.
+                        decoded = std::floor(stripe_start / period) * period + phase_px;
+                        if (decoded - stripe_centre > 0.5 * period) {
+                            decoded -= period;
+                            ++local_corrections;
+                        } else if (decoded - stripe_centre < -0.5 * period) {
+                            decoded += period;
+                            ++local_corrections;
+                        }
+                        if (pixel_quality < min_modulation) pixel_status = kLowModulation;
+                    }
+                    if (pixel_status == kValid && (decoded < -0.5 || decoded > axis_length - 0.5)) pixel_status = kUndecidedBit;
+                    if (pixel_status == kValid) projector_position = float(decoded);
+                }
+                position[x] = projector_position;
+                if (is_columns) {
+                    status[x] = pixel_status;
+                    quality[x] = pixel_quality;
+                }
+            }
+        }
+        uint8_t* mask = map.mask.ptr<uint8_t>(y);
+        const float* projector_u = map.projector_u.ptr<float>(y);
+        for (int x = 0; x < width; ++x) {
+            mask[x] = std::isfinite(projector_u[x]) ? 255 : 0;
+            local_valid += mask[x] != 0;
+        }
+    }
+    corrections += local_corrections;
+    valid_pixels += local_valid;
+    max_contrast = std::max(max_contrast, local_max_contrast);
+}
+
+}  // namespace
+
+CorrespondenceMap decode(const CaptureSet& captures, const DecodeOptions& options, const ProgressCallback& progress) {
+    const std::string source = captures.directory.empty() ? std::string("capture set") : captures.directory;
+    const PatternSequence& sequence = captures.sequence;
+    if (captures.images.size() != sequence.frames.size() || captures.images.empty())
+        throw Error(source, "capture set has " + std::to_string(captures.images.size()) + " images for " +
+                                std::to_string(sequence.frames.size()) + " frames");
+    const cv::Mat& first = captures.images.front();
+    for (size_t index = 0; index < captures.images.size(); ++index) {
+        const cv::Mat& image = captures.images[index];
+        if (image.size() != first.size() || image.type() != first.type() || image.channels() != 1 ||
+            (image.depth() != CV_8U && image.depth() != CV_16U))
+            throw Error(source + "/" + sequence.frames[index].file,
+                        "every image must be single-channel 8 or 16 bit and of one size");
+    }
+
+    Plan plan;
+    for (size_t index = 0; index < sequence.frames.size(); ++index) {
+        if (sequence.frames[index].kind == FrameKind::White) plan.white = int(index);
+        if (sequence.frames[index].kind == FrameKind::Black) plan.black = int(index);
+    }
+    plan.columns = plan_axis(sequence, Axis::Columns, options.binary_only, source);
+    plan.has_rows = sequence.rows.used();
+    if (plan.has_rows) plan.rows = plan_axis(sequence, Axis::Rows, options.binary_only, source);
+    if ((plan.white < 0 || plan.black < 0) && plan.columns.code.shifts == 0 && plan.rows.code.shifts == 0)
+        throw Error(source, "the sequence needs white and black frames, or phase frames, to set the Gray thresholds");
+    plan.scale = first.depth() == CV_16U ? 257.0f : 1.0f;
+
+    CorrespondenceMap map;
+    map.projector_u.create(first.size(), CV_32F);
+    map.projector_v = cv::Mat(first.size(), CV_32F, cv::Scalar(kNaN));
+    map.quality.create(first.size(), CV_32F);
+    map.mask.create(first.size(), CV_8U);
+    map.status.create(first.size(), CV_8U);
+
+    std::atomic<int> corrections{0}, valid_pixels{0};
+    std::vector<float> chunk_max_contrast(first.rows, 0.0f);
+    detail::ProgressReporter reporter(progress, "decode", first.rows);
+    detail::parallel_rows(first.rows, [&](int begin, int end) {
+        if (reporter.cancelled()) return;
+        float max_contrast = 0;
+        if (first.depth() == CV_8U)
+            decode_rows<uint8_t>(captures, plan, options, begin, end, map, corrections, valid_pixels, max_contrast);
+        else
+            decode_rows<uint16_t>(captures, plan, options, begin, end, map, corrections, valid_pixels, max_contrast);
+        chunk_max_contrast[begin] = max_contrast;
+        reporter.advance(end - begin);
+    });
+    if (reporter.cancelled()) throw Error("cancelled", "decoding cancelled");
+    map.order_corrections = corrections;
+    if (valid_pixels == 0) {
+        const float max_contrast = *std::max_element(chunk_max_contrast.begin(), chunk_max_contrast.end()) / plan.scale;
+        if (max_contrast < options.min_contrast)
+            throw Error(source, "all captures are dark: the largest white-black contrast is " +
+                                    std::to_string(int(max_contrast)) + " grey levels, below the minimum of " +
+                                    std::to_string(int(options.min_contrast)));
+    }
+    return map;
+}
+
+}  // namespace picoscan

@@ -1,0 +1,25 @@
+// Shared helpers for the test suites.
+#pragma once
+
+#include <string>
+
+namespace picoscan::testing {
+
+// Folder of the real capture sets (../shared/datasets), or "" when it is absent.
+std::string datasets_dir();
+// A fresh empty temporary directory, removed at exit of the test process.
+std::string make_temp_dir(const std::string& name);
+// Runs a shell command, returns its exit code; stdout+stderr go to `output` if given.
+int run_command(const std::string& command, std::string* output = nullptr);
+// Path of the built `picoscan` CLI.
+std::string cli_path();
+
+}  // namespace picoscan::testing
+
+// Skips the current test with a clear message when ../shared/datasets is absent.
+#define PICOSCAN_REQUIRE_DATASETS()                                                             \
+    do {                                                                                       \
+        if (::picoscan::testing::datasets_dir().empty())                                       \
+            GTEST_SKIP() << "real datasets not found at " PICOSCAN_DATASETS_DIR                \
+                            " (../shared/datasets is absent on this machine); skipping";        \
+    } while (0)
