@@ -13,7 +13,7 @@
 
 namespace fs = std::filesystem;
 
-namespace picoscan::testing {
+namespace picoscan::test_support {
 
 namespace {
 struct TempDirs {
@@ -63,4 +63,4 @@ int run_command(const std::string& command, std::string* output) {
 
 std::string cli_path() { return PICOSCAN_CLI; }
 
-}  // namespace picoscan::testing
+}  // namespace picoscan::test_support

@@ -3,7 +3,7 @@
 
 #include <string>
 
-namespace picoscan::testing {
+namespace picoscan::test_support {
 
 // Folder of the real capture sets (../shared/datasets), or "" when it is absent.
 std::string datasets_dir();
@@ -14,12 +14,12 @@ int run_command(const std::string& command, std::string* output = nullptr);
 // Path of the built `picoscan` CLI.
 std::string cli_path();
 
-}  // namespace picoscan::testing
+}  // namespace picoscan::test_support
 
 // Skips the current test with a clear message when ../shared/datasets is absent.
 #define PICOSCAN_REQUIRE_DATASETS()                                                             \
     do {                                                                                       \
-        if (::picoscan::testing::datasets_dir().empty())                                       \
+        if (::picoscan::test_support::datasets_dir().empty())                                       \
             GTEST_SKIP() << "real datasets not found at " PICOSCAN_DATASETS_DIR                \
                             " (../shared/datasets is absent on this machine); skipping";        \
     } while (0)
