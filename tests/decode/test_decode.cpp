@@ -144,9 +144,11 @@ TEST(Decode, DarkSaturatedAndUndecidedPixelsAreMarkedNotGuessed) {
         image(cv::Rect(0, 0, 10, 60)).setTo(30);  // shadow: no contrast
     }
     captures.images[0](cv::Rect(20, 0, 10, 60)).setTo(255);  // white frame saturated
-    // One Gray bit equal to its inverse: undecidable.
+    // Two Gray bits equal to their inverses: undecidable (one weak bit is a stripe edge).
     captures.images[4](cv::Rect(40, 0, 10, 60)).setTo(100);
     captures.images[5](cv::Rect(40, 0, 10, 60)).setTo(100);
+    captures.images[6](cv::Rect(40, 0, 10, 60)).setTo(100);
+    captures.images[7](cv::Rect(40, 0, 10, 60)).setTo(100);
     const CorrespondenceMap map = decode(captures);
     EXPECT_EQ(map.status.at<uint8_t>(30, 5), kDark);
     EXPECT_EQ(map.status.at<uint8_t>(30, 25), kSaturated);

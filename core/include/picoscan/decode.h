@@ -18,14 +18,14 @@ enum PixelStatus : uint8_t {
     kValid = 0,
     kDark = 1,           // white - black contrast below min_contrast (shadow or background)
     kSaturated = 2,      // white frame at or above the saturation level
-    kUndecidedBit = 3,   // some Gray bit too close to its threshold
+    kUndecidedBit = 3,   // two or more Gray bits too close to their thresholds, or a code off the projector
     kLowModulation = 4,  // fringe modulation below min_modulation
 };
 
 struct DecodeOptions {
     // Thresholds in units of 8-bit grey levels (DN); 16-bit images are scaled by 1/257.
     double min_contrast = 15.0;      // white - black
-    double min_bit_margin = 2.0;     // |pattern - inverse| (or |I - threshold|) for every Gray bit
+    double min_bit_margin = 2.0;     // a Gray bit with |pattern - inverse| (or |I - threshold|) below this is weak
     double saturation_level = 254.5; // white >= this is saturated
     double min_modulation = 4.0;     // fringe amplitude B in I = A + B cos(...)
     bool binary_only = false;        // ignore phase frames: Gray code only

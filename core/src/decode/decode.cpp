@@ -69,11 +69,12 @@ AxisFrames plan_axis(const PatternSequence& sequence, Axis axis, bool binary_onl
 
 // Per-row scratch buffers, one set per worker chunk.
 struct RowBuffers {
-    std::vector<float> reference, contrast, brightest, sum_sin, sum_cos, sum, margin;
+    std::vector<float> reference, contrast, brightest, sum_sin, sum_cos, sum;
+    std::vector<uint8_t> weak_bits;
     std::vector<uint32_t> code;
     explicit RowBuffers(int width)
         : reference(width), contrast(width), brightest(width), sum_sin(width), sum_cos(width), sum(width),
-          margin(width), code(width) {}
+          weak_bits(width), code(width) {}
 };
 
 template <typename Pixel>
@@ -101,14 +102,16 @@ void accumulate_phase(const CaptureSet& captures, const AxisFrames& axis, int y,
     }
 }
 
-// Binary fringe/stripe code of every pixel of one row, and the smallest bit margin.
+// Binary stripe code of every pixel of one row, and how many of its bits were weak
+// (closer to their threshold than min_margin).
 template <typename Pixel>
-void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, int width, RowBuffers& buffers) {
+void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, int width, float min_margin,
+                     RowBuffers& buffers) {
     uint32_t* code = buffers.code.data();
-    float* margin = buffers.margin.data();
+    uint8_t* weak_bits = buffers.weak_bits.data();
     const float* reference = buffers.reference.data();
     std::fill_n(code, width, 0u);
-    std::fill_n(margin, width, std::numeric_limits<float>::max());
+    std::fill_n(weak_bits, width, uint8_t(0));
     for (int bit = 0; bit < axis.code.gray_bits; ++bit) {
         const Pixel* pattern = row_of<Pixel>(captures, axis.gray[bit], y);
         const Pixel* inverse = axis.gray_inverse[bit] >= 0 ? row_of<Pixel>(captures, axis.gray_inverse[bit], y) : nullptr;
@@ -118,7 +121,7 @@ void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, 
             const uint32_t gray_bit = difference > 0.0f;
             // Gray -> binary: each binary bit is the previous binary bit xor the Gray bit.
             code[x] = (code[x] << 1) | ((code[x] & 1u) ^ gray_bit);
-            margin[x] = std::min(margin[x], std::fabs(difference));
+            weak_bits[x] += std::fabs(difference) < min_margin;
         }
     }
 }
@@ -183,7 +186,7 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
             float* position = (is_columns ? map.projector_u : map.projector_v).ptr<float>(y);
             float* quality = map.quality.ptr<float>(y);
 
-            decode_gray_row<Pixel>(captures, *axis, y, width, buffers);
+            decode_gray_row<Pixel>(captures, *axis, y, width, min_margin, buffers);
             if (axis->decode_phase) accumulate_phase<Pixel>(captures, *axis, y, width, buffers);
 
             const double unit = axis->code.gray_unit_px;
@@ -193,7 +196,9 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
                 uint8_t pixel_status = status[x];
                 float projector_position = kNaN;
                 float pixel_quality = contrast[x];
-                if (pixel_status == kValid && buffers.margin[x] < min_margin) pixel_status = kUndecidedBit;
+                // At a stripe edge exactly one Gray bit changes, so one weak bit only means
+                // "one of two neighbouring codes" (corrected by the phase); two or more mean noise.
+                if (pixel_status == kValid && buffers.weak_bits[x] >= 2) pixel_status = kUndecidedBit;
                 if (pixel_status == kValid) {
                     const double stripe_start = buffers.code[x] * unit;
                     const double stripe_centre = stripe_start + 0.5 * (unit - 1.0);
