@@ -189,7 +189,8 @@ TEST(GridMesh, ChoosesTheShorterDiagonal) {
         std::set<int> first(mesh.faces[0].val, mesh.faces[0].val + 3), shared;
         for (int k = 0; k < 3; ++k)
             if (first.count(mesh.faces[1][k])) shared.insert(mesh.faces[1][k]);
-        EXPECT_EQ(shared, variant == 0 ? std::set<int>{0, 3} : std::set<int>{1, 2});
+        const std::set<int> expected = variant == 0 ? std::set<int>{0, 3} : std::set<int>{1, 2};
+        EXPECT_EQ(shared, expected);
         expect_faces_towards_camera(mesh);
     }
 }

@@ -1,0 +1,15 @@
+// libFuzzer target: read_calibration must accept any bytes, either parsing them or throwing
+// picoscan::Error. Anything else escaping (or a crash, leak or UB) is a finding.
+#include "fuzz_input_file.h"
+#include "picoscan/calibration.h"
+#include "picoscan/error.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    const std::string& path = picoscan::fuzz::write_input("calibration", ".yml", data, size);
+    try {
+        picoscan::read_calibration(path);
+    } catch (const picoscan::Error&) {
+        // Rejected cleanly.
+    }
+    return 0;
+}

@@ -1,0 +1,16 @@
+// libFuzzer target: read_ply must accept any bytes, either parsing them or throwing
+// picoscan::Error. Anything else escaping (or a crash, leak or UB) is a finding.
+#include "fuzz_input_file.h"
+#include "picoscan/error.h"
+#include "picoscan/io.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    const std::string& path = picoscan::fuzz::write_input("ply", ".ply", data, size);
+    try {
+        const picoscan::Mesh mesh = picoscan::read_ply(path);
+        picoscan::fuzz::check_mesh_invariants(mesh);
+    } catch (const picoscan::Error&) {
+        // Rejected cleanly.
+    }
+    return 0;
+}
