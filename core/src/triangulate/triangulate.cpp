@@ -122,7 +122,7 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
                 double depth = std::numeric_limits<double>::quiet_NaN();
 
                 if (projector_v && std::isfinite(projector_v[x])) {
-                    // Ray-ray: least-squares closest points, midpoint.
+                    // Ray-ray: least-squares closest points of the two rays.
                     const cv::Vec2d normalised = projector_ray_at(projector_rays_, projector_table_margin_, u, projector_v[x]);
                     const cv::Vec3d projector_ray(normalised[0], normalised[1], 1.0);
                     const double a = direction.dot(direction), b = direction.dot(projector_ray),
@@ -130,13 +130,11 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
                     const double d = direction.dot(T), e = projector_ray.dot(T);
                     const double denominator = a * c - b * b;
                     if (std::abs(denominator) < 1e-12) continue;
-                    const double t = (b * e - c * d) / denominator;  // along the camera ray
-                    const double s = (a * e - b * d) / denominator;  // along the projector ray
-                    const cv::Vec3d midpoint = 0.5 * ((T + t * direction) + s * projector_ray);
-                    const cv::Vec3d in_camera = R_inverse * (midpoint - T);
-                    depth = in_camera[2];
+                    // The camera ray is exact (a pixel centre), so the point is taken on it, where
+                    // it passes closest to the projector ray, rather than midway between the rays.
+                    depth = (b * e - c * d) / denominator;
                     if (std::isfinite(depth) && depth > options.min_depth_mm && depth < options.max_depth_mm)
-                        point[x] = cv::Vec3f(float(in_camera[0]), float(in_camera[1]), float(in_camera[2]));
+                        point[x] = cv::Vec3f(float(ray_camera[0] * depth), float(ray_camera[1] * depth), float(depth));
                     v_estimate = projector_v[x];
                     continue;
                 }
