@@ -6,7 +6,9 @@
 
 #include <opencv2/core.hpp>
 
+#include <cmath>
 #include <filesystem>
+#include <vector>
 
 namespace picoscan {
 
@@ -54,10 +56,23 @@ public:
         if (!node.isInt() && !node.isReal()) fail("'" + key + "' must be a number");
         return static_cast<int>(static_cast<double>(node));
     }
+    // [width, height] as a plain list (PicoScan) or as a 2-element matrix (SLMaster).
     cv::Size size(const std::string& key) const {
-        cv::Mat value = matrix(key, 0, 0);
-        if (value.total() != 2) fail("'" + key + "' must be [width, height]");
-        return {static_cast<int>(value.at<double>(0)), static_cast<int>(value.at<double>(1))};
+        if (!has(key)) fail("missing key '" + key + "'");
+        const cv::FileNode node = storage_[key];
+        std::vector<double> values;
+        if (node.isSeq()) {
+            for (const cv::FileNode& item : node) {
+                if (!item.isInt() && !item.isReal()) fail("'" + key + "' must be [width, height]");
+                values.push_back(static_cast<double>(item));
+            }
+        } else {
+            const cv::Mat value = matrix(key, 0, 0);
+            values.assign(value.begin<double>(), value.end<double>());
+        }
+        if (values.size() != 2 || values[0] != std::floor(values[0]) || values[1] != std::floor(values[1]))
+            fail("'" + key + "' must be [width, height] in whole pixels");
+        return {static_cast<int>(values[0]), static_cast<int>(values[1])};
     }
 
 private:

@@ -69,12 +69,11 @@ AxisFrames plan_axis(const PatternSequence& sequence, Axis axis, bool binary_onl
 
 // Per-row scratch buffers, one set per worker chunk.
 struct RowBuffers {
-    std::vector<float> reference, contrast, brightest, sum_sin, sum_cos, sum;
-    std::vector<uint8_t> weak_bits;
-    std::vector<uint32_t> code;
+    std::vector<float> reference, contrast, brightest, sum_sin, sum_cos, sum, phase_fraction, modulation;
+    std::vector<uint32_t> weak_bits, code;
     explicit RowBuffers(int width)
         : reference(width), contrast(width), brightest(width), sum_sin(width), sum_cos(width), sum(width),
-          weak_bits(width), code(width) {}
+          phase_fraction(width), modulation(width), weak_bits(width), code(width) {}
 };
 
 template <typename Pixel>
@@ -108,21 +107,58 @@ template <typename Pixel>
 void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, int width, float min_margin,
                      RowBuffers& buffers) {
     uint32_t* code = buffers.code.data();
-    uint8_t* weak_bits = buffers.weak_bits.data();
+    uint32_t* weak_bits = buffers.weak_bits.data();
     const float* reference = buffers.reference.data();
     std::fill_n(code, width, 0u);
-    std::fill_n(weak_bits, width, uint8_t(0));
+    std::fill_n(weak_bits, width, 0u);
+    // Gray -> binary: each binary bit is the previous binary bit xor the Gray bit.
     for (int bit = 0; bit < axis.code.gray_bits; ++bit) {
         const Pixel* pattern = row_of<Pixel>(captures, axis.gray[bit], y);
-        const Pixel* inverse = axis.gray_inverse[bit] >= 0 ? row_of<Pixel>(captures, axis.gray_inverse[bit], y) : nullptr;
-        for (int x = 0; x < width; ++x) {
-            const float against = inverse ? float(inverse[x]) : reference[x];
-            const float difference = float(pattern[x]) - against;
-            const uint32_t gray_bit = difference > 0.0f;
-            // Gray -> binary: each binary bit is the previous binary bit xor the Gray bit.
-            code[x] = (code[x] << 1) | ((code[x] & 1u) ^ gray_bit);
-            weak_bits[x] += std::fabs(difference) < min_margin;
+        if (axis.gray_inverse[bit] >= 0) {
+            const Pixel* inverse = row_of<Pixel>(captures, axis.gray_inverse[bit], y);
+            for (int x = 0; x < width; ++x) {
+                const float difference = float(pattern[x]) - float(inverse[x]);
+                code[x] = (code[x] << 1) | ((code[x] & 1u) ^ uint32_t(difference > 0.0f));
+                weak_bits[x] += uint32_t(std::fabs(difference) < min_margin);
+            }
+        } else {
+            for (int x = 0; x < width; ++x) {
+                const float difference = float(pattern[x]) - reference[x];
+                code[x] = (code[x] << 1) | ((code[x] & 1u) ^ uint32_t(difference > 0.0f));
+                weak_bits[x] += uint32_t(std::fabs(difference) < min_margin);
+            }
         }
+    }
+}
+
+// atan2 by a minimax polynomial (max error ~1e-5 rad, far below the phase noise of a
+// real capture), written branch-free so that the row loop vectorises.
+inline float fast_atan2(float y, float x) {
+    const float ax = std::fabs(x), ay = std::fabs(y);
+    const float small = std::min(ax, ay), large = std::max(ax, ay);
+    const float a = large > 0.0f ? small / large : 0.0f;
+    const float s = a * a;
+    float r = a * (0.99997726f + s * (-0.33262347f + s * (0.19354346f + s * (-0.11643287f + s * (0.05265332f + s * -0.01172120f)))));
+    r = ay > ax ? 1.57079633f - r : r;
+    r = x < 0.0f ? 3.14159265f - r : r;
+    return y < 0.0f ? -r : r;
+}
+
+// Fringe phase as a fraction of a period in [0, 1), and modulation, for a whole row.
+void phase_row(const AxisFrames& axis, int width, RowBuffers& buffers) {
+    const float* sum_sin = buffers.sum_sin.data();
+    const float* sum_cos = buffers.sum_cos.data();
+    float* fraction = buffers.phase_fraction.data();
+    float* modulation = buffers.modulation.data();
+    const float modulation_scale = 2.0f / axis.phase.size();
+    const float offset = float(axis.code.phase_offset_rad / (2 * kPi));
+    for (int x = 0; x < width; ++x) {
+        const float s = sum_sin[x], c = sum_cos[x];
+        // I_k = A + B cos(theta + delta_k): sum I sin(delta) = -K/2 B sin(theta).
+        float turns = fast_atan2(-s, c) * float(1.0 / (2 * kPi)) - offset;
+        turns -= std::floor(turns);
+        fraction[x] = turns;
+        modulation[x] = modulation_scale * std::sqrt(s * s + c * c);
     }
 }
 
@@ -187,11 +223,13 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
             float* quality = map.quality.ptr<float>(y);
 
             decode_gray_row<Pixel>(captures, *axis, y, width, min_margin, buffers);
-            if (axis->decode_phase) accumulate_phase<Pixel>(captures, *axis, y, width, buffers);
+            if (axis->decode_phase) {
+                accumulate_phase<Pixel>(captures, *axis, y, width, buffers);
+                phase_row(*axis, width, buffers);
+            }
 
             const double unit = axis->code.gray_unit_px;
             const double period = axis->code.period_px;
-            const float modulation_scale = axis->decode_phase ? 2.0f / axis->phase.size() : 0.0f;
             for (int x = 0; x < width; ++x) {
                 uint8_t pixel_status = status[x];
                 float projector_position = kNaN;
@@ -204,12 +242,8 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
                     const double stripe_centre = stripe_start + 0.5 * (unit - 1.0);
                     double decoded = stripe_centre;
                     if (axis->decode_phase) {
-                        const float s = buffers.sum_sin[x], c = buffers.sum_cos[x];
-                        pixel_quality = modulation_scale * std::sqrt(s * s + c * c);
-                        // I_k = A + B cos(theta + delta_k): sum I sin(delta) = -K/2 B sin(theta).
-                        const double theta = std::atan2(-double(s), double(c)) - axis->code.phase_offset_rad;
-                        double phase_px = period * theta / (2 * kPi);
-                        phase_px -= period * std::floor(phase_px / period);
+                        pixel_quality = buffers.modulation[x];
+                        const double phase_px = period * buffers.phase_fraction[x];
                         // Fringe order from the binary code, sub-pixel position from the phase; the
                         // two may disagree at a fringe edge, where one period is added or taken away.
                         decoded = std::floor(stripe_start / period) * period + phase_px;
