@@ -11,6 +11,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -212,12 +213,26 @@ bool is_inside(const fs::path& path, const fs::path& directory) {
     return !relative.empty() && *relative.begin() != "..";
 }
 
+std::string lowercase_extension(const std::string& path) {
+    std::string extension = fs::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), ::tolower);
+    return extension;
+}
+
+void check_extension(const std::string& path, const std::set<std::string>& allowed, const std::string& what) {
+    if (!path.empty() && !allowed.count(lowercase_extension(path)))
+        throw Error(path, what + " must end in " + [&] {
+            std::string list;
+            for (const auto& extension : allowed) list += (list.empty() ? "" : " or ") + extension;
+            return list;
+        }());
+}
+
 void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encoding) {
-    const std::string extension = fs::path(path).extension().string();
-    if (extension == ".stl" || extension == ".STL") write_stl(mesh, path, encoding);
-    else if (extension == ".ply" || extension == ".PLY") write_ply(mesh, path, encoding);
-    else if (extension == ".obj" || extension == ".OBJ") write_obj(mesh, path);
-    else throw Error(path, "mesh file must end in .stl, .ply or .obj");
+    const std::string extension = lowercase_extension(path);
+    if (extension == ".stl") write_stl(mesh, path, encoding);
+    else if (extension == ".ply") write_ply(mesh, path, encoding);
+    else write_obj(mesh, path);
 }
 
 int run_patterns(const Arguments& arguments) {
@@ -240,6 +255,10 @@ struct ReconstructRequest {
 
 int reconstruct(const ReconstructRequest& request) {
     const auto start = std::chrono::steady_clock::now();
+    // Refuse bad output names before any work, so nothing is half done.
+    check_extension(request.cloud, {".ply"}, "point cloud file");
+    check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
+    check_extension(request.preview, {".png"}, "preview file");
     const fs::path capture_directory = absolute_path(request.captures);
     for (const std::string& output : {request.cloud, request.mesh, request.preview}) {
         if (output.empty()) continue;

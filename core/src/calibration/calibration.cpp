@@ -66,9 +66,11 @@ public:
                 if (!item.isInt() && !item.isReal()) fail("'" + key + "' must be [width, height]");
                 values.push_back(static_cast<double>(item));
             }
-        } else {
+        } else if (node.isMap()) {
             const cv::Mat value = matrix(key, 0, 0);
             values.assign(value.begin<double>(), value.end<double>());
+        } else {
+            fail("'" + key + "' must be [width, height]");
         }
         if (values.size() != 2 || values[0] != std::floor(values[0]) || values[1] != std::floor(values[1]))
             fail("'" + key + "' must be [width, height] in whole pixels");

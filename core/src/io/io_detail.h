@@ -1,0 +1,56 @@
+// Helpers shared by the mesh readers and writers: whole-file reading, byte order,
+// locale-independent number formatting and parsing.
+#pragma once
+
+#include "picoscan/cloud.h"
+
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <string_view>
+
+namespace picoscan::detail {
+
+// The whole file; throws Error(path, ...) when it cannot be read.
+std::string read_whole_file(const std::string& path);
+
+inline bool host_is_little_endian() {
+    const uint16_t probe = 1;
+    unsigned char first = 0;
+    std::memcpy(&first, &probe, 1);
+    return first == 1;
+}
+
+// Appends the raw bytes of `value` in little-endian order.
+template <class T>
+void append_le(std::string& out, T value) {
+    unsigned char bytes[sizeof(T)];
+    std::memcpy(bytes, &value, sizeof(T));
+    if (!host_is_little_endian()) {
+        for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
+    }
+    out.append(reinterpret_cast<const char*>(bytes), sizeof(T));
+}
+
+// Shortest text that reads back to exactly the same float (no locale).
+void append_number(std::string& out, float value);
+void append_number(std::string& out, double value);
+void append_number(std::string& out, long long value);
+
+// Parses a whole token as a double (accepts a leading '+', nan and inf); false if malformed.
+bool parse_double(std::string_view token, double& value);
+
+// double -> float without undefined behaviour for values beyond float range.
+float to_float(double value);
+
+// Face normal from the winding (unit, or zero for a degenerate triangle).
+cv::Vec3f face_normal(const cv::Vec3f& a, const cv::Vec3f& b, const cv::Vec3f& c);
+
+// Throws Error(path, ...) when normals/colours do not have one entry per vertex or a face
+// index is out of range.
+void check_mesh(const Mesh& mesh, const std::string& path);
+
+// ASCII lower case of a string.
+std::string lower_case(std::string_view text);
+
+}  // namespace picoscan::detail

@@ -1,0 +1,116 @@
+// PLY writing (binary little-endian or ASCII) for point clouds and meshes.
+#include "io/io_detail.h"
+#include "picoscan/error.h"
+#include "picoscan/io.h"
+
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+namespace {
+
+struct PlyPayload {
+    const std::vector<cv::Vec3f>& points;
+    const std::vector<cv::Vec3f>& normals;
+    const std::vector<cv::Vec3b>& colours;
+    const std::vector<float>& quality;
+    const std::vector<cv::Vec3i>& faces;
+};
+
+std::string build_ply(const PlyPayload& data, Encoding encoding) {
+    const size_t count = data.points.size();
+    const bool has_normals = !data.normals.empty();
+    const bool has_colours = !data.colours.empty();
+    const bool has_quality = !data.quality.empty();
+    const bool binary = encoding == Encoding::Binary;
+
+    std::string out;
+    out += "ply\n";
+    out += binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n";
+    out += "comment written by PicoScan\n";
+    out += "element vertex " + std::to_string(count) + "\n";
+    out += "property float x\nproperty float y\nproperty float z\n";
+    if (has_normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
+    if (has_colours) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    if (has_quality) out += "property float quality\n";
+    if (!data.faces.empty()) {
+        out += "element face " + std::to_string(data.faces.size()) + "\n";
+        out += "property list uchar int vertex_indices\n";
+    }
+    out += "end_header\n";
+
+    if (binary) {
+        const size_t record = 12 + (has_normals ? 12 : 0) + (has_colours ? 3 : 0) + (has_quality ? 4 : 0);
+        out.reserve(out.size() + count * record + data.faces.size() * 13);
+        for (size_t i = 0; i < count; ++i) {
+            for (int k = 0; k < 3; ++k) detail::append_le(out, data.points[i][k]);
+            if (has_normals)
+                for (int k = 0; k < 3; ++k) detail::append_le(out, data.normals[i][k]);
+            if (has_colours)
+                for (int k = 0; k < 3; ++k) out.push_back(static_cast<char>(data.colours[i][k]));
+            if (has_quality) detail::append_le(out, data.quality[i]);
+        }
+        for (const cv::Vec3i& face : data.faces) {
+            out.push_back(3);
+            for (int k = 0; k < 3; ++k) detail::append_le(out, static_cast<int32_t>(face[k]));
+        }
+    } else {
+        for (size_t i = 0; i < count; ++i) {
+            for (int k = 0; k < 3; ++k) {
+                if (k) out += ' ';
+                detail::append_number(out, data.points[i][k]);
+            }
+            if (has_normals)
+                for (int k = 0; k < 3; ++k) {
+                    out += ' ';
+                    detail::append_number(out, data.normals[i][k]);
+                }
+            if (has_colours)
+                for (int k = 0; k < 3; ++k) {
+                    out += ' ';
+                    detail::append_number(out, static_cast<long long>(data.colours[i][k]));
+                }
+            if (has_quality) {
+                out += ' ';
+                detail::append_number(out, data.quality[i]);
+            }
+            out += '\n';
+        }
+        for (const cv::Vec3i& face : data.faces) {
+            out += '3';
+            for (int k = 0; k < 3; ++k) {
+                out += ' ';
+                detail::append_number(out, static_cast<long long>(face[k]));
+            }
+            out += '\n';
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+void write_ply(const PointCloud& cloud, const std::string& path, Encoding encoding) {
+    const size_t count = cloud.points.size();
+    auto check = [&](size_t size, const char* what) {
+        if (size != 0 && size != count)
+            throw Error(path, "cloud has " + std::to_string(size) + " " + what + " for " +
+                                  std::to_string(count) + " points");
+    };
+    check(cloud.normals.size(), "normals");
+    check(cloud.colours.size(), "colours");
+    check(cloud.quality.size(), "quality values");
+    static const std::vector<cv::Vec3i> no_faces;
+    write_file_atomically(
+        path, build_ply({cloud.points, cloud.normals, cloud.colours, cloud.quality, no_faces}, encoding));
+}
+
+void write_ply(const Mesh& mesh, const std::string& path, Encoding encoding) {
+    detail::check_mesh(mesh, path);
+    static const std::vector<float> no_quality;
+    write_file_atomically(
+        path, build_ply({mesh.vertices, mesh.normals, mesh.colours, no_quality, mesh.faces}, encoding));
+}
+
+}  // namespace picoscan

@@ -1,0 +1,206 @@
+// The `picoscan` command line, run as a user would, on good and bad input.
+#include "picoscan/calibration.h"
+#include "support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+using picoscan::test_support::cli_path;
+using picoscan::test_support::make_temp_dir;
+using picoscan::test_support::run_command;
+
+namespace {
+
+struct Result {
+    int exit_code;
+    std::string output;
+};
+
+Result run_picoscan(const std::string& arguments) {
+    Result result;
+    result.exit_code = run_command(cli_path() + " " + arguments, &result.output);
+    return result;
+}
+
+int line_count(const std::string& text) {
+    int lines = 0;
+    for (char c : text) lines += c == '\n';
+    return lines;
+}
+
+std::string read_file(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+}
+
+// A snapshot of every file under a folder, to prove inputs are never touched.
+std::map<std::string, std::string> snapshot(const fs::path& folder) {
+    std::map<std::string, std::string> files;
+    for (const auto& entry : fs::recursive_directory_iterator(folder))
+        if (entry.is_regular_file()) files[entry.path().string()] = read_file(entry.path());
+    return files;
+}
+
+// One simulated capture set shared by the tests (small projector: fast).
+class Cli : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        scan_ = make_temp_dir("cli-scan") + "/scan";
+        const Result result = run_picoscan("simulate --out " + scan_ + " --shifts 4 --no-rows --noise 1");
+        ASSERT_EQ(result.exit_code, 0) << result.output;
+    }
+    // A private copy of the scan to damage.
+    std::string copy_scan() {
+        const std::string copy = make_temp_dir("cli-copy") + "/scan";
+        fs::copy(scan_, copy, fs::copy_options::recursive);
+        return copy;
+    }
+    // Expects a one-line error naming `expected`, exit code != 0, no output file, inputs intact.
+    void expect_refused(const std::string& scan, const std::string& extra, const std::string& expected) {
+        const fs::path out = fs::path(make_temp_dir("cli-out")) / "cloud.ply";
+        const auto before = snapshot(scan);
+        const Result result = run_picoscan("reconstruct --calibration " + scan + "/calibration.yml --captures " + scan +
+                                       " --out " + out.string() + " " + extra);
+        EXPECT_NE(result.exit_code, 0) << result.output;
+        EXPECT_EQ(line_count(result.output), 1) << result.output;
+        EXPECT_NE(result.output.find(expected), std::string::npos) << "expected '" << expected << "' in: " << result.output;
+        EXPECT_FALSE(fs::exists(out)) << "output written despite the error";
+        for (const auto& entry : fs::directory_iterator(out.parent_path()))
+            ADD_FAILURE() << "left behind: " << entry.path();
+        EXPECT_EQ(snapshot(scan), before) << "an input was modified";
+    }
+    static std::string scan_;
+};
+std::string Cli::scan_;
+
+}  // namespace
+
+TEST_F(Cli, HelpTeachesAndUsageErrorsExit2) {
+    Result result = run_picoscan("--help");
+    EXPECT_EQ(result.exit_code, 0);
+    EXPECT_NE(result.output.find("reconstruct"), std::string::npos);
+    EXPECT_NE(result.output.find("typical session"), std::string::npos);
+    for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "demo"}) {
+        result = run_picoscan(std::string(command) + " --help");
+        EXPECT_EQ(result.exit_code, 0) << command;
+        EXPECT_NE(result.output.find("picoscan " + std::string(command)), std::string::npos) << command;
+    }
+    EXPECT_EQ(run_picoscan("").exit_code, 2);
+    EXPECT_EQ(run_picoscan("frobnicate").exit_code, 2);
+    result = run_picoscan("patterns --projector 854x480 --out /tmp/x --shifs 4");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("--shifs: unknown option"), std::string::npos) << result.output;
+}
+
+TEST_F(Cli, PatternsCommandWritesTheSequence) {
+    const std::string out = make_temp_dir("cli-patterns") + "/patterns";
+    const Result result = run_picoscan("patterns --projector 854x480 --shifts 8 --period-bits 5 --out " + out);
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    size_t pngs = 0;
+    for (const auto& entry : fs::directory_iterator(out)) pngs += entry.path().extension() == ".png";
+    EXPECT_EQ(pngs, size_t(2 + 2 * (10 + 9) + 2 * 8));
+    const cv::Mat first = cv::imread(out + "/000_white.png", cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(first.size(), cv::Size(854, 480));
+    EXPECT_EQ(first.type(), CV_8UC1);
+    const Result bad = run_picoscan("patterns --projector 854by480 --out " + out);
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.output.find("--projector"), std::string::npos) << bad.output;
+}
+
+TEST_F(Cli, ReconstructWritesCloudMeshAndPreview) {
+    const std::string out = make_temp_dir("cli-rec");
+    const Result result = run_picoscan("reconstruct --calibration " + scan_ + "/calibration.yml --captures " + scan_ +
+                                   " --out " + out + "/cloud.ply --mesh " + out + "/part.stl --preview " + out + "/p.png");
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_GT(fs::file_size(out + "/cloud.ply"), 1000000u);
+    EXPECT_GT(fs::file_size(out + "/part.stl"), 1000000u);
+    const cv::Mat preview = cv::imread(out + "/p.png");
+    EXPECT_EQ(preview.size(), cv::Size(1600, 1200));
+}
+
+TEST_F(Cli, MissingFrame) {
+    const std::string scan = copy_scan();
+    fs::remove(scan + "/010_col_gray04.png");
+    expect_refused(scan, "", "010_col_gray04.png: missing frame");
+}
+
+TEST_F(Cli, ExtraFrame) {
+    const std::string scan = copy_scan();
+    fs::copy_file(scan + "/000_white.png", scan + "/999_stray.png");
+    expect_refused(scan, "", "999_stray.png: extra image");
+}
+
+TEST_F(Cli, MismatchedSize) {
+    const std::string scan = copy_scan();
+    cv::imwrite(scan + "/005_col_gray01_inv.png", cv::Mat(600, 800, CV_8U, cv::Scalar(0)));
+    expect_refused(scan, "", "005_col_gray01_inv.png: image is 800x600");
+}
+
+TEST_F(Cli, CorruptImage) {
+    const std::string scan = copy_scan();
+    std::ofstream(scan + "/003_col_gray00_inv.png", std::ios::trunc) << "this is not a PNG";
+    expect_refused(scan, "", "003_col_gray00_inv.png: unreadable or corrupt image");
+}
+
+TEST_F(Cli, ManifestWithMissingKey) {
+    const std::string scan = copy_scan();
+    std::string manifest = read_file(scan + "/sequence.json");
+    manifest.replace(manifest.find("\"projector_height\""), 18, "\"projector_h\"");
+    std::ofstream(scan + "/sequence.json", std::ios::trunc) << manifest;
+    expect_refused(scan, "", "sequence.json: missing key 'projector_height'");
+}
+
+TEST_F(Cli, CalibrationWithWrongType) {
+    const std::string scan = copy_scan();
+    std::string calibration = read_file(scan + "/calibration.yml");
+    const size_t at = calibration.find("projector_size:");
+    calibration.replace(at, calibration.find('\n', at) - at, "projector_size: \"wide\"");
+    std::ofstream(scan + "/calibration.yml", std::ios::trunc) << calibration;
+    expect_refused(scan, "", "calibration.yml: 'projector_size' must be [width, height]");
+}
+
+TEST_F(Cli, CalibrationOfAnotherCamera) {
+    const std::string scan = copy_scan();
+    picoscan::Calibration calibration = picoscan::read_calibration(scan + "/calibration.yml");
+    calibration.camera_size = {1280, 1024};
+    picoscan::write_calibration(calibration, scan + "/calibration.yml");
+    expect_refused(scan, "", "camera_size 1280x1024 differs");
+}
+
+TEST_F(Cli, AllDarkCaptures) {
+    const std::string scan = copy_scan();
+    for (const auto& entry : fs::directory_iterator(scan))
+        if (entry.path().extension() == ".png") {
+            const cv::Mat image = cv::imread(entry.path().string(), cv::IMREAD_UNCHANGED);
+            cv::imwrite(entry.path().string(), cv::Mat(image.size(), image.type(), cv::Scalar(2)));
+        }
+    expect_refused(scan, "", "all captures are dark");
+}
+
+TEST_F(Cli, OutputInsideTheCaptureDirectory) {
+    const std::string scan = copy_scan();
+    const auto before = snapshot(scan);
+    const Result result = run_picoscan("reconstruct --calibration " + scan + "/calibration.yml --captures " + scan +
+                                   " --out " + scan + "/cloud.ply");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("must not be written into the capture directory"), std::string::npos) << result.output;
+    EXPECT_EQ(snapshot(scan), before);
+}
+
+TEST_F(Cli, MissingCaptureDirectoryAndBadMeshName) {
+    expect_refused(scan_, "--captures /nonexistent/scan", "/nonexistent/scan: capture directory not found");
+    expect_refused(scan_, "--mesh /tmp/part.xyz", "/tmp/part.xyz: mesh file must end in");
+}
+
+TEST_F(Cli, SimulateRefusesANonEmptyFolder) {
+    const Result result = run_picoscan("simulate --out " + scan_);
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("not empty"), std::string::npos) << result.output;
+}
