@@ -5,9 +5,9 @@
 #include "picoscan/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-    const std::string& path = picoscan::fuzz::write_input("calibration", ".yml", data, size);
+    const picoscan::fuzz::InputFile input("calibration", ".yml", data, size);
     try {
-        picoscan::read_calibration(path);
+        picoscan::read_calibration(input.path());
     } catch (const picoscan::Error&) {
         // Rejected cleanly.
     }

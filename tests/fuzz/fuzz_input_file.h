@@ -2,6 +2,8 @@
 // per-process temporary file.
 #pragma once
 
+#include "picoscan/cloud.h"
+
 #include <unistd.h>
 
 #include <cstdint>
@@ -11,25 +13,29 @@
 
 namespace picoscan::fuzz {
 
-// Writes the input to "<tmp>/picoscan-fuzz-<name>-<pid><extension>" and returns its path.
-inline const std::string& write_input(const char* name, const char* extension, const uint8_t* data, size_t size) {
-    static const std::string path = [&] {
+// The input as "<dir>/picoscan-fuzz-<name>-<pid><extension>", removed again afterwards
+// (a crash leaves it behind; libFuzzer keeps its own copy as the artifact). The directory
+// is /dev/shm when there is one: a disk file costs ~20x in executions per second.
+class InputFile {
+public:
+    InputFile(const char* name, const char* extension, const uint8_t* data, size_t size) {
         const char* tmp = std::getenv("TMPDIR");
-        return std::string(tmp && *tmp ? tmp : "/tmp") + "/picoscan-fuzz-" + name + "-" +
-               std::to_string(::getpid()) + extension;
-    }();
-    FILE* file = std::fopen(path.c_str(), "wb");
-    if (!file) std::abort();  // the harness itself is broken, not the reader
-    if (size > 0 && std::fwrite(data, 1, size, file) != size) std::abort();
-    if (std::fclose(file) != 0) std::abort();
-    return path;
-}
+        const std::string dir = ::access("/dev/shm", W_OK) == 0 ? "/dev/shm" : (tmp && *tmp ? tmp : "/tmp");
+        path_ = dir + "/picoscan-fuzz-" + name + "-" + std::to_string(::getpid()) + extension;
+        FILE* file = std::fopen(path_.c_str(), "wb");
+        if (!file) std::abort();  // the harness itself is broken, not the reader
+        if (size > 0 && std::fwrite(data, 1, size, file) != size) std::abort();
+        if (std::fclose(file) != 0) std::abort();
+    }
+    ~InputFile() { std::remove(path_.c_str()); }
+    InputFile(const InputFile&) = delete;
+    InputFile& operator=(const InputFile&) = delete;
 
-}  // namespace picoscan::fuzz
+    const std::string& path() const { return path_; }
 
-#include "picoscan/cloud.h"
-
-namespace picoscan::fuzz {
+private:
+    std::string path_;
+};
 
 // What every successfully read mesh must satisfy; a violation is a reader bug.
 inline void check_mesh_invariants(const Mesh& mesh) {

@@ -5,9 +5,9 @@
 #include "picoscan/patterns.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-    const std::string& path = picoscan::fuzz::write_input("manifest", ".json", data, size);
+    const picoscan::fuzz::InputFile input("manifest", ".json", data, size);
     try {
-        picoscan::read_manifest(path);
+        picoscan::read_manifest(input.path());
     } catch (const picoscan::Error&) {
         // Rejected cleanly.
     }

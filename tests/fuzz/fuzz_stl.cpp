@@ -5,9 +5,9 @@
 #include "picoscan/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-    const std::string& path = picoscan::fuzz::write_input("stl", ".stl", data, size);
+    const picoscan::fuzz::InputFile input("stl", ".stl", data, size);
     try {
-        const picoscan::Mesh mesh = picoscan::read_stl(path);
+        const picoscan::Mesh mesh = picoscan::read_stl(input.path());
         picoscan::fuzz::check_mesh_invariants(mesh);
     } catch (const picoscan::Error&) {
         // Rejected cleanly.

@@ -315,6 +315,14 @@ TEST(Ply, FloatColoursAreTakenAsUnitRange) {
     EXPECT_EQ(mesh.colours[0], cv::Vec3b(255, 128, 255));
 }
 
+TEST(Ply, HeaderMayEndWithoutNewlineWhenThereIsNoBody) {
+    const std::string dir = test_support::make_temp_dir("ply");
+    write_bytes(dir + "/bare.ply",
+                "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+                "property float z\nend_header");
+    EXPECT_TRUE(read_ply(dir + "/bare.ply").vertices.empty());
+}
+
 TEST(Ply, ReadMeshDispatchesOnExtension) {
     const std::string dir = test_support::make_temp_dir("ply");
     const Mesh cube = iotest::cube_mesh();

@@ -69,9 +69,9 @@ struct Element {
     bool has_lists() const {
         return std::any_of(properties.begin(), properties.end(), [](const Property& p) { return p.is_list; });
     }
-    int find(std::string_view name) const {
+    int find(std::string_view wanted) const {
         for (size_t i = 0; i < properties.size(); ++i)
-            if (properties[i].name == name) return static_cast<int>(i);
+            if (properties[i].name == wanted) return static_cast<int>(i);
         return -1;
     }
 };

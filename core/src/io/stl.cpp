@@ -69,7 +69,11 @@ std::string build_ascii_stl(const Mesh& mesh) {
 // Shares corners that are bit-for-bit the same point (+0 and -0 count as equal).
 class VertexMerger {
 public:
-    explicit VertexMerger(Mesh& mesh) : mesh_(mesh) {}
+    // `expected_vertices`: a hint; a closed mesh has about half as many vertices as triangles.
+    VertexMerger(Mesh& mesh, size_t expected_vertices) : mesh_(mesh) {
+        indices_.reserve(expected_vertices);
+        mesh_.vertices.reserve(expected_vertices);
+    }
 
     int index_of(const cv::Vec3f& point) {
         Key key{};
@@ -127,7 +131,7 @@ Mesh parse_binary_stl(const std::string& data, const std::string& path) {
                               std::to_string(data.size()) + " bytes");
     Mesh mesh;
     mesh.faces.reserve(static_cast<size_t>(triangles));
-    VertexMerger merger(mesh);
+    VertexMerger merger(mesh, static_cast<size_t>(triangles / 2 + 3));
     const char* record = data.data() + kBinaryPrefixBytes;
     for (uint64_t t = 0; t < triangles; ++t, record += kBinaryTriangleBytes) {
         cv::Vec3i face;
@@ -187,7 +191,7 @@ private:
 Mesh parse_ascii_stl(const std::string& data, const std::string& path) {
     AsciiTokens tokens(data, path);
     Mesh mesh;
-    VertexMerger merger(mesh);
+    VertexMerger merger(mesh, data.size() / 512);  // ~250 bytes of text per triangle
     std::vector<int> polygon;
     bool in_solid = false;
     bool seen_solid = false;
