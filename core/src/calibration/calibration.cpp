@@ -4,6 +4,9 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 
+#include "common/storage_file.h"
+#include "common/storage_text.h"
+
 #include <opencv2/core.hpp>
 
 #include <cmath>
@@ -14,72 +17,62 @@ namespace picoscan {
 
 namespace {
 
-// Reads typed values from a FileStorage, with errors naming the file and the key.
+// Typed access to the entries of a calibration file, with errors naming the file and key.
 class CalibrationReader {
 public:
-    CalibrationReader(const std::string& path, const cv::FileStorage& storage) : path_(path), storage_(storage) {}
+    CalibrationReader(const std::string& path, detail::StorageEntries entries)
+        : path_(path), entries_(std::move(entries)) {}
 
-    bool has(const std::string& key) const {
-        const cv::FileNode node = storage_[key];
-        return !node.empty() && !node.isNone();
-    }
+    bool has(const std::string& key) const { return entries_.count(key) > 0; }
     [[noreturn]] void fail(const std::string& problem) const { throw Error(path_, problem); }
 
+    const detail::StorageValue& value(const std::string& key) const {
+        const auto found = entries_.find(key);
+        if (found == entries_.end()) fail("missing key '" + key + "'");
+        return found->second;
+    }
+    // A !!opencv-matrix, or a plain list taken as one row.
     cv::Mat matrix(const std::string& key, int rows, int cols) const {
-        if (!has(key)) fail("missing key '" + key + "'");
-        cv::Mat value;
-        try {
-            storage_[key] >> value;
-        } catch (const cv::Exception&) {
+        const detail::StorageValue& entry = value(key);
+        if (entry.kind != detail::StorageValue::Kind::Matrix && entry.kind != detail::StorageValue::Kind::List)
             fail("'" + key + "' is not a matrix");
-        }
-        if (value.empty() || value.channels() != 1) fail("'" + key + "' is not a matrix");
-        value.convertTo(value, CV_64F);
-        if (rows > 0 && cols > 0 && value.total() == size_t(rows * cols)) value = value.reshape(1, rows);
-        if ((rows > 0 && value.rows != rows) || (cols > 0 && value.cols != cols))
+        if (entry.numbers.empty()) fail("'" + key + "' is empty");
+        const int entry_rows = entry.kind == detail::StorageValue::Kind::Matrix ? entry.rows : 1;
+        cv::Mat matrix = cv::Mat(entry.numbers, true).reshape(1, entry_rows);
+        if (rows > 0 && cols > 0 && matrix.total() == size_t(rows * cols)) matrix = matrix.reshape(1, rows);
+        if ((rows > 0 && matrix.rows != rows) || (cols > 0 && matrix.cols != cols))
             fail("'" + key + "' must be " + std::to_string(rows) + "x" + std::to_string(cols) + ", got " +
-                 std::to_string(value.rows) + "x" + std::to_string(value.cols));
-        if (!cv::checkRange(value)) fail("'" + key + "' holds a non-finite value");
-        return value;
+                 std::to_string(matrix.rows) + "x" + std::to_string(matrix.cols));
+        return matrix;
     }
     cv::Mat distortion(const std::string& key) const {
-        cv::Mat value = matrix(key, 0, 0);
-        value = value.reshape(1, 1);
-        const int count = value.cols;
+        const cv::Mat coefficients = matrix(key, 0, 0).reshape(1, 1);
+        const int count = coefficients.cols;
         if (count != 4 && count != 5 && count != 8 && count != 12 && count != 14)
             fail("'" + key + "' must hold 4, 5, 8, 12 or 14 coefficients, got " + std::to_string(count));
-        return value.clone();
+        return coefficients.clone();
+    }
+    int whole_pixels(double number, const std::string& key) const {
+        if (!(std::abs(number) <= 1e6) || number != std::floor(number)) fail("'" + key + "' must be a whole number of pixels");
+        return static_cast<int>(number);
     }
     int integer(const std::string& key) const {
-        if (!has(key)) fail("missing key '" + key + "'");
-        const cv::FileNode node = storage_[key];
-        if (!node.isInt() && !node.isReal()) fail("'" + key + "' must be a number");
-        return static_cast<int>(static_cast<double>(node));
+        const detail::StorageValue& entry = value(key);
+        if (entry.kind != detail::StorageValue::Kind::Number) fail("'" + key + "' must be a number");
+        return whole_pixels(entry.numbers.front(), key);
     }
     // [width, height] as a plain list (PicoScan) or as a 2-element matrix (SLMaster).
     cv::Size size(const std::string& key) const {
-        if (!has(key)) fail("missing key '" + key + "'");
-        const cv::FileNode node = storage_[key];
-        std::vector<double> values;
-        if (node.isSeq()) {
-            for (const cv::FileNode& item : node) {
-                if (!item.isInt() && !item.isReal()) fail("'" + key + "' must be [width, height]");
-                values.push_back(static_cast<double>(item));
-            }
-        } else if (node.isMap()) {
-            const cv::Mat value = matrix(key, 0, 0);
-            values.assign(value.begin<double>(), value.end<double>());
-        } else {
+        const detail::StorageValue& entry = value(key);
+        if ((entry.kind != detail::StorageValue::Kind::List && entry.kind != detail::StorageValue::Kind::Matrix) ||
+            entry.numbers.size() != 2)
             fail("'" + key + "' must be [width, height]");
-        }
-        if (values.size() != 2 || values[0] != std::floor(values[0]) || values[1] != std::floor(values[1]))
-            fail("'" + key + "' must be [width, height] in whole pixels");
-        return {static_cast<int>(values[0]), static_cast<int>(values[1])};
+        return {whole_pixels(entry.numbers[0], key), whole_pixels(entry.numbers[1], key)};
     }
 
 private:
     std::string path_;
-    const cv::FileStorage& storage_;
+    detail::StorageEntries entries_;
 };
 
 }  // namespace
@@ -109,17 +102,9 @@ void validate_calibration(const Calibration& calibration, const std::string& sou
 }
 
 Calibration read_calibration(const std::string& path) {
-    if (!std::filesystem::is_regular_file(path)) throw Error(path, "calibration file not found");
-    cv::FileStorage storage;
-    try {
-        if (!storage.open(path, cv::FileStorage::READ)) throw Error(path, "cannot open calibration file");
-    } catch (const cv::Exception& error) {
-        throw Error(path, "not a readable OpenCV YAML/XML/JSON calibration file (" + error.err + ")");
-    }
-    if (!storage.root().isMap()) throw Error(path, "calibration file must hold a map of keys");
-    const CalibrationReader reader(path, storage);
+    const CalibrationReader reader(path, detail::parse_storage_text(detail::read_text_file(path, "calibration file"), path));
     Calibration calibration;
-    try {
+    {
         if (reader.has("M1") && reader.has("Rlp")) {  // SLMaster caliInfo.yml
             calibration.camera_matrix = cv::Matx33d(reader.matrix("M1", 3, 3));
             calibration.camera_distortion = reader.distortion("D1");
@@ -149,8 +134,6 @@ Calibration read_calibration(const std::string& path) {
             calibration.R = cv::Matx33d(reader.matrix("R", 3, 3));
             calibration.T = cv::Vec3d(reader.matrix("T", 3, 1));
         }
-    } catch (const cv::Exception& error) {
-        throw Error(path, "malformed calibration file (" + error.err + ")");
     }
     validate_calibration(calibration, path);
     return calibration;

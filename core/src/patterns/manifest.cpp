@@ -3,6 +3,8 @@
 #include "picoscan/io.h"
 #include "picoscan/patterns.h"
 
+#include "common/storage_file.h"
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -102,14 +104,7 @@ void write_manifest(const PatternSequence& sequence, const std::string& path) {
 
 PatternSequence read_manifest(const std::string& path) {
     ManifestReader reader(path);
-    if (!std::filesystem::is_regular_file(path)) reader.fail("manifest not found");
-    cv::FileStorage storage;
-    try {
-        if (!storage.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_JSON))
-            reader.fail("cannot open manifest");
-    } catch (const cv::Exception& error) {
-        reader.fail("not a valid JSON manifest (" + error.err + ")");
-    }
+    const cv::FileStorage storage = detail::open_storage_file(path, "manifest", detail::StorageFormats::JsonOnly);
     try {
         const cv::FileNode root = storage.root();
         if (!root.isMap()) reader.fail("manifest must be a JSON object");
@@ -159,6 +154,8 @@ PatternSequence read_manifest(const std::string& path) {
         return sequence;
     } catch (const cv::Exception& error) {
         reader.fail("malformed manifest (" + error.err + ")");
+    } catch (const std::bad_alloc&) {
+        reader.fail("malformed manifest (implausible sizes)");
     }
 }
 

@@ -12,6 +12,8 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 
+#include "common/storage_file.h"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -144,21 +146,7 @@ private:
 
 Scene read_scene(const std::string& path) {
     const SceneReader reader(path);
-    if (!std::filesystem::is_regular_file(path)) throw Error(path, "scene file not found");
-    std::ifstream stream(path, std::ios::binary);
-    std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
-    if (!stream.good() && !stream.eof()) throw Error(path, "cannot read the scene file");
-    // OpenCV insists on a "%YAML:1.0" first line; hand-written YAML rarely has one.
-    const size_t first = text.find_first_not_of(" \t\r\n");
-    if (first == std::string::npos) throw Error(path, "the scene file is empty");
-    if (text[first] != '%' && text[first] != '{' && text[first] != '<') text = "%YAML:1.0\n" + text;
-    cv::FileStorage storage;
-    try {
-        storage.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-    } catch (const cv::Exception& e) {
-        throw Error(path, "cannot parse the scene file as YAML or JSON (" + e.err + ")");
-    }
-    if (!storage.isOpened()) throw Error(path, "cannot open the scene file");
+    const cv::FileStorage storage = detail::open_storage_file(path, "scene file", detail::StorageFormats::Any);
     const cv::FileNode root = storage.root();
     if (!root.isMap()) throw Error(path, "expected a map with lists of spheres, planes, boxes, cylinders, meshes");
 
