@@ -30,8 +30,8 @@ private:
     Calibration calibration_;
     cv::Mat camera_rays_;     // CV_32FC2, undistorted normalised camera coordinates per pixel
     cv::Mat projector_rays_;  // CV_64FC2, undistorted normalised projector coordinates per projector pixel
-    cv::Mat column_planes_;   // CV_64FC3, normal of the plane through the projector centre holding
-                              // column u near row v (projector frame), per projector pixel
+    cv::Mat column_planes_;   // CV_32FC4, plane through the projector centre holding column u near
+                              // row v (projector frame): unit normal n and n.T, per projector pixel
 };
 
 // One-off convenience: builds a Triangulator and triangulates.

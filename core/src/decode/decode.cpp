@@ -81,6 +81,34 @@ const Pixel* row_of(const CaptureSet& captures, int frame, int y) {
     return captures.images[frame].ptr<Pixel>(y);
 }
 
+// The pixel loops take __restrict parameters (row buffers never overlap the images), so that
+// GCC vectorises them without run-time overlap checks.
+template <typename Pixel>
+void add_four_shifts(const Pixel* __restrict i0, const Pixel* __restrict i1, const Pixel* __restrict i2,
+                     const Pixel* __restrict i3, const float* shift_cos, const float* shift_sin, int width,
+                     float* __restrict sum_sin, float* __restrict sum_cos, float* __restrict sum) {
+    const float c0 = shift_cos[0], c1 = shift_cos[1], c2 = shift_cos[2], c3 = shift_cos[3];
+    const float s0 = shift_sin[0], s1 = shift_sin[1], s2 = shift_sin[2], s3 = shift_sin[3];
+    for (int x = 0; x < width; ++x) {
+        const float v0 = float(i0[x]), v1 = float(i1[x]), v2 = float(i2[x]), v3 = float(i3[x]);
+        sum_sin[x] += v0 * s0 + v1 * s1 + v2 * s2 + v3 * s3;
+        sum_cos[x] += v0 * c0 + v1 * c1 + v2 * c2 + v3 * c3;
+        sum[x] += (v0 + v1) + (v2 + v3);
+    }
+}
+
+template <typename Pixel>
+void add_one_shift(const Pixel* __restrict intensity, float shift_cos, float shift_sin, int width,
+                   float* __restrict sum_sin, float* __restrict sum_cos, float* __restrict sum) {
+    for (int x = 0; x < width; ++x) {
+        const float value = float(intensity[x]);
+        sum_sin[x] += value * shift_sin;
+        sum_cos[x] += value * shift_cos;
+        sum[x] += value;
+    }
+}
+
+// Sums of I_k sin(delta_k), I_k cos(delta_k) and I_k over the shifts, for one row.
 template <typename Pixel>
 void accumulate_phase(const CaptureSet& captures, const AxisFrames& axis, int y, int width, RowBuffers& buffers) {
     float* sum_sin = buffers.sum_sin.data();
@@ -89,14 +117,32 @@ void accumulate_phase(const CaptureSet& captures, const AxisFrames& axis, int y,
     std::fill_n(sum_sin, width, 0.0f);
     std::fill_n(sum_cos, width, 0.0f);
     std::fill_n(sum, width, 0.0f);
-    for (size_t shift = 0; shift < axis.phase.size(); ++shift) {
-        const Pixel* intensity = row_of<Pixel>(captures, axis.phase[shift], y);
-        const float c = axis.shift_cos[shift], s = axis.shift_sin[shift];
+    // Four frames per pass, so the sums are loaded and stored a quarter as often.
+    size_t shift = 0;
+    for (; shift + 4 <= axis.phase.size(); shift += 4)
+        add_four_shifts<Pixel>(row_of<Pixel>(captures, axis.phase[shift], y), row_of<Pixel>(captures, axis.phase[shift + 1], y),
+                               row_of<Pixel>(captures, axis.phase[shift + 2], y), row_of<Pixel>(captures, axis.phase[shift + 3], y),
+                               &axis.shift_cos[shift], &axis.shift_sin[shift], width, sum_sin, sum_cos, sum);
+    for (; shift < axis.phase.size(); ++shift)
+        add_one_shift<Pixel>(row_of<Pixel>(captures, axis.phase[shift], y), axis.shift_cos[shift], axis.shift_sin[shift],
+                             width, sum_sin, sum_cos, sum);
+}
+
+template <typename Pixel>
+void add_gray_bit(const Pixel* __restrict pattern, const Pixel* __restrict inverse, const float* __restrict reference,
+                  float min_margin, int width, uint32_t* __restrict code, uint32_t* __restrict weak_bits) {
+    // Gray -> binary: each binary bit is the previous binary bit xor the Gray bit.
+    if (inverse) {
         for (int x = 0; x < width; ++x) {
-            const float value = float(intensity[x]);
-            sum_sin[x] += value * s;
-            sum_cos[x] += value * c;
-            sum[x] += value;
+            const float difference = float(pattern[x]) - float(inverse[x]);
+            code[x] = (code[x] << 1) | ((code[x] & 1u) ^ uint32_t(difference > 0.0f));
+            weak_bits[x] += uint32_t(std::fabs(difference) < min_margin);
+        }
+    } else {
+        for (int x = 0; x < width; ++x) {
+            const float difference = float(pattern[x]) - reference[x];
+            code[x] = (code[x] << 1) | ((code[x] & 1u) ^ uint32_t(difference > 0.0f));
+            weak_bits[x] += uint32_t(std::fabs(difference) < min_margin);
         }
     }
 }
@@ -108,27 +154,12 @@ void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, 
                      RowBuffers& buffers) {
     uint32_t* code = buffers.code.data();
     uint32_t* weak_bits = buffers.weak_bits.data();
-    const float* reference = buffers.reference.data();
     std::fill_n(code, width, 0u);
     std::fill_n(weak_bits, width, 0u);
-    // Gray -> binary: each binary bit is the previous binary bit xor the Gray bit.
-    for (int bit = 0; bit < axis.code.gray_bits; ++bit) {
-        const Pixel* pattern = row_of<Pixel>(captures, axis.gray[bit], y);
-        if (axis.gray_inverse[bit] >= 0) {
-            const Pixel* inverse = row_of<Pixel>(captures, axis.gray_inverse[bit], y);
-            for (int x = 0; x < width; ++x) {
-                const float difference = float(pattern[x]) - float(inverse[x]);
-                code[x] = (code[x] << 1) | ((code[x] & 1u) ^ uint32_t(difference > 0.0f));
-                weak_bits[x] += uint32_t(std::fabs(difference) < min_margin);
-            }
-        } else {
-            for (int x = 0; x < width; ++x) {
-                const float difference = float(pattern[x]) - reference[x];
-                code[x] = (code[x] << 1) | ((code[x] & 1u) ^ uint32_t(difference > 0.0f));
-                weak_bits[x] += uint32_t(std::fabs(difference) < min_margin);
-            }
-        }
-    }
+    for (int bit = 0; bit < axis.code.gray_bits; ++bit)
+        add_gray_bit<Pixel>(row_of<Pixel>(captures, axis.gray[bit], y),
+                            axis.gray_inverse[bit] >= 0 ? row_of<Pixel>(captures, axis.gray_inverse[bit], y) : nullptr,
+                            buffers.reference.data(), min_margin, width, code, weak_bits);
 }
 
 // atan2 by a minimax polynomial (max error ~1e-5 rad, far below the phase noise of a
@@ -136,27 +167,29 @@ void decode_gray_row(const CaptureSet& captures, const AxisFrames& axis, int y, 
 inline float fast_atan2(float y, float x) {
     const float ax = std::fabs(x), ay = std::fabs(y);
     const float small = std::min(ax, ay), large = std::max(ax, ay);
-    const float a = large > 0.0f ? small / large : 0.0f;
+    const float a = small / (large + 1e-30f);  // no branch: 0/0 cannot happen
     const float s = a * a;
     float r = a * (0.99997726f + s * (-0.33262347f + s * (0.19354346f + s * (-0.11643287f + s * (0.05265332f + s * -0.01172120f)))));
-    r = ay > ax ? 1.57079633f - r : r;
-    r = x < 0.0f ? 3.14159265f - r : r;
-    return y < 0.0f ? -r : r;
+    // Both sides of each choice are computed so that the choices compile to blends.
+    const float complement = 1.57079633f - r;
+    r = ay > ax ? complement : r;
+    const float supplement = 3.14159265f - r;
+    r = x < 0.0f ? supplement : r;
+    const float negated = -r;
+    return y < 0.0f ? negated : r;
 }
 
 // Fringe phase as a fraction of a period in [0, 1), and modulation, for a whole row.
-void phase_row(const AxisFrames& axis, int width, RowBuffers& buffers) {
-    const float* sum_sin = buffers.sum_sin.data();
-    const float* sum_cos = buffers.sum_cos.data();
-    float* fraction = buffers.phase_fraction.data();
-    float* modulation = buffers.modulation.data();
-    const float modulation_scale = 2.0f / axis.phase.size();
-    const float offset = float(axis.code.phase_offset_rad / (2 * kPi));
+void phase_row(const float* __restrict sum_sin, const float* __restrict sum_cos, float offset, float modulation_scale,
+               int width, float* __restrict fraction, float* __restrict modulation) {
     for (int x = 0; x < width; ++x) {
         const float s = sum_sin[x], c = sum_cos[x];
         // I_k = A + B cos(theta + delta_k): sum I sin(delta) = -K/2 B sin(theta).
         float turns = fast_atan2(-s, c) * float(1.0 / (2 * kPi)) - offset;
-        turns -= std::floor(turns);
+        // Wrap into [0, 1) without std::floor, which is a library call (no vectorising) on SSE2.
+        turns -= float(int(turns));
+        const float wrapped = turns + 1.0f;
+        turns = turns < 0.0f ? wrapped : turns;
         fraction[x] = turns;
         modulation[x] = modulation_scale * std::sqrt(s * s + c * c);
     }
@@ -225,11 +258,13 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
             decode_gray_row<Pixel>(captures, *axis, y, width, min_margin, buffers);
             if (axis->decode_phase) {
                 accumulate_phase<Pixel>(captures, *axis, y, width, buffers);
-                phase_row(*axis, width, buffers);
+                phase_row(buffers.sum_sin.data(), buffers.sum_cos.data(), float(axis->code.phase_offset_rad / (2 * kPi)),
+                          2.0f / axis->phase.size(), width, buffers.phase_fraction.data(), buffers.modulation.data());
             }
 
             const double unit = axis->code.gray_unit_px;
             const double period = axis->code.period_px;
+            const double inverse_period = period > 0 ? 1.0 / period : 0.0;
             for (int x = 0; x < width; ++x) {
                 uint8_t pixel_status = status[x];
                 float projector_position = kNaN;
@@ -246,7 +281,8 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
                         const double phase_px = period * buffers.phase_fraction[x];
                         // Fringe order from the binary code, sub-pixel position from the phase; the
                         // two may disagree at a fringe edge, where one period is added or taken away.
-                        decoded = std::floor(stripe_start / period) * period + phase_px;
+                        // Codes are non-negative, so truncation is the floor.
+                        decoded = double(int64_t(stripe_start * inverse_period)) * period + phase_px;
                         if (decoded - stripe_centre > 0.5 * period) {
                             decoded -= period;
                             ++local_corrections;

@@ -19,14 +19,15 @@ constexpr int kTableMargin = 8;  // projector codes may fall slightly outside th
 
 // Bilinear lookup in a per-projector-pixel table (with kTableMargin pixels of margin).
 template <typename Value>
-Value table_at(const cv::Mat& table, double u, double v) {
+inline Value table_at(const cv::Mat& table, double u, double v) {
     const double column = u + kTableMargin, row = v + kTableMargin;
     const int x0 = std::clamp(int(column), 0, table.cols - 2);
     const int y0 = std::clamp(int(row), 0, table.rows - 2);
-    const double fx = column - x0, fy = row - y0;
+    const auto fx = typename Value::value_type(column - x0), fy = typename Value::value_type(row - y0);
     const Value* top = table.ptr<Value>(y0) + x0;
     const Value* bottom = table.ptr<Value>(y0 + 1) + x0;
-    return (top[0] * (1 - fx) + top[1] * fx) * (1 - fy) + (bottom[0] * (1 - fx) + bottom[1] * fx) * fy;
+    const auto one = typename Value::value_type(1);
+    return (top[0] * (one - fx) + top[1] * fx) * (one - fy) + (bottom[0] * (one - fx) + bottom[1] * fx) * fy;
 }
 
 // Normals from the organised grid: cross product of the horizontal and vertical neighbour
@@ -42,17 +43,21 @@ void estimate_normals(ScanView& view) {
             const cv::Vec3f* below = points.ptr<cv::Vec3f>(std::min(y + 1, height - 1));
             cv::Vec3f* normal = view.normals.ptr<cv::Vec3f>(y);
             for (int x = 0; x < width; ++x) {
+                const cv::Vec3f& centre = row[x];
                 normal[x] = cv::Vec3f(kNaN, kNaN, kNaN);
-                if (!std::isfinite(row[x][2])) continue;
-                const cv::Vec3f& left = (x > 0 && std::isfinite(row[x - 1][2])) ? row[x - 1] : row[x];
-                const cv::Vec3f& right = (x + 1 < width && std::isfinite(row[x + 1][2])) ? row[x + 1] : row[x];
-                const cv::Vec3f& up = std::isfinite(above[x][2]) ? above[x] : row[x];
-                const cv::Vec3f& down = std::isfinite(below[x][2]) ? below[x] : row[x];
-                cv::Vec3f n = (right - left).cross(down - up);
-                const float length = std::sqrt(n.dot(n));
-                if (!(length > 0)) continue;
-                n *= (n.dot(row[x]) > 0 ? -1.0f : 1.0f) / length;
-                normal[x] = n;
+                if (!(centre[2] == centre[2])) continue;  // NaN: no point
+                const cv::Vec3f& left = (x > 0 && row[x - 1][2] == row[x - 1][2]) ? row[x - 1] : centre;
+                const cv::Vec3f& right = (x + 1 < width && row[x + 1][2] == row[x + 1][2]) ? row[x + 1] : centre;
+                const cv::Vec3f& up = above[x][2] == above[x][2] ? above[x] : centre;
+                const cv::Vec3f& down = below[x][2] == below[x][2] ? below[x] : centre;
+                const float ax = right[0] - left[0], ay = right[1] - left[1], az = right[2] - left[2];
+                const float bx = down[0] - up[0], by = down[1] - up[1], bz = down[2] - up[2];
+                float nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
+                const float length_squared = nx * nx + ny * ny + nz * nz;
+                if (!(length_squared > 0)) continue;
+                // Unit length, turned towards the camera at the origin.
+                const float scale = (nx * centre[0] + ny * centre[1] + nz * centre[2] > 0 ? -1.0f : 1.0f) / std::sqrt(length_squared);
+                normal[x] = cv::Vec3f(nx * scale, ny * scale, nz * scale);
             }
         }
     });
@@ -83,15 +88,18 @@ Triangulator::Triangulator(const Calibration& calibration) : calibration_(calibr
                     calibration.projector_matrix, {double(column - kTableMargin), double(row - kTableMargin)}));
     });
     // With lens distortion a projector column is a curve; near row v it is well described by
-    // the plane through the projector centre and the rays of (u, v) and (u, v + 1).
-    column_planes_.create(table_size.height - 1, table_size.width, CV_64FC3);
+    // the plane through the projector centre and the rays of (u, v) and (u, v + 1). Each entry
+    // holds the unit normal n and n.T, so a camera ray's depth is -(n.T) / (n.R ray).
+    column_planes_.create(table_size.height - 1, table_size.width, CV_32FC4);
     detail::parallel_rows(column_planes_.rows, [&](int begin, int end) {
         for (int row = begin; row < end; ++row)
             for (int column = 0; column < table_size.width; ++column) {
                 const cv::Vec2d a = projector_rays_.at<cv::Vec2d>(row, column);
                 const cv::Vec2d b = projector_rays_.at<cv::Vec2d>(row + 1, column);
-                const cv::Vec3d normal = cv::Vec3d(a[0], a[1], 1.0).cross(cv::Vec3d(b[0], b[1], 1.0));
-                column_planes_.at<cv::Vec3d>(row, column) = normal / cv::norm(normal);
+                cv::Vec3d normal = cv::Vec3d(a[0], a[1], 1.0).cross(cv::Vec3d(b[0], b[1], 1.0));
+                normal /= cv::norm(normal);
+                column_planes_.at<cv::Vec4f>(row, column) =
+                    cv::Vec4f(float(normal[0]), float(normal[1]), float(normal[2]), float(normal.dot(calibration.T)));
             }
     });
 }
@@ -117,8 +125,9 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
 
     ScanView view;
     view.points.create(size, CV_32FC3);
-    view.quality = correspondences.quality.clone();
-    view.colours = colour.empty() ? cv::Mat(size, CV_8UC3, cv::Scalar::all(200)) : colour.clone();
+    // Quality and colour are shared with the inputs, not copied (cv::Mat reference counting).
+    view.quality = correspondences.quality;
+    view.colours = colour.empty() ? cv::Mat(size, CV_8UC3, cv::Scalar::all(200)) : colour;
 
     detail::ProgressReporter reporter(progress, "triangulate", size.height);
     detail::parallel_rows(size.height, [&](int begin, int end) {
@@ -150,8 +159,11 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
                     // slowly along a camera row (the epipolar lines run along the baseline), and
                     // a plane taken a pixel or two off the true row moves u by only ~1e-4 px for
                     // typical lens distortion, so the row is re-measured every few pixels only.
-                    const cv::Vec3d normal = table_at<cv::Vec3d>(column_planes_, u, v_estimate);
-                    depth = -normal.dot(T) / normal.dot(direction);
+                    auto plane_depth = [&](double v) {
+                        const cv::Vec4f plane = table_at<cv::Vec4f>(column_planes_, u, v);
+                        return -double(plane[3]) / (plane[0] * direction[0] + plane[1] * direction[1] + plane[2] * direction[2]);
+                    };
+                    depth = plane_depth(v_estimate);
                     const bool refresh_row = x % 8 == 0 || !std::isfinite(projector_u[x > 0 ? x - 1 : 0]);
                     for (int iteration = 1; projector_distorted && refresh_row && iteration <= iterations; ++iteration) {
                         const cv::Vec3d in_projector = T + depth * direction;
@@ -163,8 +175,7 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
                         const bool close_enough = std::abs(v_hit - v_estimate) < 2.0;
                         v_estimate = v_hit;
                         if (close_enough) break;
-                        depth = -table_at<cv::Vec3d>(column_planes_, u, v_estimate).dot(T) /
-                                table_at<cv::Vec3d>(column_planes_, u, v_estimate).dot(direction);
+                        depth = plane_depth(v_estimate);
                     }
                 }
                 if (depth > options.min_depth_mm && depth < options.max_depth_mm)  // false for NaN
