@@ -87,6 +87,7 @@ quality, and optionally a grid mesh that does not bridge depth jumps.
   --manifest FILE      sequence.json to use instead of DIR/sequence.json (for foreign sets)
   --out FILE           point cloud (.ply, binary unless --ascii)
   --mesh FILE          grid mesh too (.stl, .ply or .obj)
+  --mesh-step N        join every N-th pixel only: N*N times fewer triangles (default 1)
   --preview FILE       shaded PNG preview of the scan
   --binary-only        Gray code only, ignore the phase frames (for comparison)
   --ascii              write ASCII PLY/STL instead of binary
@@ -113,7 +114,8 @@ Writes a sequence.json that describes a capture set made by another system, so t
 const char* kDemoHelp = R"(picoscan demo [--out DIR]
 
 Simulates a scan of the built-in part with the seed-like rig and reconstructs it.
-Writes DIR/cloud.ply, DIR/part.stl, DIR/preview.png and the capture set in DIR/captures/.
+Writes DIR/cloud.ply (full resolution), DIR/part.stl (grid mesh of every 2nd pixel),
+DIR/preview.png, the rig in DIR/calibration.yml and the capture set in DIR/captures/.
 Default DIR: demo-output
 )";
 
@@ -249,6 +251,7 @@ int run_patterns(const Arguments& arguments) {
 
 struct ReconstructRequest {
     std::string calibration, captures, manifest, cloud, mesh, preview;
+    int mesh_step = 1;
     DecodeOptions decode;
     Encoding encoding = Encoding::Binary;
 };
@@ -284,7 +287,9 @@ int reconstruct(const ReconstructRequest& request) {
     std::printf("%zu points (%.1f %% of the camera pixels), %d fringe orders corrected -> %s\n", cloud.points.size(),
                 100.0 * cloud.points.size() / view.points.total(), correspondences.order_corrections, request.cloud.c_str());
     if (!request.mesh.empty()) {
-        const Mesh mesh = grid_mesh(view, calibration.camera_matrix(0, 0));
+        GridMeshOptions mesh_options;
+        mesh_options.pixel_step = request.mesh_step;
+        const Mesh mesh = grid_mesh(view, calibration.camera_matrix(0, 0), mesh_options);
         write_mesh_file(mesh, request.mesh, request.encoding);
         std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
     }
@@ -304,6 +309,8 @@ int run_reconstruct(const Arguments& arguments) {
     request.cloud = arguments.required("--out");
     request.mesh = arguments.text("--mesh");
     request.preview = arguments.text("--preview");
+    request.mesh_step = arguments.integer("--mesh-step", 1);
+    if (request.mesh_step < 1 || request.mesh_step > 64) throw Error("--mesh-step", "must be 1..64");
     request.decode.binary_only = arguments.flag("--binary-only");
     request.decode.min_contrast = arguments.number("--min-contrast", request.decode.min_contrast);
     request.decode.min_modulation = arguments.number("--min-modulation", request.decode.min_modulation);
@@ -394,6 +401,7 @@ int run_demo(const Arguments& arguments) {
     request.cloud = (directory / "cloud.ply").string();
     request.mesh = (directory / "part.stl").string();
     request.preview = (directory / "preview.png").string();
+    request.mesh_step = 2;  // a 1-million-triangle STL rather than 4 million
     return reconstruct(request);
 }
 

@@ -238,3 +238,18 @@ TEST(GridMesh, TinyAndEmptyViews) {
 
 }  // namespace
 }  // namespace picoscan
+
+TEST(GridMesh, PixelStepMeshesEveryNthPixel) {
+    const int width = 41, height = 31;
+    const ScanView view = pinhole_view(width, height, [](int x, int y) { return 400.0 + 0.3 * x - 0.2 * y; });
+    GridMeshOptions options;
+    options.pixel_step = 2;
+    const Mesh mesh = grid_mesh(view, kFocal, options);
+    // 21 x 16 pixels kept, all joined.
+    EXPECT_EQ(mesh.vertices.size(), size_t(21 * 16));
+    EXPECT_EQ(mesh.faces.size(), size_t(20 * 15 * 2));
+    EXPECT_EQ(mesh.vertices[1], view.points.at<cv::Vec3f>(0, 2));
+    expect_faces_towards_camera(mesh);
+    options.pixel_step = 0;
+    EXPECT_THROW(grid_mesh(view, kFocal, options), Error);
+}

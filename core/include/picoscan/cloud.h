@@ -39,6 +39,8 @@ struct GridMeshOptions {
     // max_edge_factor times the footprint of one pixel at that depth, so depth
     // discontinuities are not bridged.
     double max_edge_factor = 8.0;
+    // Join every n-th pixel only (n x n fewer vertices): a lighter mesh for previews and printing.
+    int pixel_step = 1;
 };
 
 // Triangulates the pixel grid of an organised view. Needs the camera focal length

@@ -6,6 +6,7 @@
 #include "picoscan/error.h"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -45,6 +46,29 @@ Mesh grid_mesh(const ScanView& view, double camera_focal_px, const GridMeshOptio
         throw Error("grid_mesh", "camera focal length must be a positive number of pixels");
     if (!(options.max_edge_factor > 0) || !std::isfinite(options.max_edge_factor))
         throw Error("grid_mesh", "max_edge_factor must be positive");
+
+    if (options.pixel_step < 1 || options.pixel_step > 64) throw Error("grid_mesh", "pixel_step must be 1..64");
+    if (options.pixel_step > 1) {
+        // Every n-th pixel of every n-th row, meshed as a view seen with an n times shorter focal length.
+        const int step = options.pixel_step;
+        ScanView sparse;
+        sparse.pose = view.pose;
+        auto every_nth = [step](const cv::Mat& layer) {
+            if (layer.empty()) return cv::Mat();
+            cv::Mat result((layer.rows + step - 1) / step, (layer.cols + step - 1) / step, layer.type());
+            for (int y = 0; y < result.rows; ++y)
+                for (int x = 0; x < result.cols; ++x)
+                    std::memcpy(result.ptr(y, x), layer.ptr(y * step, x * step), layer.elemSize());
+            return result;
+        };
+        sparse.points = every_nth(view.points);
+        sparse.normals = every_nth(view.normals);
+        sparse.colours = every_nth(view.colours);
+        sparse.quality = every_nth(view.quality);
+        GridMeshOptions dense = options;
+        dense.pixel_step = 1;
+        return grid_mesh(sparse, camera_focal_px / step, dense);
+    }
 
     Mesh mesh;
     const int rows = view.points.rows, cols = view.points.cols;

@@ -30,6 +30,28 @@ inline Value table_at(const cv::Mat& table, double u, double v) {
     return (top[0] * (one - fx) + top[1] * fx) * (one - fy) + (bottom[0] * (one - fx) + bottom[1] * fx) * fy;
 }
 
+// Pass B of triangulation for one row: camera ray ∩ plane (n, n.T) in the projector frame,
+// written so that GCC vectorises it. Points outside [min_depth, max_depth] (and NaN planes)
+// become NaN.
+void intersect_row(const cv::Vec2f* __restrict camera_ray, const float* __restrict normal_x,
+                   const float* __restrict normal_y, const float* __restrict normal_z, const float* __restrict offset,
+                   const cv::Matx33f& R, float min_depth, float max_depth, int width, cv::Vec3f* __restrict points) {
+    const float r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2), r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
+    const float r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
+    const float* ray = &camera_ray[0][0];
+    float* point = &points[0][0];
+    for (int x = 0; x < width; ++x) {
+        const float rx = ray[2 * x], ry = ray[2 * x + 1];
+        const float dx = r00 * rx + r01 * ry + r02, dy = r10 * rx + r11 * ry + r12, dz = r20 * rx + r21 * ry + r22;
+        const float depth = -offset[x] / (normal_x[x] * dx + normal_y[x] * dy + normal_z[x] * dz);
+        const bool inside = depth > min_depth && depth < max_depth;  // false for NaN
+        const float kept = inside ? depth : kNaN;
+        point[3 * x] = rx * kept;
+        point[3 * x + 1] = ry * kept;
+        point[3 * x + 2] = kept;
+    }
+}
+
 // Normals from the organised grid: cross product of the horizontal and vertical neighbour
 // differences (central where both neighbours exist), turned towards the camera.
 void estimate_normals(ScanView& view) {
@@ -129,58 +151,64 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
     view.quality = correspondences.quality;
     view.colours = colour.empty() ? cv::Mat(size, CV_8UC3, cv::Scalar::all(200)) : colour;
 
+    // Each pixel's point is the camera ray ∩ a plane through the projector centre (projector
+    // frame): depth = -(n.T) / (n.(R ray)). Pass A finds the plane per pixel (table lookups,
+    // scalar); pass B intersects a whole row at once (vectorised).
+    const cv::Matx33f R_float(R);
     detail::ProgressReporter reporter(progress, "triangulate", size.height);
     detail::parallel_rows(size.height, [&](int begin, int end) {
+        std::vector<float> normal_x(size.width), normal_y(size.width), normal_z(size.width), offset(size.width);
         for (int y = begin; y < end && !reporter.cancelled(); ++y) {
             const float* projector_u = correspondences.projector_u.ptr<float>(y);
             const float* projector_v = use_rows ? correspondences.projector_v.ptr<float>(y) : nullptr;
             const cv::Vec2f* camera_ray = camera_rays_.ptr<cv::Vec2f>(y);
-            cv::Vec3f* point = view.points.ptr<cv::Vec3f>(y);
             double v_estimate = projector_matrix(1, 2);  // warm start: neighbours hit nearby projector rows
+
             for (int x = 0; x < size.width; ++x) {
-                point[x] = cv::Vec3f(kNaN, kNaN, kNaN);
                 const double u = projector_u[x];
-                if (!std::isfinite(u)) continue;
-                const cv::Vec3d ray(camera_ray[x][0], camera_ray[x][1], 1.0);
-                const cv::Vec3d direction = R * ray;  // the camera ray in the projector frame, starting at T
-                double depth;
-                if (projector_v && std::isfinite(projector_v[x])) {
-                    // Ray-ray: the camera ray is exact (a pixel centre), so the point is taken on
-                    // it, where it passes closest to the projector ray.
-                    const cv::Vec2d normalised = table_at<cv::Vec2d>(projector_rays_, u, projector_v[x]);
-                    const cv::Vec3d projector_ray(normalised[0], normalised[1], 1.0);
-                    const double a = direction.dot(direction), b = direction.dot(projector_ray);
-                    const double c = projector_ray.dot(projector_ray);
-                    const double d = direction.dot(T), e = projector_ray.dot(T);
-                    depth = (b * e - c * d) / (a * c - b * b);
-                    v_estimate = projector_v[x];
-                } else {
-                    // Column plane, taken at the projector row the point hits. That row changes
-                    // slowly along a camera row (the epipolar lines run along the baseline), and
-                    // a plane taken a pixel or two off the true row moves u by only ~1e-4 px for
-                    // typical lens distortion, so the row is re-measured every few pixels only.
-                    auto plane_depth = [&](double v) {
-                        const cv::Vec4f plane = table_at<cv::Vec4f>(column_planes_, u, v);
-                        return -double(plane[3]) / (plane[0] * direction[0] + plane[1] * direction[1] + plane[2] * direction[2]);
-                    };
-                    depth = plane_depth(v_estimate);
-                    const bool refresh_row = x % 8 == 0 || !std::isfinite(projector_u[x > 0 ? x - 1 : 0]);
-                    for (int iteration = 1; projector_distorted && refresh_row && iteration <= iterations; ++iteration) {
-                        const cv::Vec3d in_projector = T + depth * direction;
-                        if (!(in_projector[2] > 0)) break;
-                        const cv::Vec2d distorted =
-                            projector_lens.distort({in_projector[0] / in_projector[2], in_projector[1] / in_projector[2]});
-                        const double v_hit = std::clamp(detail::normalised_to_pixel(projector_matrix, distorted)[1],
-                                                        lowest_row, highest_row);
-                        const bool close_enough = std::abs(v_hit - v_estimate) < 2.0;
-                        v_estimate = v_hit;
-                        if (close_enough) break;
-                        depth = plane_depth(v_estimate);
+                cv::Vec4d plane(0, 0, 1, std::numeric_limits<double>::quiet_NaN());
+                if (std::isfinite(u)) {
+                    const cv::Vec3d direction = R * cv::Vec3d(camera_ray[x][0], camera_ray[x][1], 1.0);
+                    if (projector_v && std::isfinite(projector_v[x])) {
+                        // Ray-ray: the camera ray is exact (a pixel centre), so the point is taken
+                        // where it passes closest to the projector ray, i.e. on the plane holding
+                        // the projector ray and the rays' common perpendicular.
+                        const cv::Vec2d normalised = table_at<cv::Vec2d>(projector_rays_, u, projector_v[x]);
+                        const cv::Vec3d projector_ray(normalised[0], normalised[1], 1.0);
+                        const cv::Vec3d normal = projector_ray.cross(direction.cross(projector_ray));
+                        plane = cv::Vec4d(normal[0], normal[1], normal[2], normal.dot(T));
+                        v_estimate = projector_v[x];
+                    } else {
+                        // Column plane, taken at the projector row the point hits. That row
+                        // changes slowly along a camera row (the epipolar lines run along the
+                        // baseline), and a plane taken a pixel or two off the true row moves u by
+                        // only ~1e-4 px for typical lens distortion: the row is re-measured every
+                        // few pixels only.
+                        plane = table_at<cv::Vec4f>(column_planes_, u, v_estimate);
+                        const bool refresh_row = x % 8 == 0 || !std::isfinite(projector_u[x > 0 ? x - 1 : 0]);
+                        for (int iteration = 1; projector_distorted && refresh_row && iteration <= iterations; ++iteration) {
+                            const double depth = -plane[3] / (plane[0] * direction[0] + plane[1] * direction[1] + plane[2] * direction[2]);
+                            const cv::Vec3d in_projector = T + depth * direction;
+                            if (!(in_projector[2] > 0)) break;
+                            const cv::Vec2d distorted =
+                                projector_lens.distort({in_projector[0] / in_projector[2], in_projector[1] / in_projector[2]});
+                            const double v_hit = std::clamp(detail::normalised_to_pixel(projector_matrix, distorted)[1],
+                                                            lowest_row, highest_row);
+                            const bool close_enough = std::abs(v_hit - v_estimate) < 2.0;
+                            v_estimate = v_hit;
+                            if (close_enough) break;
+                            plane = table_at<cv::Vec4f>(column_planes_, u, v_estimate);
+                        }
                     }
                 }
-                if (depth > options.min_depth_mm && depth < options.max_depth_mm)  // false for NaN
-                    point[x] = cv::Vec3f(float(ray[0] * depth), float(ray[1] * depth), float(depth));
+                normal_x[x] = float(plane[0]);
+                normal_y[x] = float(plane[1]);
+                normal_z[x] = float(plane[2]);
+                offset[x] = float(plane[3]);
             }
+            intersect_row(camera_ray, normal_x.data(), normal_y.data(), normal_z.data(), offset.data(), R_float,
+                          float(options.min_depth_mm), float(options.max_depth_mm), size.width,
+                          view.points.ptr<cv::Vec3f>(y));
             reporter.advance();
         }
     });
