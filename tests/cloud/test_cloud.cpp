@@ -236,9 +236,6 @@ TEST(GridMesh, TinyAndEmptyViews) {
     EXPECT_TRUE(grid_mesh(row, kFocal).faces.empty());
 }
 
-}  // namespace
-}  // namespace picoscan
-
 TEST(GridMesh, PixelStepMeshesEveryNthPixel) {
     const int width = 41, height = 31;
     const ScanView view = pinhole_view(width, height, [](int x, int y) { return 400.0 + 0.3 * x - 0.2 * y; });
@@ -253,3 +250,6 @@ TEST(GridMesh, PixelStepMeshesEveryNthPixel) {
     options.pixel_step = 0;
     EXPECT_THROW(grid_mesh(view, kFocal, options), Error);
 }
+
+}  // namespace
+}  // namespace picoscan
