@@ -89,6 +89,7 @@ void read_every_frame(benchmark::State& state, const CaptureSet& captures) {
     set_counters(state, captures);
 }
 
+// Fresh outputs each time (what a one-off reconstruction pays, page faults included).
 void picoscan_decode_triangulate(benchmark::State& state, const CaptureSet& captures) {
     size_t points = 0;
     for (auto _ : state) {
@@ -101,14 +102,44 @@ void picoscan_decode_triangulate(benchmark::State& state, const CaptureSet& capt
     set_counters(state, captures);
 }
 
+// Outputs reused from scan to scan (a scanner in a loop).
+void picoscan_decode_triangulate_reusing(benchmark::State& state, const CaptureSet& captures) {
+    CorrespondenceMap map;
+    ScanView view;
+    for (auto _ : state) {
+        decode_into(captures, {}, map);
+        scan().triangulator->triangulate_into(map, captures.white_colour, view);
+        benchmark::DoNotOptimize(view.points.data);
+    }
+    state.counters["points"] = double(view.valid_count());
+    set_counters(state, captures);
+}
+
 void BM_Floor_ReadEveryFrame_Columns(benchmark::State& state) { read_every_frame(state, scan().column_frames); }
 void BM_PicoScan_DecodeTriangulate_Columns(benchmark::State& state) { picoscan_decode_triangulate(state, scan().column_frames); }
+void BM_PicoScan_DecodeTriangulateReusing_Columns(benchmark::State& state) {
+    picoscan_decode_triangulate_reusing(state, scan().column_frames);
+}
+void BM_PicoScan_DecodeTriangulateReusing_ColumnsRows(benchmark::State& state) {
+    picoscan_decode_triangulate_reusing(state, scan().all_frames);
+}
 void BM_Floor_ReadEveryFrame_ColumnsRows(benchmark::State& state) { read_every_frame(state, scan().all_frames); }
 void BM_PicoScan_DecodeTriangulate_ColumnsRows(benchmark::State& state) { picoscan_decode_triangulate(state, scan().all_frames); }
 
 void BM_PicoScan_DecodeOnly_Columns(benchmark::State& state) {
-    for (auto _ : state) benchmark::DoNotOptimize(decode(scan().column_frames).projector_u.data);
+    CorrespondenceMap map;
+    for (auto _ : state) decode_into(scan().column_frames, {}, map);
     set_counters(state, scan().column_frames);
+}
+
+// The Gray code alone (columns and rows), the same work as OpenCV's getProjPixel below.
+void BM_PicoScan_GrayCodeOnly_ColumnsRows(benchmark::State& state) {
+    CorrespondenceMap map;
+    DecodeOptions options;
+    options.binary_only = true;
+    for (auto _ : state) decode_into(scan().all_frames, options, map);
+    state.counters["frames"] = 2 + 2.0 * (scan().all_frames.sequence.columns.gray_bits + scan().all_frames.sequence.rows.gray_bits);
+    state.counters["points"] = double(cv::countNonZero(map.mask));
 }
 
 // OpenCV contrib: GrayCodePattern::getProjPixel for every camera pixel (its decode loop),
@@ -164,9 +195,12 @@ void BM_OpenCV_Sinusoidal_PSP_3Step(benchmark::State& state) {
 
 BENCHMARK(BM_Floor_ReadEveryFrame_Columns)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PicoScan_DecodeTriangulate_Columns)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PicoScan_DecodeTriangulateReusing_Columns)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PicoScan_DecodeOnly_Columns)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Floor_ReadEveryFrame_ColumnsRows)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PicoScan_DecodeTriangulate_ColumnsRows)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PicoScan_DecodeTriangulateReusing_ColumnsRows)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PicoScan_GrayCodeOnly_ColumnsRows)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_OpenCV_GrayCode_GetProjPixel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 BENCHMARK(BM_OpenCV_Sinusoidal_PSP_3Step)->Unit(benchmark::kMillisecond)->UseRealTime();
 

@@ -26,6 +26,11 @@ public:
     ScanView triangulate(const CorrespondenceMap& correspondences, const cv::Mat& colour = cv::Mat(),
                          const TriangulateOptions& options = {}, const ProgressCallback& progress = nullptr) const;
 
+    // The same, writing into `view` and reusing its buffers when their size fits. The view's
+    // quality and colour share the inputs' buffers (cv::Mat reference counting).
+    void triangulate_into(const CorrespondenceMap& correspondences, const cv::Mat& colour, ScanView& view,
+                          const TriangulateOptions& options = {}, const ProgressCallback& progress = nullptr) const;
+
 private:
     Calibration calibration_;
     cv::Mat camera_rays_;     // CV_32FC2, undistorted normalised camera coordinates per pixel

@@ -317,6 +317,13 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
 }  // namespace
 
 CorrespondenceMap decode(const CaptureSet& captures, const DecodeOptions& options, const ProgressCallback& progress) {
+    CorrespondenceMap map;
+    decode_into(captures, options, map, progress);
+    return map;
+}
+
+void decode_into(const CaptureSet& captures, const DecodeOptions& options, CorrespondenceMap& map,
+                 const ProgressCallback& progress) {
     const std::string source = captures.directory.empty() ? std::string("capture set") : captures.directory;
     const PatternSequence& sequence = captures.sequence;
     if (captures.images.size() != sequence.frames.size() || captures.images.empty())
@@ -343,9 +350,9 @@ CorrespondenceMap decode(const CaptureSet& captures, const DecodeOptions& option
         throw Error(source, "the sequence needs white and black frames, or phase frames, to set the Gray thresholds");
     plan.scale = first.depth() == CV_16U ? 257.0f : 1.0f;
 
-    CorrespondenceMap map;
     map.projector_u.create(first.size(), CV_32F);
-    map.projector_v = cv::Mat(first.size(), CV_32F, cv::Scalar(kNaN));
+    map.projector_v.create(first.size(), CV_32F);
+    if (!plan.has_rows) map.projector_v.setTo(kNaN);
     map.quality.create(first.size(), CV_32F);
     map.mask.create(first.size(), CV_8U);
     map.status.create(first.size(), CV_8U);
@@ -372,7 +379,6 @@ CorrespondenceMap decode(const CaptureSet& captures, const DecodeOptions& option
                                     std::to_string(int(max_contrast)) + " grey levels, below the minimum of " +
                                     std::to_string(int(options.min_contrast)));
     }
-    return map;
 }
 
 }  // namespace picoscan

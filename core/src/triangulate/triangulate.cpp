@@ -128,6 +128,13 @@ Triangulator::Triangulator(const Calibration& calibration) : calibration_(calibr
 
 ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, const cv::Mat& colour,
                                    const TriangulateOptions& options, const ProgressCallback& progress) const {
+    ScanView view;
+    triangulate_into(correspondences, colour, view, options, progress);
+    return view;
+}
+
+void Triangulator::triangulate_into(const CorrespondenceMap& correspondences, const cv::Mat& colour, ScanView& view,
+                                    const TriangulateOptions& options, const ProgressCallback& progress) const {
     const cv::Size size = correspondences.projector_u.size();
     if (size != calibration_.camera_size)
         throw Error("calibration", "camera_size is " + std::to_string(calibration_.camera_size.width) + "x" +
@@ -145,7 +152,6 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
     const int iterations = projector_distorted ? std::max(1, options.distortion_iterations) : 1;
     const double lowest_row = -kTableMargin + 1.0, highest_row = calibration_.projector_size.height + kTableMargin - 2.0;
 
-    ScanView view;
     view.points.create(size, CV_32FC3);
     // Quality and colour are shared with the inputs, not copied (cv::Mat reference counting).
     view.quality = correspondences.quality;
@@ -166,17 +172,17 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
 
             for (int x = 0; x < size.width; ++x) {
                 const double u = projector_u[x];
-                cv::Vec4d plane(0, 0, 1, std::numeric_limits<double>::quiet_NaN());
+                cv::Vec4f plane(0, 0, 1, kNaN);
                 if (std::isfinite(u)) {
-                    const cv::Vec3d direction = R * cv::Vec3d(camera_ray[x][0], camera_ray[x][1], 1.0);
+                    auto direction = [&] { return R * cv::Vec3d(camera_ray[x][0], camera_ray[x][1], 1.0); };
                     if (projector_v && std::isfinite(projector_v[x])) {
                         // Ray-ray: the camera ray is exact (a pixel centre), so the point is taken
                         // where it passes closest to the projector ray, i.e. on the plane holding
                         // the projector ray and the rays' common perpendicular.
                         const cv::Vec2d normalised = table_at<cv::Vec2d>(projector_rays_, u, projector_v[x]);
                         const cv::Vec3d projector_ray(normalised[0], normalised[1], 1.0);
-                        const cv::Vec3d normal = projector_ray.cross(direction.cross(projector_ray));
-                        plane = cv::Vec4d(normal[0], normal[1], normal[2], normal.dot(T));
+                        const cv::Vec3d normal = projector_ray.cross(direction().cross(projector_ray));
+                        plane = cv::Vec4f(float(normal[0]), float(normal[1]), float(normal[2]), float(normal.dot(T)));
                         v_estimate = projector_v[x];
                     } else {
                         // Column plane, taken at the projector row the point hits. That row
@@ -185,26 +191,31 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
                         // only ~1e-4 px for typical lens distortion: the row is re-measured every
                         // few pixels only.
                         plane = table_at<cv::Vec4f>(column_planes_, u, v_estimate);
-                        const bool refresh_row = x % 8 == 0 || !std::isfinite(projector_u[x > 0 ? x - 1 : 0]);
-                        for (int iteration = 1; projector_distorted && refresh_row && iteration <= iterations; ++iteration) {
-                            const double depth = -plane[3] / (plane[0] * direction[0] + plane[1] * direction[1] + plane[2] * direction[2]);
-                            const cv::Vec3d in_projector = T + depth * direction;
-                            if (!(in_projector[2] > 0)) break;
-                            const cv::Vec2d distorted =
-                                projector_lens.distort({in_projector[0] / in_projector[2], in_projector[1] / in_projector[2]});
-                            const double v_hit = std::clamp(detail::normalised_to_pixel(projector_matrix, distorted)[1],
-                                                            lowest_row, highest_row);
-                            const bool close_enough = std::abs(v_hit - v_estimate) < 2.0;
-                            v_estimate = v_hit;
-                            if (close_enough) break;
-                            plane = table_at<cv::Vec4f>(column_planes_, u, v_estimate);
+                        const bool refresh_row =
+                            projector_distorted && (x % 8 == 0 || !std::isfinite(projector_u[x > 0 ? x - 1 : 0]));
+                        if (refresh_row) {
+                            const cv::Vec3d ray_direction = direction();
+                            for (int iteration = 1; iteration <= iterations; ++iteration) {
+                                const double depth = -double(plane[3]) / (plane[0] * ray_direction[0] + plane[1] * ray_direction[1] +
+                                                                          plane[2] * ray_direction[2]);
+                                const cv::Vec3d in_projector = T + depth * ray_direction;
+                                if (!(in_projector[2] > 0)) break;
+                                const cv::Vec2d distorted = projector_lens.distort(
+                                    {in_projector[0] / in_projector[2], in_projector[1] / in_projector[2]});
+                                const double v_hit = std::clamp(detail::normalised_to_pixel(projector_matrix, distorted)[1],
+                                                                lowest_row, highest_row);
+                                const bool close_enough = std::abs(v_hit - v_estimate) < 2.0;
+                                v_estimate = v_hit;
+                                if (close_enough) break;
+                                plane = table_at<cv::Vec4f>(column_planes_, u, v_estimate);
+                            }
                         }
                     }
                 }
-                normal_x[x] = float(plane[0]);
-                normal_y[x] = float(plane[1]);
-                normal_z[x] = float(plane[2]);
-                offset[x] = float(plane[3]);
+                normal_x[x] = plane[0];
+                normal_y[x] = plane[1];
+                normal_z[x] = plane[2];
+                offset[x] = plane[3];
             }
             intersect_row(camera_ray, normal_x.data(), normal_y.data(), normal_z.data(), offset.data(), R_float,
                           float(options.min_depth_mm), float(options.max_depth_mm), size.width,
@@ -214,7 +225,6 @@ ScanView Triangulator::triangulate(const CorrespondenceMap& correspondences, con
     });
     if (reporter.cancelled()) throw Error("cancelled", "triangulation cancelled");
     estimate_normals(view);
-    return view;
 }
 
 ScanView triangulate(const CorrespondenceMap& correspondences, const Calibration& calibration, const cv::Mat& colour,
