@@ -35,6 +35,7 @@ Commands:
   simulate      render a capture set of a virtual scene with the simulated rig
   reconstruct   decode a capture set and triangulate it into a point cloud (and mesh)
   manifest      write a sequence.json describing a capture set made by another system
+  calibrate     calibrate camera + projector from captures of a board in several poses
   demo          simulated scan of the built-in part -> demo-output/ (PLY, STL, PNG)
 
 Run 'picoscan COMMAND --help' for the options of one command.
@@ -111,6 +112,24 @@ Writes a sequence.json that describes a capture set made by another system, so t
   --out FILE                 the manifest to write
 )";
 
+const char* kCalibrateHelp = R"(picoscan calibrate --board SPEC --captures POSE_DIR... --out CALIBRATION.yml [options]
+
+Calibrates the camera, the projector and their relative pose from captures of a flat board
+held in several poses. For each pose, project the full sequence ('picoscan patterns
+--rows') onto the board and capture it into its own folder. Corners are found in the white
+frame; each corner's projector position comes from the decoded codes around it.
+
+  --board SPEC         chessboard:COLSxROWS:SQUARE_MM      (inner corners, e.g. chessboard:9x6:20)
+                       circles:COLSxROWS:SPACING_MM  acircles:COLSxROWS:SPACING_MM
+                       charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICTIONARY]  (squares)
+  --captures DIR...    one capture set per board pose (10 or more poses, tilted in different
+                       directions, covering the whole view)
+  --out FILE           the calibration to write (only written when calibration succeeds)
+  --max-pose-error PX  drop poses whose reprojection error exceeds this (default 1.0)
+
+Prints the RMS reprojection errors of the camera and the projector, per pose, and advice.
+)";
+
 const char* kDemoHelp = R"(picoscan demo [--out DIR]
 
 Simulates a scan of the built-in part with the seed-like rig and reconstructs it.
@@ -132,7 +151,19 @@ public:
             }
             if (index + 1 >= argc) throw Error(key, "needs a value");
             values_[key] = argv[++index];
+            // Further values up to the next option belong to the same key (--captures A B C).
+            while (index + 1 < argc && std::string(argv[index + 1]).rfind("--", 0) != 0)
+                extra_values_[key].push_back(argv[++index]);
         }
+    }
+    // Every value given for a key that takes several.
+    std::vector<std::string> list(const std::string& key) const {
+        used_.insert(key);
+        if (!has(key)) return {};
+        std::vector<std::string> values{values_.at(key)};
+        auto extra = extra_values_.find(key);
+        if (extra != extra_values_.end()) values.insert(values.end(), extra->second.begin(), extra->second.end());
+        return values;
     }
     bool has(const std::string& key) const { return values_.count(key) > 0; }
     std::string text(const std::string& key, const std::string& fallback = "") const {
@@ -174,10 +205,15 @@ public:
     void reject_unknown() const {
         for (const auto& [key, value] : values_)
             if (!used_.count(key)) throw Error(key, "unknown option (see --help)");
+        for (const auto& [key, values] : extra_values_)
+            if (!list_keys_.count(key)) throw Error(values.front(), "unexpected argument after " + key + " (it takes one value)");
     }
+    void allow_several(const std::string& key) { list_keys_.insert(key); }
 
 private:
     std::map<std::string, std::string> values_;
+    std::map<std::string, std::vector<std::string>> extra_values_;
+    std::set<std::string> list_keys_;
     mutable std::set<std::string> used_;
 };
 
@@ -375,6 +411,49 @@ int run_manifest(const Arguments& arguments) {
     return 0;
 }
 
+int run_calibrate(const Arguments& arguments) {
+    const BoardSpec board = parse_board_spec(arguments.required("--board"));
+    const std::vector<std::string> pose_directories = arguments.list("--captures");
+    if (pose_directories.empty()) throw Error("--captures", "is required (see --help)");
+    const std::string out = arguments.required("--out");
+    CalibrateOptions options;
+    options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
+    arguments.reject_unknown();
+    check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file");
+    for (const std::string& directory : pose_directories)
+        if (absolute_path(out) == absolute_path(directory) || is_inside(absolute_path(out), absolute_path(directory)))
+            throw Error(out, "must not be written into the capture directory " + directory);
+
+    std::vector<PoseObservation> observations;
+    for (const std::string& directory : pose_directories) {
+        const CaptureSet pose = load_capture_set(directory);
+        observations.push_back(observe_pose(pose, board, options));
+        const PoseObservation& seen = observations.back();
+        if (seen.problem.empty())
+            std::printf("pose %s: %zu corners, %zu with projector points\n", directory.c_str(), seen.camera_points.size(),
+                        seen.projector_points.size());
+        else
+            std::printf("pose %s: not used: %s\n", directory.c_str(), seen.problem.c_str());
+    }
+    const CalibrationReport report = calibrate_rig(observations, options, terminal_progress());
+    write_calibration(report.calibration, out);
+    for (const CalibrationPoseReport& pose : report.poses)
+        if (pose.used)
+            std::printf("  %-40s camera %.3f px, projector %.3f px\n", pose.name.c_str(), pose.camera_rms_px,
+                        pose.projector_rms_px);
+        else
+            std::printf("  %-40s dropped: %s\n", pose.name.c_str(), pose.reason.c_str());
+    const Calibration& c = report.calibration;
+    std::printf("camera: f = %.2f, %.2f px, centre %.2f, %.2f; RMS %.3f px\n", c.camera_matrix(0, 0), c.camera_matrix(1, 1),
+                c.camera_matrix(0, 2), c.camera_matrix(1, 2), report.camera_rms_px);
+    std::printf("projector: f = %.2f, %.2f px, centre %.2f, %.2f; RMS %.3f px\n", c.projector_matrix(0, 0),
+                c.projector_matrix(1, 1), c.projector_matrix(0, 2), c.projector_matrix(1, 2), report.projector_rms_px);
+    std::printf("baseline %.3f mm; stereo RMS %.3f px\n", cv::norm(c.T), report.stereo_rms_px);
+    for (const std::string& warning : report.warnings) std::printf("warning: %s\n", warning.c_str());
+    std::printf("calibration -> %s\n", out.c_str());
+    return 0;
+}
+
 int run_demo(const Arguments& arguments) {
     const fs::path directory = arguments.text("--out", "demo-output");
     arguments.reject_unknown();
@@ -423,6 +502,7 @@ int main(int argc, char** argv) {
         {"simulate", {kSimulateHelp, run_simulate, {"--rows", "--no-rows"}}},
         {"reconstruct", {kReconstructHelp, run_reconstruct, {"--binary-only", "--ascii"}}},
         {"manifest", {kManifestHelp, run_manifest, {}}},
+        {"calibrate", {kCalibrateHelp, run_calibrate, {}}},
         {"demo", {kDemoHelp, run_demo, {}}},
     };
     const auto found = commands.find(command);
@@ -431,7 +511,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     try {
-        const Arguments arguments(argc, argv, 2, found->second.flags);
+        Arguments arguments(argc, argv, 2, found->second.flags);
+        if (command == "calibrate") arguments.allow_several("--captures");
         if (arguments.has("--help") || arguments.has("-h")) {
             std::fputs(found->second.help, stdout);
             return 0;

@@ -1,9 +1,15 @@
-// Calibration of one camera and one projector (OpenCV FileStorage YAML, millimetres).
+// Calibration of one camera and one projector (OpenCV FileStorage YAML, millimetres), and
+// the procedure that measures it from captures of a board.
 // Convention: X_projector = R * X_camera + T; pixel centres at integer coordinates.
 #pragma once
 
+#include "picoscan/capture_set.h"
+#include "picoscan/decode.h"
+#include "picoscan/progress.h"
+
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace picoscan {
 
@@ -29,5 +35,98 @@ void write_calibration(const Calibration& calibration, const std::string& path);
 
 // Checks sizes, matrix shapes and finiteness; throws Error naming `source` and the bad key.
 void validate_calibration(const Calibration& calibration, const std::string& source);
+
+}  // namespace picoscan
+
+// ---------------------------------------------------------------------------------------
+// Calibrating a camera-projector rig from captures of a planar board.
+
+namespace picoscan {
+
+enum class BoardKind { Chessboard, Circles, AsymmetricCircles, Charuco };
+
+// A printed planar target. Chessboard: inner corners (columns x rows), square side.
+// Circles: grid of circles (columns x rows), centre spacing. ChArUco: squares (columns x rows),
+// square side, marker side, ArUco dictionary (OpenCV's predefined dictionary number).
+struct BoardSpec {
+    BoardKind kind = BoardKind::Chessboard;
+    cv::Size size{9, 6};
+    double square_mm = 10;
+    double marker_mm = 0;
+    int dictionary = 0;
+};
+
+// Parses "chessboard:COLSxROWS:SQUARE_MM", "circles:COLSxROWS:SPACING_MM",
+// "acircles:COLSxROWS:SPACING_MM" or "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICTIONARY]".
+// Throws Error("--board", ...) explaining the expected form.
+BoardSpec parse_board_spec(const std::string& text);
+
+// The board's feature points in its own frame (z = 0, mm), in the order detection returns them.
+std::vector<cv::Point3f> board_points(const BoardSpec& board);
+
+// Features of the board found in one grey image: image points and their board-point indices.
+struct BoardDetection {
+    std::vector<cv::Point2f> image_points;
+    std::vector<int> point_ids;
+};
+// Returns false when the board is not found. Sub-pixel accurate.
+bool detect_board(const cv::Mat& grey, const BoardSpec& board, BoardDetection& detection);
+
+struct CalibrateOptions {
+    DecodeOptions decode;
+    int homography_half_window_px = 12;  // decoded pixels around a corner used for its local homography
+    int min_homography_pixels = 40;       // fewer decoded pixels than this: the corner has no projector point
+    double min_corner_fraction = 0.7;     // a pose needs this share of its corners with projector points
+    double max_view_rms_px = 1.0;         // poses with a larger camera or projector RMS are dropped, with the reason
+    int min_views = 3;                    // fewer usable poses is an error
+    int recommended_views = 10;           // fewer gives a warning
+    double min_pose_spread_deg = 5.0;     // largest angle between board orientations; less is degenerate
+};
+
+// What one board pose shows: the board's corners in the camera and, where the projected codes
+// allow, in the projector. Small plain data, so poses can be captured and observed one by one.
+struct PoseObservation {
+    std::string name;              // the pose's capture directory
+    cv::Size camera_size, projector_size;
+    std::string problem;           // why the pose cannot be used ("" when it can)
+    std::vector<cv::Point3f> board_points;   // every corner found, board frame (mm)
+    std::vector<cv::Point2f> camera_points;  // the same corners in the camera (px)
+    std::vector<int> projector_corner;       // indices into the above of corners with projector points
+    std::vector<cv::Point2f> projector_points;  // their projector points (px)
+};
+
+// Finds the board in the pose's white frame (or the mean of its phase frames), decodes the
+// projected codes, and maps every corner into the projector through a homography fitted on
+// the decoded pixels around it (Moreno & Taubin 2012). Throws Error naming the pose when its
+// sequence does not encode both projector axes.
+PoseObservation observe_pose(const CaptureSet& pose, const BoardSpec& board, const CalibrateOptions& options = {});
+
+struct CalibrationPoseReport {
+    std::string name;
+    bool used = false;
+    std::string reason;        // why it was not used
+    int corners = 0;           // corners found in the camera image
+    int projector_corners = 0; // of those, corners given a projector point
+    double camera_rms_px = 0, projector_rms_px = 0;
+};
+
+struct CalibrationReport {
+    Calibration calibration;
+    double camera_rms_px = 0, projector_rms_px = 0, stereo_rms_px = 0;
+    std::vector<CalibrationPoseReport> poses;
+    std::vector<std::string> warnings;
+    // Per used corner: reprojection residuals (px) in the camera and in the projector.
+    std::vector<cv::Point2f> camera_residuals, projector_residuals;
+    std::vector<cv::Point2f> camera_corners;  // all corners used, camera pixels (coverage)
+    std::vector<cv::Matx44d> board_poses;     // board -> camera, per used pose
+};
+
+// Calibrates camera intrinsics, projector intrinsics and camera -> projector extrinsics from
+// the observed poses. No initial projector guess is assumed: Zhang's method initialises both
+// devices, then both and their relative pose are refined together (stereo calibration).
+// Unusable poses are reported with the reason; throws Error naming the poses when too few
+// remain, when image sizes differ, or when the poses are degenerate (all parallel).
+CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const CalibrateOptions& options = {},
+                                const ProgressCallback& progress = nullptr);
 
 }  // namespace picoscan

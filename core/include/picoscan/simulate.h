@@ -23,12 +23,32 @@ struct Box { cv::Vec3d centre; cv::Vec3d half_size_mm{10, 10, 10}; cv::Matx33d r
 struct Cylinder { cv::Vec3d base_centre; cv::Vec3d axis{0, 1, 0}; double radius_mm = 10; double height_mm = 20; double albedo = 0.8; };  // capped
 struct TriangleMesh { Mesh mesh; double albedo = 0.8; };
 
+// A planar chessboard calibration target: (inner_corners.width + 1) x (inner_corners.height + 1)
+// squares of square_mm, inside a light margin of margin_mm. Board frame: origin at the first
+// inner corner, x along a row of inner corners, y along a column, z = 0 on the printed face,
+// +z pointing into the board (away from a camera that sees the face). Camera frame point
+// X = rotation * X_board + translation. The square whose top-left corner is the board frame's
+// (-square, -square) is dark, and colours alternate from there.
+struct CalibrationBoard {
+    cv::Matx33d rotation = cv::Matx33d::eye();
+    cv::Vec3d translation{0, 0, 400};
+    cv::Size inner_corners{9, 6};
+    double square_mm = 10;
+    double margin_mm = 10;
+    double dark_albedo = 0.12;
+    double light_albedo = 0.85;
+};
+
+// Board frame coordinates (z = 0) of the inner corners, row by row (OpenCV object-point order).
+std::vector<cv::Point3f> chessboard_corners(const CalibrationBoard& board);
+
 struct Scene {
     std::vector<Sphere> spheres;
     std::vector<Plane> planes;
     std::vector<Box> boxes;
     std::vector<Cylinder> cylinders;
     std::vector<TriangleMesh> meshes;
+    std::vector<CalibrationBoard> boards;
 };
 
 struct SimulationOptions {
@@ -49,7 +69,7 @@ struct SimulatedGeometry {
     cv::Mat projector;   // CV_32FC2, projector (u, v) of the point (distorted pixel coords), NaN outside
     cv::Mat lit;         // CV_8U, 255 where the projector sees the point (not in shadow)
     cv::Mat shading;     // CV_32F, albedo * cos(incidence) towards the projector
-    cv::Mat albedo;      // CV_32F
+    cv::Mat albedo;      // CV_32F, averaged over the pixel's footprint on calibration boards
 };
 
 class Simulator {
@@ -82,7 +102,7 @@ Calibration seed_rig_calibration();
 Scene demo_scene();
 
 // Scene description file (YAML/JSON via OpenCV FileStorage): lists of spheres, planes,
-// boxes, cylinders and meshes (file paths relative to the scene file).
+// boxes, cylinders, meshes (file paths relative to the scene file) and calibration boards.
 Scene read_scene(const std::string& path);
 
 }  // namespace picoscan

@@ -5,7 +5,10 @@
 //   boxes:     [{centre: [..], half_size_mm: [..], rotation: 3x3 | rotation_deg: [rx, ry, rz], albedo: a}]
 //   cylinders: [{base_centre: [..], axis: [..], radius_mm: r, height_mm: h, albedo: a}]
 //   meshes:    [{file: part.stl, albedo: a, translation: [x, y, z]}]
-// Every list is optional; albedo defaults to 0.8. The "%YAML:1.0" header OpenCV wants is optional. rotation_deg turns about x, then y, then z
+//   boards:    [{translation: [..], rotation: 3x3 | rotation_deg: [rx, ry, rz], inner_corners: [w, h],
+//                square_mm: s, margin_mm: m, dark_albedo: a, light_albedo: a}]
+// Every list is optional; albedo defaults to 0.8, board keys other than translation to
+// CalibrationBoard's defaults. The "%YAML:1.0" header OpenCV wants is optional. rotation_deg turns about x, then y, then z
 // (R = Rz * Ry * Rx). Mesh files are relative to the scene file.
 #include "picoscan/simulate.h"
 
@@ -52,9 +55,7 @@ public:
         return value;
     }
     double albedo(const cv::FileNode& item, const std::string& where) const {
-        const double value = optional_number(item, where, "albedo", 0.8);
-        if (!(value >= 0 && value <= 1)) fail(where, "'albedo' must be within 0..1");
-        return value;
+        return reflectance(item, where, "albedo", 0.8);
     }
     std::vector<double> numbers(const cv::FileNode& node, const std::string& where, const std::string& key) const {
         if (!node.isSeq()) fail(where, "'" + key + "' must be a list of numbers");
@@ -136,6 +137,14 @@ public:
         return node;
     }
 
+    // A fraction of light, 0..1, defaulting to `fallback`.
+    double reflectance(const cv::FileNode& item, const std::string& where, const std::string& key,
+                       double fallback) const {
+        const double value = optional_number(item, where, key, fallback);
+        if (!(value >= 0 && value <= 1)) fail(where, "'" + key + "' must be within 0..1");
+        return value;
+    }
+
     const std::string& path() const { return path_; }
 
 private:
@@ -148,12 +157,12 @@ Scene read_scene(const std::string& path) {
     const SceneReader reader(path);
     const cv::FileStorage storage = detail::open_storage_file(path, "scene file", detail::StorageFormats::Any);
     const cv::FileNode root = storage.root();
-    if (!root.isMap()) throw Error(path, "expected a map with lists of spheres, planes, boxes, cylinders, meshes");
+    if (!root.isMap()) throw Error(path, "expected a map with lists of spheres, planes, boxes, cylinders, meshes, boards");
 
-    const std::set<std::string> known = {"spheres", "planes", "boxes", "cylinders", "meshes"};
+    const std::set<std::string> known = {"spheres", "planes", "boxes", "cylinders", "meshes", "boards"};
     for (const std::string& key : root.keys())
         if (!known.count(key))
-            throw Error(path, "unknown key '" + key + "' (expected spheres, planes, boxes, cylinders, meshes)");
+            throw Error(path, "unknown key '" + key + "' (expected spheres, planes, boxes, cylinders, meshes, boards)");
 
     Scene scene;
     auto each = [&](const std::string& key, auto&& read_item) {
@@ -221,6 +230,27 @@ Scene read_scene(const std::string& path) {
         for (cv::Vec3f& v : mesh.mesh.vertices)
             v = cv::Vec3f(cv::Vec3d(v[0], v[1], v[2]) + translation);
         scene.meshes.push_back(std::move(mesh));
+    });
+    each("boards", [&](const cv::FileNode& item, const std::string& where) {
+        CalibrationBoard b;
+        b.translation = reader.vec3(item, where, "translation");
+        b.rotation = reader.rotation(item, where);
+        const cv::FileNode corners_node = item["inner_corners"];
+        if (!corners_node.empty() && !corners_node.isNone()) {
+            const std::vector<double> corners = reader.numbers(corners_node, where, "inner_corners");
+            if (corners.size() != 2) reader.fail(where, "'inner_corners' must have 2 counts [w, h]");
+            for (double count : corners)
+                if (count != std::floor(count) || count < 2 || count > 10000)
+                    reader.fail(where, "'inner_corners' must be whole numbers of at least 2");
+            b.inner_corners = cv::Size(static_cast<int>(corners[0]), static_cast<int>(corners[1]));
+        }
+        b.square_mm = reader.optional_number(item, where, "square_mm", b.square_mm);
+        if (!(b.square_mm > 0)) reader.fail(where, "'square_mm' must be positive");
+        b.margin_mm = reader.optional_number(item, where, "margin_mm", b.margin_mm);
+        if (!(b.margin_mm >= 0)) reader.fail(where, "'margin_mm' must not be negative");
+        b.dark_albedo = reader.reflectance(item, where, "dark_albedo", b.dark_albedo);
+        b.light_albedo = reader.reflectance(item, where, "light_albedo", b.light_albedo);
+        scene.boards.push_back(b);
     });
     return scene;
 }

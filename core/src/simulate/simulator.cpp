@@ -121,6 +121,10 @@ Simulator::Simulator(const Calibration& calibration, const Scene& scene, const S
     s.light.assign(static_cast<size_t>(width) * height, Impl::PixelLight{});
     s.ambient_dn.assign(static_cast<size_t>(width) * height, 0.0f);
 
+    // One pixel step in normalised distorted coordinates (the camera matrix is affine).
+    const cv::Vec2d distorted_step_x = camera.from_pixel(cv::Vec2d(1, 0)) - camera.from_pixel(cv::Vec2d(0, 0));
+    const cv::Vec2d distorted_step_y = camera.from_pixel(cv::Vec2d(0, 1)) - camera.from_pixel(cv::Vec2d(0, 0));
+
     detail::parallel_rows(height, [&](int row_begin, int row_end) {
         for (int row = row_begin; row < row_end; ++row) {
             auto* points = g.points.ptr<cv::Vec3f>(row);
@@ -161,6 +165,17 @@ Simulator::Simulator(const Calibration& calibration, const Scene& scene, const S
                 if (normal.dot(direction) > 0) normal = -normal;  // the side the camera sees
                 points[col] = cv::Vec3f(point);
                 normals[col] = cv::Vec3f(normal);
+                if (hit.board >= 0) {
+                    // A printed pattern aliases when point-sampled: average it over the pixel's
+                    // footprint, from the ray differentials of a pixel step (the undistortion's
+                    // inverse Jacobian carries the step through the lens).
+                    const cv::Vec2d step_x = previous_inverse_jacobian * distorted_step_x;
+                    const cv::Vec2d step_y = previous_inverse_jacobian * distorted_step_y;
+                    hit.albedo = tracer.board_albedo(hit.board, cv::Vec3d(0, 0, 0),
+                                                     cv::Vec3d(undistorted[0], undistorted[1], 1.0),
+                                                     cv::Vec3d(step_x[0], step_x[1], 0.0),
+                                                     cv::Vec3d(step_y[0], step_y[1], 0.0));
+                }
                 albedo[col] = static_cast<float>(hit.albedo);
                 s.ambient_dn[index] = static_cast<float>(options.ambient_dn * hit.albedo);
 

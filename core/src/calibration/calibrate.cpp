@@ -1,0 +1,329 @@
+// Camera + projector calibration from board poses (Zhang's method for both devices, the
+// projector's board points found through local homographies, Moreno & Taubin 2012).
+#include "picoscan/calibration.h"
+#include "picoscan/error.h"
+
+#include "common/progress_reporter.h"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <sstream>
+
+namespace picoscan {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Corners of one usable pose, split into the sets each device is calibrated with.
+struct PoseCorners {
+    std::vector<cv::Point3f> board;
+    std::vector<cv::Point2f> camera;
+    std::vector<cv::Point3f> board_with_projector;
+    std::vector<cv::Point2f> camera_with_projector;
+    std::vector<cv::Point2f> projector;
+};
+
+std::string size_text(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
+
+// The image the board is detected in: the white frame, else the mean of the phase frames.
+cv::Mat board_image(const CaptureSet& captures) {
+    const auto& frames = captures.sequence.frames;
+    for (size_t index = 0; index < frames.size(); ++index)
+        if (frames[index].kind == FrameKind::White) return captures.images[index];
+    cv::Mat sum;
+    int count = 0;
+    for (size_t index = 0; index < frames.size(); ++index) {
+        if (frames[index].kind != FrameKind::Phase) continue;
+        cv::Mat frame;
+        captures.images[index].convertTo(frame, CV_32F);
+        sum = sum.empty() ? frame : sum + frame;
+        ++count;
+    }
+    if (count == 0) return cv::Mat();
+    cv::Mat mean;
+    sum.convertTo(mean, captures.images.front().depth(), 1.0 / count);
+    return mean;
+}
+
+// Projector point of a camera corner: a homography fitted on the decoded pixels around it.
+bool projector_point(const CorrespondenceMap& map, const cv::Point2f& corner, const CalibrateOptions& options,
+                     cv::Point2f& projected) {
+    const int half = options.homography_half_window_px;
+    const int x0 = std::max(0, int(std::lround(corner.x)) - half), x1 = std::min(map.projector_u.cols - 1, int(std::lround(corner.x)) + half);
+    const int y0 = std::max(0, int(std::lround(corner.y)) - half), y1 = std::min(map.projector_u.rows - 1, int(std::lround(corner.y)) + half);
+    std::vector<cv::Point2f> camera, projector;
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+            const float u = map.projector_u.at<float>(y, x), v = map.projector_v.at<float>(y, x);
+            if (std::isfinite(u) && std::isfinite(v)) {
+                camera.emplace_back(float(x), float(y));
+                projector.emplace_back(u, v);
+            }
+        }
+    if (int(camera.size()) < options.min_homography_pixels) return false;
+    // RANSAC drops stray codes at square edges; the inliers are then refined by least squares.
+    const cv::Mat homography = cv::findHomography(camera, projector, cv::RANSAC, 1.0);
+    if (homography.empty()) return false;
+    std::vector<cv::Point2f> mapped;
+    cv::perspectiveTransform(std::vector<cv::Point2f>{corner}, mapped, homography);
+    projected = mapped.front();
+    return std::isfinite(projected.x) && std::isfinite(projected.y);
+}
+
+double rms(const std::vector<cv::Point2f>& residuals) {
+    double sum = 0;
+    for (const auto& residual : residuals) sum += residual.dot(residual);
+    return residuals.empty() ? 0 : std::sqrt(sum / residuals.size());
+}
+
+std::vector<cv::Point2f> residuals(const std::vector<cv::Point3f>& board, const std::vector<cv::Point2f>& measured,
+                                   const cv::Mat& rvec, const cv::Mat& tvec, const cv::Matx33d& matrix,
+                                   const cv::Mat& distortion) {
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(board, rvec, tvec, matrix, distortion, projected);
+    std::vector<cv::Point2f> result(measured.size());
+    for (size_t index = 0; index < measured.size(); ++index) result[index] = measured[index] - projected[index];
+    return result;
+}
+
+}  // namespace
+
+PoseObservation observe_pose(const CaptureSet& pose, const BoardSpec& board, const CalibrateOptions& options) {
+    PoseObservation observation;
+    observation.name = pose.directory;
+    observation.camera_size = pose.images.front().size();
+    observation.projector_size = pose.sequence.projector_size;
+    if (!pose.sequence.columns.used() || !pose.sequence.rows.used())
+        throw Error(pose.directory, "projector calibration needs the columns and the rows encoded (patterns --rows)");
+    BoardDetection detection;
+    const cv::Mat image = board_image(pose);
+    if (image.empty() || !detect_board(image, board, detection)) {
+        observation.problem = "board not found in the white frame";
+        return observation;
+    }
+    const std::vector<cv::Point3f> model = board_points(board);
+    const CorrespondenceMap map = decode(pose, options.decode);
+    for (size_t index = 0; index < detection.image_points.size(); ++index) {
+        observation.board_points.push_back(model[size_t(detection.point_ids[index])]);
+        observation.camera_points.push_back(detection.image_points[index]);
+        cv::Point2f projected;
+        if (projector_point(map, detection.image_points[index], options, projected)) {
+            observation.projector_corner.push_back(int(index));
+            observation.projector_points.push_back(projected);
+        }
+    }
+    const size_t found = observation.camera_points.size(), mapped = observation.projector_points.size();
+    if (mapped < options.min_corner_fraction * found || mapped < 6)
+        observation.problem = "projector codes cover only " + std::to_string(mapped) + " of " + std::to_string(found) +
+                              " corners";
+    return observation;
+}
+
+CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const CalibrateOptions& options,
+                                const ProgressCallback& progress) {
+    if (poses.empty()) throw Error("--captures", "no board poses given");
+    const cv::Size camera_size = poses.front().camera_size;
+    const cv::Size projector_size = poses.front().projector_size;
+    for (const PoseObservation& pose : poses) {
+        if (pose.camera_size != camera_size)
+            throw Error(pose.name, "images are " + size_text(pose.camera_size) + " but " + poses.front().name + " has " +
+                                       size_text(camera_size));
+        if (pose.projector_size != projector_size)
+            throw Error(pose.name, "projector size " + size_text(pose.projector_size) + " differs from " +
+                                       poses.front().name + "'s " + size_text(projector_size));
+    }
+
+    CalibrationReport report;
+    std::vector<PoseCorners> corners;
+    std::vector<size_t> pose_of;  // report index of each usable pose
+    detail::ProgressReporter reporter(progress, "calibrate", 3);
+    for (const PoseObservation& pose : poses) {
+        CalibrationPoseReport pose_report;
+        pose_report.name = pose.name;
+        pose_report.corners = int(pose.camera_points.size());
+        pose_report.projector_corners = int(pose.projector_points.size());
+        pose_report.reason = pose.problem;
+        pose_report.used = pose.problem.empty();
+        if (pose_report.used) {
+            PoseCorners usable;
+            usable.board = pose.board_points;
+            usable.camera = pose.camera_points;
+            for (size_t index = 0; index < pose.projector_corner.size(); ++index) {
+                usable.board_with_projector.push_back(pose.board_points[size_t(pose.projector_corner[index])]);
+                usable.camera_with_projector.push_back(pose.camera_points[size_t(pose.projector_corner[index])]);
+                usable.projector.push_back(pose.projector_points[index]);
+            }
+            corners.push_back(std::move(usable));
+            pose_of.push_back(report.poses.size());
+        }
+        report.poses.push_back(pose_report);
+    }
+
+    auto require_enough = [&](const std::string& stage) {
+        if (int(corners.size()) >= options.min_views) return;
+        std::string problems;
+        for (const auto& pose : report.poses)
+            if (!pose.used) problems += "; " + pose.name + ": " + pose.reason;
+        throw Error("--captures", "only " + std::to_string(corners.size()) + " usable board poses " + stage +
+                                      " (at least " + std::to_string(options.min_views) + " needed)" + problems);
+    };
+    require_enough("");
+
+    Calibration& calibration = report.calibration;
+    calibration.camera_size = camera_size;
+    calibration.projector_size = projector_size;
+    const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
+
+    // Each device alone first (Zhang: homographies give the initial guess), dropping poses
+    // whose reprojection error shows a bad detection, then both together.
+    std::vector<cv::Mat> camera_rotations, camera_translations;
+    for (int round = 0; round < 2; ++round) {
+        std::vector<std::vector<cv::Point3f>> board_sets, projector_board_sets;
+        std::vector<std::vector<cv::Point2f>> camera_sets, projector_sets;
+        for (const PoseCorners& pose : corners) {
+            board_sets.push_back(pose.board);
+            camera_sets.push_back(pose.camera);
+            projector_board_sets.push_back(pose.board_with_projector);
+            projector_sets.push_back(pose.projector);
+        }
+        cv::Mat camera_matrix, camera_distortion, projector_matrix, projector_distortion;
+        std::vector<cv::Mat> projector_rotations, projector_translations;
+        cv::calibrateCamera(board_sets, camera_sets, camera_size, camera_matrix, camera_distortion, camera_rotations,
+                            camera_translations, 0, criteria);
+        cv::calibrateCamera(projector_board_sets, projector_sets, projector_size, projector_matrix, projector_distortion,
+                            projector_rotations, projector_translations, 0, criteria);
+        calibration.camera_matrix = cv::Matx33d(camera_matrix);
+        calibration.camera_distortion = camera_distortion.reshape(1, 1);
+        calibration.projector_matrix = cv::Matx33d(projector_matrix);
+        calibration.projector_distortion = projector_distortion.reshape(1, 1);
+
+        std::vector<size_t> bad;
+        for (size_t index = 0; index < corners.size(); ++index) {
+            CalibrationPoseReport& pose_report = report.poses[pose_of[index]];
+            pose_report.camera_rms_px = rms(residuals(corners[index].board, corners[index].camera, camera_rotations[index],
+                                                      camera_translations[index], calibration.camera_matrix, camera_distortion));
+            pose_report.projector_rms_px =
+                rms(residuals(corners[index].board_with_projector, corners[index].projector, projector_rotations[index],
+                              projector_translations[index], calibration.projector_matrix, projector_distortion));
+            if (round == 0 && (pose_report.camera_rms_px > options.max_view_rms_px ||
+                               pose_report.projector_rms_px > options.max_view_rms_px))
+                bad.push_back(index);
+        }
+        if (bad.empty()) break;
+        for (auto it = bad.rbegin(); it != bad.rend(); ++it) {
+            CalibrationPoseReport& pose_report = report.poses[pose_of[*it]];
+            pose_report.used = false;
+            char reason[160];
+            std::snprintf(reason, sizeof reason, "reprojection error too large (camera %.2f px, projector %.2f px)",
+                          pose_report.camera_rms_px, pose_report.projector_rms_px);
+            pose_report.reason = reason;
+            corners.erase(corners.begin() + long(*it));
+            pose_of.erase(pose_of.begin() + long(*it));
+        }
+        require_enough("after dropping poses with large errors");
+    }
+    reporter.advance();
+
+    // Degenerate sets: boards that are all (nearly) parallel do not constrain the focal length.
+    double spread_deg = 0;
+    for (size_t a = 0; a < camera_rotations.size(); ++a)
+        for (size_t b = a + 1; b < camera_rotations.size(); ++b) {
+            cv::Matx33d ra, rb;
+            cv::Rodrigues(camera_rotations[a], ra);
+            cv::Rodrigues(camera_rotations[b], rb);
+            const cv::Vec3d na(ra(0, 2), ra(1, 2), ra(2, 2)), nb(rb(0, 2), rb(1, 2), rb(2, 2));
+            spread_deg = std::max(spread_deg, std::acos(std::clamp(na.dot(nb), -1.0, 1.0)) * 180 / kPi);
+        }
+    if (spread_deg < options.min_pose_spread_deg) {
+        char problem[200];
+        std::snprintf(problem, sizeof problem,
+                      "the board poses are degenerate: all nearly parallel (largest angle between them %.1f deg, need %.0f); "
+                      "tilt the board in different directions",
+                      spread_deg, options.min_pose_spread_deg);
+        throw Error("--captures", problem);
+    }
+
+    // Both devices and their relative pose, refined together.
+    {
+        std::vector<std::vector<cv::Point3f>> board_sets;
+        std::vector<std::vector<cv::Point2f>> camera_sets, projector_sets;
+        for (const PoseCorners& pose : corners) {
+            board_sets.push_back(pose.board_with_projector);
+            camera_sets.push_back(pose.camera_with_projector);
+            projector_sets.push_back(pose.projector);
+        }
+        cv::Mat camera_matrix(calibration.camera_matrix), projector_matrix(calibration.projector_matrix);
+        cv::Mat R, T, essential, fundamental;
+        report.stereo_rms_px = cv::stereoCalibrate(board_sets, camera_sets, projector_sets, camera_matrix,
+                                                   calibration.camera_distortion, projector_matrix,
+                                                   calibration.projector_distortion, camera_size, R, T, essential,
+                                                   fundamental, cv::CALIB_USE_INTRINSIC_GUESS, criteria);
+        calibration.camera_matrix = cv::Matx33d(camera_matrix);
+        calibration.projector_matrix = cv::Matx33d(projector_matrix);
+        calibration.R = cv::Matx33d(R);
+        calibration.T = cv::Vec3d(T);
+    }
+    reporter.advance();
+
+    // Final residuals per pose with the joint model: the board pose from the camera, the
+    // projector's view of it through R, T.
+    std::vector<cv::Point2f> all_camera, all_projector;
+    for (size_t index = 0; index < corners.size(); ++index) {
+        const PoseCorners& pose = corners[index];
+        cv::Mat rvec, tvec;
+        cv::solvePnP(pose.board, pose.camera, cv::Mat(calibration.camera_matrix), calibration.camera_distortion, rvec, tvec);
+        cv::solvePnPRefineLM(pose.board, pose.camera, cv::Mat(calibration.camera_matrix), calibration.camera_distortion, rvec, tvec);
+        cv::Matx33d board_rotation;
+        cv::Rodrigues(rvec, board_rotation);
+        const cv::Matx33d projector_rotation = calibration.R * board_rotation;
+        const cv::Vec3d projector_translation = calibration.R * cv::Vec3d(tvec) + calibration.T;
+        cv::Mat projector_rvec;
+        cv::Rodrigues(cv::Mat(projector_rotation), projector_rvec);
+        const auto camera_residual =
+            residuals(pose.board, pose.camera, rvec, tvec, calibration.camera_matrix, calibration.camera_distortion);
+        const auto projector_residual = residuals(pose.board_with_projector, pose.projector, projector_rvec,
+                                                  cv::Mat(projector_translation), calibration.projector_matrix,
+                                                  calibration.projector_distortion);
+        CalibrationPoseReport& pose_report = report.poses[pose_of[index]];
+        pose_report.camera_rms_px = rms(camera_residual);
+        pose_report.projector_rms_px = rms(projector_residual);
+        all_camera.insert(all_camera.end(), camera_residual.begin(), camera_residual.end());
+        all_projector.insert(all_projector.end(), projector_residual.begin(), projector_residual.end());
+        report.camera_corners.insert(report.camera_corners.end(), pose.camera.begin(), pose.camera.end());
+        cv::Matx44d board_to_camera = cv::Matx44d::eye();
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) board_to_camera(r, c) = board_rotation(r, c);
+            board_to_camera(r, 3) = tvec.at<double>(r);
+        }
+        report.board_poses.push_back(board_to_camera);
+    }
+    report.camera_residuals = all_camera;
+    report.projector_residuals = all_projector;
+    report.camera_rms_px = rms(all_camera);
+    report.projector_rms_px = rms(all_projector);
+
+    // Advice: too few poses, or corners seen in too little of the image.
+    if (int(corners.size()) < options.recommended_views)
+        report.warnings.push_back("only " + std::to_string(corners.size()) + " usable poses; " +
+                                  std::to_string(options.recommended_views) + " or more give a steadier calibration");
+    constexpr int kCells = 4;
+    std::vector<bool> covered(kCells * kCells, false);
+    for (const cv::Point2f& point : report.camera_corners) {
+        const int cx = std::clamp(int(point.x * kCells / camera_size.width), 0, kCells - 1);
+        const int cy = std::clamp(int(point.y * kCells / camera_size.height), 0, kCells - 1);
+        covered[size_t(cy * kCells + cx)] = true;
+    }
+    const int covered_cells = int(std::count(covered.begin(), covered.end(), true));
+    if (covered_cells < kCells * kCells * 3 / 4)
+        report.warnings.push_back("board corners were seen in only " + std::to_string(covered_cells) + " of " +
+                                  std::to_string(kCells * kCells) +
+                                  " image cells; add poses with the board near the edges and corners of the view");
+    validate_calibration(calibration, "calibration result");
+    reporter.advance();
+    return report;
+}
+
+}  // namespace picoscan
