@@ -106,6 +106,9 @@ Writes a sequence.json that describes a capture set made by another system, so t
            --prefix P --suffix S --first-index K   (defaults: "", ".png", 1)
   --preset slstudio-gray     SLStudio Gray code: white, black, column bits without inverses
            --bits N          projected bits (default: all)
+  --preset slstudio-phase-cue  SLStudio calibration sequence: 3-step fringes and a 3-step
+                             one-period cue, columns then rows
+           --periods N       fringe periods across the projector (default 16)
   --preset slmaster-cgc      SLMaster sinusoid + complementary Gray code
            --shifts K --periods N   (defaults 12 and 32)
   --projector WxH            the projector resolution of that system
@@ -125,6 +128,8 @@ frame; each corner's projector position comes from the decoded codes around it.
   --captures DIR...    one capture set per board pose (10 or more poses, tilted in different
                        directions, covering the whole view)
   --out FILE           the calibration to write (only written when calibration succeeds)
+  --manifest FILE      sequence.json for every pose, for poses captured by another system
+                       (e.g. 'picoscan manifest --preset slstudio-phase-cue ...')
   --max-pose-error PX  drop poses whose reprojection error exceeds this (default 1.0)
 
 Prints the RMS reprojection errors of the camera and the projector, per pose, and advice.
@@ -400,10 +405,12 @@ int run_manifest(const Arguments& arguments) {
                                                  arguments.text("--suffix", ".png"), arguments.integer("--first-index", 1));
     } else if (preset == "slstudio-gray") {
         sequence = make_slstudio_gray_sequence(projector, arguments.integer("--bits", gray_bits_for(projector.width)));
+    } else if (preset == "slstudio-phase-cue") {
+        sequence = make_slstudio_phase_cue_sequence(projector, arguments.integer("--periods", 16));
     } else if (preset == "slmaster-cgc") {
         sequence = make_slmaster_cgc_sequence(projector, arguments.integer("--shifts", 12), arguments.integer("--periods", 32));
     } else {
-        throw Error("--preset", "unknown preset '" + preset + "' (opencv-graycode, slstudio-gray, slmaster-cgc)");
+        throw Error("--preset", "unknown preset '" + preset + "' (opencv-graycode, slstudio-gray, slstudio-phase-cue, slmaster-cgc)");
     }
     arguments.reject_unknown();
     write_manifest(sequence, out);
@@ -416,6 +423,7 @@ int run_calibrate(const Arguments& arguments) {
     const std::vector<std::string> pose_directories = arguments.list("--captures");
     if (pose_directories.empty()) throw Error("--captures", "is required (see --help)");
     const std::string out = arguments.required("--out");
+    const std::string manifest = arguments.text("--manifest");
     CalibrateOptions options;
     options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
     arguments.reject_unknown();
@@ -426,7 +434,7 @@ int run_calibrate(const Arguments& arguments) {
 
     std::vector<PoseObservation> observations;
     for (const std::string& directory : pose_directories) {
-        const CaptureSet pose = load_capture_set(directory);
+        const CaptureSet pose = load_capture_set(directory, manifest);
         observations.push_back(observe_pose(pose, board, options));
         const PoseObservation& seen = observations.back();
         if (seen.problem.empty())

@@ -160,3 +160,56 @@ TEST(RealData, StatueViewsDecodeLikeOpenCvGrayCode) {
         }
     }
 }
+
+TEST(RealData, SlstudioRigCalibratedFromItsBoardCaptures) {
+    PICOSCAN_REQUIRE_DATASETS();
+    const std::string root = dataset("slstudio-skull");
+    const std::string manifest = write_temp_manifest(make_slstudio_phase_cue_sequence({1824, 1140}, 16), "slstudio-cue");
+    const BoardSpec board = parse_board_spec("chessboard:13x9:10");
+    std::vector<PoseObservation> poses;
+    for (int pose : {1, 3, 4, 5, 6}) {
+        const CaptureSet captures = load_capture_set(root + "/calibration/calseq" + std::to_string(pose), manifest);
+        poses.push_back(observe_pose(captures, board));
+        EXPECT_EQ(poses.back().problem, "") << captures.directory;
+    }
+    // Five poses: the lens model SLStudio uses (k1 only, camera principal point at the centre).
+    CalibrateOptions options;
+    options.radial_k1_only = true;
+    options.camera_principal_point_at_centre = true;
+    const CalibrationReport full_report = calibrate_rig(poses);
+    std::printf("full lens model: camera RMS %.3f px, projector RMS %.3f px, baseline %.2f mm\n", full_report.camera_rms_px,
+                full_report.projector_rms_px, cv::norm(full_report.calibration.T));
+    const CalibrationReport report = calibrate_rig(poses, options);
+    const Calibration ours = report.calibration;
+    const Calibration theirs = read_calibration(root + "/calibration/calibration.xml");
+    cv::Mat rotation_difference;
+    cv::Rodrigues(cv::Mat(ours.R.t() * theirs.R), rotation_difference);
+    const double rotation_deg = cv::norm(rotation_difference) * 180 / M_PI;
+    std::printf("SLStudio calibration: camera RMS %.3f px (SLStudio 0.28), projector RMS %.3f px (SLStudio 0.46); "
+                "camera f %.1f vs %.1f, projector f %.1f vs %.1f, baseline %.2f vs %.2f mm, rotation differs by %.3f deg\n",
+                report.camera_rms_px, report.projector_rms_px, ours.camera_matrix(0, 0), theirs.camera_matrix(0, 0),
+                ours.projector_matrix(0, 0), theirs.projector_matrix(0, 0), cv::norm(ours.T), cv::norm(theirs.T),
+                rotation_deg);
+    EXPECT_LE(report.camera_rms_px, 0.5);
+    EXPECT_LE(report.projector_rms_px, 0.8);
+    EXPECT_NEAR(ours.camera_matrix(0, 0) / theirs.camera_matrix(0, 0), 1.0, 0.01);
+    EXPECT_NEAR(ours.projector_matrix(0, 0) / theirs.projector_matrix(0, 0), 1.0, 0.015);
+    EXPECT_NEAR(cv::norm(ours.T) / cv::norm(theirs.T), 1.0, 0.02);
+    EXPECT_LT(rotation_deg, 1.0);
+
+    // The skull through both calibrations, pixel by pixel.
+    const std::string skull_manifest = write_temp_manifest(make_slstudio_gray_sequence({1824, 1140}, 10), "skull");
+    const CaptureSet skull = load_capture_set(root + "/skull_gray", skull_manifest);
+    const CorrespondenceMap map = decode(skull);
+    const ScanView with_ours = triangulate(map, ours), with_theirs = triangulate(map, theirs);
+    std::vector<double> distances;
+    for (int y = 0; y < map.mask.rows; ++y)
+        for (int x = 0; x < map.mask.cols; ++x) {
+            const cv::Vec3f a = with_ours.points.at<cv::Vec3f>(y, x), b = with_theirs.points.at<cv::Vec3f>(y, x);
+            if (std::isfinite(a[2]) && std::isfinite(b[2])) distances.push_back(cv::norm(a - b));
+        }
+    std::printf("skull through our calibration vs SLStudio's: %zu points, median distance %.3f mm, p90 %.3f mm\n",
+                distances.size(), median(distances), percentile(distances, 0.9));
+    EXPECT_GT(distances.size(), 80000u);
+    EXPECT_LT(median(distances), 2.0);
+}

@@ -81,6 +81,10 @@ struct CalibrateOptions {
     int min_views = 3;                    // fewer usable poses is an error
     int recommended_views = 10;           // fewer gives a warning
     double min_pose_spread_deg = 5.0;     // largest angle between board orientations; less is degenerate
+    // Fewer lens parameters for few poses: radial k1 only, and the camera's principal point at
+    // the image centre (the model SLStudio uses).
+    bool radial_k1_only = false;
+    bool camera_principal_point_at_centre = false;
 };
 
 // What one board pose shows: the board's corners in the camera and, where the projected codes

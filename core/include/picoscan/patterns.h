@@ -11,7 +11,9 @@
 
 namespace picoscan {
 
-enum class FrameKind { White, Black, Gray, GrayInverse, Phase };
+// Cue: a phase-shifted fringe of a long period (e.g. one period across the projector) that
+// unwraps the fine fringes instead of a Gray code (two-frequency temporal unwrapping).
+enum class FrameKind { White, Black, Gray, GrayInverse, Phase, Cue };
 enum class Axis { Columns, Rows };  // Columns encodes projector u (x), Rows projector v (y)
 
 struct Frame {
@@ -19,13 +21,15 @@ struct Frame {
     FrameKind kind = FrameKind::White;
     Axis axis = Axis::Columns;
     int bit = 0;    // Gray frames: 0 = most significant bit
-    int shift = 0;  // Phase frames: shift index 0..shifts-1
+    int shift = 0;  // Phase and Cue frames: shift index 0..shifts-1 (or cue_shifts-1)
 };
 
 // How one projector axis is encoded.
 //   Gray: `gray_bits` reflected-binary bits, MSB first; code value c covers projector
 //         pixels [c*gray_unit_px, (c+1)*gray_unit_px).
 //   Phase: I_k(x) = 0.5 + 0.5*cos(2*pi*x/period_px + phase_offset_rad + shift_sign*2*pi*k/shifts)
+//   Cue:   the same with cue_period_px and cue_shifts; it gives the fringe order where there is
+//          no Gray code.
 struct AxisCode {
     int gray_bits = 0;
     double gray_unit_px = 1.0;
@@ -33,6 +37,8 @@ struct AxisCode {
     double period_px = 0.0;
     double phase_offset_rad = 0.0;
     int shift_sign = 1;
+    int cue_shifts = 0;
+    double cue_period_px = 0.0;
 
     bool used() const { return gray_bits > 0 || shifts > 0; }
 };
@@ -68,6 +74,9 @@ PatternSequence make_opencv_graycode_sequence(cv::Size projector_size, const std
                                               const std::string& suffix, int first_index);
 // SLStudio Gray code: white, black, then `bits` column bits without inverses (frameSeq_NN.bmp).
 PatternSequence make_slstudio_gray_sequence(cv::Size projector_size, int bits);
+// SLStudio's calibration sequence: 3-step fringes of `periods` periods and a 3-step
+// one-period cue, columns then rows (frameSeq_NN.bmp).
+PatternSequence make_slstudio_phase_cue_sequence(cv::Size projector_size, int periods);
 // SLMaster: `shifts`-step phase shift with `periods` periods across the width, then
 // `periods_log2 + 1` complementary Gray code images (<index>.bmp).
 PatternSequence make_slmaster_cgc_sequence(cv::Size projector_size, int shifts, int periods);

@@ -105,8 +105,17 @@ bool detect_board(const cv::Mat& grey, const BoardSpec& board, BoardDetection& d
     bool found = false;
     switch (board.kind) {
     case BoardKind::Chessboard:
-        // The sector-based detector localises corners more accurately than cornerSubPix.
-        found = cv::findChessboardCornersSB(image, board.size, points, cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY);
+        // The sector-based detector localises corners more accurately than cornerSubPix; with
+        // uneven lighting it needs the image normalised first, so that is the second try.
+        found = cv::findChessboardCornersSB(image, board.size, points, cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY) ||
+                cv::findChessboardCornersSB(image, board.size, points,
+                                            cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY);
+        if (!found && cv::findChessboardCorners(image, board.size, points,
+                                                cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+            cv::cornerSubPix(image, points, cv::Size(5, 5), cv::Size(-1, -1),
+                             cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-4));
+            found = true;
+        }
         break;
     case BoardKind::Circles:
         found = cv::findCirclesGrid(image, board.size, points, cv::CALIB_CB_SYMMETRIC_GRID);

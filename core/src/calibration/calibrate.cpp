@@ -176,6 +176,8 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
     calibration.camera_size = camera_size;
     calibration.projector_size = projector_size;
     const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
+    const int lens_flags = options.radial_k1_only ? cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 : 0;
+    const int camera_flags = lens_flags | (options.camera_principal_point_at_centre ? cv::CALIB_FIX_PRINCIPAL_POINT : 0);
 
     // Each device alone first (Zhang: homographies give the initial guess), dropping poses
     // whose reprojection error shows a bad detection, then both together.
@@ -192,9 +194,9 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
         cv::Mat camera_matrix, camera_distortion, projector_matrix, projector_distortion;
         std::vector<cv::Mat> projector_rotations, projector_translations;
         cv::calibrateCamera(board_sets, camera_sets, camera_size, camera_matrix, camera_distortion, camera_rotations,
-                            camera_translations, 0, criteria);
+                            camera_translations, camera_flags, criteria);
         cv::calibrateCamera(projector_board_sets, projector_sets, projector_size, projector_matrix, projector_distortion,
-                            projector_rotations, projector_translations, 0, criteria);
+                            projector_rotations, projector_translations, lens_flags, criteria);
         calibration.camera_matrix = cv::Matx33d(camera_matrix);
         calibration.camera_distortion = camera_distortion.reshape(1, 1);
         calibration.projector_matrix = cv::Matx33d(projector_matrix);
@@ -260,7 +262,7 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
         report.stereo_rms_px = cv::stereoCalibrate(board_sets, camera_sets, projector_sets, camera_matrix,
                                                    calibration.camera_distortion, projector_matrix,
                                                    calibration.projector_distortion, camera_size, R, T, essential,
-                                                   fundamental, cv::CALIB_USE_INTRINSIC_GUESS, criteria);
+                                                   fundamental, cv::CALIB_USE_INTRINSIC_GUESS | camera_flags, criteria);
         calibration.camera_matrix = cv::Matx33d(camera_matrix);
         calibration.projector_matrix = cv::Matx33d(projector_matrix);
         calibration.R = cv::Matx33d(R);

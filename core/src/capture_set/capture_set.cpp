@@ -33,7 +33,7 @@ std::string describe(const Frame& frame, size_t index) {
     std::string text = "frame " + std::to_string(index) + " (" + to_string(frame.kind);
     if (frame.kind == FrameKind::Gray || frame.kind == FrameKind::GrayInverse)
         text += " " + to_string(frame.axis) + " bit " + std::to_string(frame.bit);
-    if (frame.kind == FrameKind::Phase) text += " " + to_string(frame.axis) + " shift " + std::to_string(frame.shift);
+    if (frame.kind == FrameKind::Phase || frame.kind == FrameKind::Cue) text += " " + to_string(frame.axis) + " shift " + std::to_string(frame.shift);
     return text + ")";
 }
 

@@ -26,6 +26,8 @@ struct AxisFrames {
     std::vector<int> gray_inverse;  // per bit, frame index of the inverse or -1
     std::vector<int> phase;         // per shift, frame index
     std::vector<float> shift_cos, shift_sin;
+    std::vector<int> cue;           // per cue shift, frame index
+    std::vector<float> cue_cos, cue_sin;
     bool decode_phase = false;
 };
 
@@ -42,12 +44,14 @@ AxisFrames plan_axis(const PatternSequence& sequence, Axis axis, bool binary_onl
     frames.gray.assign(frames.code.gray_bits, -1);
     frames.gray_inverse.assign(frames.code.gray_bits, -1);
     frames.phase.assign(frames.code.shifts, -1);
+    frames.cue.assign(frames.code.cue_shifts, -1);
     for (size_t index = 0; index < sequence.frames.size(); ++index) {
         const Frame& frame = sequence.frames[index];
         if (frame.axis != axis) continue;
         if (frame.kind == FrameKind::Gray) frames.gray[frame.bit] = int(index);
         if (frame.kind == FrameKind::GrayInverse) frames.gray_inverse[frame.bit] = int(index);
         if (frame.kind == FrameKind::Phase) frames.phase[frame.shift] = int(index);
+        if (frame.kind == FrameKind::Cue) frames.cue[frame.shift] = int(index);
     }
     const std::string axis_name = to_string(axis);
     for (int bit = 0; bit < frames.code.gray_bits; ++bit)
@@ -56,23 +60,34 @@ AxisFrames plan_axis(const PatternSequence& sequence, Axis axis, bool binary_onl
     for (int shift = 0; shift < frames.code.shifts; ++shift)
         if (frames.phase[shift] < 0)
             throw Error(source, "no frame for " + axis_name + " phase shift " + std::to_string(shift));
-    if (frames.code.gray_bits == 0)
-        throw Error(source, axis_name + " have phase frames but no Gray code to unwrap them");
+    for (int shift = 0; shift < frames.code.cue_shifts; ++shift)
+        if (frames.cue[shift] < 0)
+            throw Error(source, "no frame for " + axis_name + " cue shift " + std::to_string(shift));
+    if (frames.code.gray_bits == 0 && (frames.code.cue_shifts == 0 || frames.code.shifts == 0))
+        throw Error(source, axis_name + " have neither a Gray code nor a phase cue to unwrap the fringes");
+    if (frames.code.gray_bits == 0 && binary_only)
+        throw Error(source, "binary-only decoding needs a Gray code, and the " + axis_name + " have none");
     frames.decode_phase = frames.code.shifts > 0 && !binary_only;
-    for (int shift = 0; shift < frames.code.shifts; ++shift) {
-        const double delta = frames.code.shift_sign * 2 * kPi * shift / frames.code.shifts;
-        frames.shift_cos.push_back(float(std::cos(delta)));
-        frames.shift_sin.push_back(float(std::sin(delta)));
-    }
+    auto shift_table = [&](int shifts, std::vector<float>& cosines, std::vector<float>& sines) {
+        for (int shift = 0; shift < shifts; ++shift) {
+            const double delta = frames.code.shift_sign * 2 * kPi * shift / shifts;
+            cosines.push_back(float(std::cos(delta)));
+            sines.push_back(float(std::sin(delta)));
+        }
+    };
+    shift_table(frames.code.shifts, frames.shift_cos, frames.shift_sin);
+    shift_table(frames.code.cue_shifts, frames.cue_cos, frames.cue_sin);
     return frames;
 }
 
 // Per-row scratch buffers, one set per worker chunk.
 struct RowBuffers {
     std::vector<float> reference, contrast, brightest, sum_sin, sum_cos, sum, phase_fraction, modulation;
+    std::vector<float> cue_fraction, cue_modulation;
     std::vector<uint32_t> weak_bits, code;
     explicit RowBuffers(int width)
         : reference(width), contrast(width), brightest(width), sum_sin(width), sum_cos(width), sum(width),
+          cue_fraction(width), cue_modulation(width),
           phase_fraction(width), modulation(width), weak_bits(width), code(width) {}
 };
 
@@ -109,8 +124,10 @@ void add_one_shift(const Pixel* __restrict intensity, float shift_cos, float shi
 }
 
 // Sums of I_k sin(delta_k), I_k cos(delta_k) and I_k over the shifts, for one row.
+// `frames` are the fringe frames (phase or cue) with their shift cosines and sines.
 template <typename Pixel>
-void accumulate_phase(const CaptureSet& captures, const AxisFrames& axis, int y, int width, RowBuffers& buffers) {
+void accumulate_phase(const CaptureSet& captures, const std::vector<int>& frames, const std::vector<float>& cosines,
+                      const std::vector<float>& sines, int y, int width, RowBuffers& buffers) {
     float* sum_sin = buffers.sum_sin.data();
     float* sum_cos = buffers.sum_cos.data();
     float* sum = buffers.sum.data();
@@ -119,13 +136,13 @@ void accumulate_phase(const CaptureSet& captures, const AxisFrames& axis, int y,
     std::fill_n(sum, width, 0.0f);
     // Four frames per pass, so the sums are loaded and stored a quarter as often.
     size_t shift = 0;
-    for (; shift + 4 <= axis.phase.size(); shift += 4)
-        add_four_shifts<Pixel>(row_of<Pixel>(captures, axis.phase[shift], y), row_of<Pixel>(captures, axis.phase[shift + 1], y),
-                               row_of<Pixel>(captures, axis.phase[shift + 2], y), row_of<Pixel>(captures, axis.phase[shift + 3], y),
-                               &axis.shift_cos[shift], &axis.shift_sin[shift], width, sum_sin, sum_cos, sum);
-    for (; shift < axis.phase.size(); ++shift)
-        add_one_shift<Pixel>(row_of<Pixel>(captures, axis.phase[shift], y), axis.shift_cos[shift], axis.shift_sin[shift],
-                             width, sum_sin, sum_cos, sum);
+    for (; shift + 4 <= frames.size(); shift += 4)
+        add_four_shifts<Pixel>(row_of<Pixel>(captures, frames[shift], y), row_of<Pixel>(captures, frames[shift + 1], y),
+                               row_of<Pixel>(captures, frames[shift + 2], y), row_of<Pixel>(captures, frames[shift + 3], y),
+                               &cosines[shift], &sines[shift], width, sum_sin, sum_cos, sum);
+    for (; shift < frames.size(); ++shift)
+        add_one_shift<Pixel>(row_of<Pixel>(captures, frames[shift], y), cosines[shift], sines[shift], width, sum_sin,
+                             sum_cos, sum);
 }
 
 template <typename Pixel>
@@ -230,7 +247,8 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
             }
         } else {
             // No white/black frames (e.g. SLMaster): the fringe mean and amplitude stand in.
-            accumulate_phase<Pixel>(captures, *reference_axis, y, width, buffers);
+            accumulate_phase<Pixel>(captures, reference_axis->phase, reference_axis->shift_cos, reference_axis->shift_sin, y,
+                                    width, buffers);
             const float inverse_count = 1.0f / reference_axis->phase.size();
             for (int x = 0; x < width; ++x) {
                 const float mean = buffers.sum[x] * inverse_count;
@@ -255,9 +273,17 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
             float* position = (is_columns ? map.projector_u : map.projector_v).ptr<float>(y);
             float* quality = map.quality.ptr<float>(y);
 
-            decode_gray_row<Pixel>(captures, *axis, y, width, min_margin, buffers);
+            const bool has_gray = axis->code.gray_bits > 0;
+            if (has_gray) {
+                decode_gray_row<Pixel>(captures, *axis, y, width, min_margin, buffers);
+            } else {
+                std::fill_n(buffers.weak_bits.data(), width, 0u);
+                accumulate_phase<Pixel>(captures, axis->cue, axis->cue_cos, axis->cue_sin, y, width, buffers);
+                phase_row(buffers.sum_sin.data(), buffers.sum_cos.data(), float(axis->code.phase_offset_rad / (2 * kPi)),
+                          2.0f / axis->cue.size(), width, buffers.cue_fraction.data(), buffers.cue_modulation.data());
+            }
             if (axis->decode_phase) {
-                accumulate_phase<Pixel>(captures, *axis, y, width, buffers);
+                accumulate_phase<Pixel>(captures, axis->phase, axis->shift_cos, axis->shift_sin, y, width, buffers);
                 phase_row(buffers.sum_sin.data(), buffers.sum_cos.data(), float(axis->code.phase_offset_rad / (2 * kPi)),
                           2.0f / axis->phase.size(), width, buffers.phase_fraction.data(), buffers.modulation.data());
             }
@@ -276,7 +302,15 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
                     const double stripe_start = buffers.code[x] * unit;
                     const double stripe_centre = stripe_start + 0.5 * (unit - 1.0);
                     double decoded = stripe_centre;
-                    if (axis->decode_phase) {
+                    if (!has_gray) {
+                        // Two-frequency unwrapping: the cue's coarse position picks the fringe order.
+                        pixel_quality = buffers.modulation[x];
+                        const double phase_px = period * buffers.phase_fraction[x];
+                        const double coarse_px = axis->code.cue_period_px * buffers.cue_fraction[x];
+                        decoded = phase_px + period * std::nearbyint((coarse_px - phase_px) * inverse_period);
+                        if (pixel_quality < min_modulation || buffers.cue_modulation[x] < min_modulation)
+                            pixel_status = kLowModulation;
+                    } else if (axis->decode_phase) {
                         pixel_quality = buffers.modulation[x];
                         const double phase_px = period * buffers.phase_fraction[x];
                         // Fringe order from the binary code, sub-pixel position from the phase; the

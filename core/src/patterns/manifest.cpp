@@ -23,6 +23,7 @@ void write_axis(cv::FileStorage& storage, const char* name, const AxisCode& code
     storage << "gray_bits" << code.gray_bits << "gray_unit_px" << code.gray_unit_px;
     storage << "shifts" << code.shifts << "period_px" << code.period_px;
     storage << "phase_offset_rad" << code.phase_offset_rad << "shift_sign" << code.shift_sign;
+    if (code.cue_shifts > 0) storage << "cue_shifts" << code.cue_shifts << "cue_period_px" << code.cue_period_px;
     storage << "}";
 }
 
@@ -68,6 +69,13 @@ AxisCode read_axis(const ManifestReader& reader, const cv::FileNode& root, const
     code.period_px = reader.real(reader.require(node, "period_px"), key("period_px"));
     code.phase_offset_rad = reader.real(reader.require(node, "phase_offset_rad"), key("phase_offset_rad"));
     code.shift_sign = reader.integer(reader.require(node, "shift_sign"), key("shift_sign"));
+    if (!node["cue_shifts"].empty()) {
+        code.cue_shifts = reader.integer(node["cue_shifts"], key("cue_shifts"));
+        code.cue_period_px = reader.real(reader.require(node, "cue_period_px"), key("cue_period_px"));
+        if (code.cue_shifts < 3 || code.cue_shifts > 256) reader.fail("'" + key("cue_shifts") + "' must be 3..256");
+        if (!(code.cue_period_px > code.period_px) || code.cue_period_px > 65536)
+            reader.fail("'" + key("cue_period_px") + "' must be longer than period_px");
+    }
     if (code.gray_bits < 0 || code.gray_bits > 24) reader.fail("'" + key("gray_bits") + "' must be 0..24");
     if (!(code.gray_unit_px > 0) || code.gray_unit_px > 65536) reader.fail("'" + key("gray_unit_px") + "' must be > 0");
     if (code.shifts != 0 && (code.shifts < 3 || code.shifts > 256)) reader.fail("'" + key("shifts") + "' must be 0 or 3..256");
@@ -77,10 +85,11 @@ AxisCode read_axis(const ManifestReader& reader, const cv::FileNode& root, const
 }
 
 FrameKind parse_kind(const ManifestReader& reader, const std::string& text, size_t index) {
-    for (FrameKind kind : {FrameKind::White, FrameKind::Black, FrameKind::Gray, FrameKind::GrayInverse, FrameKind::Phase})
+    for (FrameKind kind :
+         {FrameKind::White, FrameKind::Black, FrameKind::Gray, FrameKind::GrayInverse, FrameKind::Phase, FrameKind::Cue})
         if (to_string(kind) == text) return kind;
     reader.fail("frame " + std::to_string(index) + ": unknown kind '" + text +
-                "' (white, black, gray, gray_inverse or phase)");
+                "' (white, black, gray, gray_inverse, phase or cue)");
 }
 
 }  // namespace
@@ -146,6 +155,9 @@ PatternSequence read_manifest(const std::string& path) {
                 (frame.bit < 0 || frame.bit >= code.gray_bits))
                 reader.fail(where + ".bit " + std::to_string(frame.bit) + " is outside the " + to_string(frame.axis) +
                             " Gray code (" + std::to_string(code.gray_bits) + " bits)");
+            if (frame.kind == FrameKind::Cue && (frame.shift < 0 || frame.shift >= code.cue_shifts))
+                reader.fail(where + ".shift " + std::to_string(frame.shift) + " is outside the " + to_string(frame.axis) +
+                            " cue shifts (" + std::to_string(code.cue_shifts) + ")");
             if (frame.kind == FrameKind::Phase && (frame.shift < 0 || frame.shift >= code.shifts))
                 reader.fail(where + ".shift " + std::to_string(frame.shift) + " is outside the " + to_string(frame.axis) +
                             " phase shifts (" + std::to_string(code.shifts) + ")");

@@ -122,6 +122,27 @@ PatternSequence make_slstudio_gray_sequence(cv::Size projector_size, int bits) {
     return sequence;
 }
 
+PatternSequence make_slstudio_phase_cue_sequence(cv::Size projector_size, int periods) {
+    if (periods < 2 || periods > 256) throw Error("periods", "SLStudio phase sequences need 2..256 periods");
+    PatternSequence sequence;
+    sequence.projector_size = projector_size;
+    sequence.origin = "slstudio-phase-cue";
+    int index = 0;
+    auto file = [&]() { return "frameSeq_" + two_digits(index++) + ".bmp"; };
+    for (Axis axis : {Axis::Columns, Axis::Rows}) {
+        AxisCode& code = axis == Axis::Columns ? sequence.columns : sequence.rows;
+        const double length = axis == Axis::Columns ? projector_size.width : projector_size.height;
+        code.shifts = 3;
+        code.period_px = length / periods;
+        code.shift_sign = -1;  // I = 0.5 (1 + cos(2 pi x / pitch - shift))
+        code.cue_shifts = 3;
+        code.cue_period_px = length;
+        for (int shift = 0; shift < 3; ++shift) sequence.frames.push_back({file(), FrameKind::Phase, axis, 0, shift});
+        for (int shift = 0; shift < 3; ++shift) sequence.frames.push_back({file(), FrameKind::Cue, axis, 0, shift});
+    }
+    return sequence;
+}
+
 PatternSequence make_slmaster_cgc_sequence(cv::Size projector_size, int shifts, int periods) {
     int period_bits = 0;
     while ((1 << period_bits) < periods) ++period_bits;
@@ -165,9 +186,11 @@ cv::Mat render_pattern(const PatternSequence& sequence, const Frame& frame, cons
             levels[x] = (on != (frame.kind == FrameKind::GrayInverse)) ? 255 : 0;
             break;
         }
-        case FrameKind::Phase: {
-            const double phase = 2 * kPi * x / code.period_px + code.phase_offset_rad +
-                                 code.shift_sign * 2 * kPi * frame.shift / code.shifts;
+        case FrameKind::Phase:
+        case FrameKind::Cue: {
+            const bool cue = frame.kind == FrameKind::Cue;
+            const double phase = 2 * kPi * x / (cue ? code.cue_period_px : code.period_px) + code.phase_offset_rad +
+                                 code.shift_sign * 2 * kPi * frame.shift / (cue ? code.cue_shifts : code.shifts);
             levels[x] = cv::saturate_cast<uint8_t>(std::lround(127.5 + 127.5 * std::cos(phase)));
             break;
         }
@@ -195,6 +218,7 @@ std::string to_string(FrameKind kind) {
     case FrameKind::Gray: return "gray";
     case FrameKind::GrayInverse: return "gray_inverse";
     case FrameKind::Phase: return "phase";
+    case FrameKind::Cue: return "cue";
     }
     return "?";
 }
