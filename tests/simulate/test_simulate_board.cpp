@@ -240,7 +240,7 @@ TEST(SimulateBoard, BoardPartlyOutOfViewIsRenderedWhereVisible) {
     const cv::Mat image = simulator.render(cv::Mat(rig.projector_size, CV_8U, cv::Scalar(255)), 0);
     std::vector<cv::Point2f> found;
     cv::Mat crop = image(cv::Rect(0, 0, 1000, 1200));
-    ASSERT_TRUE(cv::findChessboardCornersSB(crop, cv::Size(4, 6), found));
+    ASSERT_TRUE(cv::findChessboardCornersSB(crop, cv::Size(4, 6), found, cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY));
     int matched = 0;
     for (const cv::Point2f& f : found)
         for (const cv::Point2f& e : expected)
