@@ -9,6 +9,8 @@
 #include "picoscan/simulate.h"
 #include "picoscan/triangulate.h"
 
+#include <opencv2/imgcodecs.hpp>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -36,6 +38,7 @@ Commands:
   reconstruct   decode a capture set and triangulate it into a point cloud (and mesh)
   manifest      write a sequence.json describing a capture set made by another system
   calibrate     calibrate camera + projector from captures of a board in several poses
+  response      measure the projector's response (gamma) and store its correction
   demo          simulated scan of the built-in part -> demo-output/ (PLY, STL, PNG)
 
 Run 'picoscan COMMAND --help' for the options of one command.
@@ -57,7 +60,23 @@ inverse), phase-shifted sinusoids of the columns, then the same for the rows.
   --shifts K           phase shifts per axis, 3..64 (default 24; more shifts average out noise)
   --period-bits N      fringe period = 2^N projector pixels (default 4, i.e. 16 px)
   --rows | --no-rows   also encode projector rows (default --rows; rows allow ray-ray triangulation)
+  --calibration FILE   apply the projector response correction stored in this calibration
+                       (see 'picoscan response'), so the projected fringes are truly sinusoidal
+  --flat-levels N      instead, write N flat grey frames level_LLL.png from black to white, for
+                       measuring the projector's response
   --out DIR            output folder (created if needed)
+)";
+
+const char* kResponseHelp = R"(picoscan response --captures DIR --calibration IN.yml --out OUT.yml
+
+Measures the projector's response (gamma) and stores its inverse in a copy of the calibration.
+Show the frames of 'picoscan patterns --flat-levels 17' on a white, matte surface and capture
+each as DIR/level_LLL.png (the same names). Patterns made with 'picoscan patterns
+--calibration OUT.yml' are then corrected, so few-shift scans have no fringe-periodic ripple.
+
+  --captures DIR       the flat-frame captures (level_000.png ... level_255.png)
+  --calibration FILE   the rig's calibration (not modified)
+  --out FILE           the calibration with the response table added
 )";
 
 const char* kSimulateHelp = R"(picoscan simulate --out DIR [options]
@@ -278,12 +297,33 @@ void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encodin
     else write_obj(mesh, path);
 }
 
+std::string level_file(int level) {
+    char name[32];
+    std::snprintf(name, sizeof name, "level_%03d.png", level);
+    return name;
+}
+
 int run_patterns(const Arguments& arguments) {
     const PatternOptions options = pattern_options(arguments, arguments.size("--projector"));
     const std::string directory = arguments.required("--out");
+    const cv::Mat response = arguments.has("--calibration")
+                                 ? read_calibration(arguments.text("--calibration")).projector_inverse_response
+                                 : cv::Mat();
+    const int flat_levels = arguments.integer("--flat-levels", 0);
     arguments.reject_unknown();
+    if (flat_levels > 0) {
+        std::error_code ignored;
+        fs::create_directories(directory, ignored);
+        for (int level : response_levels(flat_levels)) {
+            std::vector<uint8_t> png;
+            cv::imencode(".png", cv::Mat(options.projector_size, CV_8U, cv::Scalar(level)), png);
+            write_file_atomically((fs::path(directory) / level_file(level)).string(), std::string(png.begin(), png.end()));
+        }
+        std::printf("wrote %d flat frames level_LLL.png to %s\n", flat_levels, directory.c_str());
+        return 0;
+    }
     const PatternSequence sequence = make_pattern_sequence(options);
-    write_pattern_images(sequence, directory);
+    write_pattern_images(sequence, directory, response);
     std::printf("wrote %zu patterns (%d column bits, %d row bits, %d shifts, period %g px) and sequence.json to %s\n",
                 sequence.frames.size(), sequence.columns.gray_bits, sequence.rows.gray_bits, options.shifts,
                 sequence.columns.period_px, directory.c_str());
@@ -418,6 +458,32 @@ int run_manifest(const Arguments& arguments) {
     return 0;
 }
 
+int run_response(const Arguments& arguments) {
+    const std::string directory = arguments.required("--captures");
+    const std::string input = arguments.required("--calibration");
+    const std::string out = arguments.required("--out");
+    arguments.reject_unknown();
+    if (absolute_path(out) == absolute_path(input)) throw Error(out, "would overwrite the input calibration; choose another --out");
+    Calibration calibration = read_calibration(input);
+    std::vector<int> levels;
+    std::vector<cv::Mat> images;
+    for (int level = 0; level < 256; ++level) {
+        const fs::path file = fs::path(directory) / level_file(level);
+        if (!fs::exists(file)) continue;
+        cv::Mat image = cv::imread(file.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+        if (image.empty()) throw Error(file.string(), "unreadable or corrupt image");
+        levels.push_back(level);
+        images.push_back(image);
+    }
+    if (levels.size() < 3) throw Error(directory, "needs level_000.png, level_255.png and at least one level between");
+    const ProjectorResponse response = measure_projector_response(levels, images);
+    calibration.projector_inverse_response = response.inverse_lut;
+    write_calibration(calibration, out);
+    std::printf("projector response from %zu levels: gamma %.2f; calibration with the correction -> %s\n", levels.size(),
+                response.gamma, out.c_str());
+    return 0;
+}
+
 int run_calibrate(const Arguments& arguments) {
     const BoardSpec board = parse_board_spec(arguments.required("--board"));
     const std::vector<std::string> pose_directories = arguments.list("--captures");
@@ -511,6 +577,7 @@ int main(int argc, char** argv) {
         {"reconstruct", {kReconstructHelp, run_reconstruct, {"--binary-only", "--ascii"}}},
         {"manifest", {kManifestHelp, run_manifest, {}}},
         {"calibrate", {kCalibrateHelp, run_calibrate, {}}},
+        {"response", {kResponseHelp, run_response, {}}},
         {"demo", {kDemoHelp, run_demo, {}}},
     };
     const auto found = commands.find(command);

@@ -1,5 +1,6 @@
 // The `picoscan` command line, run as a user would, on good and bad input.
 #include "picoscan/calibration.h"
+#include "picoscan/simulate.h"
 #include "support/test_support.h"
 
 #include <gtest/gtest.h>
@@ -203,4 +204,79 @@ TEST_F(Cli, SimulateRefusesANonEmptyFolder) {
     const Result result = run_picoscan("simulate --out " + scan_);
     EXPECT_EQ(result.exit_code, 1);
     EXPECT_NE(result.output.find("not empty"), std::string::npos) << result.output;
+}
+
+TEST(CliCalibrate, SimulatedPosesCalibrateAndAFailedRunKeepsTheOldFile) {
+    const std::string root = make_temp_dir("cli-calibrate");
+    const double tilts[][2] = {{20, 15}, {-20, 15}, {20, -15}, {-20, -15}};
+    std::string poses;
+    for (int index = 0; index < 4; ++index) {
+        const std::string scene = root + "/board" + std::to_string(index) + ".yml";
+        std::ofstream(scene) << "boards:\n  - rotation_deg: [" << tilts[index][0] << ", " << tilts[index][1]
+                             << ", 0]\n    translation: [-70, -45, 400]\n    inner_corners: [9, 6]\n"
+                                "    square_mm: 18\n    margin_mm: 12\n";
+        const std::string pose = root + "/pose" + std::to_string(index);
+        const Result simulated = run_picoscan("simulate --scene " + scene + " --out " + pose + " --shifts 4");
+        ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
+        poses += " " + pose;
+    }
+    const std::string out = root + "/calibration.yml";
+    Result result = run_picoscan("calibrate --board chessboard:9x6:18 --captures" + poses + " --out " + out);
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("camera: f = "), std::string::npos) << result.output;
+    const picoscan::Calibration found = picoscan::read_calibration(out);
+    EXPECT_NEAR(found.camera_matrix(0, 0), 2500, 25);  // 4 poses: within 1 %
+    EXPECT_NEAR(cv::norm(found.T), 150, 3);
+
+    // Two poses are too few: an error naming the problem, and the existing file is untouched.
+    const std::string before = read_file(out);
+    result = run_picoscan("calibrate --board chessboard:9x6:18 --captures " + root + "/pose0 " + root + "/pose1 --out " + out);
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("only 2 usable board poses"), std::string::npos) << result.output;
+    EXPECT_EQ(read_file(out), before);
+    // A board that is not in the images.
+    result = run_picoscan("calibrate --board chessboard:7x5:18 --captures" + poses + " --out " + root + "/other.yml");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("board not found"), std::string::npos) << result.output;
+    EXPECT_FALSE(fs::exists(root + "/other.yml"));
+}
+
+TEST(CliResponse, FlatFramesGiveAResponseCorrection) {
+    const std::string root = make_temp_dir("cli-response");
+    // Patterns for the measurement, then their captures by the simulated rig with gamma 2.2.
+    Result result = run_picoscan("patterns --projector 854x480 --flat-levels 9 --out " + root + "/flats");
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_TRUE(fs::exists(root + "/flats/level_128.png"));
+    const std::string scan = root + "/scan";
+    ASSERT_EQ(run_picoscan("simulate --out " + scan + " --shifts 4 --gamma 2.2").exit_code, 0);
+    // Flat captures: render through the same rig as the simulate command did.
+    picoscan::Scene scene = picoscan::demo_scene();
+    picoscan::SimulationOptions options;
+    options.projector_gamma = 2.2;
+    options.blur_sigma_px = 0.7;
+    const picoscan::Simulator simulator(picoscan::read_calibration(scan + "/calibration.yml"), scene, options);
+    fs::create_directories(root + "/captured");
+    for (int level : picoscan::response_levels(9)) {
+        const cv::Mat flat = cv::imread(root + "/flats/level_" + std::string(level < 10 ? "00" : level < 100 ? "0" : "") +
+                                        std::to_string(level) + ".png", cv::IMREAD_GRAYSCALE);
+        ASSERT_FALSE(flat.empty()) << level;
+        cv::imwrite(root + "/captured/level_" + std::string(level < 10 ? "00" : level < 100 ? "0" : "") +
+                        std::to_string(level) + ".png",
+                    simulator.render(flat, level));
+    }
+    result = run_picoscan("response --captures " + root + "/captured --calibration " + scan + "/calibration.yml --out " +
+                          root + "/corrected.yml");
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("gamma 2.2"), std::string::npos) << result.output;
+    const picoscan::Calibration corrected = picoscan::read_calibration(root + "/corrected.yml");
+    ASSERT_EQ(corrected.projector_inverse_response.total(), 256u);
+    EXPECT_NEAR(corrected.projector_inverse_response.at<uint8_t>(128), 186, 5);
+    // Corrected patterns: a mid-grey fringe level goes out brighter.
+    result = run_picoscan("patterns --projector 854x480 --shifts 4 --calibration " + root + "/corrected.yml --out " + root + "/p");
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    // Refuses to overwrite its input.
+    result = run_picoscan("response --captures " + root + "/captured --calibration " + root + "/corrected.yml --out " +
+                          root + "/corrected.yml");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("would overwrite the input calibration"), std::string::npos) << result.output;
 }

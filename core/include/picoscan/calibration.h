@@ -22,6 +22,10 @@ struct Calibration {
     cv::Mat projector_distortion = cv::Mat::zeros(1, 5, CV_64F);
     cv::Matx33d R = cv::Matx33d::eye();  // camera -> projector rotation
     cv::Vec3d T{0, 0, 0};                // camera -> projector translation, mm
+    // Optional: 256-entry CV_8U table that linearises the projector's response (gamma); apply
+    // it to every pattern level before projecting (render_pattern's response_lut). Empty if
+    // the response was not measured.
+    cv::Mat projector_inverse_response;
 };
 
 // Reads a calibration file. Besides PicoScan's own keys it understands
@@ -35,6 +39,31 @@ void write_calibration(const Calibration& calibration, const std::string& path);
 
 // Checks sizes, matrix shapes and finiteness; throws Error naming `source` and the bad key.
 void validate_calibration(const Calibration& calibration, const std::string& source);
+
+}  // namespace picoscan
+
+// ---------------------------------------------------------------------------------------
+// Projector response (gamma) calibration.
+
+namespace picoscan {
+
+// Grey levels to project as flat frames for measuring the response: `count` levels from 0 to
+// 255, evenly spaced.
+std::vector<int> response_levels(int count = 17);
+
+struct ProjectorResponse {
+    std::vector<int> levels;
+    std::vector<double> relative_light;  // camera response per level, 0 at level 0, 1 at 255
+    double gamma = 1;                    // best power-law fit, for reporting
+    cv::Mat inverse_lut;                 // 256 x CV_8U: level to send for each wanted light level
+};
+
+// Measures the response from camera images of flat frames of the given levels (same order),
+// averaging the pixels that the projector lights well (or those in `mask`). Throws Error when
+// the levels are not increasing from 0 to 255, the images differ in size, or the camera sees
+// no usable change of light.
+ProjectorResponse measure_projector_response(const std::vector<int>& levels, const std::vector<cv::Mat>& images,
+                                             const cv::Mat& mask = cv::Mat());
 
 }  // namespace picoscan
 

@@ -135,6 +135,14 @@ Calibration read_calibration(const std::string& path) {
             calibration.T = cv::Vec3d(reader.matrix("T", 3, 1));
         }
     }
+    if (reader.has("projector_inverse_response")) {
+        const cv::Mat table = reader.matrix("projector_inverse_response", 0, 0).reshape(1, 1);
+        if (table.cols != 256) reader.fail("'projector_inverse_response' must hold 256 levels");
+        double low, high;
+        cv::minMaxLoc(table, &low, &high);
+        if (low < 0 || high > 255) reader.fail("'projector_inverse_response' levels must be 0..255");
+        table.convertTo(calibration.projector_inverse_response, CV_8U);
+    }
     validate_calibration(calibration, path);
     return calibration;
 }
@@ -151,6 +159,8 @@ void write_calibration(const Calibration& calibration, const std::string& path) 
     storage << "projector_distortion" << calibration.projector_distortion;
     storage << "R" << cv::Mat(calibration.R);
     storage << "T" << cv::Mat(calibration.T);
+    if (!calibration.projector_inverse_response.empty())
+        storage << "projector_inverse_response" << calibration.projector_inverse_response;
     write_file_atomically(path, storage.releaseAndGetString());
 }
 

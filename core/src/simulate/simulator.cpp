@@ -317,7 +317,7 @@ CaptureSet simulate_capture(const PatternSequence& sequence, const Calibration& 
     const int frame_count = static_cast<int>(sequence.frames.size());
     for (int i = 0; i < frame_count; ++i) {
         const Frame& frame = sequence.frames[i];
-        const cv::Mat pattern = render_pattern(sequence, frame);
+        const cv::Mat pattern = render_pattern(sequence, frame, calibration.projector_inverse_response);  // as a real projector would be fed
         captures.images.push_back(simulator.render(pattern, i));
         if (frame.kind == FrameKind::White && captures.white_colour.empty()) {
             cv::Mat grey = captures.images.back();
