@@ -150,6 +150,7 @@ frame; each corner's projector position comes from the decoded codes around it.
   --manifest FILE      sequence.json for every pose, for poses captured by another system
                        (e.g. 'picoscan manifest --preset slstudio-phase-cue ...')
   --max-pose-error PX  drop poses whose reprojection error exceeds this (default 1.0)
+  --report FILE        an HTML report: errors per pose, residual plot, coverage, the rig in 3D
 
 Prints the RMS reprojection errors of the camera and the projector, per pose, and advice.
 )";
@@ -490,6 +491,8 @@ int run_calibrate(const Arguments& arguments) {
     if (pose_directories.empty()) throw Error("--captures", "is required (see --help)");
     const std::string out = arguments.required("--out");
     const std::string manifest = arguments.text("--manifest");
+    const std::string report_path = arguments.text("--report");
+    check_extension(report_path, {".html", ".htm"}, "report file");
     CalibrateOptions options;
     options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
     arguments.reject_unknown();
@@ -525,6 +528,10 @@ int run_calibrate(const Arguments& arguments) {
     std::printf("baseline %.3f mm; stereo RMS %.3f px\n", cv::norm(c.T), report.stereo_rms_px);
     for (const std::string& warning : report.warnings) std::printf("warning: %s\n", warning.c_str());
     std::printf("calibration -> %s\n", out.c_str());
+    if (!report_path.empty()) {
+        write_calibration_report(report, board, report_path);
+        std::printf("report -> %s\n", report_path.c_str());
+    }
     return 0;
 }
 

@@ -221,9 +221,17 @@ TEST(CliCalibrate, SimulatedPosesCalibrateAndAFailedRunKeepsTheOldFile) {
         poses += " " + pose;
     }
     const std::string out = root + "/calibration.yml";
-    Result result = run_picoscan("calibrate --board chessboard:9x6:18 --captures" + poses + " --out " + out);
+    Result result = run_picoscan("calibrate --board chessboard:9x6:18 --captures" + poses + " --out " + out +
+                                 " --report " + root + "/report.html");
     ASSERT_EQ(result.exit_code, 0) << result.output;
     EXPECT_NE(result.output.find("camera: f = "), std::string::npos) << result.output;
+    const std::string report = read_file(root + "/report.html");
+    EXPECT_NE(report.find("<h1>Calibration report</h1>"), std::string::npos);
+    size_t pictures = 0;
+    for (size_t at = report.find("data:image/png;base64,"); at != std::string::npos; at = report.find("data:image/png;base64,", at + 1))
+        ++pictures;
+    EXPECT_EQ(pictures, 3u);
+    EXPECT_NE(report.find("pose3"), std::string::npos);
     const picoscan::Calibration found = picoscan::read_calibration(out);
     EXPECT_NEAR(found.camera_matrix(0, 0), 2500, 25);  // 4 poses: within 1 %
     EXPECT_NEAR(cv::norm(found.T), 150, 3);
