@@ -4,6 +4,7 @@
 #include "picoscan/decode.h"
 #include "picoscan/error.h"
 #include "picoscan/io.h"
+#include "picoscan/multi_camera.h"
 #include "picoscan/patterns.h"
 #include "picoscan/preview.h"
 #include "picoscan/simulate.h"
@@ -113,6 +114,10 @@ quality, and optionally a grid mesh that does not bridge depth jumps.
   --ascii              write ASCII PLY/STL instead of binary
   --min-contrast DN    white-black contrast below this is shadow (default 15)
   --min-modulation DN  fringe amplitude below this is rejected (default 4)
+  --second-calibration FILE, --second-captures DIR
+                       a second camera's calibration (with the same projector) and its captures
+                       of the same scan: points the second camera does not confirm (stray light,
+                       interreflections, points only the first camera sees) are removed
 )";
 
 const char* kManifestHelp = R"(picoscan manifest --preset NAME --projector WxH --out FILE [options]
@@ -333,6 +338,7 @@ int run_patterns(const Arguments& arguments) {
 
 struct ReconstructRequest {
     std::string calibration, captures, manifest, cloud, mesh, preview;
+    std::string second_calibration, second_captures;
     int mesh_step = 1;
     DecodeOptions decode;
     Encoding encoding = Encoding::Binary;
@@ -362,7 +368,16 @@ int reconstruct(const ReconstructRequest& request) {
                                              std::to_string(captures.images.front().cols) + "x" +
                                              std::to_string(captures.images.front().rows));
     const CorrespondenceMap correspondences = decode(captures, request.decode, progress);
-    const ScanView view = triangulate(correspondences, calibration, captures.white_colour, {}, progress);
+    ScanView view = triangulate(correspondences, calibration, captures.white_colour, {}, progress);
+    if (!request.second_calibration.empty()) {
+        const Calibration second = read_calibration(request.second_calibration);
+        const CaptureSet second_captures = load_capture_set(request.second_captures, request.manifest, progress);
+        if (second_captures.images.front().size() != second.camera_size)
+            throw Error(request.second_calibration, "camera_size differs from the second camera's captures");
+        const CorrespondenceMap second_map = decode(second_captures, request.decode, progress);
+        const int removed = reject_unconfirmed_points(view, correspondences, calibration, second_map, second);
+        std::printf("%d points not confirmed by the second camera removed\n", removed);
+    }
     const PointCloud cloud = to_point_cloud(view);
     if (cloud.points.empty()) throw Error(request.captures, "no pixel could be decoded and triangulated");
     write_ply(cloud, request.cloud, request.encoding);
@@ -392,6 +407,10 @@ int run_reconstruct(const Arguments& arguments) {
     request.mesh = arguments.text("--mesh");
     request.preview = arguments.text("--preview");
     request.mesh_step = arguments.integer("--mesh-step", 1);
+    request.second_calibration = arguments.text("--second-calibration");
+    request.second_captures = arguments.text("--second-captures");
+    if (request.second_calibration.empty() != request.second_captures.empty())
+        throw Error("--second-captures", "--second-calibration and --second-captures go together");
     if (request.mesh_step < 1 || request.mesh_step > 64) throw Error("--mesh-step", "must be 1..64");
     request.decode.binary_only = arguments.flag("--binary-only");
     request.decode.min_contrast = arguments.number("--min-contrast", request.decode.min_contrast);
