@@ -8,7 +8,9 @@
 #include "picoscan/triangulate.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -213,4 +215,37 @@ TEST(Calibrate, PoseWithoutProjectorCodesAndMismatchedSizes) {
     } catch (const Error& error) {
         EXPECT_EQ(error.subject(), "small-camera");
     }
+}
+
+TEST(Calibrate, CharucoAndCircleGridsAreDetected) {
+    // ChArUco: OpenCV's own drawing of a 7x5-square board, slightly blurred.
+    const BoardSpec charuco = parse_board_spec("charuco:7x5:30:22");
+    const auto dictionary = cv::aruco::getPredefinedDictionary(charuco.dictionary);
+    const auto board = cv::aruco::CharucoBoard::create(7, 5, 30.f, 22.f, dictionary);
+    cv::Mat image;
+    board->draw(cv::Size(1400, 1000), image, 40, 1);
+    cv::GaussianBlur(image, image, cv::Size(0, 0), 1.0);
+    BoardDetection detection;
+    ASSERT_TRUE(detect_board(image, charuco, detection));
+    EXPECT_EQ(detection.image_points.size(), size_t(6 * 4));
+    // The corners and their ids agree with the board's geometry: one homography maps the model
+    // points onto all detections within a fraction of a pixel.
+    const std::vector<cv::Point3f> model = board_points(charuco);
+    std::vector<cv::Point2f> model_points;
+    for (int id : detection.point_ids) model_points.emplace_back(model[size_t(id)].x, model[size_t(id)].y);
+    const cv::Mat homography = cv::findHomography(model_points, detection.image_points, 0);
+    std::vector<cv::Point2f> mapped;
+    cv::perspectiveTransform(model_points, mapped, homography);
+    for (size_t index = 0; index < mapped.size(); ++index)
+        EXPECT_LT(cv::norm(mapped[index] - detection.image_points[index]), 0.3) << index;
+
+    // A symmetric 6x4 grid of dark circles on white.
+    cv::Mat circles(600, 800, CV_8U, cv::Scalar(255));
+    for (int row = 0; row < 4; ++row)
+        for (int column = 0; column < 6; ++column)
+            cv::circle(circles, cv::Point(150 + column * 100, 150 + row * 100), 25, cv::Scalar(0), cv::FILLED, cv::LINE_AA);
+    ASSERT_TRUE(detect_board(circles, parse_board_spec("circles:6x4:20"), detection));
+    ASSERT_EQ(detection.image_points.size(), 24u);
+    EXPECT_NEAR(detection.image_points.front().y, 150, 0.5);
+    EXPECT_FALSE(detect_board(circles, parse_board_spec("chessboard:6x4:20"), detection));
 }
