@@ -483,6 +483,7 @@ int run_response(const Arguments& arguments) {
     const std::string input = arguments.required("--calibration");
     const std::string out = arguments.required("--out");
     arguments.reject_unknown();
+    check_extension(out, {".yml", ".yaml"}, "calibration file (YAML)");
     if (absolute_path(out) == absolute_path(input)) throw Error(out, "would overwrite the input calibration; choose another --out");
     Calibration calibration = read_calibration(input);
     std::vector<int> levels;
@@ -515,7 +516,7 @@ int run_calibrate(const Arguments& arguments) {
     CalibrateOptions options;
     options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
     arguments.reject_unknown();
-    check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file");
+    check_extension(out, {".yml", ".yaml"}, "calibration file (YAML)");
     for (const std::string& directory : pose_directories)
         if (absolute_path(out) == absolute_path(directory) || is_inside(absolute_path(out), absolute_path(directory)))
             throw Error(out, "must not be written into the capture directory " + directory);
