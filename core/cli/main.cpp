@@ -1,6 +1,7 @@
 // picoscan: the command-line front end. Argument parsing and printing only; the work is in the core.
 #include "picoscan/calibration.h"
 #include "picoscan/capture_set.h"
+#include "picoscan/clean.h"
 #include "picoscan/decode.h"
 #include "picoscan/error.h"
 #include "picoscan/io.h"
@@ -114,6 +115,9 @@ quality, and optionally a grid mesh that does not bridge depth jumps.
   --ascii              write ASCII PLY/STL instead of binary
   --min-contrast DN    white-black contrast below this is shadow (default 15)
   --min-modulation DN  fringe amplitude below this is rejected (default 4)
+  --clean              remove unreliable points before writing: stray-light outliers, points seen
+                       at grazing angles (> 80 deg), small disconnected clusters; prints what
+                       each filter removed
   --second-calibration FILE, --second-captures DIR
                        a second camera's calibration (with the same projector) and its captures
                        of the same scan: points the second camera does not confirm (stray light,
@@ -340,6 +344,7 @@ struct ReconstructRequest {
     std::string calibration, captures, manifest, cloud, mesh, preview;
     std::string second_calibration, second_captures;
     int mesh_step = 1;
+    bool clean = false;
     DecodeOptions decode;
     Encoding encoding = Encoding::Binary;
 };
@@ -378,6 +383,12 @@ int reconstruct(const ReconstructRequest& request) {
         const int removed = reject_unconfirmed_points(view, correspondences, calibration, second_map, second);
         std::printf("%d points not confirmed by the second camera removed\n", removed);
     }
+    if (request.clean) {
+        const CleanReport cleaned = clean_view(view, calibration.camera_matrix(0, 0));
+        std::printf("cleaning removed %d points: %d grazing, %d outliers, %d with too few neighbours, %d in small "
+                    "clusters\n",
+                    cleaned.removed(), cleaned.by_grazing, cleaned.by_statistics, cleaned.by_radius, cleaned.by_cluster);
+    }
     const PointCloud cloud = to_point_cloud(view);
     if (cloud.points.empty()) throw Error(request.captures, "no pixel could be decoded and triangulated");
     write_ply(cloud, request.cloud, request.encoding);
@@ -407,6 +418,7 @@ int run_reconstruct(const Arguments& arguments) {
     request.mesh = arguments.text("--mesh");
     request.preview = arguments.text("--preview");
     request.mesh_step = arguments.integer("--mesh-step", 1);
+    request.clean = arguments.flag("--clean");
     request.second_calibration = arguments.text("--second-calibration");
     request.second_captures = arguments.text("--second-captures");
     if (request.second_calibration.empty() != request.second_captures.empty())
@@ -601,7 +613,7 @@ int main(int argc, char** argv) {
     const std::map<std::string, Command> commands{
         {"patterns", {kPatternsHelp, run_patterns, {"--rows", "--no-rows"}}},
         {"simulate", {kSimulateHelp, run_simulate, {"--rows", "--no-rows"}}},
-        {"reconstruct", {kReconstructHelp, run_reconstruct, {"--binary-only", "--ascii"}}},
+        {"reconstruct", {kReconstructHelp, run_reconstruct, {"--binary-only", "--ascii", "--clean"}}},
         {"manifest", {kManifestHelp, run_manifest, {}}},
         {"calibrate", {kCalibrateHelp, run_calibrate, {}}},
         {"response", {kResponseHelp, run_response, {}}},

@@ -118,8 +118,9 @@ TEST_F(Cli, PatternsCommandWritesTheSequence) {
 TEST_F(Cli, ReconstructWritesCloudMeshAndPreview) {
     const std::string out = make_temp_dir("cli-rec");
     const Result result = run_picoscan("reconstruct --calibration " + scan_ + "/calibration.yml --captures " + scan_ +
-                                   " --out " + out + "/cloud.ply --mesh " + out + "/part.stl --preview " + out + "/p.png");
+                                   " --out " + out + "/cloud.ply --mesh " + out + "/part.stl --preview " + out + "/p.png --clean");
     ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("cleaning removed"), std::string::npos) << result.output;
     EXPECT_GT(fs::file_size(out + "/cloud.ply"), 1000000u);
     EXPECT_GT(fs::file_size(out + "/part.stl"), 1000000u);
     const cv::Mat preview = cv::imread(out + "/p.png");
