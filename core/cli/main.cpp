@@ -223,7 +223,7 @@ public:
     }
     int integer(const std::string& key, int fallback) const {
         const double value = number(key, fallback);
-        if (value != double(int(value))) throw Error(key, "expects a whole number");
+        if (!(std::abs(value) < 1e9) || value != std::floor(value)) throw Error(key, "expects a whole number");
         return int(value);
     }
     bool flag(const std::string& key) const { return used_.insert(key), has(key); }
@@ -355,14 +355,17 @@ int reconstruct(const ReconstructRequest& request) {
     check_extension(request.cloud, {".ply"}, "point cloud file");
     check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
     check_extension(request.preview, {".png"}, "preview file");
-    const fs::path capture_directory = absolute_path(request.captures);
     for (const std::string& output : {request.cloud, request.mesh, request.preview}) {
         if (output.empty()) continue;
         const fs::path target = absolute_path(output);
-        if (target == capture_directory || is_inside(target, capture_directory))
-            throw Error(output, "output must not be written into the capture directory " + request.captures);
-        if (target == absolute_path(request.calibration) || (!request.manifest.empty() && target == absolute_path(request.manifest)))
-            throw Error(output, "output would overwrite an input file");
+        for (const std::string& captures : {request.captures, request.second_captures}) {
+            if (captures.empty()) continue;
+            const fs::path directory = absolute_path(captures);
+            if (target == directory || is_inside(target, directory))
+                throw Error(output, "output must not be written into the capture directory " + captures);
+        }
+        for (const std::string& input : {request.calibration, request.manifest, request.second_calibration})
+            if (!input.empty() && target == absolute_path(input)) throw Error(output, "output would overwrite an input file");
     }
     const Calibration calibration = read_calibration(request.calibration);
     const ProgressCallback progress = terminal_progress();
@@ -571,10 +574,11 @@ int run_demo(const Arguments& arguments) {
     const fs::path directory = arguments.text("--out", "demo-output");
     arguments.reject_unknown();
     const fs::path captures = directory / "captures";
+    const fs::path marker = captures / ".picoscan-demo";
     if (fs::exists(captures)) {
-        // Replace only the demo's own previous capture set, never anything else.
-        if (!fs::is_regular_file(captures / "sequence.json"))
-            throw Error(captures.string(), "exists and is not a capture set from an earlier demo; choose another --out");
+        // Replace only the demo's own previous capture set (it carries a marker), never anything else.
+        if (!fs::is_regular_file(marker))
+            throw Error(captures.string(), "exists and was not made by 'picoscan demo'; choose another --out");
         fs::remove_all(captures);
     }
     const Calibration calibration = seed_rig_calibration();
@@ -586,6 +590,7 @@ int run_demo(const Arguments& arguments) {
     const CaptureSet simulated =
         simulate_capture(make_pattern_sequence(patterns), calibration, demo_scene(), options, terminal_progress());
     write_capture_set(simulated, captures.string());
+    write_file_atomically(marker.string(), "made by picoscan demo; the next demo run replaces this folder\n");
     write_calibration(calibration, (directory / "calibration.yml").string());
     ReconstructRequest request;
     request.calibration = (directory / "calibration.yml").string();

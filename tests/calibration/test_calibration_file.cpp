@@ -64,3 +64,14 @@ TEST(CalibrationFile, ForeignFormatsAreRead) {
     EXPECT_EQ(slstudio.projector_size, cv::Size(1824, 1140));
     EXPECT_NEAR(slstudio.camera_matrix(0, 0), 2195.12, 0.01);
 }
+
+TEST(CalibrationFile, WindowsLineEndingsAndTrailingSpacesAreRead) {
+    const std::string directory = test_support::make_temp_dir("crlf");
+    write_calibration(seed_rig_calibration(), directory + "/calibration.yml");
+    std::ifstream in(directory + "/calibration.yml");
+    std::string line, converted;
+    while (std::getline(in, line)) converted += line + "  \r\n";
+    std::ofstream(directory + "/crlf.yml") << converted;
+    const Calibration read = read_calibration(directory + "/crlf.yml");
+    EXPECT_EQ(cv::norm(cv::Mat(read.camera_matrix), cv::Mat(seed_rig_calibration().camera_matrix), cv::NORM_INF), 0.0);
+}

@@ -289,3 +289,25 @@ TEST(CliResponse, FlatFramesGiveAResponseCorrection) {
     EXPECT_EQ(result.exit_code, 1);
     EXPECT_NE(result.output.find("would overwrite the input calibration"), std::string::npos) << result.output;
 }
+
+TEST(CliDemo, RefusesToReplaceCapturesItDidNotMake) {
+    const std::string root = make_temp_dir("cli-demo");
+    fs::create_directories(root + "/captures");
+    std::ofstream(root + "/captures/sequence.json") << "{}";
+    std::ofstream(root + "/captures/notes.txt") << "mine";
+    const Result result = run_picoscan("demo --out " + root);
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("was not made by 'picoscan demo'"), std::string::npos) << result.output;
+    EXPECT_EQ(read_file(root + "/captures/notes.txt"), "mine");
+}
+
+TEST_F(Cli, OutputInsideTheSecondCameraCaptures) {
+    const std::string second = copy_scan();
+    const auto before = snapshot(second);
+    const Result result = run_picoscan("reconstruct --calibration " + scan_ + "/calibration.yml --captures " + scan_ +
+                                       " --second-calibration " + second + "/calibration.yml --second-captures " + second +
+                                       " --out " + make_temp_dir("cli-second") + "/cloud.ply --preview " + second + "/p.png");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("must not be written into the capture directory"), std::string::npos) << result.output;
+    EXPECT_EQ(snapshot(second), before);
+}

@@ -111,7 +111,9 @@ struct CalibrateOptions {
     int recommended_views = 10;           // fewer gives a warning
     double min_pose_spread_deg = 5.0;     // largest angle between board orientations; less is degenerate
     // Fewer lens parameters for few poses: radial k1 only, and the camera's principal point at
-    // the image centre (the model SLStudio uses).
+    // the image centre (the model SLStudio uses). With the latter, the joint refinement keeps
+    // both principal points where the separate calibrations put them (OpenCV's stereo
+    // calibration fixes them together).
     bool radial_k1_only = false;
     bool camera_principal_point_at_centre = false;
 };

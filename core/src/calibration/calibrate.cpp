@@ -237,7 +237,8 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
             cv::Rodrigues(camera_rotations[a], ra);
             cv::Rodrigues(camera_rotations[b], rb);
             const cv::Vec3d na(ra(0, 2), ra(1, 2), ra(2, 2)), nb(rb(0, 2), rb(1, 2), rb(2, 2));
-            spread_deg = std::max(spread_deg, std::acos(std::clamp(na.dot(nb), -1.0, 1.0)) * 180 / kPi);
+            // |cos|: a board seen from its back (corners found in the opposite order) is still parallel.
+            spread_deg = std::max(spread_deg, std::acos(std::clamp(std::abs(na.dot(nb)), 0.0, 1.0)) * 180 / kPi);
         }
     if (spread_deg < options.min_pose_spread_deg) {
         char problem[200];

@@ -65,6 +65,9 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
     }
 
     captures.images.resize(frames.size());
+    int first_white = -1;  // its colour image colours the cloud
+    for (size_t index = 0; index < frames.size() && first_white < 0; ++index)
+        if (frames[index].kind == FrameKind::White) first_white = int(index);
     std::vector<std::string> errors(frames.size());
     detail::ProgressReporter reporter(progress, "load", int(frames.size()));
     detail::parallel_rows(static_cast<int>(frames.size()), [&](int begin, int end) {
@@ -85,8 +88,7 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
                 continue;
             }
             if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
-            if (frames[index].kind == FrameKind::White && image.channels() == 3 && image.depth() == CV_8U)
-                captures.white_colour = image.clone();
+            if (index == first_white && image.channels() == 3 && image.depth() == CV_8U) captures.white_colour = image.clone();
             if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
             captures.images[index] = image;
             reporter.advance();

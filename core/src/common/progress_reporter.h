@@ -16,10 +16,11 @@ public:
 
     // Adds `count` units of work done; returns false once the user asked to stop.
     bool advance(int count = 1) {
-        const int done = done_ += count;
-        if (!callback_ || cancelled_) return !cancelled_;
+        if (!callback_) return !cancelled_;
+        // Counted under the lock, so reports never go backwards.
         std::lock_guard<std::mutex> lock(mutex_);
-        if (!callback_(double(done) / total_, stage_)) cancelled_ = true;
+        done_ += count;
+        if (!cancelled_ && !callback_(double(done_) / total_, stage_)) cancelled_ = true;
         return !cancelled_;
     }
     bool cancelled() const { return cancelled_; }
@@ -28,7 +29,7 @@ private:
     const ProgressCallback& callback_;
     std::string stage_;
     int total_;
-    std::atomic<int> done_{0};
+    int done_ = 0;
     std::atomic<bool> cancelled_{false};
     std::mutex mutex_;
 };

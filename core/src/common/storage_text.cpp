@@ -129,7 +129,7 @@ public:
                     else if (field == "dt") continue;
                     else if (field == "data") {
                         std::string list = field_value;
-                        while (list.find(']') == std::string::npos && index < lines.size()) list += " " + content(index++);
+                        while (list.find(']') == std::string::npos && index < lines.size()) list += " " + trim(content(index++));
                         if (list.empty() || list.front() != '[' || list.back() != ']')
                             fail(field_number, "'" + key + "' data must be a [ ... ] list");
                         append_numbers(list.substr(1, list.size() - 2), field_number, value.numbers);
@@ -142,7 +142,7 @@ public:
                 check_matrix(value, key);
             } else if (rest.front() == '[') {
                 value.kind = StorageValue::Kind::List;
-                while (rest.find(']') == std::string::npos && index < lines.size()) rest += " " + content(index++);
+                while (rest.find(']') == std::string::npos && index < lines.size()) rest += " " + trim(content(index++));
                 if (rest.back() != ']') fail(number, "'" + key + "' list is not closed with ']'");
                 append_numbers(rest.substr(1, rest.size() - 2), number, value.numbers);
             } else {

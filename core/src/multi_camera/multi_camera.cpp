@@ -67,8 +67,7 @@ bool locate_code(const CorrespondenceMap& map, cv::Vec2i start, double u, double
             return true;
         }
     }
-    found = {x, y};
-    return true;
+    return false;  // no convergence: no reliable match
 }
 
 }  // namespace
@@ -114,8 +113,9 @@ ScanView triangulate_camera_pair(const CorrespondenceMap& map_a, const Calibrati
                 cv::Point2d in_b;
                 if (start[0] < 0 || !locate_code(map_b, start, u, v, in_b)) continue;
                 // Confirm: B's code at the found point agrees with A's.
-                const float bu = map_b.projector_u.at<float>(int(std::lround(in_b.y)), int(std::lround(in_b.x)));
-                const float bv = map_b.projector_v.at<float>(int(std::lround(in_b.y)), int(std::lround(in_b.x)));
+                const int bx = int(std::lround(in_b.x)), by = int(std::lround(in_b.y));
+                if (bx < 0 || by < 0 || bx >= map_b.projector_u.cols || by >= map_b.projector_u.rows) continue;
+                const float bu = map_b.projector_u.at<float>(by, bx), bv = map_b.projector_v.at<float>(by, bx);
                 if (!(std::abs(bu - u) < 1.0 + options.max_code_difference_px && std::abs(bv - v) < 1.0 + options.max_code_difference_px))
                     continue;
                 const cv::Vec2d na = lens_a.undistort(detail::pixel_to_normalised(calibration_a.camera_matrix, {double(x), double(y)}));
