@@ -383,7 +383,7 @@ int reconstruct(const ReconstructRequest& request) {
         if (second_captures.images.front().size() != second.camera_size)
             throw Error(request.second_calibration, "camera_size differs from the second camera's captures");
         const CorrespondenceMap second_map = decode(second_captures, request.decode, progress);
-        const int removed = reject_unconfirmed_points(view, correspondences, calibration, second_map, second);
+        const int removed = reject_unconfirmed_points(view, calibration, second_map, second);
         std::printf("%d points not confirmed by the second camera removed\n", removed);
     }
     if (request.clean) {

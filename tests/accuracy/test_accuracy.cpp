@@ -49,12 +49,7 @@ ScanView scan(const Scene& scene, bool binary_only, CorrespondenceMap* correspon
     return view;
 }
 
-std::vector<cv::Vec3f> valid_points(const ScanView& view) {
-    std::vector<cv::Vec3f> points;
-    for (auto it = view.points.begin<cv::Vec3f>(); it != view.points.end<cv::Vec3f>(); ++it)
-        if (std::isfinite((*it)[2])) points.push_back(*it);
-    return points;
-}
+std::vector<cv::Vec3f> valid_points(const ScanView& view) { return to_point_cloud(view).points; }
 
 Scene tilted_plane_scene(cv::Vec3d* normal_out, double* offset_out) {
     const double tilt = 20 * kPi / 180;

@@ -151,9 +151,7 @@ TEST(Calibrate, SimulatedSeedRigIsRecoveredAccurately) {
     DecodeOptions decode_options;
     decode_options.min_modulation = 25;
     const ScanView view = triangulate(decode(captures, decode_options), found);
-    std::vector<cv::Vec3f> points;
-    for (auto it = view.points.begin<cv::Vec3f>(); it != view.points.end<cv::Vec3f>(); ++it)
-        if (std::isfinite((*it)[2])) points.push_back(*it);
+    const std::vector<cv::Vec3f> points = to_point_cloud(view).points;
     const SphereFit fit = fit_sphere(points);
     std::printf("sphere through the recovered calibration: diameter error %+.1f um, RMS %.1f um\n",
                 2000 * (fit.radius_mm - 25), 1000 * fit.rms_mm);

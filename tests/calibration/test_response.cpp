@@ -48,9 +48,7 @@ CaptureSet capture(const Simulator& simulator, const PatternSequence& sequence, 
 
 double plane_rms_um(const CaptureSet& captures, const Calibration& calibration) {
     const ScanView view = triangulate(decode(captures), calibration);
-    std::vector<cv::Vec3f> points;
-    for (auto it = view.points.begin<cv::Vec3f>(); it != view.points.end<cv::Vec3f>(); ++it)
-        if (std::isfinite((*it)[2])) points.push_back(*it);
+    const std::vector<cv::Vec3f> points = to_point_cloud(view).points;
     return 1000 * fit_plane(points).rms_mm;
 }
 

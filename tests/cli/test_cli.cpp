@@ -266,12 +266,11 @@ TEST(CliResponse, FlatFramesGiveAResponseCorrection) {
     const picoscan::Simulator simulator(picoscan::read_calibration(scan + "/calibration.yml"), scene, options);
     fs::create_directories(root + "/captured");
     for (int level : picoscan::response_levels(9)) {
-        const cv::Mat flat = cv::imread(root + "/flats/level_" + std::string(level < 10 ? "00" : level < 100 ? "0" : "") +
-                                        std::to_string(level) + ".png", cv::IMREAD_GRAYSCALE);
+        char name[32];
+        std::snprintf(name, sizeof name, "level_%03d.png", level);
+        const cv::Mat flat = cv::imread(root + "/flats/" + name, cv::IMREAD_GRAYSCALE);
         ASSERT_FALSE(flat.empty()) << level;
-        cv::imwrite(root + "/captured/level_" + std::string(level < 10 ? "00" : level < 100 ? "0" : "") +
-                        std::to_string(level) + ".png",
-                    simulator.render(flat, level));
+        cv::imwrite(root + "/captured/" + name, simulator.render(flat, level));
     }
     result = run_picoscan("response --captures " + root + "/captured --calibration " + scan + "/calibration.yml --out " +
                           root + "/corrected.yml");

@@ -42,13 +42,6 @@ CorrespondenceMap scan(const Calibration& rig, const Scene& scene, uint64_t seed
     return decode(simulate_capture(make_pattern_sequence(patterns), rig, scene, options), decode_options);
 }
 
-std::vector<cv::Vec3f> valid_points(const ScanView& view) {
-    std::vector<cv::Vec3f> points;
-    for (auto it = view.points.begin<cv::Vec3f>(); it != view.points.end<cv::Vec3f>(); ++it)
-        if (std::isfinite((*it)[2])) points.push_back(*it);
-    return points;
-}
-
 struct TwoCameraScan {
     Calibration first, second;
     CorrespondenceMap map_first, map_second;
@@ -92,7 +85,7 @@ TEST(MultiCamera, CameraPairTriangulatesTheSphere) {
     const TwoCameraScan& data = sphere_scan();
     const ScanView view = triangulate_camera_pair(data.map_first, data.first, data.map_second, data.second);
     std::vector<cv::Vec3f> sphere;
-    for (const cv::Vec3f& point : valid_points(view))
+    for (const cv::Vec3f& point : to_point_cloud(view).points)
         if (cv::norm(cv::Vec3d(point) - cv::Vec3d(0, 0, 400)) < 30) sphere.push_back(point);
     const SphereFit fit = fit_sphere(sphere);
     std::printf("camera-camera sphere: %zu points, diameter error %+.1f um, RMS %.1f um\n", sphere.size(),
@@ -124,7 +117,7 @@ TEST(MultiCamera, StrayLightPointsAreRejectedWhenTheOtherCameraDisagrees) {
     cv::Mat was_valid(view.points.size(), CV_8U);
     for (int y = 0; y < view.points.rows; ++y)
         for (int x = 0; x < view.points.cols; ++x) was_valid.at<uint8_t>(y, x) = std::isfinite(view.points.at<cv::Vec3f>(y, x)[2]);
-    const int removed = reject_unconfirmed_points(view, corrupted, data.first, data.map_second, data.second);
+    const int removed = reject_unconfirmed_points(view, data.first, data.map_second, data.second);
     // Good points on the part of the sphere both cameras face (camera 2 at (-120, 0, 0)).
     long outliers = 0, outliers_removed = 0, good = 0, good_removed = 0, both_see = 0, both_see_removed = 0;
     auto seen_by_both = [](const cv::Vec3f& point) {

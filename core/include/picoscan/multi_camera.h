@@ -34,8 +34,7 @@ ScanView triangulate_camera_pair(const CorrespondenceMap& map_a, const Calibrati
 // Removes from `view` (camera A's organised cloud) the points camera B does not confirm: the
 // point projected into B must land on a pixel that decoded the same projector code. Returns how
 // many points were removed.
-int reject_unconfirmed_points(ScanView& view, const CorrespondenceMap& map_a, const Calibration& calibration_a,
-                              const CorrespondenceMap& map_b, const Calibration& calibration_b,
-                              const CameraPairOptions& options = {});
+int reject_unconfirmed_points(ScanView& view, const Calibration& calibration_a, const CorrespondenceMap& map_b,
+                              const Calibration& calibration_b, const CameraPairOptions& options = {});
 
 }  // namespace picoscan

@@ -212,15 +212,10 @@ void phase_row(const float* __restrict sum_sin, const float* __restrict sum_cos,
     }
 }
 
-struct AxisResult {
-    cv::Mat* position;  // projector u or v
-    float* quality_row = nullptr;
-};
-
+// Decodes rows [row_begin, row_end); returns the largest white-black contrast seen there.
 template <typename Pixel>
-void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptions& options, int row_begin,
-                 int row_end, CorrespondenceMap& map, std::atomic<int>& corrections, std::atomic<int>& valid_pixels,
-                 float& max_contrast) {
+float decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptions& options, int row_begin,
+                  int row_end, CorrespondenceMap& map, std::atomic<int>& corrections, std::atomic<int>& valid_pixels) {
     const int width = captures.images.front().cols;
     RowBuffers buffers(width);
     const float min_contrast = float(options.min_contrast) * plan.scale;
@@ -345,7 +340,7 @@ void decode_rows(const CaptureSet& captures, const Plan& plan, const DecodeOptio
     }
     corrections += local_corrections;
     valid_pixels += local_valid;
-    max_contrast = std::max(max_contrast, local_max_contrast);
+    return local_max_contrast;
 }
 
 }  // namespace
@@ -396,12 +391,9 @@ void decode_into(const CaptureSet& captures, const DecodeOptions& options, Corre
     detail::ProgressReporter reporter(progress, "decode", first.rows);
     detail::parallel_rows(first.rows, [&](int begin, int end) {
         if (reporter.cancelled()) return;
-        float max_contrast = 0;
-        if (first.depth() == CV_8U)
-            decode_rows<uint8_t>(captures, plan, options, begin, end, map, corrections, valid_pixels, max_contrast);
-        else
-            decode_rows<uint16_t>(captures, plan, options, begin, end, map, corrections, valid_pixels, max_contrast);
-        chunk_max_contrast[begin] = max_contrast;
+        chunk_max_contrast[begin] =
+            first.depth() == CV_8U ? decode_rows<uint8_t>(captures, plan, options, begin, end, map, corrections, valid_pixels)
+                                   : decode_rows<uint16_t>(captures, plan, options, begin, end, map, corrections, valid_pixels);
         reporter.advance(end - begin);
     });
     if (reporter.cancelled()) throw Error("cancelled", "decoding cancelled");

@@ -135,10 +135,8 @@ ScanView triangulate_camera_pair(const CorrespondenceMap& map_a, const Calibrati
     return view;
 }
 
-int reject_unconfirmed_points(ScanView& view, const CorrespondenceMap& map_a, const Calibration& calibration_a,
-                              const CorrespondenceMap& map_b, const Calibration& calibration_b,
-                              const CameraPairOptions& options) {
-    (void)map_a;
+int reject_unconfirmed_points(ScanView& view, const Calibration& calibration_a, const CorrespondenceMap& map_b,
+                              const Calibration& calibration_b, const CameraPairOptions& options) {
     require_rows(map_b, "camera B");
     const cv::Matx44d a_to_b = camera_to_camera(calibration_a, calibration_b);
     const cv::Matx33d rotation = a_to_b.get_minor<3, 3>(0, 0);
