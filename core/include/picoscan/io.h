@@ -23,6 +23,13 @@ Mesh read_stl(const std::string& path);
 // Any of the above by extension (.ply, .stl).
 Mesh read_mesh(const std::string& path);
 
+// A view's valid points with their camera pixel kept (vertex property "pixel" = y * width + x,
+// and the comments "picoscan_grid W H" and "picoscan_pose" + 16 numbers), so that the
+// organised view, and the features of its white frame, come back on reading.
+void write_view_ply(const ScanView& view, const std::string& path, Encoding encoding = Encoding::Binary);
+// Throws Error naming the file when it has no pixel grid (not written by write_view_ply).
+ScanView read_view_ply(const std::string& path);
+
 // Writes `bytes` to `path` through a temporary file and a rename.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
