@@ -4,6 +4,7 @@
 
 #include "picoscan/error.h"
 
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -60,6 +61,11 @@ VideoCaptureCamera::VideoCaptureCamera(const std::string& source, const CameraSe
     if (!index && source.find('%') == std::string::npos && !fs::exists(source))
         throw Error(name_, device_path ? "no such camera (the device does not exist; is it plugged in?)"
                                        : "no such camera or video file");
+    // OpenCV logs every backend it tries and fails with; the one-line Error below says it all.
+    struct QuietOpenCvLog {
+        cv::utils::logging::LogLevel previous = cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+        ~QuietOpenCvLog() { cv::utils::logging::setLogLevel(previous); }
+    } quiet;
     try {
         if (index) impl_->capture.open(std::stoi(source), cv::CAP_V4L2);
         else if (device_path) impl_->capture.open(source, cv::CAP_V4L2);
