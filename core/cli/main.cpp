@@ -190,23 +190,20 @@ public:
                 continue;
             }
             if (index + 1 >= argc) throw Error(key, "needs a value");
-            // A repeated option adds a value (--camera 0 --camera 1); reject_unknown refuses
-            // that for options that take one value.
-            if (values_.count(key)) extra_values_[key].push_back(argv[++index]);
-            else values_[key] = argv[++index];
+            values_[key] = argv[++index];
+            all_values_[key].push_back(values_[key]);  // a repeated option adds (--camera 0 --camera 1)
             // Further values up to the next option belong to the same key (--captures A B C).
-            while (index + 1 < argc && std::string(argv[index + 1]).rfind("--", 0) != 0)
+            while (index + 1 < argc && std::string(argv[index + 1]).rfind("--", 0) != 0) {
                 extra_values_[key].push_back(argv[++index]);
+                all_values_[key].push_back(extra_values_[key].back());
+            }
         }
     }
     // Every value given for a key that takes several.
     std::vector<std::string> list(const std::string& key) const {
         used_.insert(key);
         if (!has(key)) return {};
-        std::vector<std::string> values{values_.at(key)};
-        auto extra = extra_values_.find(key);
-        if (extra != extra_values_.end()) values.insert(values.end(), extra->second.begin(), extra->second.end());
-        return values;
+        return all_values_.at(key);
     }
     bool has(const std::string& key) const { return values_.count(key) > 0; }
     std::string text(const std::string& key, const std::string& fallback = "") const {
@@ -256,6 +253,7 @@ public:
 private:
     std::map<std::string, std::string> values_;
     std::map<std::string, std::vector<std::string>> extra_values_;
+    std::map<std::string, std::vector<std::string>> all_values_;  // every value, repeats included
     std::set<std::string> list_keys_;
     mutable std::set<std::string> used_;
 };

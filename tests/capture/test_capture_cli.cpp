@@ -186,7 +186,6 @@ TEST(CaptureCli, BadInputGivesOneClearLineAndKeepsWhatExists) {
 
     EXPECT_EQ(run_picoscan("scan --camera 0 --out " + work + "/c", &output), 1);
     EXPECT_NE(output.find("--calibration: is required with a real camera"), std::string::npos) << output;
-    EXPECT_EQ(run_picoscan("capture --camera virtual --out " + work + "/d --out " + work + "/e", &output), 1);
 
     EXPECT_EQ(run_picoscan("capture --help", &output), 0);
     EXPECT_NE(output.find("--resume"), std::string::npos);

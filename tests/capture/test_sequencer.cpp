@@ -47,21 +47,6 @@ size_t file_count(const std::string& directory) {
     return size_t(std::distance(fs::directory_iterator(directory), fs::directory_iterator()));
 }
 
-// A camera that delivers `frames_left` frames of another camera, then fails like an unplugged one.
-class UnpluggedCamera : public Camera {
-public:
-    UnpluggedCamera(Camera& camera, int frames_left) : camera_(camera), frames_left_(frames_left) {}
-    std::string name() const override { return "camera 3"; }
-    cv::Mat grab() override {
-        if (frames_left_-- <= 0) throw Error(name(), "delivered no frame (unplugged, or the video ended)");
-        return camera_.grab();
-    }
-
-private:
-    Camera& camera_;
-    int frames_left_;
-};
-
 }  // namespace
 
 TEST(Sequencer, MeasuredLatencyMakesEveryFrameShowItsOwnPattern) {
@@ -157,9 +142,20 @@ TEST(Sequencer, ACameraLostMidSequenceKeepsItsFramesAndResumeCompletes) {
     VirtualCamera virtual_camera(rig, demo_scene(), noiseless(), display);
     const std::string directory = make_temp_dir("sequencer-unplugged");
 
-    UnpluggedCamera unplugged(virtual_camera, 10);
+    // A webcam that stops after 10 frames: OpenCV's image-sequence backend over the first 10
+    // renders (plus the frame the camera reads when it opens), then no more files.
+    const std::string frames = make_temp_dir("sequencer-unplugged-frames");
+    const Simulator simulator(rig, demo_scene(), noiseless());
+    for (int index = -1; index < 10; ++index) {
+        const cv::Mat render = simulator.render(render_pattern(sequence, sequence.frames[std::max(index, 0)]), 0);
+        cv::imwrite(frames + cv::format("/frame_%03d.png", index + 1), render);
+    }
+    CameraSettings no_flush;
+    no_flush.flush_frames = 0;
+    const std::string source = frames + "/frame_%03d.png";
+    VideoCaptureCamera unplugged(source, no_flush);
     const std::string message = error_of([&] { capture_sequence(sequence, display, {&unplugged}, {directory}, {}); });
-    EXPECT_NE(message.find("camera 3: delivered no frame"), std::string::npos) << message;
+    EXPECT_NE(message.find(source + ": delivered no frame"), std::string::npos) << message;
     const std::vector<bool> present = frames_present(sequence, directory);
     EXPECT_EQ(std::count(present.begin(), present.end(), true), 10);
     for (int index = 0; index < 10; ++index) EXPECT_TRUE(present[index]) << index;
@@ -173,7 +169,6 @@ TEST(Sequencer, ACameraLostMidSequenceKeepsItsFramesAndResumeCompletes) {
     EXPECT_EQ(report.already_present, 10);
     EXPECT_EQ(report.captured, int(sequence.frames.size()) - 10);
     const CaptureSet completed = load_capture_set(directory);
-    const Simulator simulator(rig, demo_scene(), noiseless());
     for (size_t index = 0; index < sequence.frames.size(); ++index)
         EXPECT_EQ(differing_pixels(completed.images[index],
                                    simulator.render(render_pattern(sequence, sequence.frames[index]), 0)),
