@@ -25,6 +25,9 @@ struct RegistrationOptions {
     double sample_spacing_mm = 0.7;     // points are thinned to about this spacing for ICP
     double min_overlap = 0.08;          // fraction of the smaller view's points with a close partner
     int global_sweeps = 6;              // multi-view refinement passes over all views
+    // align_views: view -> model guesses, one per view (a previous alignment, a manual one);
+    // ICP starts from them instead of features. Empty: features (or the turntable).
+    std::vector<cv::Matx44d> initial_poses;
 };
 
 // Rigid transform turning `moving` (view coordinates) into `fixed`'s view coordinates.

@@ -242,6 +242,9 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
                       const ProgressCallback& progress) {
     if (views.empty()) throw Error("views", "nothing to align");
     if (names.size() != views.size()) throw Error("views", "one name per view is needed");
+    if (!options.initial_poses.empty() && options.initial_poses.size() != views.size())
+        throw Error("initial poses", std::to_string(options.initial_poses.size()) + " given for " + std::to_string(views.size()) + " views");
+    const bool guessed = turntable || !options.initial_poses.empty();
     const size_t n = views.size();
     Alignment alignment;
     alignment.views.resize(n);
@@ -255,7 +258,7 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
     for (size_t i = 0; i < n; ++i) {
         report(0.1 * i / n, "sampling and finding features");
         samples[i] = detail::sample_view(views[i], options.sample_spacing_mm);
-        if (!turntable) features[i] = detail::view_features(views[i], options.orb_features);
+        if (!guessed) features[i] = detail::view_features(views[i], options.orb_features);
     }
 
     // Grow a tree of registered views from view 0, trying the likeliest pairs first: views
@@ -284,7 +287,9 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
             tried[c] = true;
             report(0.1 + 0.5 * reached_count / n, "registering " + names[j] + " to " + names[i]);
             std::optional<cv::Matx44d> guess;
-            if (turntable)
+            if (!options.initial_poses.empty())
+                guess = inverse_rigid(options.initial_poses[i]) * options.initial_poses[j];
+            else if (turntable)
                 guess = inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
             edges.push_back({i, j, register_samples(samples[i], samples[j], &features[i], &features[j], options, guess)});
             if (!edges.back().result.problem.empty()) continue;
