@@ -62,7 +62,7 @@ PairRegistration register_samples(const detail::SurfaceSamples& fixed, const det
     // on the white frames, then shape (FPFH) hypotheses. Several of each, because a nearly
     // symmetric part offers several good-looking fits and only ICP with the texture check can
     // tell which is right.
-    const int hypotheses = 5;
+    const int hypotheses = 15;
     PairRegistration first;
     bool tried = false;
     for (int round = 0; round < (initial_guess ? 1 : 2); ++round) {

@@ -212,7 +212,15 @@ std::vector<CoarseAlignment> match_features(const ViewFeatures& fixed, const Vie
     cv::RNG rng(0x5eed);  // deterministic: the same views register the same way
     const int n = static_cast<int>(from.size());
     std::vector<CoarseAlignment> best;  // most inliers first, pairwise distinct
-    for (int iteration = 0; iteration < options.ransac_iterations; ++iteration) {
+    // Stop once a better consensus than the best would have been drawn with 99.9 % certainty
+    // (Fischler & Bolles), but not before 2000 draws, so that the runners-up are sampled too.
+    int needed = options.ransac_iterations;
+    for (int iteration = 0; iteration < std::min(needed, options.ransac_iterations); ++iteration) {
+        if (!best.empty()) {
+            const double w = static_cast<double>(best.front().inliers) / n;
+            const double draws = std::log(1e-3) / std::log(std::max(1e-12, 1.0 - w * w * w));
+            needed = std::max(2000, static_cast<int>(std::min(draws, 1e9)));
+        }
         const int a = rng.uniform(0, n), b = rng.uniform(0, n), c = rng.uniform(0, n);
         if (a == b || b == c || a == c) continue;
         // A rigid motion keeps distances: reject inconsistent samples before fitting.
