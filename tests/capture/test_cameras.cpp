@@ -15,6 +15,8 @@ namespace fs = std::filesystem;
 using namespace picoscan;
 using picoscan::test_support::make_temp_dir;
 
+using picoscan::test_support::error_of;
+
 namespace {
 
 // Frame k of the fake camera is uniformly 10*k + 5, so a level tells which frame was read.
@@ -30,15 +32,6 @@ std::string write_numbered_frames(const std::string& directory, int count, cv::S
 }
 
 double level(const cv::Mat& frame) { return cv::mean(frame)[0]; }
-
-std::string error_of(const std::function<void()>& action) {
-    try {
-        action();
-    } catch (const Error& error) {
-        return error.what();
-    }
-    return "";
-}
 
 }  // namespace
 

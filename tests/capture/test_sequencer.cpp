@@ -18,6 +18,8 @@ using namespace picoscan;
 using namespace picoscan::capture_test;
 using picoscan::test_support::make_temp_dir;
 
+using picoscan::test_support::error_of;
+
 namespace {
 
 PatternSequence short_sequence() {
@@ -32,15 +34,6 @@ SimulationOptions noiseless() {
     SimulationOptions options;
     options.noise_sigma_dn = 0.0;
     return options;
-}
-
-std::string error_of(const std::function<void()>& action) {
-    try {
-        action();
-    } catch (const Error& error) {
-        return error.what();
-    }
-    return "";
 }
 
 size_t file_count(const std::string& directory) {

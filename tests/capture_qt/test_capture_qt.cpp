@@ -18,19 +18,12 @@ using picoscan::test_support::cli_path;
 using picoscan::test_support::make_temp_dir;
 using picoscan::test_support::run_command;
 
+using picoscan::test_support::error_of;
+
 namespace {
 
 constexpr int kProjectorScreen = 1;
 const cv::Size kProjectorSize{854, 480};
-
-std::string error_of(const std::function<void()>& action) {
-    try {
-        action();
-    } catch (const Error& error) {
-        return error.what();
-    }
-    return "";
-}
 
 int differing_pixels(const cv::Mat& a, const cv::Mat& b) {
     if (a.size() != b.size() || a.type() != b.type()) return int(std::max(a.total(), b.total()));

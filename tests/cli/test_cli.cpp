@@ -14,19 +14,10 @@ namespace fs = std::filesystem;
 using picoscan::test_support::cli_path;
 using picoscan::test_support::make_temp_dir;
 using picoscan::test_support::run_command;
+using picoscan::test_support::run_picoscan;
+using Result = picoscan::test_support::CliResult;
 
 namespace {
-
-struct Result {
-    int exit_code;
-    std::string output;
-};
-
-Result run_picoscan(const std::string& arguments) {
-    Result result;
-    result.exit_code = run_command(cli_path() + " " + arguments, &result.output);
-    return result;
-}
 
 int line_count(const std::string& text) {
     int lines = 0;

@@ -19,19 +19,10 @@ using namespace picoscan;
 using test_support::cli_path;
 using test_support::make_temp_dir;
 using test_support::run_command;
+using test_support::run_picoscan;
+using Result = test_support::CliResult;
 
 namespace {
-
-struct Result {
-    int exit_code;
-    std::string output;
-};
-
-Result run_picoscan(const std::string& arguments) {
-    Result result;
-    result.exit_code = run_command(cli_path() + " " + arguments, &result.output);
-    return result;
-}
 
 std::string view_file(size_t index) {
     test_support::disturbed_turntable_scan();  // makes the cached view files

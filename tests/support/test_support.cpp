@@ -1,5 +1,7 @@
 #include "support/test_support.h"
 
+#include "picoscan/error.h"
+
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -62,5 +64,20 @@ int run_command(const std::string& command, std::string* output) {
 }
 
 std::string cli_path() { return PICOSCAN_CLI; }
+
+std::string error_of(const std::function<void()>& action) {
+    try {
+        action();
+    } catch (const Error& error) {
+        return error.what();
+    }
+    return "";
+}
+
+CliResult run_picoscan(const std::string& arguments) {
+    CliResult result;
+    result.exit_code = run_command(cli_path() + " " + arguments, &result.output);
+    return result;
+}
 
 }  // namespace picoscan::test_support

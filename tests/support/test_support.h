@@ -1,6 +1,7 @@
 // Shared helpers for the test suites.
 #pragma once
 
+#include <functional>
 #include <string>
 
 namespace picoscan::test_support {
@@ -13,6 +14,16 @@ std::string make_temp_dir(const std::string& name);
 int run_command(const std::string& command, std::string* output = nullptr);
 // Path of the built `picoscan` CLI.
 std::string cli_path();
+
+// `picoscan ARGUMENTS` run through the shell: its exit code and its stdout+stderr.
+struct CliResult {
+    int exit_code;
+    std::string output;
+};
+CliResult run_picoscan(const std::string& arguments);
+
+// The message of the picoscan::Error that `action` throws, or "" when it throws none.
+std::string error_of(const std::function<void()>& action);
 
 }  // namespace picoscan::test_support
 

@@ -16,17 +16,6 @@ namespace picoscan::test_support {
 
 namespace {
 
-cv::Matx44d inverse_rigid(const cv::Matx44d& t) {
-    const cv::Matx33d r = t.get_minor<3, 3>(0, 0).t();
-    const cv::Vec3d shift = -(r * cv::Vec3d(t(0, 3), t(1, 3), t(2, 3)));
-    cv::Matx44d out = cv::Matx44d::eye();
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) out(i, j) = r(i, j);
-        out(i, 3) = shift[i];
-    }
-    return out;
-}
-
 ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera) {
     const Calibration rig = seed_rig_calibration();
     Scene scene;
@@ -64,7 +53,7 @@ TurntableScan make_scan(const std::string& name, double disturbance_deg, double 
         }
         scan.views.push_back(read_view_ply(path.string()));
         scan.names.push_back(file);
-        scan.true_view_to_model.push_back(scan.part_to_camera[0] * inverse_rigid(scan.part_to_camera[i]));
+        scan.true_view_to_model.push_back(scan.part_to_camera[0] * scan.part_to_camera[i].inv());
     }
     return scan;
 }

@@ -22,17 +22,6 @@ std::string format(const char* pattern, double value) {
     return text;
 }
 
-cv::Matx44d inverse_rigid(const cv::Matx44d& t) {
-    const cv::Matx33d rotation = t.get_minor<3, 3>(0, 0).t();
-    const cv::Vec3d translation = -(rotation * cv::Vec3d(t(0, 3), t(1, 3), t(2, 3)));
-    cv::Matx44d inverse = cv::Matx44d::eye();
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) inverse(r, c) = rotation(r, c);
-        inverse(r, 3) = translation[r];
-    }
-    return inverse;
-}
-
 // A pair is accepted when ICP converged onto enough shared surface, tightly.
 void judge(PairRegistration& pair, const RegistrationOptions& options, double sample_spacing_mm, double texture_agreement) {
     const double max_rms = std::max(0.25, sample_spacing_mm / 2);
@@ -226,11 +215,11 @@ cv::Matx44d turntable_pose(const TurntableAxis& axis, int step) {
     const cv::Vec3d c = axis.point_mm;
     const cv::Vec3d shift = c - rotation.get_minor<3, 3>(0, 0) * c;
     for (int r = 0; r < 3; ++r) about_axis(r, 3) = shift[r];
-    return inverse_rigid(about_axis);
+    return detail::inverse_rigid(about_axis);
 }
 
 PoseDifference pose_difference(const cv::Matx44d& a, const cv::Matx44d& b, const cv::Vec3d& at) {
-    const cv::Matx44d relative = inverse_rigid(a) * b;
+    const cv::Matx44d relative = detail::inverse_rigid(a) * b;
     const cv::Matx33d rotation = relative.get_minor<3, 3>(0, 0);
     const double cosine = std::clamp((cv::trace(rotation) - 1.0) / 2.0, -1.0, 1.0);
     const cv::Vec3d moved = rotation * at + cv::Vec3d(relative(0, 3), relative(1, 3), relative(2, 3));
@@ -288,9 +277,9 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
             report(0.1 + 0.5 * reached_count / n, "registering " + names[j] + " to " + names[i]);
             std::optional<cv::Matx44d> guess;
             if (!options.initial_poses.empty())
-                guess = inverse_rigid(options.initial_poses[i]) * options.initial_poses[j];
+                guess = detail::inverse_rigid(options.initial_poses[i]) * options.initial_poses[j];
             else if (turntable)
-                guess = inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
+                guess = detail::inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
             edges.push_back({i, j, register_samples(samples[i], samples[j], &features[i], &features[j], options, guess)});
             if (!edges.back().result.problem.empty()) continue;
             poses[j] = poses[i] * edges.back().result.transform;

@@ -135,13 +135,7 @@ cv::Matx44d rigid_fit(const std::vector<cv::Vec3d>& from, const std::vector<cv::
         flip.at<double>(2, 2) = -1;
         rotation = cv::Matx33d(cv::Mat(u * flip * vt));
     }
-    const cv::Vec3d translation = mean_to - rotation * mean_from;
-    cv::Matx44d transform = cv::Matx44d::eye();
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) transform(r, c) = rotation(r, c);
-        transform(r, 3) = translation[r];
-    }
-    return transform;
+    return rigid_transform(rotation, mean_to - rotation * mean_from);
 }
 
 namespace {

@@ -9,15 +9,24 @@
 
 namespace picoscan::detail {
 
+cv::Matx44d rigid_transform(const cv::Matx33d& rotation, const cv::Vec3d& translation) {
+    cv::Matx44d transform = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) transform(r, c) = rotation(r, c);
+        transform(r, 3) = translation[r];
+    }
+    return transform;
+}
+
+cv::Matx44d inverse_rigid(const cv::Matx44d& transform) {
+    const cv::Matx33d rotation = transform.get_minor<3, 3>(0, 0).t();
+    return rigid_transform(rotation, -(rotation * cv::Vec3d(transform(0, 3), transform(1, 3), transform(2, 3))));
+}
+
 cv::Matx44d motion_matrix(const cv::Vec3d& rotation_vector, const cv::Vec3d& translation) {
     cv::Matx33d rotation;
     cv::Rodrigues(rotation_vector, rotation);
-    cv::Matx44d motion = cv::Matx44d::eye();
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) motion(r, c) = rotation(r, c);
-        motion(r, 3) = translation[r];
-    }
-    return motion;
+    return rigid_transform(rotation, translation);
 }
 
 namespace {

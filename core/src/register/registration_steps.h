@@ -49,6 +49,10 @@ struct IcpResult {
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
                              const RegistrationOptions& options);
 
+// Rotation and translation -> 4x4 transform, and the inverse of such a transform.
+cv::Matx44d rigid_transform(const cv::Matx33d& rotation, const cv::Vec3d& translation);
+cv::Matx44d inverse_rigid(const cv::Matx44d& transform);
+
 // Small-motion update: rotation vector (rad) and translation -> 4x4 transform.
 cv::Matx44d motion_matrix(const cv::Vec3d& rotation_vector, const cv::Vec3d& translation);
 
