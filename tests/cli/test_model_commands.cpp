@@ -26,7 +26,7 @@ namespace {
 
 std::string view_file(size_t index) {
     test_support::disturbed_turntable_scan();  // makes the cached view files
-    return (fs::path(PICOSCAN_TEST_CACHE_DIR) / "turntable-v1-disturbed" / ("view_" + std::to_string(index) + ".ply")).string();
+    return (fs::path(PICOSCAN_TEST_CACHE_DIR) / "turntable-v2-disturbed" / ("view_" + std::to_string(index) + ".ply")).string();
 }
 
 std::string file_bytes(const std::string& path) {

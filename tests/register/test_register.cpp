@@ -5,6 +5,7 @@
 #include "picoscan/register.h"
 #include "picoscan/simulate.h"
 #include "picoscan/triangulate.h"
+#include "support/test_support.h"
 #include "support/turntable_scan.h"
 
 #include <gtest/gtest.h>
@@ -100,4 +101,36 @@ TEST(Register, PoseDifferenceMeasuresAngleAndShift) {
     const PoseDifference shifted = pose_difference(cv::Matx44d::eye(), turntable_pose(axis, 3));  // 90 degrees
     EXPECT_NEAR(shifted.rotation_deg, 90, 1e-9);
     EXPECT_NEAR(shifted.translation_mm, 10 * std::sqrt(2.0), 1e-9);
+}
+
+TEST(Register, TurntableAxisIsCalibratedFromAlignedViews) {
+    const test_support::TurntableScan& scan = test_support::turntable_scan();
+    std::vector<ScanView> ring(scan.views.begin(), scan.views.begin() + 8);
+    std::vector<std::string> names(scan.names.begin(), scan.names.begin() + 8);
+    const Alignment alignment = align_views(ring, names);
+    ASSERT_EQ(alignment.aligned_count(), 8);
+    std::vector<cv::Matx44d> poses;
+    for (const ViewAlignment& view : alignment.views) poses.push_back(view.pose);
+    const TurntableAxis axis = fit_turntable_axis(poses);
+    // True axis: the part's z axis through its origin, in view 0's camera frame.
+    const cv::Matx44d part = scan.part_to_camera[0];
+    const cv::Vec3d true_direction(part(0, 2), part(1, 2), part(2, 2)), true_point(part(0, 3), part(1, 3), part(2, 3));
+    const double angle_deg = std::acos(std::min(1.0, axis.direction.dot(true_direction))) * 180 / CV_PI;
+    const cv::Vec3d offset = axis.point_mm - true_point;
+    const double distance_mm = cv::norm(offset - true_direction * offset.dot(true_direction));
+    std::printf("turntable axis: %.4f deg off, %.4f mm from the true axis, step %.4f deg\n", angle_deg, distance_mm,
+                axis.step_deg);
+    EXPECT_LT(angle_deg, 0.05);
+    EXPECT_LT(distance_mm, 0.05);
+    EXPECT_NEAR(axis.step_deg, 45.0, 0.05);
+    for (int k = 1; k < 8; ++k) {
+        const PoseDifference error = pose_difference(scan.true_view_to_model[k], turntable_pose(axis, k), scan.centroid(k));
+        EXPECT_LT(error.rotation_deg, 0.1) << k;
+        EXPECT_LT(error.translation_mm, 0.1) << k;
+    }
+    // The disturbed views are no turntable sequence: refused, not fitted.
+    const test_support::TurntableScan& knocked = test_support::disturbed_turntable_scan();
+    std::vector<cv::Matx44d> knocked_poses(knocked.true_view_to_model.begin(), knocked.true_view_to_model.begin() + 8);
+    EXPECT_NE(test_support::error_of([&] { fit_turntable_axis(knocked_poses); }).find("not one turntable sequence"),
+              std::string::npos);
 }

@@ -16,7 +16,7 @@ namespace picoscan::test_support {
 
 namespace {
 
-ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera) {
+ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t noise_seed) {
     const Calibration rig = seed_rig_calibration();
     Scene scene;
     scene.meshes.push_back({transformed(part, part_to_camera), 0.85});
@@ -27,6 +27,7 @@ ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera) {
     camera.full_scale_dn = 250;
     camera.noise_sigma_dn = 1.0;
     camera.blur_sigma_px = 0.5;
+    camera.seed = noise_seed;  // independent camera noise in every view
     const CaptureSet captures = simulate_capture(make_pattern_sequence(patterns), rig, scene, camera);
     DecodeOptions decoding;
     decoding.min_modulation = 15;
@@ -49,7 +50,7 @@ TurntableScan make_scan(const std::string& name, double disturbance_deg, double 
         const std::filesystem::path path = cache / file;
         if (!std::filesystem::exists(path)) {
             std::printf("scanning %s (cached in %s)\n", file.c_str(), cache.string().c_str());
-            write_view_ply(scan_view(scan.part, scan.part_to_camera[i]), path.string());
+            write_view_ply(scan_view(scan.part, scan.part_to_camera[i], i + 1), path.string());
         }
         scan.views.push_back(read_view_ply(path.string()));
         scan.names.push_back(file);
@@ -69,12 +70,12 @@ cv::Vec3d TurntableScan::centroid(size_t view) const {
 
 // The cache key names everything that shapes the scan; change it when any of that changes.
 const TurntableScan& disturbed_turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v1-disturbed", 10, 20);
+    static const TurntableScan scan = make_scan("turntable-v2-disturbed", 10, 20);
     return scan;
 }
 
 const TurntableScan& turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v1-exact", 0, 0);
+    static const TurntableScan scan = make_scan("turntable-v2-exact", 0, 0);
     return scan;
 }
 

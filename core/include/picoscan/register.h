@@ -59,6 +59,12 @@ struct TurntableAxis {
 // The transform from view i's coordinates to view 0's for a part turned i steps.
 cv::Matx44d turntable_pose(const TurntableAxis& axis, int step);
 
+// Calibrates a turntable from aligned views taken in equal steps around it (view -> model
+// poses, view 0 first): the common rotation axis, a point on it nearest the views' origin,
+// and the mean step. Throws Error when the rotations do not share one axis within
+// max_axis_spread_deg (not a turntable sequence). Use the result with --turntable next time.
+TurntableAxis fit_turntable_axis(const std::vector<cv::Matx44d>& poses, double max_axis_spread_deg = 1.0);
+
 struct ViewAlignment {
     std::string name;
     cv::Matx44d pose = cv::Matx44d::eye();  // view -> model

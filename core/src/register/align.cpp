@@ -218,6 +218,50 @@ cv::Matx44d turntable_pose(const TurntableAxis& axis, int step) {
     return detail::inverse_rigid(about_axis);
 }
 
+TurntableAxis fit_turntable_axis(const std::vector<cv::Matx44d>& poses, double max_axis_spread_deg) {
+    if (poses.size() < 3) throw Error("turntable", "needs at least 3 views to calibrate the axis");
+    // Each pose turns view k back by k steps: its rotation vector lies along the axis.
+    std::vector<cv::Vec3d> axes;
+    std::vector<double> steps;
+    for (size_t k = 1; k < poses.size(); ++k) {
+        cv::Vec3d rotation_vector;
+        cv::Rodrigues(cv::Matx33d(poses[k].get_minor<3, 3>(0, 0)), rotation_vector);
+        const double angle = cv::norm(rotation_vector);
+        if (angle < 1e-3) throw Error("turntable", "view " + std::to_string(k) + " is not turned against view 0");
+        cv::Vec3d axis = rotation_vector / angle;
+        if (!axes.empty() && axis.dot(axes.front()) < 0) axis = -axis;
+        axes.push_back(axis);
+        steps.push_back(angle * 180.0 / CV_PI);
+    }
+    cv::Vec3d direction(0, 0, 0);
+    for (const cv::Vec3d& axis : axes) direction += axis;
+    direction = cv::normalize(direction);
+    for (size_t k = 0; k < axes.size(); ++k) {
+        const double spread = std::acos(std::clamp(axes[k].dot(direction), -1.0, 1.0)) * 180.0 / CV_PI;
+        if (spread > max_axis_spread_deg)
+            throw Error("turntable", "view " + std::to_string(k + 1) + " turns about an axis " + format("%.2f", spread) +
+                                         " degrees off the others: not one turntable sequence");
+    }
+    // A point c on the axis: every pose maps it to itself, (I - R_k) c = t_k; plus direction . c = 0.
+    cv::Mat a(static_cast<int>(3 * (poses.size() - 1) + 1), 3, CV_64F), b(a.rows, 1, CV_64F);
+    for (size_t k = 1; k < poses.size(); ++k) {
+        const cv::Matx33d m = cv::Matx33d::eye() - poses[k].get_minor<3, 3>(0, 0);
+        for (int r = 0; r < 3; ++r) {
+            const int row = static_cast<int>(3 * (k - 1)) + r;
+            for (int c = 0; c < 3; ++c) a.at<double>(row, c) = m(r, c);
+            b.at<double>(row) = poses[k](r, 3);
+        }
+    }
+    for (int c = 0; c < 3; ++c) a.at<double>(a.rows - 1, c) = direction[c];
+    b.at<double>(a.rows - 1) = 0;
+    cv::Mat point;
+    cv::solve(a, b, point, cv::DECOMP_SVD);
+    // Step: the first view's angle, unwrapped (views may go past 180 degrees).
+    double step = steps.front();
+    // Poses turn views back, so the part turns the opposite way about `direction`.
+    return TurntableAxis{cv::Vec3d(point.at<double>(0), point.at<double>(1), point.at<double>(2)), -direction, step};
+}
+
 PoseDifference pose_difference(const cv::Matx44d& a, const cv::Matx44d& b, const cv::Vec3d& at) {
     const cv::Matx44d relative = detail::inverse_rigid(a) * b;
     const cv::Matx33d rotation = relative.get_minor<3, 3>(0, 0);
