@@ -29,8 +29,23 @@ void bind_simulate(py::module_& m) {
             [](Scene& s, const cv::Vec3d& base_centre, const cv::Vec3d& axis, double radius_mm, double height_mm,
                double albedo) { s.cylinders.push_back({base_centre, axis, radius_mm, height_mm, albedo}); },
             py::arg("base_centre"), py::arg("axis"), py::arg("radius_mm"), py::arg("height_mm"), py::arg("albedo") = 0.8)
+        .def(
+            "add_board",
+            [](Scene& s, const cv::Matx33d& rotation, const cv::Vec3d& translation, const cv::Size& inner_corners,
+               double square_mm, double margin_mm) {
+                CalibrationBoard board;
+                board.rotation = rotation;
+                board.translation = translation;
+                board.inner_corners = inner_corners;
+                board.square_mm = square_mm;
+                board.margin_mm = margin_mm;
+                s.boards.push_back(board);
+            },
+            py::arg("rotation"), py::arg("translation"), py::arg("inner_corners") = cv::Size(9, 6),
+            py::arg("square_mm") = 10.0, py::arg("margin_mm") = 10.0,
+            "A chessboard: camera point = rotation * board point + translation (board z = 0 on its face)")
         .def_property_readonly("shape_count", [](const Scene& s) {
-            return s.spheres.size() + s.planes.size() + s.boxes.size() + s.cylinders.size() + s.meshes.size();
+            return s.spheres.size() + s.planes.size() + s.boxes.size() + s.cylinders.size() + s.meshes.size() + s.boards.size();
         });
     m.def("demo_scene", &demo_scene);
     m.def("read_scene", &read_scene, py::arg("path"));

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 using namespace picoscan;
@@ -47,6 +48,12 @@ TEST(DetectShapes, CylinderRadiusWithinTwentyMicrons) {
     NoisyCloud scan(0.05);
     const cv::Vec3d axis = cv::normalize(cv::Vec3d(0.1, 1.0, 0.05));
     add_shaft(scan, {5, -30, 400}, axis, 12.5, 60);
+    // Edge pixels of a view come without a usable normal: they must not disturb the detection.
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (int i = 0; i < 50; ++i) {
+        scan.cloud.points.emplace_back(0.f, 0.f, 380.f + i);
+        scan.cloud.normals.emplace_back(nan, nan, nan);
+    }
     ShapeDetectionOptions options;
     options.planes = options.spheres = options.cones = false;
     const auto shapes = detect_shapes(scan.cloud, options);

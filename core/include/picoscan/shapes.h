@@ -22,6 +22,8 @@ struct ShapeDetectionOptions {
     int min_points = 500;              // shapes with fewer inliers are not reported
     double probability = 0.01;         // chance of missing the largest shape (smaller: more search)
     bool refine = true;                // least-squares refinement of every shape on its inliers
+    // A cone narrower than this is a cylinder seen with noise: it is reported (and refined) as one.
+    double min_cone_half_angle_deg = 2.0;
 };
 
 // One detected primitive, in the cloud's frame (mm).

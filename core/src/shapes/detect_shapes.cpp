@@ -243,6 +243,8 @@ std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDet
     for (size_t i = 0; i < cloud.points.size(); ++i) {
         const cv::Vec3f& p = cloud.points[i];
         const cv::Vec3f& n = cloud.normals[i];
+        // Points without a usable normal (edges of a view) cannot vote for a shape.
+        if (!std::isfinite(p.dot(p) + n.dot(n)) || n.dot(n) < 0.5f) continue;
         input.emplace_back(Kernel::Point_3(p[0], p[1], p[2]), Kernel::Vector_3(n[0], n[1], n[2]), int(i));
     }
 
@@ -299,6 +301,13 @@ std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDet
             continue;
         }
         const std::vector<cv::Vec3d> points = inlier_points(cloud, shape.inliers);
+        if (shape.kind == ShapeKind::Cone && shape.half_angle_deg < options.min_cone_half_angle_deg) {
+            if (!options.cylinders) continue;
+            shape.kind = ShapeKind::Cylinder;
+            double radius_sum = 0;
+            for (const cv::Vec3d& point : points) radius_sum += radial_distance(point, shape.point, shape.direction);
+            shape.radius_mm = radius_sum / double(points.size());
+        }
         if (options.refine) {
             switch (shape.kind) {
                 case ShapeKind::Plane: refine_plane(shape, cloud); break;

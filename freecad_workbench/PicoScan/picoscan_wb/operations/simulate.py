@@ -61,3 +61,48 @@ def simulate_scan(folder, scene, camera_scale=1.0, shifts=8, noise_dn=1.0, seed=
     calibration_file = os.path.join(folder, "calibration.yml")
     picoscan.write_calibration(calibration, calibration_file)
     return calibration_file
+
+
+def _rotation_deg(about_x, about_y, about_z):
+    """Rotation about x, then y, then z (degrees)."""
+    import numpy
+
+    def about(axis, degrees):
+        c, s = numpy.cos(numpy.radians(degrees)), numpy.sin(numpy.radians(degrees))
+        i, j = [k for k in range(3) if k != axis]
+        matrix = numpy.eye(3)
+        matrix[i, i], matrix[i, j], matrix[j, i], matrix[j, j] = c, -s, s, c
+        return matrix
+
+    return about(2, about_z) @ about(1, about_y) @ about(0, about_x)
+
+
+# Board poses tilted up to ~30 degrees in different directions, 370..430 mm away: (centre, tilts).
+BOARD_POSES = [((0, 0, 400), (0, 0, 0)), ((-30, -20, 380), (25, -20, 5)), ((30, -20, 380), (25, 20, -5)),
+               ((-30, 20, 420), (-25, -20, 10)), ((30, 20, 420), (-25, 20, -10)), ((0, 0, 370), (15, 15, 30)),
+               ((-40, 0, 400), (0, -30, 0)), ((40, 0, 400), (0, 30, 0))]
+
+
+def simulate_board_poses(folder, inner_corners=(9, 6), square_mm=18.0, camera_scale=0.5, progress=None):
+    """Capture sets of a chessboard in BOARD_POSES, one folder each (pose_00, ...), for calibrating.
+    Returns (folders, board spec text, the true calibration)."""
+    import numpy
+
+    calibration = scaled_calibration(picoscan.seed_rig_calibration(), camera_scale)
+    patterns = picoscan.PatternOptions()
+    patterns.shifts = 8
+    sequence = picoscan.make_pattern_sequence(patterns)
+    middle = numpy.array([(inner_corners[0] - 1) / 2 * square_mm, (inner_corners[1] - 1) / 2 * square_mm, 0.0])
+    folders = []
+    for index, (centre, tilts) in enumerate(BOARD_POSES):
+        rotation = _rotation_deg(*tilts)
+        scene = picoscan.Scene()
+        scene.add_board(rotation, numpy.asarray(centre, float) - rotation @ middle, inner_corners, square_mm, 12.0)
+        options = picoscan.SimulationOptions()
+        options.seed = index + 1
+        options.blur_sigma_px = 0.7
+        captures = picoscan.simulate_capture(sequence, calibration, scene, options, progress)
+        folders.append(os.path.join(folder, "pose_%02d" % index))
+        os.makedirs(folders[-1], exist_ok=True)
+        picoscan.write_capture_set(captures, folders[-1])
+    return folders, "chessboard:%dx%d:%g" % (inner_corners[0], inner_corners[1], square_mm), calibration

@@ -1,0 +1,131 @@
+"""Commands that turn scans into CAD: Mesh, Make solid, Fit primitives, Cross-section, Show rig,
+Encoding view."""
+import os
+import tempfile
+
+import FreeCAD
+import FreeCADGui
+
+import picoscan
+from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views
+from picoscan_wb.objects import is_scan_view, scan_mesh
+from picoscan_wb.operations import encoding, primitives, rig, section, solid
+from picoscan_wb.progress import FreeCADProgress
+
+
+def output_folder(doc, name):
+    """Beside the saved document, else in a temporary folder."""
+    base = os.path.dirname(doc.FileName) if doc.FileName else tempfile.mkdtemp(prefix="picoscan_")
+    folder = os.path.join(base, name)
+    os.makedirs(folder, exist_ok=True)
+    return folder
+
+
+def open_image(path):
+    import ImageGui
+
+    ImageGui.open(path)
+
+
+class MeshCommand(Command):
+    icon = "picoscan_mesh"
+    menu = "Mesh scan"
+    tooltip = "Grid mesh of the selected ScanView (neighbouring pixels joined, depth jumps left open)"
+
+    def IsActive(self):
+        return bool(selected_scan_views())
+
+    def run(self):
+        return [scan_mesh.create(view.Document, view) for view in selected_scan_views()]
+
+
+class MakeSolidCommand(Command):
+    icon = "picoscan_solid"
+    menu = "Make solid"
+    tooltip = "Part solid from the selected mesh when it is closed and small enough"
+
+    def IsActive(self):
+        return bool(selected_meshes())
+
+    def run(self):
+        mesh = selected_meshes()[0]
+        return solid.make_solid(mesh.Document, mesh)
+
+
+class FitPrimitivesCommand(Command):
+    icon = "picoscan_primitives"
+    menu = "Fit primitives"
+    tooltip = "Find planes, cylinders, spheres and cones in the scan and add them as Part primitives"
+
+    def IsActive(self):
+        return bool(selected_scan_views())
+
+    def run(self):
+        view = selected_scan_views()[0]
+        organised, _ = view.Proxy.scan_view(view)
+        with FreeCADProgress("Fitting primitives") as progress:
+            group, created = primitives.fit_primitives(view.Document, picoscan.to_point_cloud(organised),
+                                                       progress=progress, label="Primitives of " + view.Label)
+        for obj, shape in created:
+            FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, shape))
+        return group
+
+
+class CrossSectionCommand(Command):
+    icon = "picoscan_section"
+    menu = "Cross-section"
+    tooltip = "Cut the selected mesh with a plane (Y, through its centre): a Sketch and a profile plot"
+
+    def IsActive(self):
+        return bool(selected_meshes())
+
+    def run(self):
+        mesh = selected_meshes()[0]
+        sketch = section.cross_section(mesh.Document, mesh, axis="Y")
+        source = getattr(mesh, "Source", None)
+        if is_scan_view(source):
+            position = sketch.Placement.Base.y
+            path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")
+            sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, "Y", position, path)
+            open_image(sketch.ProfilePlot)
+        return sketch
+
+
+class ShowRigCommand(Command):
+    icon = "picoscan_rig"
+    menu = "Show rig"
+    tooltip = "Camera and projector frusta at their calibrated poses (of the selected ScanView's calibration)"
+
+    def IsActive(self):
+        return FreeCAD.ActiveDocument is not None
+
+    def run(self):
+        views = selected_scan_views()
+        if views:
+            calibration = views[0].CalibrationFile
+        else:
+            from PySide import QtGui
+
+            calibration, _ = QtGui.QFileDialog.getOpenFileName(FreeCADGui.getMainWindow(), "Calibration of the rig",
+                                                               "", "Calibration (*.yml *.yaml *.xml)")
+            if not calibration:
+                return None
+        return rig.show_rig(FreeCAD.ActiveDocument, calibration)
+
+
+class EncodingViewCommand(Command):
+    icon = "picoscan_encoding"
+    menu = "Encoding view"
+    tooltip = "False-colour pictures of the decoded projector codes, modulation and pixel status"
+
+    def IsActive(self):
+        return bool(selected_scan_views())
+
+    def run(self):
+        view = selected_scan_views()[0]
+        folder = output_folder(view.Document, view.Name + "_encoding")
+        with FreeCADProgress("Decoding") as progress:
+            paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile, progress)
+        for path in paths.values():
+            open_image(path)
+        return paths
