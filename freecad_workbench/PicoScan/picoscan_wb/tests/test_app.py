@@ -113,6 +113,8 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertTrue(shaft.Shape.isValid())
         wall = planes[0]
         normal = wall.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        FreeCAD.Console.PrintMessage("wall plane z %.4f mm (true %.1f), normal off by %.4f deg, rms %.4f mm\n" % (
+            wall.Placement.Base.z, BACKGROUND_Z_MM, math.degrees(normal.getAngle(FreeCAD.Vector(0, 0, -1))), wall.FitRmsMm))
         self.assertGreater(-normal.z, math.cos(math.radians(0.05)))
         self.assertAlmostEqual(wall.Placement.Base.z, BACKGROUND_Z_MM, delta=0.05)
         self.assertLess(wall.FitRmsMm, 0.1)

@@ -180,6 +180,29 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertIn("cancelled", self.messages[0][2])
         self.assertEqual(self.object_names(), before)
 
+    def test_h_encoding_view_and_fit_primitives_commands(self):
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        FreeCADGui.Selection.addSelection(view)
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        windows_before = len(mdi.subWindowList())
+        FreeCADGui.runCommand("PicoScan_EncodingView")
+        process_events()
+        self.assertEqual(self.messages, [])
+        encoding_windows = [w for w in mdi.subWindowList() if "encoding" in w.windowTitle()]
+        self.assertEqual(len(mdi.subWindowList()) - windows_before, 4)
+        self.assertEqual(len(encoding_windows), 4)
+        for window in encoding_windows:
+            window.close()
+        FreeCADGui.runCommand("PicoScan_FitPrimitives")
+        process_events()
+        self.assertEqual(self.messages, [])
+        cylinders = [o for o in self.doc.Objects if o.TypeId == "Part::Cylinder"]
+        self.assertEqual(len(cylinders), 1)
+        self.assertAlmostEqual(cylinders[0].Radius.Value, 12.5, delta=0.02)
+        # Undo removes what the command added, in one step.
+        self.doc.undo()
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Cylinder"], [])
+
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
