@@ -74,19 +74,35 @@ class FitPrimitivesCommand(Command):
 class CrossSectionCommand(Command):
     icon = "picoscan_section"
     menu = "Cross-section"
-    tooltip = "Cut the selected mesh with a plane (Y, through its centre): a Sketch and a profile plot"
+    tooltip = "Cut the selected mesh with a plane across X, Y or Z: a Sketch of the profile and a profile plot"
 
     def IsActive(self):
         return bool(selected_meshes())
 
+    def ask_plane(self, mesh):
+        """(axis, position in mm) from two small dialogs; None when the user cancels."""
+        from PySide import QtGui
+
+        window = FreeCADGui.getMainWindow()
+        axis, ok = QtGui.QInputDialog.getItem(window, "Cross-section", "Normal of the cutting plane", ["X", "Y", "Z"], 1, False)
+        if not ok:
+            return None
+        centre = getattr(mesh.Mesh.BoundBox.Center, axis.lower())
+        position, ok = QtGui.QInputDialog.getDouble(window, "Cross-section", "Plane position along %s (mm)" % axis,
+                                                    centre, -1e6, 1e6, 2)
+        return (axis, position) if ok else None
+
     def run(self):
         mesh = selected_meshes()[0]
-        sketch = section.cross_section(mesh.Document, mesh, axis="Y")
+        plane = self.ask_plane(mesh)
+        if plane is None:
+            return None
+        axis, position = plane
+        sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position)
         source = getattr(mesh, "Source", None)
         if is_scan_view(source):
-            position = sketch.Placement.Base.y
             path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")
-            sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, "Y", position, path)
+            sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position, path)
             open_image(sketch.ProfilePlot)
         return sketch
 

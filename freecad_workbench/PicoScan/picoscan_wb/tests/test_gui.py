@@ -49,7 +49,8 @@ class PicoScanGuiTest(unittest.TestCase):
         for name in ("critical", "warning", "information"):
             self.saved[name] = getattr(QtWidgets.QMessageBox, name)
             setattr(QtWidgets.QMessageBox, name, self.recorder(name))
-        self.saved_dialogs = (QtWidgets.QFileDialog.getExistingDirectory, QtWidgets.QFileDialog.getOpenFileName)
+        self.saved_dialogs = (QtWidgets.QFileDialog.getExistingDirectory, QtWidgets.QFileDialog.getOpenFileName,
+                              QtWidgets.QInputDialog.getItem, QtWidgets.QInputDialog.getDouble)
         self.doc = FreeCAD.newDocument("GuiTest")
         FreeCADGui.Selection.clearSelection()
 
@@ -58,7 +59,8 @@ class PicoScanGuiTest(unittest.TestCase):
             FreeCADGui.Control.closeDialog()
         for name, function in self.saved.items():
             setattr(QtWidgets.QMessageBox, name, function)
-        QtWidgets.QFileDialog.getExistingDirectory, QtWidgets.QFileDialog.getOpenFileName = self.saved_dialogs
+        (QtWidgets.QFileDialog.getExistingDirectory, QtWidgets.QFileDialog.getOpenFileName,
+         QtWidgets.QInputDialog.getItem, QtWidgets.QInputDialog.getDouble) = self.saved_dialogs
         FreeCAD.closeDocument(self.doc.Name)
         process_events()
 
@@ -221,7 +223,15 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(meshes[0].Mesh.CountFacets, 100000)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(meshes[0])
+        # The plane dialogs answer "Y" and keep the proposed position (the mesh's centre).
+        QtWidgets.QInputDialog.getItem = lambda parent, title, label, items, current, editable: (items[current], True)
+        QtWidgets.QInputDialog.getDouble = lambda parent, title, label, value, *limits: (value, True)
         FreeCADGui.runCommand("PicoScan_CrossSection")
+        process_events()
+        sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
+        self.assertEqual(len(sections), 1, self.messages)
+        self.assertGreater(sections[0].GeometryCount, 50)
+        self.assertTrue(os.path.isfile(sections[0].ProfilePlot))
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
         FreeCADGui.runCommand("PicoScan_ShowRig")
