@@ -20,6 +20,11 @@ void bind_io(py::module_& m) {
         py::arg("mesh"), py::arg("path"), py::arg("ascii") = false, py::call_guard<py::gil_scoped_release>());
     m.def("write_obj", &write_obj, py::arg("mesh"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def("read_mesh", &read_mesh, py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    m.def(
+        "write_view_ply",
+        [=](const ScanView& view, const std::string& path, bool ascii) { write_view_ply(view, path, encoding(ascii)); },
+        py::arg("view"), py::arg("path"), py::arg("ascii") = false, py::call_guard<py::gil_scoped_release>());
+    m.def("read_view_ply", &read_view_ply, py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def("write_file_atomically", &write_file_atomically, py::arg("path"), py::arg("bytes"));
     // An image (grey, BGR or BGRA array) encoded by its extension and written atomically.
     m.def(

@@ -117,5 +117,6 @@ PYBIND11_MODULE(picoscan, m) {
     bind_io(m);
     bind_preview(m);
     bind_fit(m);
+    bind_register(m);
     bind_shapes(m);
 }

@@ -44,10 +44,28 @@ void bind_simulate(py::module_& m) {
             py::arg("rotation"), py::arg("translation"), py::arg("inner_corners") = cv::Size(9, 6),
             py::arg("square_mm") = 10.0, py::arg("margin_mm") = 10.0,
             "A chessboard: camera point = rotation * board point + translation (board z = 0 on its face)")
+        .def(
+            "add_mesh", [](Scene& s, const Mesh& mesh, double albedo) { s.meshes.push_back({mesh, albedo}); },
+            py::arg("mesh"), py::arg("albedo") = 0.8, "A triangle mesh (vertex colours paint it), camera frame")
         .def_property_readonly("shape_count", [](const Scene& s) {
             return s.spheres.size() + s.planes.size() + s.boxes.size() + s.cylinders.size() + s.meshes.size() + s.boards.size();
         });
     m.def("demo_scene", &demo_scene);
+    m.def(
+        "mechanical_part", [] { return mechanical_part(); },
+        "The built-in speckle-painted test part (block, chamfer, hole, boss), part frame, z up");
+    py::class_<TurntablePlan>(m, "TurntablePlan")
+        .def(py::init<>())
+        .def_readwrite("turntable_views", &TurntablePlan::turntable_views)
+        .def_readwrite("elevation_deg", &TurntablePlan::elevation_deg)
+        .def_readwrite("top_view", &TurntablePlan::top_view)
+        .def_readwrite("top_elevation_deg", &TurntablePlan::top_elevation_deg)
+        .def_readwrite("max_disturbance_deg", &TurntablePlan::max_disturbance_deg)
+        .def_readwrite("max_disturbance_mm", &TurntablePlan::max_disturbance_mm)
+        .def_readwrite("part_centre_mm", &TurntablePlan::part_centre_mm)
+        .def_readwrite("seed", &TurntablePlan::seed);
+    m.def("turntable_part_poses", &turntable_part_poses, py::arg("plan"), "Part -> camera transform of each view");
+    m.def("transformed", &transformed, py::arg("mesh"), py::arg("transform"));
     m.def("read_scene", &read_scene, py::arg("path"));
     m.def("seed_rig_calibration", &seed_rig_calibration);
 
@@ -56,7 +74,8 @@ void bind_simulate(py::module_& m) {
         .def_readwrite("noise_sigma_dn", &SimulationOptions::noise_sigma_dn)
         .def_readwrite("blur_sigma_px", &SimulationOptions::blur_sigma_px)
         .def_readwrite("projector_gamma", &SimulationOptions::projector_gamma)
-        .def_readwrite("seed", &SimulationOptions::seed);
+        .def_readwrite("seed", &SimulationOptions::seed)
+        .def_readwrite("full_scale_dn", &SimulationOptions::full_scale_dn);
     m.def(
         "simulate_capture",
         [](const PatternSequence& sequence, const Calibration& calibration, const Scene& scene,

@@ -8,6 +8,7 @@ COMMANDS = {
     "PicoScan_Scan": scanning.ScanCommand(),
     "PicoScan_ImportCaptures": scanning.ImportCapturesCommand(),
     "PicoScan_Clean": scanning.CleanCommand(),
+    "PicoScan_Stitch": analysis.StitchCommand(),
     "PicoScan_Mesh": analysis.MeshCommand(),
     "PicoScan_MakeSolid": analysis.MakeSolidCommand(),
     "PicoScan_FitPrimitives": analysis.FitPrimitivesCommand(),

@@ -6,9 +6,8 @@ import tempfile
 import FreeCAD
 import FreeCADGui
 
-import picoscan
 from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views
-from picoscan_wb.objects import is_scan_view, scan_mesh
+from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch, scan_mesh, stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
 from picoscan_wb.progress import FreeCADProgress
 
@@ -25,6 +24,23 @@ def open_image(path):
     import ImageGui
 
     ImageGui.open(path)
+
+
+def selected_clouds():
+    return [obj for obj in FreeCADGui.Selection.getSelection() if is_scan_view(obj) or is_stitch(obj)]
+
+
+class StitchCommand(Command):
+    icon = "picoscan_stitch"
+    menu = "Stitch views"
+    tooltip = "Register the selected ScanViews into one model and merge their points"
+
+    def IsActive(self):
+        return len(selected_scan_views()) >= 2
+
+    def run(self):
+        views = selected_scan_views()
+        return stitch.create(views[0].Document, views)
 
 
 class MeshCommand(Command):
@@ -55,17 +71,16 @@ class MakeSolidCommand(Command):
 class FitPrimitivesCommand(Command):
     icon = "picoscan_primitives"
     menu = "Fit primitives"
-    tooltip = "Find planes, cylinders, spheres and cones in the scan and add them as Part primitives"
+    tooltip = "Find planes, cylinders, spheres and cones in the scan (a ScanView or a Stitch) and add them as Part primitives"
 
     def IsActive(self):
-        return bool(selected_scan_views())
+        return bool(selected_clouds())
 
     def run(self):
-        view = selected_scan_views()[0]
-        organised, _ = view.Proxy.scan_view(view)
+        source = selected_clouds()[0]
         with FreeCADProgress("Fitting primitives") as progress:
-            group, created = primitives.fit_primitives(view.Document, picoscan.to_point_cloud(organised),
-                                                       progress=progress, label="Primitives of " + view.Label)
+            group, created = primitives.fit_primitives(source.Document, cloud_of(source), progress=progress,
+                                                       label="Primitives of " + source.Label)
         for obj, shape in created:
             FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, shape))
         return group

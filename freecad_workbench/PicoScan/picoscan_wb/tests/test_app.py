@@ -12,7 +12,7 @@ import FreeCAD
 import Mesh
 
 import picoscan
-from picoscan_wb.objects import scan_mesh, scan_view
+from picoscan_wb.objects import cloud_of, scan_mesh, scan_view, stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
@@ -189,3 +189,68 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertTrue(view.isValid() and mesh.isValid())
         self.assertEqual(view.PointCount, points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
+
+
+class PicoScanStitchTest(unittest.TestCase):
+    """Three views of the speckle-painted mechanical part, 45 degrees apart on a turntable."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.folder = tempfile.mkdtemp(prefix="picoscan_stitch_")
+        cls.scans, cls.truth = simulate.simulate_turntable(cls.folder, (0, 1, 2))
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder, ignore_errors=True)
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanStitchTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def scan_views(self):
+        views = []
+        for folder, calibration in self.scans:
+            view = scan_view.create(self.doc, folder, calibration, clean=True)
+            view.MinModulation = 15  # the part is bright: reject its dim, grazing edges
+            views.append(view)
+        self.doc.recompute()
+        return views
+
+    def test_stitch_registers_views_and_survives_reopening(self):
+        views = self.scan_views()
+        merged = stitch.create(self.doc, views)
+        self.assertTrue(merged.isValid(), merged.getStatusString())
+        self.assertEqual(merged.AlignedCount, 3, merged.Report)
+        self.assertEqual(merged.PointCount, sum(v.PointCount for v in views))
+        centre = numpy.array([0.0, 0.0, 400.0])  # the part's middle, where pose errors matter
+        for placement, truth in zip(merged.ViewPoses, self.truth):
+            pose = numpy.array(placement.toMatrix().A).reshape(4, 4)
+            error = picoscan.pose_difference(pose, truth, centre)
+            FreeCAD.Console.PrintMessage("view pose error %.4f deg, %.4f mm\n" % (error.rotation_deg, error.translation_mm))
+            self.assertLess(error.rotation_deg, 0.05)
+            self.assertLess(error.translation_mm, 0.05)
+        # Primitives fitted on the merged cloud: the through hole (10 mm) is a cylinder.
+        group, created = primitives.fit_primitives(self.doc, cloud_of(merged))
+        radii = sorted(obj.Radius.Value for obj, _ in created if obj.TypeId == "Part::Cylinder")
+        FreeCAD.Console.PrintMessage("cylinders on the merged cloud: %s\n" % radii)
+        self.assertTrue(any(abs(r - 5.0) < 0.02 for r in radii), radii)
+        path = os.path.join(self.folder, "stitched.FCStd")
+        count, name = merged.PointCount, merged.Name
+        self.doc.saveAs(path)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        merged = self.doc.getObject(name)
+        self.assertEqual(merged.Points.CountPoints, count)
+        merged.touch()
+        self.doc.recompute()
+        self.assertTrue(merged.isValid(), merged.getStatusString())
+        self.assertEqual(merged.PointCount, count)
+
+    def test_stitch_needs_two_views(self):
+        views = self.scan_views()
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "two or more ScanViews"):
+            stitch.create(self.doc, views[:1])
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
