@@ -64,6 +64,7 @@ void bind_io(py::module_& m);
 void bind_preview(py::module_& m);
 void bind_fit(py::module_& m);
 void bind_register(py::module_& m);
+void bind_mesh(py::module_& m);
 void bind_shapes(py::module_& m);
 
 }  // namespace picoscan::python

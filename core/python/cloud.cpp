@@ -12,7 +12,15 @@ void bind_cloud(py::module_& m) {
         .def_readwrite("colours", &ScanView::colours, "rows x cols x 3 uint8, BGR")
         .def_readwrite("quality", &ScanView::quality)
         .def_readwrite("pose", &ScanView::pose, "4 x 4 view -> model transform")
-        .def("valid_count", &ScanView::valid_count);
+        .def("valid_count", &ScanView::valid_count)
+        .def(
+            "with_pose",
+            [](const ScanView& view, const cv::Matx44d& pose) {
+                ScanView moved = view;  // the arrays are shared, not copied
+                moved.pose = pose;
+                return moved;
+            },
+            py::arg("pose"), "The same view (arrays shared) with another pose");
 
     py::class_<PointCloud>(m, "PointCloud", "Unorganised points; the arrays are views into the cloud.")
         .def(py::init<>())

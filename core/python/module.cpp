@@ -118,5 +118,6 @@ PYBIND11_MODULE(picoscan, m) {
     bind_preview(m);
     bind_fit(m);
     bind_register(m);
+    bind_mesh(m);
     bind_shapes(m);
 }

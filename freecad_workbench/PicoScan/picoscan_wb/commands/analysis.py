@@ -45,14 +45,22 @@ class StitchCommand(Command):
 
 class MeshCommand(Command):
     icon = "picoscan_mesh"
-    menu = "Mesh scan"
-    tooltip = "Grid mesh of the selected ScanView (neighbouring pixels joined, depth jumps left open)"
+    menu = "Mesh"
+    tooltip = ("Mesh the selected ScanView (Grid: its pixel grid) or Stitch: Poisson (watertight) or "
+               "advancing front (open surfaces)")
 
     def IsActive(self):
-        return bool(selected_scan_views())
+        return bool(selected_clouds())
 
     def run(self):
-        return [scan_mesh.create(view.Document, view) for view in selected_scan_views()]
+        from PySide import QtGui
+
+        source = selected_clouds()[0]
+        methods = scan_mesh.METHODS if is_scan_view(source) else [m for m in scan_mesh.METHODS if m != "Grid"]
+        method, ok = QtGui.QInputDialog.getItem(FreeCADGui.getMainWindow(), "Mesh", "Meshing method", methods, 0, False)
+        if not ok:
+            return None
+        return scan_mesh.create(source.Document, source, method=method)
 
 
 class MakeSolidCommand(Command):

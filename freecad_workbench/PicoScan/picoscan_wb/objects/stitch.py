@@ -1,6 +1,6 @@
 """Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core registers
 the views (features on the white frames, RANSAC, trimmed point-to-plane ICP, then all views
-refined together); views it cannot register are reported, not forced in."""
+refined together) and merges them; views it cannot register are reported, not forced in."""
 import numpy
 import FreeCAD
 
@@ -27,23 +27,6 @@ def _parameters(obj):
 def _placement(pose):
     matrix = FreeCAD.Matrix(*[float(value) for value in numpy.asarray(pose).reshape(-1)])
     return FreeCAD.Placement(matrix)
-
-
-def transformed_cloud(view, pose):
-    """The view's valid points, normals and colours moved by the 4 x 4 pose (view -> model)."""
-    cloud = picoscan.to_point_cloud(view)
-    rotation, translation = numpy.asarray(pose)[:3, :3], numpy.asarray(pose)[:3, 3]
-    return (cloud.points @ rotation.T + translation, cloud.normals @ rotation.T, numpy.array(cloud.colours))
-
-
-def merge(views, poses):
-    parts = [transformed_cloud(view, pose) for view, pose in zip(views, poses)]
-    merged = picoscan.PointCloud()
-    merged.points = numpy.concatenate([p[0] for p in parts])
-    merged.normals = numpy.concatenate([p[1] for p in parts])
-    if all(len(p[2]) == len(p[0]) for p in parts):
-        merged.colours = numpy.concatenate([p[2] for p in parts])
-    return merged
 
 
 class Stitch:
@@ -78,7 +61,7 @@ class Stitch:
         if alignment.aligned_count() < 2:
             raise picoscan.Error("%s: fewer than two views could be registered (%s)" % (obj.Label, "; ".join(report)))
         aligned = [(view, result.pose) for view, result in zip(views, alignment.views) if result.aligned]
-        cloud = merge([v for v, _ in aligned], [p for _, p in aligned])
+        cloud = picoscan.merge_views([view.with_pose(pose) for view, pose in aligned])
         _clouds[_key(obj)] = (_parameters(obj), cloud)
         obj.ViewPoses = [_placement(result.pose) for result in alignment.views]
         obj.Report = report

@@ -236,6 +236,22 @@ class PicoScanStitchTest(unittest.TestCase):
         radii = sorted(obj.Radius.Value for obj, _ in created if obj.TypeId == "Part::Cylinder")
         FreeCAD.Console.PrintMessage("cylinders on the merged cloud: %s\n" % radii)
         self.assertTrue(any(abs(r - 5.0) < 0.02 for r in radii), radii)
+        # Poisson: a watertight mesh of the merged cloud, small enough for a Part solid, exported as STL.
+        mesh = scan_mesh.create(self.doc, merged, method="Poisson", sample_spacing_mm=1.0, target_faces=4000)
+        self.assertTrue(mesh.isValid(), mesh.getStatusString())
+        FreeCAD.Console.PrintMessage("Poisson mesh: %s\n" % mesh.Check)
+        self.assertIn("watertight", mesh.Check)
+        self.assertNotIn("NOT watertight", mesh.Check)
+        self.assertTrue(mesh.Mesh.isSolid())
+        part = solid.make_solid(self.doc, mesh)
+        self.assertTrue(part.Shape.isValid())
+        self.assertAlmostEqual(part.Shape.Volume, mesh.Mesh.Volume, delta=0.01 * mesh.Mesh.Volume)
+        FreeCAD.Console.PrintMessage("solid volume %.0f mm3 from %d facets\n" % (part.Shape.Volume, mesh.Mesh.CountFacets))
+        stl = os.path.join(self.folder, "stitched.stl")
+        Mesh.export([mesh], stl)
+        self.assertEqual(Mesh.Mesh(stl).CountFacets, mesh.Mesh.CountFacets)
+        with self.assertRaisesRegex(picoscan.Error, "Grid meshing needs a single ScanView"):
+            scan_mesh.create(self.doc, merged, method="Grid")
         path = os.path.join(self.folder, "stitched.FCStd")
         count, name = merged.PointCount, merged.Name
         self.doc.saveAs(path)

@@ -219,6 +219,9 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(view.PointCount, 100000)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
+        # Dialogs take their first proposal: Grid for the mesh, "Y" at the mesh's centre for the section.
+        QtWidgets.QInputDialog.getItem = lambda parent, title, label, items, current, editable: (items[current], True)
+        QtWidgets.QInputDialog.getDouble = lambda parent, title, label, value, *limits: (value, True)
         FreeCADGui.runCommand("PicoScan_Mesh")
         process_events()
         meshes = [o for o in self.doc.Objects if o.TypeId == "Mesh::FeaturePython"]
@@ -226,9 +229,6 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(meshes[0].Mesh.CountFacets, 100000)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(meshes[0])
-        # The plane dialogs answer "Y" and keep the proposed position (the mesh's centre).
-        QtWidgets.QInputDialog.getItem = lambda parent, title, label, items, current, editable: (items[current], True)
-        QtWidgets.QInputDialog.getDouble = lambda parent, title, label, value, *limits: (value, True)
         FreeCADGui.runCommand("PicoScan_CrossSection")
         process_events()
         sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
