@@ -1,7 +1,6 @@
-"""Scan task panel. Simulated scans (the core's virtual rig) are made here; scans from the real
-projector and camera are captured with `picoscan capture` (capture issue) and brought in with
-Import capture set. The capture step is this panel's `capture()` alone, so hardware capture can be
-wired in there later."""
+"""Scan task panel: capture a scan with the projector and a camera (through `picoscan capture`,
+the capture issue's command) or simulate one with the core's virtual rig, then reconstruct it
+into a ScanView. The capture step is this panel's `capture()` alone."""
 import os
 import tempfile
 
@@ -12,11 +11,10 @@ from PySide import QtGui
 import picoscan
 from picoscan_wb.commands.base import INPUT_ERRORS, show_message
 from picoscan_wb.objects import scan_view
-from picoscan_wb.operations import simulate
+from picoscan_wb.operations import capture as hardware, simulate
 from picoscan_wb.progress import FreeCADProgress
 
-HARDWARE_NOTE = ("Hardware capture: run 'picoscan capture' with the projector and camera, then use "
-                 "Import capture set. This panel simulates a scan with the virtual rig.")
+SOURCES = ("Simulate", "Camera + projector")
 
 
 class ScanTaskPanel:
@@ -28,9 +26,22 @@ class ScanTaskPanel:
         self.form = QtGui.QWidget()
         self.form.setWindowTitle("PicoScan scan")
         layout = QtGui.QFormLayout(self.form)
-        note = QtGui.QLabel(HARDWARE_NOTE)
-        note.setWordWrap(True)
-        layout.addRow(note)
+        self.source = QtGui.QComboBox()
+        self.source.addItems(list(SOURCES))
+        self.source.setToolTip("Simulate: the virtual rig renders a scene. Camera + projector: 'picoscan capture' "
+                               "shows the patterns on the projector's screen and grabs them with the camera.")
+        layout.addRow("Source", self.source)
+        self.camera = QtGui.QLineEdit("0")
+        self.camera.setToolTip("Webcam index (0), device (/dev/video0), video file, or 'virtual' (the simulated rig)")
+        layout.addRow("Camera", self.camera)
+        self.projector_screen = QtGui.QSpinBox()
+        self.projector_screen.setRange(-1, 16)
+        self.projector_screen.setValue(1)
+        self.projector_screen.setToolTip("The projector's screen ('picoscan screens'); -1: none (virtual camera only)")
+        layout.addRow("Projector screen", self.projector_screen)
+        self.calibration = QtGui.QLineEdit()
+        self.calibration.setToolTip("The rig's calibration (Calibrate rig), needed for camera + projector")
+        layout.addRow("Calibration", self.calibration)
         self.scene = QtGui.QComboBox()
         self.scene.addItems(list(simulate.SCENES))
         layout.addRow("Scene", self.scene)
@@ -59,7 +70,11 @@ class ScanTaskPanel:
         return self.cancel_requested
 
     def capture(self, folder, progress):
-        """Writes a capture set and its calibration into `folder`; returns the calibration file."""
+        """Writes a capture set into `folder`; returns the calibration file to reconstruct it with."""
+        if self.source.currentText() == "Camera + projector":
+            screen = self.projector_screen.value()
+            return hardware.capture(folder, self.camera.text().strip(), self.calibration.text().strip(),
+                                    None if screen < 0 else screen, self.should_cancel)
         scene = simulate.make_scene(self.scene.currentText(), self.scene_file.text().strip())
         return simulate.simulate_scan(folder, scene, camera_scale=self.camera_scale.value(), progress=progress)
 

@@ -208,6 +208,28 @@ class PicoScanGuiTest(unittest.TestCase):
         self.doc.undo()
         self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Cylinder"], [])
 
+    @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
+    def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
+        calibration = os.path.join(self.folder, "seed_rig.yml")
+        picoscan.write_calibration(picoscan.seed_rig_calibration(), calibration)
+        FreeCADGui.runCommand("PicoScan_Scan")
+        process_events()
+        panel = ScanTaskPanel.current
+        panel.source.setCurrentText("Camera + projector")
+        panel.camera.setText("virtual")
+        panel.projector_screen.setValue(-1)
+        panel.calibration.setText(os.path.join(self.folder, "no_such_rig.yml"))
+        panel.folder.setText(os.path.join(self.folder, "captured"))
+        before = self.object_names()
+        self.assertFalse(panel.accept())
+        self.assertIn("no_such_rig.yml: calibration file does not exist", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+        panel.calibration.setText(calibration)
+        self.assertTrue(panel.accept(), self.messages)
+        self.assertEqual(len(self.messages), 1)
+        self.assertGreater(panel.created.PointCount, 400000)
+        self.assertEqual(panel.created.CaptureFolder, os.path.join(self.folder, "captured"))
+
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
