@@ -266,7 +266,14 @@ class PicoScanGuiTest(unittest.TestCase):
         self.doc.getObject("Rig").ViewObject.Visibility = False
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.getMainWindow().showMaximized()
+        # The section's profile plot opened in its own tab: bring the document's 3D view to the front.
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(self.doc.Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
         view3d = FreeCADGui.ActiveDocument.ActiveView
+        self.assertTrue(hasattr(view3d, "setCameraOrientation"), "the 3D view is not active")
         view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
         view3d.fitAll()
         for _ in range(5):
