@@ -131,9 +131,7 @@ def simulate_turntable(folder, view_indices=(0, 1, 2), camera_scale=1.0, progres
         options.full_scale_dn = 250
         options.blur_sigma_px = 0.5
         # One noise seed for every view, as the core's registration tests do. With a different seed
-        # per view, align_views (main at 5a16833) leaves views out ("surface textures do not agree").
-        # One noise seed for every view, as the core's registration tests do. With a different seed
-        # per view, align_views (main at 5a16833) leaves views out ("surface textures do not agree").
+        # per view, align_views (main at a0dcffa) leaves views out ("surface textures do not agree").
         options.seed = 1
         captures = picoscan.simulate_capture(sequence, calibration, scene, options, progress)
         view_folder = os.path.join(folder, "view_%d" % index)
