@@ -1,0 +1,123 @@
+// The `picoscan` Python module: the core's stages for Python and FreeCAD.
+#include "bindings.h"
+
+#include "picoscan/error.h"
+
+#include <cstring>
+#include <memory>
+
+namespace picoscan::python {
+
+namespace {
+
+int depth_of(const py::dtype& type, const char* name) {
+    const char kind = type.kind();
+    const auto size = type.itemsize();
+    if (kind == 'u' && size == 1) return CV_8U;
+    if (kind == 'i' && size == 1) return CV_8S;
+    if (kind == 'u' && size == 2) return CV_16U;
+    if (kind == 'i' && size == 2) return CV_16S;
+    if (kind == 'i' && size == 4) return CV_32S;
+    if (kind == 'f' && size == 4) return CV_32F;
+    if (kind == 'f' && size == 8) return CV_64F;
+    throw py::type_error(std::string(name) + ": unsupported dtype " + py::str(py::handle(type)).cast<std::string>());
+}
+
+py::dtype dtype_of(int depth) {
+    switch (depth) {
+        case CV_8U: return py::dtype::of<uint8_t>();
+        case CV_8S: return py::dtype::of<int8_t>();
+        case CV_16U: return py::dtype::of<uint16_t>();
+        case CV_16S: return py::dtype::of<int16_t>();
+        case CV_32S: return py::dtype::of<int32_t>();
+        case CV_32F: return py::dtype::of<float>();
+        case CV_64F: return py::dtype::of<double>();
+    }
+    throw py::type_error("image depth " + std::to_string(depth) + " has no NumPy type");
+}
+
+}  // namespace
+
+py::array mat_to_array(const cv::Mat& mat) {
+    if (mat.empty()) return py::array(py::dtype::of<float>(), std::vector<py::ssize_t>{0});
+    // The capsule owns a Mat header sharing the buffer: its reference count keeps the pixels alive.
+    auto* owner = new cv::Mat(mat);
+    py::capsule release(owner, [](void* pointer) { delete static_cast<cv::Mat*>(pointer); });
+    std::vector<py::ssize_t> shape{mat.rows, mat.cols}, strides{py::ssize_t(mat.step[0]), py::ssize_t(mat.elemSize())};
+    if (mat.channels() > 1) {
+        shape.push_back(mat.channels());
+        strides.push_back(py::ssize_t(mat.elemSize1()));
+    }
+    return py::array(dtype_of(mat.depth()), shape, strides, owner->data, release);
+}
+
+cv::Mat array_to_mat(const py::array& input, const char* name) {
+    py::array array = input;
+    if (!(array.flags() & py::array::c_style)) array = py::module_::import("numpy").attr("ascontiguousarray")(array);
+    if (array.ndim() != 2 && array.ndim() != 3)
+        throw py::value_error(std::string(name) + ": expected a rows x cols [x channels] array, got " +
+                              std::to_string(array.ndim()) + " dimensions");
+    const int channels = array.ndim() == 3 ? int(array.shape(2)) : 1;
+    if (channels < 1 || channels > 4) throw py::value_error(std::string(name) + ": 1 to 4 channels expected");
+    const int type = CV_MAKETYPE(depth_of(array.dtype(), name), channels);
+    return cv::Mat(int(array.shape(0)), int(array.shape(1)), type, const_cast<void*>(array.data()));
+}
+
+py::array matx_to_array(const double* values, int rows, int cols) {
+    py::array_t<double> array({rows, cols});
+    std::memcpy(array.mutable_data(), values, sizeof(double) * rows * cols);
+    return array;
+}
+
+std::vector<double> array_to_values(const py::array& array, size_t count, const char* name) {
+    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(array);
+    if (!values || size_t(values.size()) != count)
+        throw py::value_error(std::string(name) + ": expected " + std::to_string(count) + " numbers");
+    return std::vector<double>(values.data(), values.data() + count);
+}
+
+ProgressCallback progress_from(const py::object& callable) {
+    if (callable.is_none()) return nullptr;
+    // Copies of the core's std::function share this holder; it is released with the GIL held.
+    std::shared_ptr<py::object> holder(new py::object(callable), [](py::object* object) {
+        py::gil_scoped_acquire gil;
+        delete object;
+    });
+    return [holder](double fraction, const std::string& stage) {
+        py::gil_scoped_acquire gil;
+        const py::object answer = (*holder)(fraction, stage);
+        return answer.is_none() || answer.cast<bool>();
+    };
+}
+
+}  // namespace picoscan::python
+
+PYBIND11_MODULE(picoscan, m) {
+    using namespace picoscan::python;
+    m.doc() = "PicoScan structured-light scanning core: patterns, capture sets, decoding, calibration, "
+              "triangulation, cleaning, meshing, shape detection. Images and clouds are NumPy arrays.";
+    static py::exception<picoscan::Error> error(m, "Error", PyExc_RuntimeError);
+    py::register_exception_translator([](std::exception_ptr pointer) {
+        try {
+            if (pointer) std::rethrow_exception(pointer);
+        } catch (const picoscan::Error& caught) {
+            error(caught.what());
+        } catch (const cv::Exception& caught) {
+            PyErr_SetString(error.ptr(), (std::string("OpenCV: ") + caught.err).c_str());
+        }
+    });
+    bind_patterns(m);
+    bind_capture_set(m);
+    bind_decode(m);
+    bind_calibration(m);
+    bind_triangulate(m);
+    bind_cloud(m);
+    bind_clean(m);
+    bind_simulate(m);
+    bind_io(m);
+    bind_preview(m);
+    bind_fit(m);
+    bind_register(m);
+    bind_mesh(m);
+    bind_shapes(m);
+}

@@ -1,0 +1,14 @@
+#include "bindings.h"
+
+#include "picoscan/preview.h"
+
+namespace picoscan::python {
+
+void bind_preview(py::module_& m) {
+    m.def("render_preview", &render_preview, py::arg("view"), "Shaded, depth-coloured BGR image of a view.",
+          py::call_guard<py::gil_scoped_release>());
+    m.def("write_preview_png", &write_preview_png, py::arg("view"), py::arg("path"),
+          py::call_guard<py::gil_scoped_release>());
+}
+
+}  // namespace picoscan::python

@@ -1,0 +1,52 @@
+#include "bindings.h"
+
+#include "picoscan/register.h"
+
+namespace picoscan::python {
+
+void bind_register(py::module_& m) {
+    py::class_<RegistrationOptions>(m, "RegistrationOptions")
+        .def(py::init<>())
+        .def_readwrite("orb_features", &RegistrationOptions::orb_features)
+        .def_readwrite("ransac_inlier_mm", &RegistrationOptions::ransac_inlier_mm)
+        .def_readwrite("ransac_iterations", &RegistrationOptions::ransac_iterations)
+        .def_readwrite("min_ransac_inliers", &RegistrationOptions::min_ransac_inliers)
+        .def_readwrite("icp_iterations", &RegistrationOptions::icp_iterations)
+        .def_readwrite("icp_trim_fraction", &RegistrationOptions::icp_trim_fraction)
+        .def_readwrite("icp_max_distance_mm", &RegistrationOptions::icp_max_distance_mm)
+        .def_readwrite("sample_spacing_mm", &RegistrationOptions::sample_spacing_mm)
+        .def_readwrite("min_overlap", &RegistrationOptions::min_overlap)
+        .def_readwrite("global_sweeps", &RegistrationOptions::global_sweeps);
+    py::class_<TurntableAxis>(m, "TurntableAxis")
+        .def(py::init<>())
+        .def_readwrite("point_mm", &TurntableAxis::point_mm)
+        .def_readwrite("direction", &TurntableAxis::direction)
+        .def_readwrite("step_deg", &TurntableAxis::step_deg);
+    m.def("turntable_pose", &turntable_pose, py::arg("axis"), py::arg("step"));
+    py::class_<ViewAlignment>(m, "ViewAlignment")
+        .def_readonly("name", &ViewAlignment::name)
+        .def_readonly("pose", &ViewAlignment::pose)
+        .def_readonly("aligned", &ViewAlignment::aligned)
+        .def_readonly("overlap", &ViewAlignment::overlap)
+        .def_readonly("rms_mm", &ViewAlignment::rms_mm)
+        .def_readonly("problem", &ViewAlignment::problem);
+    py::class_<Alignment>(m, "Alignment")
+        .def_readonly("views", &Alignment::views)
+        .def("aligned_count", &Alignment::aligned_count);
+    m.def(
+        "align_views",
+        [](const std::vector<ScanView>& views, const std::vector<std::string>& names, const RegistrationOptions& options,
+           const std::optional<TurntableAxis>& turntable, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return align_views(views, names, options, turntable, callback);
+        },
+        py::arg("views"), py::arg("names"), py::arg("options") = RegistrationOptions(), py::arg("turntable") = py::none(),
+        py::arg("progress") = py::none());
+    py::class_<PoseDifference>(m, "PoseDifference")
+        .def_readonly("rotation_deg", &PoseDifference::rotation_deg)
+        .def_readonly("translation_mm", &PoseDifference::translation_mm);
+    m.def("pose_difference", &pose_difference, py::arg("a"), py::arg("b"), py::arg("at") = cv::Vec3d(0, 0, 0));
+}
+
+}  // namespace picoscan::python

@@ -1,0 +1,91 @@
+#include "bindings.h"
+
+#include "picoscan/simulate.h"
+
+namespace picoscan::python {
+
+void bind_simulate(py::module_& m) {
+    py::class_<Scene>(m, "Scene", "Analytic shapes in camera coordinates (mm) for the simulator.")
+        .def(py::init<>())
+        .def(
+            "add_sphere",
+            [](Scene& s, const cv::Vec3d& centre, double radius_mm, double albedo) {
+                s.spheres.push_back({centre, radius_mm, albedo});
+            },
+            py::arg("centre"), py::arg("radius_mm"), py::arg("albedo") = 0.8)
+        .def(
+            "add_plane",
+            [](Scene& s, const cv::Vec3d& point, const cv::Vec3d& normal, double albedo) {
+                s.planes.push_back({point, normal, albedo});
+            },
+            py::arg("point"), py::arg("normal"), py::arg("albedo") = 0.8)
+        .def(
+            "add_box",
+            [](Scene& s, const cv::Vec3d& centre, const cv::Vec3d& half_size_mm, const cv::Matx33d& rotation,
+               double albedo) { s.boxes.push_back({centre, half_size_mm, rotation, albedo}); },
+            py::arg("centre"), py::arg("half_size_mm"), py::arg("rotation") = cv::Matx33d::eye(), py::arg("albedo") = 0.8)
+        .def(
+            "add_cylinder",
+            [](Scene& s, const cv::Vec3d& base_centre, const cv::Vec3d& axis, double radius_mm, double height_mm,
+               double albedo) { s.cylinders.push_back({base_centre, axis, radius_mm, height_mm, albedo}); },
+            py::arg("base_centre"), py::arg("axis"), py::arg("radius_mm"), py::arg("height_mm"), py::arg("albedo") = 0.8)
+        .def(
+            "add_board",
+            [](Scene& s, const cv::Matx33d& rotation, const cv::Vec3d& translation, const cv::Size& inner_corners,
+               double square_mm, double margin_mm) {
+                CalibrationBoard board;
+                board.rotation = rotation;
+                board.translation = translation;
+                board.inner_corners = inner_corners;
+                board.square_mm = square_mm;
+                board.margin_mm = margin_mm;
+                s.boards.push_back(board);
+            },
+            py::arg("rotation"), py::arg("translation"), py::arg("inner_corners") = cv::Size(9, 6),
+            py::arg("square_mm") = 10.0, py::arg("margin_mm") = 10.0,
+            "A chessboard: camera point = rotation * board point + translation (board z = 0 on its face)")
+        .def(
+            "add_mesh", [](Scene& s, const Mesh& mesh, double albedo) { s.meshes.push_back({mesh, albedo}); },
+            py::arg("mesh"), py::arg("albedo") = 0.8, "A triangle mesh (vertex colours paint it), camera frame")
+        .def_property_readonly("shape_count", [](const Scene& s) {
+            return s.spheres.size() + s.planes.size() + s.boxes.size() + s.cylinders.size() + s.meshes.size() + s.boards.size();
+        });
+    m.def("demo_scene", &demo_scene);
+    m.def(
+        "mechanical_part", [] { return mechanical_part(); },
+        "The built-in speckle-painted test part (block, chamfer, hole, boss), part frame, z up");
+    py::class_<TurntablePlan>(m, "TurntablePlan")
+        .def(py::init<>())
+        .def_readwrite("turntable_views", &TurntablePlan::turntable_views)
+        .def_readwrite("elevation_deg", &TurntablePlan::elevation_deg)
+        .def_readwrite("top_view", &TurntablePlan::top_view)
+        .def_readwrite("top_elevation_deg", &TurntablePlan::top_elevation_deg)
+        .def_readwrite("max_disturbance_deg", &TurntablePlan::max_disturbance_deg)
+        .def_readwrite("max_disturbance_mm", &TurntablePlan::max_disturbance_mm)
+        .def_readwrite("part_centre_mm", &TurntablePlan::part_centre_mm)
+        .def_readwrite("seed", &TurntablePlan::seed);
+    m.def("turntable_part_poses", &turntable_part_poses, py::arg("plan"), "Part -> camera transform of each view");
+    m.def("transformed", &transformed, py::arg("mesh"), py::arg("transform"));
+    m.def("read_scene", &read_scene, py::arg("path"));
+    m.def("seed_rig_calibration", &seed_rig_calibration);
+
+    py::class_<SimulationOptions>(m, "SimulationOptions")
+        .def(py::init<>())
+        .def_readwrite("noise_sigma_dn", &SimulationOptions::noise_sigma_dn)
+        .def_readwrite("blur_sigma_px", &SimulationOptions::blur_sigma_px)
+        .def_readwrite("projector_gamma", &SimulationOptions::projector_gamma)
+        .def_readwrite("seed", &SimulationOptions::seed)
+        .def_readwrite("full_scale_dn", &SimulationOptions::full_scale_dn);
+    m.def(
+        "simulate_capture",
+        [](const PatternSequence& sequence, const Calibration& calibration, const Scene& scene,
+           const SimulationOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return simulate_capture(sequence, calibration, scene, options, callback);
+        },
+        py::arg("sequence"), py::arg("calibration"), py::arg("scene"), py::arg("options") = SimulationOptions(),
+        py::arg("progress") = py::none());
+}
+
+}  // namespace picoscan::python

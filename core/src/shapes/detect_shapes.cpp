@@ -1,0 +1,337 @@
+// Primitive detection with CGAL's Efficient RANSAC and least-squares refinement on the inliers.
+// CGAL is header-heavy: everything that includes it stays in this one translation unit.
+#include "picoscan/shapes.h"
+
+#include "picoscan/error.h"
+#include "picoscan/fit.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Random.h>
+#include <CGAL/Shape_detection/Efficient_RANSAC.h>
+#include <CGAL/property_map.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <tuple>
+#include <utility>
+
+namespace picoscan {
+
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+// The cloud index travels with each point: Efficient RANSAC reorders its input range.
+using PointWithNormal = std::tuple<Kernel::Point_3, Kernel::Vector_3, int>;
+using PointsWithNormals = std::vector<PointWithNormal>;
+using Traits = CGAL::Shape_detection::Efficient_RANSAC_traits<Kernel, PointsWithNormals,
+                                                               CGAL::Nth_of_tuple_property_map<0, PointWithNormal>,
+                                                               CGAL::Nth_of_tuple_property_map<1, PointWithNormal>>;
+using EfficientRansac = CGAL::Shape_detection::Efficient_RANSAC<Traits>;
+using RansacPlane = CGAL::Shape_detection::Plane<Traits>;
+using RansacCylinder = CGAL::Shape_detection::Cylinder<Traits>;
+using RansacSphere = CGAL::Shape_detection::Sphere<Traits>;
+using RansacCone = CGAL::Shape_detection::Cone<Traits>;
+
+constexpr double kPi = 3.14159265358979323846;
+
+cv::Vec3d to_vec(const Kernel::Point_3& p) { return {p.x(), p.y(), p.z()}; }
+cv::Vec3d to_vec(const Kernel::Vector_3& v) { return {v.x(), v.y(), v.z()}; }
+
+// Two unit vectors perpendicular to `axis` and to each other.
+std::pair<cv::Vec3d, cv::Vec3d> perpendicular_basis(const cv::Vec3d& axis) {
+    const cv::Vec3d helper = std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
+    const cv::Vec3d first = cv::normalize(axis.cross(helper));
+    return {first, axis.cross(first)};
+}
+
+double radial_distance(const cv::Vec3d& point, const cv::Vec3d& axis_point, const cv::Vec3d& axis) {
+    const cv::Vec3d offset = point - axis_point;
+    return cv::norm(offset - offset.dot(axis) * axis);
+}
+
+double cone_distance(const cv::Vec3d& point, const cv::Vec3d& apex, const cv::Vec3d& axis, double half_angle_rad) {
+    const cv::Vec3d offset = point - apex;
+    const double along = offset.dot(axis);
+    const double across = cv::norm(offset - along * axis);
+    return across * std::cos(half_angle_rad) - along * std::sin(half_angle_rad);
+}
+
+// Levenberg-Marquardt with a forward-difference Jacobian. The model is re-linearised around its
+// current state at each step: `residuals(delta, out)` evaluates the model moved by `delta`,
+// `apply(delta)` makes that move permanent. Small parameter counts (<= 6) only.
+void least_squares(int parameter_count, const std::function<void(const std::vector<double>&, std::vector<double>&)>& residuals,
+                   const std::function<void(const std::vector<double>&)>& apply, int iterations = 30) {
+    std::vector<double> delta(parameter_count, 0.0), current, moved;
+    residuals(delta, current);
+    const int count = int(current.size());
+    auto cost_of = [](const std::vector<double>& r) {
+        double sum = 0;
+        for (double value : r) sum += value * value;
+        return sum;
+    };
+    double cost = cost_of(current), damping = 1e-4;
+    const double step = 1e-7;
+    for (int iteration = 0; iteration < iterations; ++iteration) {
+        cv::Mat jacobian(count, parameter_count, CV_64F);
+        for (int p = 0; p < parameter_count; ++p) {
+            std::fill(delta.begin(), delta.end(), 0.0);
+            delta[p] = step;
+            residuals(delta, moved);
+            for (int i = 0; i < count; ++i) jacobian.at<double>(i, p) = (moved[i] - current[i]) / step;
+        }
+        const cv::Mat normal = jacobian.t() * jacobian;
+        const cv::Mat gradient = jacobian.t() * cv::Mat(current);
+        bool improved = false;
+        for (int attempt = 0; attempt < 10 && !improved; ++attempt) {
+            cv::Mat damped = normal.clone();
+            for (int p = 0; p < parameter_count; ++p) damped.at<double>(p, p) *= 1.0 + damping;
+            cv::Mat solution;
+            if (!cv::solve(damped, -gradient, solution, cv::DECOMP_SVD)) break;
+            for (int p = 0; p < parameter_count; ++p) delta[p] = solution.at<double>(p);
+            residuals(delta, moved);
+            const double moved_cost = cost_of(moved);
+            if (moved_cost < cost) {
+                apply(delta);
+                residuals(std::vector<double>(parameter_count, 0.0), current);
+                improved = cost - moved_cost > 1e-12 * cost;
+                cost = cost_of(current);
+                damping = std::max(damping * 0.1, 1e-9);
+                if (!improved) return;  // converged
+            } else {
+                damping *= 10;
+            }
+        }
+        if (!improved) return;
+    }
+}
+
+std::vector<cv::Vec3d> inlier_points(const PointCloud& cloud, const std::vector<int>& inliers) {
+    std::vector<cv::Vec3d> points;
+    points.reserve(inliers.size());
+    for (int index : inliers) points.emplace_back(cloud.points[index]);
+    return points;
+}
+
+void refine_plane(DetectedShape& shape, const PointCloud& cloud) {
+    std::vector<cv::Vec3f> points;
+    for (int index : shape.inliers) points.push_back(cloud.points[index]);
+    const PlaneFit fit = fit_plane(points);
+    const double sign = fit.normal.dot(shape.direction) < 0 ? -1.0 : 1.0;
+    shape.direction = sign * fit.normal;
+    shape.point = shape.point + (fit.offset_mm * sign - shape.direction.dot(shape.point)) * shape.direction;
+}
+
+void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
+    cv::Vec3d axis_point = shape.point, axis = shape.direction;
+    double radius = shape.radius_mm;
+    // Moves: axis tilt (2), axis shift perpendicular to it (2), radius (1).
+    auto moved = [&](const std::vector<double>& d, cv::Vec3d& p, cv::Vec3d& a, double& r) {
+        const auto [first, second] = perpendicular_basis(axis);
+        a = cv::normalize(axis + d[0] * first + d[1] * second);
+        p = axis_point + d[2] * first + d[3] * second;
+        r = radius + d[4];
+    };
+    least_squares(
+        5,
+        [&](const std::vector<double>& d, std::vector<double>& out) {
+            cv::Vec3d p, a;
+            double r;
+            moved(d, p, a, r);
+            out.resize(points.size());
+            for (size_t i = 0; i < points.size(); ++i) out[i] = radial_distance(points[i], p, a) - r;
+        },
+        [&](const std::vector<double>& d) { moved(d, axis_point, axis, radius); });
+    shape.point = axis_point;
+    shape.direction = axis;
+    shape.radius_mm = radius;
+}
+
+void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
+    cv::Vec3d centre = shape.point;
+    double radius = shape.radius_mm;
+    least_squares(
+        4,
+        [&](const std::vector<double>& d, std::vector<double>& out) {
+            const cv::Vec3d c = centre + cv::Vec3d(d[0], d[1], d[2]);
+            out.resize(points.size());
+            for (size_t i = 0; i < points.size(); ++i) out[i] = cv::norm(points[i] - c) - (radius + d[3]);
+        },
+        [&](const std::vector<double>& d) {
+            centre += cv::Vec3d(d[0], d[1], d[2]);
+            radius += d[3];
+        });
+    shape.point = centre;
+    shape.radius_mm = radius;
+}
+
+void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
+    cv::Vec3d apex = shape.point, axis = shape.direction;
+    double half_angle = shape.half_angle_deg * kPi / 180;
+    // Moves: apex (3), axis tilt (2), half angle (1).
+    auto moved = [&](const std::vector<double>& d, cv::Vec3d& p, cv::Vec3d& a, double& angle) {
+        const auto [first, second] = perpendicular_basis(axis);
+        p = apex + cv::Vec3d(d[0], d[1], d[2]);
+        a = cv::normalize(axis + d[3] * first + d[4] * second);
+        angle = half_angle + d[5];
+    };
+    least_squares(
+        6,
+        [&](const std::vector<double>& d, std::vector<double>& out) {
+            cv::Vec3d p, a;
+            double angle;
+            moved(d, p, a, angle);
+            out.resize(points.size());
+            for (size_t i = 0; i < points.size(); ++i) out[i] = cone_distance(points[i], p, a, angle);
+        },
+        [&](const std::vector<double>& d) { moved(d, apex, axis, half_angle); });
+    shape.point = apex;
+    shape.direction = axis;
+    shape.half_angle_deg = half_angle * 180 / kPi;
+}
+
+// Cylinders and cones: axis extent of the inliers; the cylinder's axis point moves to the lowest one.
+void measure_length(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
+    double low = std::numeric_limits<double>::max(), high = std::numeric_limits<double>::lowest();
+    for (const cv::Vec3d& point : points) {
+        const double along = (point - shape.point).dot(shape.direction);
+        low = std::min(low, along);
+        high = std::max(high, along);
+    }
+    shape.length_mm = high - low;
+    if (shape.kind == ShapeKind::Cylinder) shape.point += low * shape.direction;
+}
+
+}  // namespace
+
+std::string to_string(ShapeKind kind) {
+    switch (kind) {
+        case ShapeKind::Plane: return "plane";
+        case ShapeKind::Cylinder: return "cylinder";
+        case ShapeKind::Sphere: return "sphere";
+        case ShapeKind::Cone: return "cone";
+    }
+    return "unknown";
+}
+
+double shape_distance(const DetectedShape& shape, const cv::Vec3d& point) {
+    switch (shape.kind) {
+        case ShapeKind::Plane: return (point - shape.point).dot(shape.direction);
+        case ShapeKind::Cylinder: return radial_distance(point, shape.point, shape.direction) - shape.radius_mm;
+        case ShapeKind::Sphere: return cv::norm(point - shape.point) - shape.radius_mm;
+        case ShapeKind::Cone: return cone_distance(point, shape.point, shape.direction, shape.half_angle_deg * kPi / 180);
+    }
+    return 0;
+}
+
+std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDetectionOptions& options,
+                                         const ProgressCallback& progress) {
+    if (cloud.normals.size() != cloud.points.size())
+        throw Error("cloud", "shape detection needs a normal per point (reconstruct a view to get them)");
+    if (options.min_points < 3) throw Error("min_points", "must be at least 3");
+    if (cloud.points.size() < size_t(options.min_points))
+        throw Error("cloud", std::to_string(cloud.points.size()) + " points, fewer than min_points (" +
+                                 std::to_string(options.min_points) + ")");
+    if (!(options.epsilon_mm > 0) || !(options.cluster_epsilon_mm > 0))
+        throw Error("epsilon_mm", "inlier and cluster distances must be positive");
+    if (!options.planes && !options.cylinders && !options.spheres && !options.cones)
+        throw Error("shapes", "no shape kind selected");
+
+    PointsWithNormals input;
+    input.reserve(cloud.points.size());
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        const cv::Vec3f& p = cloud.points[i];
+        const cv::Vec3f& n = cloud.normals[i];
+        // Points without a usable normal (edges of a view) cannot vote for a shape.
+        if (!std::isfinite(p.dot(p) + n.dot(n)) || n.dot(n) < 0.5f) continue;
+        input.emplace_back(Kernel::Point_3(p[0], p[1], p[2]), Kernel::Vector_3(n[0], n[1], n[2]), int(i));
+    }
+
+    // The same cloud and options give the same shapes.
+    CGAL::get_default_random() = CGAL::Random(1);
+    EfficientRansac ransac;
+    ransac.set_input(input);
+    if (options.planes) ransac.add_shape_factory<RansacPlane>();
+    if (options.cylinders) ransac.add_shape_factory<RansacCylinder>();
+    if (options.spheres) ransac.add_shape_factory<RansacSphere>();
+    if (options.cones) ransac.add_shape_factory<RansacCone>();
+    ransac.preprocess();
+
+    EfficientRansac::Parameters parameters;
+    parameters.probability = options.probability;
+    parameters.min_points = std::size_t(options.min_points);
+    parameters.epsilon = options.epsilon_mm;
+    parameters.cluster_epsilon = options.cluster_epsilon_mm;
+    parameters.normal_threshold = std::cos(options.normal_threshold_deg * kPi / 180);
+    std::function<bool(double)> callback;
+    if (progress) callback = [&progress](double fraction) { return progress(fraction * 0.9, "shapes"); };
+    if (!ransac.detect(parameters, callback)) throw Error("cancelled", "shape detection was stopped");
+
+    std::vector<DetectedShape> shapes;
+    for (const auto& found : ransac.shapes()) {
+        DetectedShape shape;
+        for (std::size_t index : found->indices_of_assigned_points()) shape.inliers.push_back(std::get<2>(input[index]));
+        if (const auto* plane = dynamic_cast<const RansacPlane*>(found.get())) {
+            shape.kind = ShapeKind::Plane;
+            shape.direction = cv::normalize(to_vec(plane->plane_normal()));
+            // Normals of a scan point towards the camera; orient the plane's normal the same way.
+            cv::Vec3d mean_normal(0, 0, 0), centroid(0, 0, 0);
+            for (int index : shape.inliers) {
+                mean_normal += cv::Vec3d(cloud.normals[index]);
+                centroid += cv::Vec3d(cloud.points[index]);
+            }
+            if (mean_normal.dot(shape.direction) < 0) shape.direction = -shape.direction;
+            shape.point = centroid / double(shape.inliers.size());
+        } else if (const auto* cylinder = dynamic_cast<const RansacCylinder*>(found.get())) {
+            shape.kind = ShapeKind::Cylinder;
+            shape.point = to_vec(cylinder->axis().point(0));
+            shape.direction = cv::normalize(to_vec(cylinder->axis().to_vector()));
+            shape.radius_mm = cylinder->radius();
+        } else if (const auto* sphere = dynamic_cast<const RansacSphere*>(found.get())) {
+            shape.kind = ShapeKind::Sphere;
+            shape.point = to_vec(sphere->center());
+            shape.radius_mm = sphere->radius();
+        } else if (const auto* cone = dynamic_cast<const RansacCone*>(found.get())) {
+            shape.kind = ShapeKind::Cone;
+            shape.point = to_vec(cone->apex());
+            shape.direction = cv::normalize(to_vec(cone->axis()));
+            shape.half_angle_deg = cone->angle() * 180 / kPi;
+        } else {
+            continue;
+        }
+        const std::vector<cv::Vec3d> points = inlier_points(cloud, shape.inliers);
+        if (shape.kind == ShapeKind::Cone && shape.half_angle_deg < options.min_cone_half_angle_deg) {
+            if (!options.cylinders) continue;
+            shape.kind = ShapeKind::Cylinder;
+            double radius_sum = 0;
+            for (const cv::Vec3d& point : points) radius_sum += radial_distance(point, shape.point, shape.direction);
+            shape.radius_mm = radius_sum / double(points.size());
+        }
+        if (options.refine) {
+            switch (shape.kind) {
+                case ShapeKind::Plane: refine_plane(shape, cloud); break;
+                case ShapeKind::Cylinder: refine_cylinder(shape, points); break;
+                case ShapeKind::Sphere: refine_sphere(shape, points); break;
+                case ShapeKind::Cone: refine_cone(shape, points); break;
+            }
+        }
+        // A cone opens along its axis: point it from the apex towards the inliers.
+        if (shape.kind == ShapeKind::Cone) {
+            cv::Vec3d mean(0, 0, 0);
+            for (const cv::Vec3d& point : points) mean += point;
+            if ((mean / double(points.size()) - shape.point).dot(shape.direction) < 0) shape.direction = -shape.direction;
+        }
+        if (shape.kind == ShapeKind::Cylinder || shape.kind == ShapeKind::Cone) measure_length(shape, points);
+        double squares = 0;
+        for (const cv::Vec3d& point : points) squares += std::pow(shape_distance(shape, point), 2);
+        shape.rms_mm = std::sqrt(squares / double(points.size()));
+        shapes.push_back(std::move(shape));
+    }
+    std::sort(shapes.begin(), shapes.end(),
+              [](const DetectedShape& a, const DetectedShape& b) { return a.inliers.size() > b.inliers.size(); });
+    if (progress) progress(1.0, "shapes");
+    return shapes;
+}
+
+}  // namespace picoscan

@@ -1,0 +1,170 @@
+"""Commands that turn scans into CAD: Mesh, Make solid, Fit primitives, Cross-section, Show rig,
+Encoding view."""
+import os
+import tempfile
+
+import FreeCAD
+import FreeCADGui
+
+from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views
+from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch, scan_mesh, stitch
+from picoscan_wb.operations import encoding, primitives, rig, section, solid
+from picoscan_wb.progress import FreeCADProgress
+
+
+def output_folder(doc, name):
+    """Beside the saved document, else in a temporary folder."""
+    base = os.path.dirname(doc.FileName) if doc.FileName else tempfile.mkdtemp(prefix="picoscan_")
+    folder = os.path.join(base, name)
+    os.makedirs(folder, exist_ok=True)
+    return folder
+
+
+def open_image(path):
+    import ImageGui
+
+    ImageGui.open(path)
+
+
+def selected_clouds():
+    return [obj for obj in FreeCADGui.Selection.getSelection() if is_scan_view(obj) or is_stitch(obj)]
+
+
+class StitchCommand(Command):
+    icon = "picoscan_stitch"
+    menu = "Stitch views"
+    tooltip = "Register the selected ScanViews into one model and merge their points"
+
+    def IsActive(self):
+        return len(selected_scan_views()) >= 2
+
+    def run(self):
+        views = selected_scan_views()
+        return stitch.create(views[0].Document, views)
+
+
+class MeshCommand(Command):
+    icon = "picoscan_mesh"
+    menu = "Mesh"
+    tooltip = ("Mesh the selected ScanView (Grid: its pixel grid) or Stitch: Poisson (watertight) or "
+               "advancing front (open surfaces)")
+
+    def IsActive(self):
+        return bool(selected_clouds())
+
+    def run(self):
+        from PySide import QtGui
+
+        source = selected_clouds()[0]
+        methods = scan_mesh.METHODS if is_scan_view(source) else [m for m in scan_mesh.METHODS if m != "Grid"]
+        method, ok = QtGui.QInputDialog.getItem(FreeCADGui.getMainWindow(), "Mesh", "Meshing method", methods, 0, False)
+        if not ok:
+            return None
+        return scan_mesh.create(source.Document, source, method=method)
+
+
+class MakeSolidCommand(Command):
+    icon = "picoscan_solid"
+    menu = "Make solid"
+    tooltip = "Part solid from the selected mesh when it is closed and small enough"
+
+    def IsActive(self):
+        return bool(selected_meshes())
+
+    def run(self):
+        mesh = selected_meshes()[0]
+        return solid.make_solid(mesh.Document, mesh)
+
+
+class FitPrimitivesCommand(Command):
+    icon = "picoscan_primitives"
+    menu = "Fit primitives"
+    tooltip = "Find planes, cylinders, spheres and cones in the scan (a ScanView or a Stitch) and add them as Part primitives"
+
+    def IsActive(self):
+        return bool(selected_clouds())
+
+    def run(self):
+        source = selected_clouds()[0]
+        with FreeCADProgress("Fitting primitives") as progress:
+            group, created = primitives.fit_primitives(source.Document, cloud_of(source), progress=progress,
+                                                       label="Primitives of " + source.Label)
+        for obj, shape in created:
+            FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, shape))
+        return group
+
+
+class CrossSectionCommand(Command):
+    icon = "picoscan_section"
+    menu = "Cross-section"
+    tooltip = "Cut the selected mesh with a plane across X, Y or Z: a Sketch of the profile and a profile plot"
+
+    def IsActive(self):
+        return bool(selected_meshes())
+
+    def ask_plane(self, mesh):
+        """(axis, position in mm) from two small dialogs; None when the user cancels."""
+        from PySide import QtGui
+
+        window = FreeCADGui.getMainWindow()
+        axis, ok = QtGui.QInputDialog.getItem(window, "Cross-section", "Normal of the cutting plane", ["X", "Y", "Z"], 1, False)
+        if not ok:
+            return None
+        centre = getattr(mesh.Mesh.BoundBox.Center, axis.lower())
+        position, ok = QtGui.QInputDialog.getDouble(window, "Cross-section", "Plane position along %s (mm)" % axis,
+                                                    centre, -1e6, 1e6, 2)
+        return (axis, position) if ok else None
+
+    def run(self):
+        mesh = selected_meshes()[0]
+        plane = self.ask_plane(mesh)
+        if plane is None:
+            return None
+        axis, position = plane
+        sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position)
+        source = getattr(mesh, "Source", None)
+        if is_scan_view(source):
+            path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")
+            sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position, path)
+            open_image(sketch.ProfilePlot)
+        return sketch
+
+
+class ShowRigCommand(Command):
+    icon = "picoscan_rig"
+    menu = "Show rig"
+    tooltip = "Camera and projector frusta at their calibrated poses (of the selected ScanView's calibration)"
+
+    def IsActive(self):
+        return FreeCAD.ActiveDocument is not None
+
+    def run(self):
+        views = selected_scan_views()
+        if views:
+            calibration = views[0].CalibrationFile
+        else:
+            from PySide import QtGui
+
+            calibration, _ = QtGui.QFileDialog.getOpenFileName(FreeCADGui.getMainWindow(), "Calibration of the rig",
+                                                               "", "Calibration (*.yml *.yaml *.xml)")
+            if not calibration:
+                return None
+        return rig.show_rig(FreeCAD.ActiveDocument, calibration)
+
+
+class EncodingViewCommand(Command):
+    icon = "picoscan_encoding"
+    menu = "Encoding view"
+    tooltip = "False-colour pictures of the decoded projector codes, modulation and pixel status"
+
+    def IsActive(self):
+        return bool(selected_scan_views())
+
+    def run(self):
+        view = selected_scan_views()[0]
+        folder = output_folder(view.Document, view.Name + "_encoding")
+        with FreeCADProgress("Decoding") as progress:
+            paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile, progress)
+        for path in paths.values():
+            open_image(path)
+        return paths

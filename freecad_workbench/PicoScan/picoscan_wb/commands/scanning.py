@@ -1,0 +1,83 @@
+"""Commands that produce scans: Calibrate, Scan (simulated; hardware capture is `picoscan capture`),
+Import capture set, Clean."""
+import os
+
+import FreeCAD
+import FreeCADGui
+
+import picoscan
+from picoscan_wb.commands.base import Command, active_document, selected_scan_views
+from picoscan_wb.objects import scan_view
+
+
+class CalibrateCommand(Command):
+    icon = "picoscan_calibrate"
+    menu = "Calibrate rig"
+    tooltip = "Calibrate camera and projector from captures of a board in several poses"
+
+    def Activated(self):
+        from picoscan_wb.taskpanels.calibrate import CalibrateTaskPanel
+
+        FreeCADGui.Control.showDialog(CalibrateTaskPanel())
+
+
+class ScanCommand(Command):
+    icon = "picoscan_scan"
+    menu = "Scan"
+    tooltip = "Scan a part: simulated with the virtual rig here; hardware capture comes from 'picoscan capture'"
+
+    def Activated(self):
+        from picoscan_wb.taskpanels.scan import ScanTaskPanel
+
+        FreeCADGui.Control.showDialog(ScanTaskPanel())
+
+
+def _ask_capture_set():
+    """(capture folder, calibration file) from file dialogs; None when the user cancels."""
+    from PySide import QtGui
+
+    window = FreeCADGui.getMainWindow()
+    folder = QtGui.QFileDialog.getExistingDirectory(window, "Capture set folder (images + sequence.json)")
+    if not folder:
+        return None
+    if not os.path.isdir(folder):
+        raise picoscan.Error("%s: capture folder does not exist" % folder)
+    calibration = os.path.join(folder, "calibration.yml")
+    if not os.path.isfile(calibration):
+        calibration, _ = QtGui.QFileDialog.getOpenFileName(window, "Calibration of the rig", folder,
+                                                           "Calibration (*.yml *.yaml *.xml)")
+        if not calibration:
+            return None
+    return folder, calibration
+
+
+class ImportCapturesCommand(Command):
+    icon = "picoscan_import"
+    menu = "Import capture set"
+    tooltip = "Reconstruct a capture set (from 'picoscan capture', the simulator or another system) into a ScanView"
+
+    def run(self):
+        answer = _ask_capture_set()
+        if answer is None:
+            return None
+        active_document()
+        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1])
+        FreeCADGui.SendMsgToActiveView("ViewFit")
+        return view
+
+
+class CleanCommand(Command):
+    icon = "picoscan_clean"
+    menu = "Clean scan"
+    tooltip = "Remove stray-light outliers, grazing points and small clusters from the selected ScanViews"
+
+    def IsActive(self):
+        return bool(selected_scan_views())
+
+    def run(self):
+        for view in selected_scan_views():
+            view.Clean = True
+            view.recompute()
+            if not view.isValid():
+                raise picoscan.Error("%s: cleaning failed: %s" % (view.Label, view.getStatusString()))
+            FreeCAD.Console.PrintMessage("%s: %s\n" % (view.Label, view.CleanReport))

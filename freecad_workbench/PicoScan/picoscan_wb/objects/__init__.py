@@ -1,0 +1,33 @@
+"""Parametric document objects (FeaturePython). Their results that FreeCAD cannot store (the organised
+view of a scan) are kept in memory and recomputed on demand after a document is reopened."""
+
+
+def proxy_type(obj):
+    return getattr(getattr(obj, "Proxy", None), "Type", "")
+
+
+def is_scan_view(obj):
+    return proxy_type(obj) == "PicoScan::ScanView"
+
+
+def is_stitch(obj):
+    return proxy_type(obj) == "PicoScan::Stitch"
+
+
+def is_scan_mesh(obj):
+    return proxy_type(obj) == "PicoScan::ScanMesh"
+
+
+def has_mesh(obj):
+    return obj is not None and hasattr(obj, "Mesh") and obj.Mesh.CountFacets > 0
+
+
+def cloud_of(obj):
+    """picoscan.PointCloud (with normals) of a ScanView or a Stitch."""
+    import picoscan
+
+    if is_scan_view(obj):
+        return picoscan.to_point_cloud(obj.Proxy.scan_view(obj)[0])
+    if is_stitch(obj):
+        return obj.Proxy.merged_cloud(obj)
+    raise picoscan.Error("%s: not a ScanView or a Stitch" % getattr(obj, "Label", obj))

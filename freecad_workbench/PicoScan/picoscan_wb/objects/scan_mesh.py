@@ -1,0 +1,114 @@
+"""ScanMesh: a scan -> Mesh. Grid meshing joins neighbouring camera pixels of one ScanView without
+bridging depth jumps; Poisson (watertight) and advancing front (open surfaces) mesh the cloud of a
+ScanView or a Stitch with the core's CGAL meshing."""
+import os
+import tempfile
+
+import FreeCAD
+import Mesh
+
+import picoscan
+from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch
+from picoscan_wb.operations.reconstruct import camera_focal_px
+from picoscan_wb.progress import FreeCADProgress
+
+TYPE = "PicoScan::ScanMesh"
+METHODS = ["Grid", "Poisson", "AdvancingFront"]
+
+
+def freecad_mesh(mesh):
+    """FreeCAD Mesh from a picoscan.Mesh, through a binary STL (fast for millions of facets)."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "mesh.stl")
+        picoscan.write_stl(mesh, path)
+        return Mesh.Mesh(path)
+
+
+class ScanMesh:
+    def __init__(self, obj):
+        obj.Proxy = self
+        self.Type = TYPE
+        obj.addProperty("App::PropertyLink", "Source", "Mesh", "The ScanView or Stitch to mesh")
+        obj.addProperty("App::PropertyEnumeration", "Method", "Mesh", "Meshing method")
+        obj.addProperty("App::PropertyInteger", "PixelStep", "Grid", "Join every n-th pixel (n*n fewer triangles)")
+        obj.addProperty("App::PropertyFloat", "MaxEdgeFactor", "Grid", "Longest edge in pixel footprints; longer ones are depth jumps")
+        obj.addProperty("App::PropertyFloat", "SampleSpacing", "Surface", "The cloud is thinned to about this spacing (mm) first; 0 keeps all")
+        obj.addProperty("App::PropertyFloat", "MaxHoleDiameter", "Surface", "Holes up to this size (mm) are filled")
+        obj.addProperty("App::PropertyInteger", "TargetFaces", "Surface", "Simplify to about this many faces; 0 keeps all")
+        obj.addProperty("App::PropertyString", "Check", "Result", "Facets, open edges, closed or not", 1)
+        obj.Method = METHODS
+        obj.Method = "Grid"
+        obj.PixelStep = 2
+        obj.MaxEdgeFactor = 8.0
+        defaults = picoscan.MeshOptions()
+        obj.SampleSpacing = defaults.sample_spacing_mm
+        obj.MaxHoleDiameter = defaults.max_hole_diameter_mm
+        obj.TargetFaces = defaults.target_faces
+
+    def execute(self, obj):
+        if obj.Method == "Grid":
+            obj.Mesh, obj.Check = self.grid(obj)
+        else:
+            obj.Mesh, obj.Check = self.surface(obj)
+
+    def grid(self, obj):
+        if not is_scan_view(obj.Source):
+            raise picoscan.Error("%s: Grid meshing needs a single ScanView; mesh a Stitch with Poisson or "
+                                 "AdvancingFront" % obj.Label)
+        if obj.PixelStep < 1:
+            raise picoscan.Error("%s: PixelStep must be at least 1" % obj.Label)
+        view, calibration = obj.Source.Proxy.scan_view(obj.Source)
+        options = picoscan.GridMeshOptions()
+        options.pixel_step = obj.PixelStep
+        options.max_edge_factor = obj.MaxEdgeFactor
+        result = freecad_mesh(picoscan.grid_mesh(view, camera_focal_px(calibration), options))
+        return result, "%d facets, %d points, %s" % (result.CountFacets, result.CountPoints,
+                                                      "closed" if result.isSolid() else "open (a single view is a surface)")
+
+    def surface(self, obj):
+        if not (is_scan_view(obj.Source) or is_stitch(obj.Source)):
+            raise picoscan.Error("%s: Source must be a ScanView or a Stitch" % obj.Label)
+        options = picoscan.MeshOptions()
+        options.method = getattr(picoscan.MeshMethod, obj.Method)
+        options.sample_spacing_mm = obj.SampleSpacing
+        options.max_hole_diameter_mm = obj.MaxHoleDiameter
+        options.target_faces = obj.TargetFaces
+        with FreeCADProgress("Meshing " + obj.Label) as progress:
+            mesh = picoscan.mesh_cloud(cloud_of(obj.Source), options, progress)
+        return freecad_mesh(mesh), picoscan.check_mesh(mesh).summary()
+
+    def onDocumentRestored(self, obj):
+        self.Type = TYPE
+
+    def __getstate__(self):
+        return {"Type": self.Type}
+
+    def __setstate__(self, state):
+        self.Type = state.get("Type", TYPE)
+
+
+def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spacing_mm=None, target_faces=None):
+    """Meshes first and adds the object only when that worked (bad input leaves `doc` unchanged)."""
+    if not (is_scan_view(source) or is_stitch(source)):
+        raise picoscan.Error("%s: select a ScanView or a Stitch to mesh" % getattr(source, "Label", "selection"))
+    if method not in METHODS:
+        raise picoscan.Error("%s: meshing method must be one of %s" % (method, ", ".join(METHODS)))
+    obj = doc.addObject("Mesh::FeaturePython", name)
+    ScanMesh(obj)
+    obj.Source = source
+    obj.Method = method
+    obj.PixelStep = pixel_step
+    if sample_spacing_mm is not None:
+        obj.SampleSpacing = sample_spacing_mm
+    if target_faces is not None:
+        obj.TargetFaces = target_faces
+    if FreeCAD.GuiUp:
+        from picoscan_wb.viewproviders.view_provider import ViewProvider
+        ViewProvider(obj.ViewObject, "picoscan_mesh")
+        source.ViewObject.Visibility = False
+    obj.recompute()
+    if not obj.isValid():
+        message = obj.getStatusString()
+        doc.removeObject(obj.Name)
+        raise picoscan.Error(message)
+    return obj

@@ -1,0 +1,109 @@
+"""ScanView: capture set + calibration + parameters -> Points (an organised scan of one camera view)."""
+import FreeCAD
+import Points
+
+import picoscan
+from picoscan_wb.operations.reconstruct import reconstruct
+from picoscan_wb.progress import FreeCADProgress
+
+TYPE = "PicoScan::ScanView"
+
+# Organised views by (document, object) with the parameters they were computed from. Not saved:
+# the document stores the Points; the organised view is recomputed when first needed after reopening.
+_views = {}
+# A reconstruction made by create() before the object existed, used by its first execute() only.
+_fresh = {}
+
+
+def _parameters(obj):
+    return (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
+            obj.BinaryOnly, obj.Clean, obj.MaxGrazingAngle)
+
+
+def _key(obj):
+    return (obj.Document.Name, obj.Name)
+
+
+def points_of(cloud):
+    """FreeCAD Points from a picoscan.PointCloud (or an N x 3 array)."""
+    coordinates = cloud.points if hasattr(cloud, "points") else cloud
+    result = Points.Points()
+    result.addPoints([tuple(point) for point in coordinates.tolist()])
+    return result
+
+
+class ScanView:
+    def __init__(self, obj):
+        obj.Proxy = self
+        self.Type = TYPE
+        group = "Scan"
+        obj.addProperty("App::PropertyPath", "CaptureFolder", group, "Folder of the capture set (images + sequence.json)")
+        obj.addProperty("App::PropertyFile", "CalibrationFile", group, "Camera-projector calibration (.yml)")
+        obj.addProperty("App::PropertyFile", "ManifestFile", group, "sequence.json to use instead of the folder's own (foreign capture sets)")
+        group = "Decoding"
+        obj.addProperty("App::PropertyFloat", "MinContrast", group, "White-black contrast below this is shadow (grey levels)")
+        obj.addProperty("App::PropertyFloat", "MinModulation", group, "Fringe amplitude below this is rejected (grey levels)")
+        obj.addProperty("App::PropertyBool", "BinaryOnly", group, "Gray code only, ignoring the phase frames (for comparison)")
+        group = "Cleaning"
+        obj.addProperty("App::PropertyBool", "Clean", group, "Remove stray-light outliers, grazing points and small clusters")
+        obj.addProperty("App::PropertyAngle", "MaxGrazingAngle", group, "Points seen more obliquely than this are removed when cleaning")
+        group = "Result"
+        obj.addProperty("App::PropertyInteger", "PointCount", group, "Points measured", 1)
+        obj.addProperty("App::PropertyString", "CleanReport", group, "What cleaning removed", 1)
+        obj.MinContrast = 15.0
+        obj.MinModulation = 4.0
+        obj.MaxGrazingAngle = 80.0
+
+    def execute(self, obj):
+        fresh = _fresh.pop(_key(obj), None)
+        if fresh is not None and fresh[0] == _parameters(obj):
+            view, calibration, report = fresh[1:]
+        else:
+            with FreeCADProgress("Reconstructing " + obj.Label) as progress:
+                view, calibration, report = reconstruct(
+                    obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
+                    obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle), progress)
+        _views[_key(obj)] = (_parameters(obj), view, calibration)
+        cloud = picoscan.to_point_cloud(view)
+        obj.Points = points_of(cloud)
+        obj.PointCount = len(cloud)
+        obj.CleanReport = "" if report is None else (
+            "removed %d: %d grazing, %d outliers, %d with few neighbours, %d in small clusters" % (
+                report.removed(), report.by_grazing, report.by_statistics, report.by_radius, report.by_cluster))
+
+    def scan_view(self, obj):
+        """(organised picoscan.ScanView, picoscan.Calibration), recomputed if not in memory or stale."""
+        cached = _views.get(_key(obj))
+        if cached is None or cached[0] != _parameters(obj):
+            self.execute(obj)
+            cached = _views[_key(obj)]
+        return cached[1], cached[2]
+
+    def onDocumentRestored(self, obj):
+        self.Type = TYPE
+
+    def __getstate__(self):
+        return {"Type": self.Type}
+
+    def __setstate__(self, state):
+        self.Type = state.get("Type", TYPE)
+
+
+def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file=""):
+    """Reconstructs first and adds the object only when that worked, so bad input leaves `doc` unchanged."""
+    with FreeCADProgress("Reconstructing") as progress:
+        result = reconstruct(capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean,
+                             progress=progress)
+    obj = doc.addObject("Points::FeaturePython", name)
+    ScanView(obj)
+    obj.CaptureFolder = capture_folder
+    obj.CalibrationFile = calibration_file
+    obj.ManifestFile = manifest_file
+    obj.Clean = clean
+    obj.BinaryOnly = binary_only
+    _fresh[_key(obj)] = (_parameters(obj),) + result
+    if FreeCAD.GuiUp:
+        from picoscan_wb.viewproviders.view_provider import ViewProvider
+        ViewProvider(obj.ViewObject, "picoscan_scan")
+    obj.recompute()
+    return obj

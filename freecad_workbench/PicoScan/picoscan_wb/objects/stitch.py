@@ -1,0 +1,106 @@
+"""Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core registers
+the views (features on the white frames, RANSAC, trimmed point-to-plane ICP, then all views
+refined together) and merges them; views it cannot register are reported, not forced in."""
+import numpy
+import FreeCAD
+
+import picoscan
+from picoscan_wb.objects import is_scan_view
+from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
+from picoscan_wb.progress import FreeCADProgress
+
+TYPE = "PicoScan::Stitch"
+
+# Merged clouds by (document, object), with the inputs they came from; not saved (see scan_view).
+_clouds = {}
+
+
+def _key(obj):
+    return (obj.Document.Name, obj.Name)
+
+
+def _parameters(obj):
+    # A view's own parameters count too: a changed view makes the merged cloud stale.
+    return (obj.IcpMaxDistance, obj.MinOverlap) + tuple((v.Name,) + scan_view_parameters(v) for v in obj.Views)
+
+
+def _placement(pose):
+    matrix = FreeCAD.Matrix(*[float(value) for value in numpy.asarray(pose).reshape(-1)])
+    return FreeCAD.Placement(matrix)
+
+
+class Stitch:
+    def __init__(self, obj):
+        obj.Proxy = self
+        self.Type = TYPE
+        obj.addProperty("App::PropertyLinkList", "Views", "Stitch", "ScanViews to register; the first defines the model frame")
+        obj.addProperty("App::PropertyFloat", "IcpMaxDistance", "Registration", "Point pairs farther apart than this (mm) are never used")
+        obj.addProperty("App::PropertyFloat", "MinOverlap", "Registration", "Share of a view's points that must have a partner")
+        obj.addProperty("App::PropertyInteger", "AlignedCount", "Result", "Views registered and merged", 1)
+        obj.addProperty("App::PropertyPlacementList", "ViewPoses", "Result", "View -> model pose of each view", 1)
+        obj.addProperty("App::PropertyStringList", "Report", "Result", "Per view: overlap and residual, or why it was left out", 1)
+        obj.addProperty("App::PropertyInteger", "PointCount", "Result", "Points in the merged cloud", 1)
+        options = picoscan.RegistrationOptions()
+        obj.IcpMaxDistance = options.icp_max_distance_mm
+        obj.MinOverlap = options.min_overlap
+
+    def execute(self, obj):
+        sources = list(obj.Views)
+        if len(sources) < 2 or not all(is_scan_view(v) for v in sources):
+            raise picoscan.Error("%s: Views must hold two or more ScanViews" % obj.Label)
+        views = [source.Proxy.scan_view(source)[0] for source in sources]
+        options = picoscan.RegistrationOptions()
+        options.icp_max_distance_mm = obj.IcpMaxDistance
+        options.min_overlap = obj.MinOverlap
+        with FreeCADProgress("Stitching " + obj.Label) as progress:
+            alignment = picoscan.align_views(views, [v.Label for v in sources], options, progress=progress)
+        report = []
+        for source, result in zip(sources, alignment.views):
+            report.append("%s: overlap %.2f, rms %.3f mm" % (source.Label, result.overlap, result.rms_mm) if result.aligned
+                          else "%s: left out: %s" % (source.Label, result.problem))
+        if alignment.aligned_count() < 2:
+            raise picoscan.Error("%s: fewer than two views could be registered (%s)" % (obj.Label, "; ".join(report)))
+        aligned = [(view, result.pose) for view, result in zip(views, alignment.views) if result.aligned]
+        cloud = picoscan.merge_views([view.with_pose(pose) for view, pose in aligned])
+        _clouds[_key(obj)] = (_parameters(obj), cloud)
+        obj.ViewPoses = [_placement(result.pose) for result in alignment.views]
+        obj.Report = report
+        obj.AlignedCount = alignment.aligned_count()
+        obj.Points = points_of(cloud)
+        obj.PointCount = len(cloud)
+
+    def merged_cloud(self, obj):
+        """The merged picoscan.PointCloud (with normals), recomputed if not in memory or stale."""
+        cached = _clouds.get(_key(obj))
+        if cached is None or cached[0] != _parameters(obj):
+            self.execute(obj)
+            cached = _clouds[_key(obj)]
+        return cached[1]
+
+    def onDocumentRestored(self, obj):
+        self.Type = TYPE
+
+    def __getstate__(self):
+        return {"Type": self.Type}
+
+    def __setstate__(self, state):
+        self.Type = state.get("Type", TYPE)
+
+
+def create(doc, views, name="Stitch"):
+    if len(views) < 2 or not all(is_scan_view(v) for v in views):
+        raise picoscan.Error("Stitch views: select two or more ScanViews")
+    obj = doc.addObject("Points::FeaturePython", name)
+    Stitch(obj)
+    obj.Views = list(views)
+    if FreeCAD.GuiUp:
+        from picoscan_wb.viewproviders.view_provider import ViewProvider
+        ViewProvider(obj.ViewObject, "picoscan_stitch")
+        for view in views:
+            view.ViewObject.Visibility = False
+    obj.recompute()
+    if not obj.isValid():
+        message = obj.getStatusString()
+        doc.removeObject(obj.Name)
+        raise picoscan.Error(message)
+    return obj

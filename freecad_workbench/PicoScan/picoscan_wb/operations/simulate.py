@@ -1,0 +1,144 @@
+"""Simulated scans: the core's virtual rig renders a capture set as a real camera would.
+Hardware capture is issue 5 (`picoscan capture`); its capture sets are imported like these."""
+import os
+
+import picoscan
+
+
+def scaled_calibration(calibration, scale):
+    """The same rig with the camera resolution scaled (fewer pixels: faster tests and previews)."""
+    if scale == 1.0:
+        return calibration
+    width, height = calibration.camera_size
+    calibration.camera_size = (int(round(width * scale)), int(round(height * scale)))
+    matrix = calibration.camera_matrix
+    matrix[0, 0] *= scale
+    matrix[1, 1] *= scale
+    # Pixel centres at integer coordinates: scale about the corner of the first pixel.
+    matrix[0, 2] = (matrix[0, 2] + 0.5) * scale - 0.5
+    matrix[1, 2] = (matrix[1, 2] + 0.5) * scale - 0.5
+    calibration.camera_matrix = matrix
+    return calibration
+
+
+def shaft_scene(radius_mm=12.5, length_mm=80.0, distance_mm=400.0, background_mm=460.0):
+    """A shaft (capped cylinder, axis along the camera's y) in front of a flat background."""
+    scene = picoscan.Scene()
+    scene.add_plane((0, 0, background_mm), (0, 0, -1))
+    scene.add_cylinder((0, -length_mm / 2, distance_mm), (0, 1, 0), radius_mm, length_mm)
+    return scene
+
+
+SCENES = ("Demo part", "Shaft", "Scene file")
+
+
+def make_scene(kind, scene_file=""):
+    if kind == "Demo part":
+        return picoscan.demo_scene()
+    if kind == "Shaft":
+        return shaft_scene()
+    if kind == "Scene file":
+        if not scene_file or not os.path.isfile(scene_file):
+            raise picoscan.Error("%s: scene file does not exist" % (scene_file or "(no scene file)"))
+        return picoscan.read_scene(scene_file)
+    raise picoscan.Error("%s: unknown scene (one of %s)" % (kind, ", ".join(SCENES)))
+
+
+def simulate_scan(folder, scene, camera_scale=1.0, shifts=8, noise_dn=1.0, seed=1, progress=None):
+    """Renders the capture set of `scene` with the seed-like rig into `folder` (which must be empty
+    or new) and writes the rig as folder/calibration.yml. Returns the calibration file's path."""
+    if os.path.exists(folder) and (not os.path.isdir(folder) or os.listdir(folder)):
+        raise picoscan.Error("%s: output folder must be empty or new" % folder)
+    calibration = scaled_calibration(picoscan.seed_rig_calibration(), camera_scale)
+    patterns = picoscan.PatternOptions()
+    patterns.shifts = shifts
+    options = picoscan.SimulationOptions()
+    options.noise_sigma_dn = noise_dn
+    options.seed = seed
+    captures = picoscan.simulate_capture(picoscan.make_pattern_sequence(patterns), calibration, scene, options, progress)
+    os.makedirs(folder, exist_ok=True)
+    picoscan.write_capture_set(captures, folder)
+    calibration_file = os.path.join(folder, "calibration.yml")
+    picoscan.write_calibration(calibration, calibration_file)
+    return calibration_file
+
+
+def _rotation_deg(about_x, about_y, about_z):
+    """Rotation about x, then y, then z (degrees)."""
+    import numpy
+
+    def about(axis, degrees):
+        c, s = numpy.cos(numpy.radians(degrees)), numpy.sin(numpy.radians(degrees))
+        i, j = [k for k in range(3) if k != axis]
+        matrix = numpy.eye(3)
+        matrix[i, i], matrix[i, j], matrix[j, i], matrix[j, j] = c, -s, s, c
+        return matrix
+
+    return about(2, about_z) @ about(1, about_y) @ about(0, about_x)
+
+
+# Board poses tilted up to ~30 degrees in different directions, 370..430 mm away: (centre, tilts).
+BOARD_POSES = [((0, 0, 400), (0, 0, 0)), ((-30, -20, 380), (25, -20, 5)), ((30, -20, 380), (25, 20, -5)),
+               ((-30, 20, 420), (-25, -20, 10)), ((30, 20, 420), (-25, 20, -10)), ((0, 0, 370), (15, 15, 30)),
+               ((-40, 0, 400), (0, -30, 0)), ((40, 0, 400), (0, 30, 0))]
+
+
+def simulate_board_poses(folder, inner_corners=(9, 6), square_mm=18.0, camera_scale=0.5, progress=None):
+    """Capture sets of a chessboard in BOARD_POSES, one folder each (pose_00, ...), for calibrating.
+    Returns (folders, board spec text, the true calibration)."""
+    import numpy
+
+    calibration = scaled_calibration(picoscan.seed_rig_calibration(), camera_scale)
+    patterns = picoscan.PatternOptions()
+    patterns.shifts = 8
+    sequence = picoscan.make_pattern_sequence(patterns)
+    middle = numpy.array([(inner_corners[0] - 1) / 2 * square_mm, (inner_corners[1] - 1) / 2 * square_mm, 0.0])
+    folders = []
+    for index, (centre, tilts) in enumerate(BOARD_POSES):
+        rotation = _rotation_deg(*tilts)
+        scene = picoscan.Scene()
+        scene.add_board(rotation, numpy.asarray(centre, float) - rotation @ middle, inner_corners, square_mm, 12.0)
+        options = picoscan.SimulationOptions()
+        options.seed = index + 1
+        options.blur_sigma_px = 0.7
+        captures = picoscan.simulate_capture(sequence, calibration, scene, options, progress)
+        folders.append(os.path.join(folder, "pose_%02d" % index))
+        os.makedirs(folders[-1], exist_ok=True)
+        picoscan.write_capture_set(captures, folders[-1])
+    return folders, "chessboard:%dx%d:%g" % (inner_corners[0], inner_corners[1], square_mm), calibration
+
+
+def simulate_turntable(folder, view_indices=(0, 1, 2), camera_scale=1.0, progress=None):
+    """Views of the built-in speckle-painted mechanical part on a turntable (45 degree steps, seen
+    from 25 degrees above), one capture folder each (view_N, with calibration.yml).
+    Returns [(capture folder, calibration file)] and the true view -> first view transforms."""
+    import numpy
+
+    plan = picoscan.TurntablePlan()
+    plan.top_view = False
+    part_to_camera = picoscan.turntable_part_poses(plan)
+    part = picoscan.mechanical_part()
+    calibration = scaled_calibration(picoscan.seed_rig_calibration(), camera_scale)
+    patterns = picoscan.PatternOptions()
+    patterns.shifts = 8
+    sequence = picoscan.make_pattern_sequence(patterns)
+    scans, truth = [], []
+    first = numpy.asarray(part_to_camera[view_indices[0]])
+    for index in view_indices:
+        scene = picoscan.Scene()
+        scene.add_mesh(picoscan.transformed(part, part_to_camera[index]), 0.85)
+        options = picoscan.SimulationOptions()
+        options.full_scale_dn = 250
+        options.blur_sigma_px = 0.5
+        # One noise seed for every view, as the core's registration tests do. With a different seed
+        # per view, align_views (main at a0dcffa) leaves views out ("surface textures do not agree").
+        options.seed = 1
+        captures = picoscan.simulate_capture(sequence, calibration, scene, options, progress)
+        view_folder = os.path.join(folder, "view_%d" % index)
+        os.makedirs(view_folder, exist_ok=True)
+        picoscan.write_capture_set(captures, view_folder)
+        calibration_file = os.path.join(view_folder, "calibration.yml")
+        picoscan.write_calibration(calibration, calibration_file)
+        scans.append((view_folder, calibration_file))
+        truth.append(first @ numpy.linalg.inv(numpy.asarray(part_to_camera[index])))
+    return scans, truth

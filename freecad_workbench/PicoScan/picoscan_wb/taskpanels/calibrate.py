@@ -1,0 +1,106 @@
+"""Calibrate task panel: board, one capture folder per board pose, output file, and a live report
+(corners found per pose as they are observed, then the errors of the calibration)."""
+import os
+
+import FreeCAD
+import FreeCADGui
+from PySide import QtGui
+
+import picoscan
+from picoscan_wb.commands.base import INPUT_ERRORS, show_message
+from picoscan_wb.progress import FreeCADProgress
+
+
+class CalibrateTaskPanel:
+    # The panel on screen, for tests and macros.
+    current = None
+
+    def __init__(self):
+        CalibrateTaskPanel.current = self
+        self.form = QtGui.QWidget()
+        self.form.setWindowTitle("PicoScan calibration")
+        layout = QtGui.QFormLayout(self.form)
+        self.board = QtGui.QLineEdit("chessboard:9x6:20")
+        self.board.setToolTip("chessboard:COLSxROWS:SQUARE_MM, circles:..., acircles:..., charuco:COLSxROWS:SQUARE_MM:MARKER_MM")
+        layout.addRow("Board", self.board)
+        self.poses = QtGui.QListWidget()
+        self.poses.setToolTip("One capture folder per board pose (10 or more, tilted in different directions)")
+        layout.addRow("Pose captures", self.poses)
+        buttons = QtGui.QHBoxLayout()
+        add, remove = QtGui.QPushButton("Add folder..."), QtGui.QPushButton("Remove")
+        add.clicked.connect(self.add_folder)
+        remove.clicked.connect(lambda: [self.poses.takeItem(self.poses.row(item)) for item in self.poses.selectedItems()])
+        buttons.addWidget(add)
+        buttons.addWidget(remove)
+        layout.addRow("", buttons)
+        self.output = QtGui.QLineEdit(os.path.join(os.path.expanduser("~"), "picoscan_calibration.yml"))
+        layout.addRow("Output file", self.output)
+        self.report = QtGui.QPlainTextEdit()
+        self.report.setReadOnly(True)
+        layout.addRow("Report", self.report)
+        self.result = None
+        self.report_lines = []  # the report's text, also after the panel has closed
+
+    def add_folder(self):
+        folder = QtGui.QFileDialog.getExistingDirectory(self.form, "Capture folder of one board pose")
+        if folder:
+            self.poses.addItem(folder)
+
+    def pose_folders(self):
+        return [self.poses.item(row).text() for row in range(self.poses.count())]
+
+    def log(self, line):
+        self.report_lines.append(line)
+        self.report.appendPlainText(line)
+        QtGui.QApplication.processEvents()
+
+    def calibrate(self):
+        """Observes every pose, calibrates, writes the calibration and an HTML report beside it."""
+        board = picoscan.parse_board_spec(self.board.text().strip())
+        folders = self.pose_folders()
+        if not folders:
+            raise picoscan.Error("Pose captures: add one capture folder per board pose")
+        output = self.output.text().strip()
+        if not output.lower().endswith((".yml", ".yaml")):
+            raise picoscan.Error("%s: the calibration file must end in .yml or .yaml" % (output or "Output file"))
+        for folder in folders:
+            if not os.path.isdir(folder):
+                raise picoscan.Error("%s: capture folder does not exist" % folder)
+        self.report.clear()
+        self.report_lines = []
+        observations = []
+        with FreeCADProgress("Observing board poses") as progress:
+            for index, folder in enumerate(folders):
+                observation = picoscan.observe_pose(picoscan.load_capture_set(folder), board)
+                observations.append(observation)
+                self.log("%s: %d corners, %d with projector points%s" % (
+                    os.path.basename(folder), observation.corner_count, observation.projector_corner_count,
+                    " - " + observation.problem if observation.problem else ""))
+                progress((index + 1) / len(folders), "poses")
+        report = picoscan.calibrate_rig(observations)
+        self.log("camera RMS %.3f px, projector RMS %.3f px, stereo RMS %.3f px" % (
+            report.camera_rms_px, report.projector_rms_px, report.stereo_rms_px))
+        for pose in report.poses:
+            if not pose.used:
+                self.log("%s not used: %s" % (pose.name, pose.reason))
+        for warning in report.warnings:
+            self.log("warning: " + warning)
+        picoscan.write_calibration(report.calibration, output)
+        picoscan.write_calibration_report(report, board, os.path.splitext(output)[0] + "_report.html")
+        self.log("written: " + output)
+        self.result = report
+        return report
+
+    def accept(self):
+        try:
+            self.calibrate()
+        except INPUT_ERRORS as error:
+            FreeCAD.Console.PrintError("PicoScan calibration: %s\n" % error)
+            show_message("PicoScan: Calibrate", str(error))
+            return False  # the panel stays open for corrections
+        FreeCADGui.Control.closeDialog()
+        return True
+
+    def reject(self):
+        FreeCADGui.Control.closeDialog()
+        return True

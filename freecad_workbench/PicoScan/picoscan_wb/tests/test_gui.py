@@ -1,0 +1,287 @@
+"""GUI tests of the PicoScan workbench, run inside FreeCAD under Xvfb (tests/freecad/run_gui_tests.py):
+the workbench activates, every command is registered with an icon and is active when it should be,
+the Calibrate panel opens and calibrates, bad input shows a message box and leaves the document
+unchanged, and a screenshot of a scanned mesh is saved."""
+import os
+import shutil
+import subprocess
+import tempfile
+import unittest
+
+import numpy
+import FreeCAD
+import FreeCADGui
+from PySide2 import QtWidgets
+
+import picoscan
+from picoscan_wb.commands import COMMANDS
+from picoscan_wb.objects import scan_mesh, scan_view
+from picoscan_wb.operations import simulate
+from picoscan_wb.taskpanels.calibrate import CalibrateTaskPanel
+from picoscan_wb.taskpanels.scan import ScanTaskPanel
+
+ALWAYS_ACTIVE = {"PicoScan_Calibrate", "PicoScan_Scan", "PicoScan_ImportCaptures", "PicoScan_ShowRig"}
+FOR_SCAN_VIEWS = {"PicoScan_Clean", "PicoScan_Mesh", "PicoScan_FitPrimitives", "PicoScan_EncodingView"}
+FOR_MESHES = {"PicoScan_MakeSolid", "PicoScan_CrossSection"}
+
+
+def process_events():
+    FreeCADGui.updateGui()
+    QtWidgets.QApplication.processEvents()
+
+
+class PicoScanGuiTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        FreeCADGui.activateWorkbench("PicoScanWorkbench")
+        cls.folder = tempfile.mkdtemp(prefix="picoscan_gui_")
+        cls.captures = os.path.join(cls.folder, "shaft")
+        cls.calibration = simulate.simulate_scan(cls.captures, simulate.shaft_scene(), camera_scale=0.5)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder, ignore_errors=True)
+
+    def setUp(self):
+        # Message boxes are recorded instead of blocking the test.
+        self.messages = []
+        self.saved = {}
+        for name in ("critical", "warning", "information"):
+            self.saved[name] = getattr(QtWidgets.QMessageBox, name)
+            setattr(QtWidgets.QMessageBox, name, self.recorder(name))
+        self.saved_dialogs = (QtWidgets.QFileDialog.getExistingDirectory, QtWidgets.QFileDialog.getOpenFileName,
+                              QtWidgets.QInputDialog.getItem, QtWidgets.QInputDialog.getDouble)
+        self.doc = FreeCAD.newDocument("GuiTest")
+        FreeCADGui.Selection.clearSelection()
+
+    def tearDown(self):
+        if FreeCADGui.Control.activeDialog():
+            FreeCADGui.Control.closeDialog()
+        for name, function in self.saved.items():
+            setattr(QtWidgets.QMessageBox, name, function)
+        (QtWidgets.QFileDialog.getExistingDirectory, QtWidgets.QFileDialog.getOpenFileName,
+         QtWidgets.QInputDialog.getItem, QtWidgets.QInputDialog.getDouble) = self.saved_dialogs
+        FreeCAD.closeDocument(self.doc.Name)
+        process_events()
+
+    def recorder(self, kind):
+        def record(parent, title, text, *args, **kwargs):
+            self.messages.append((kind, title, text))
+            return QtWidgets.QMessageBox.Ok
+        return record
+
+    def object_names(self):
+        return [o.Name for o in self.doc.Objects]
+
+    def answer_dialogs(self, folder, calibration=""):
+        QtWidgets.QFileDialog.getExistingDirectory = lambda *args, **kwargs: folder
+        QtWidgets.QFileDialog.getOpenFileName = lambda *args, **kwargs: (calibration, "")
+
+    def test_a_workbench_active_with_toolbar_and_menu(self):
+        self.assertEqual(FreeCADGui.activeWorkbench().name(), "PicoScanWorkbench")
+        window = FreeCADGui.getMainWindow()
+        toolbars = [bar for bar in window.findChildren(QtWidgets.QToolBar) if bar.windowTitle() == "PicoScan"]
+        self.assertEqual(len(toolbars), 1)
+        actions = [action for action in toolbars[0].actions() if not action.isSeparator()]
+        self.assertEqual(len(actions), len(COMMANDS))
+        for action in actions:
+            self.assertFalse(action.icon().isNull(), action.text())
+        menus = [menu.title() for menu in window.menuBar().findChildren(QtWidgets.QMenu)]
+        self.assertIn("PicoScan", [title.replace("&", "") for title in menus])
+
+    def test_b_commands_registered_with_icons(self):
+        registered = FreeCADGui.listCommands()
+        for name in COMMANDS:
+            self.assertIn(name, registered)
+            info = FreeCADGui.Command.get(name).getInfo()
+            self.assertTrue(os.path.isfile(info["pixmap"]), info["pixmap"])
+            self.assertTrue(info["pixmap"].endswith(".svg"))
+            self.assertFalse(FreeCADGui.Command.get(name).getAction()[0].icon().isNull(), name)
+
+    def expect_active(self, active):
+        for name, command in COMMANDS.items():
+            self.assertEqual(bool(command.IsActive()), name in active, name)
+
+    def test_c_commands_active_when_they_should_be(self):
+        self.expect_active(ALWAYS_ACTIVE)
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        FreeCADGui.Selection.addSelection(view)
+        self.expect_active(ALWAYS_ACTIVE | FOR_SCAN_VIEWS)
+        second = scan_view.create(self.doc, self.captures, self.calibration)
+        FreeCADGui.Selection.addSelection(second)
+        self.expect_active(ALWAYS_ACTIVE | FOR_SCAN_VIEWS | {"PicoScan_Stitch"})
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(mesh)
+        self.expect_active(ALWAYS_ACTIVE | FOR_MESHES)
+
+    def test_d_calibrate_panel_opens_reports_bad_input_and_calibrates(self):
+        FreeCADGui.runCommand("PicoScan_Calibrate")
+        process_events()
+        self.assertTrue(FreeCADGui.Control.activeDialog())
+        panel = CalibrateTaskPanel.current
+        missing = os.path.join(self.folder, "no_such_pose")
+        panel.poses.addItem(missing)
+        panel.output.setText(os.path.join(self.folder, "rig.yml"))
+        self.assertFalse(panel.accept())
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("no_such_pose: capture folder does not exist", self.messages[0][2])
+        self.assertTrue(FreeCADGui.Control.activeDialog())  # still open for corrections
+        panel.board.setText("chessboard:9x6")
+        panel.poses.clear()
+        panel.poses.addItem(self.captures)
+        self.assertFalse(panel.accept())
+        self.assertIn("--board", self.messages[1][2])
+        folders, board, truth = simulate.simulate_board_poses(os.path.join(self.folder, "board"))
+        panel.board.setText(board)
+        panel.poses.clear()
+        for folder in folders:
+            panel.poses.addItem(folder)
+        self.assertTrue(panel.accept(), self.messages)
+        self.assertEqual(len(self.messages), 2)
+        report = "\n".join(panel.report_lines)
+        self.assertIn("camera RMS", report)
+        self.assertIn("pose_00: 54 corners", report)
+        calibration = picoscan.read_calibration(os.path.join(self.folder, "rig.yml"))
+        baseline_error = numpy.linalg.norm(calibration.T - truth.T)
+        FreeCAD.Console.PrintMessage("calibrated baseline error %.3f mm\n" % baseline_error)
+        self.assertLess(baseline_error, 1.0)
+        self.assertEqual(self.object_names(), [])
+
+    def test_e_import_missing_folder_shows_message(self):
+        before = self.object_names()
+        self.answer_dialogs(os.path.join(self.folder, "missing_captures"))
+        FreeCADGui.runCommand("PicoScan_ImportCaptures")
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("missing_captures: capture folder does not exist", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+
+    def test_f_import_wrong_calibration_shows_message(self):
+        scan_view.create(self.doc, self.captures, self.calibration)
+        before = self.object_names()
+        copy = os.path.join(self.folder, "copy_without_calibration")
+        if not os.path.isdir(copy):
+            shutil.copytree(self.captures, copy, ignore=shutil.ignore_patterns("calibration.yml"))
+        wrong = os.path.join(self.folder, "full_size.yml")
+        picoscan.write_calibration(picoscan.seed_rig_calibration(), wrong)  # 1600 x 1200, captures are 800 x 600
+        self.answer_dialogs(copy, wrong)
+        FreeCADGui.runCommand("PicoScan_ImportCaptures")
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("full_size.yml: camera_size 1600x1200 differs", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+        self.assertTrue(all(o.isValid() for o in self.doc.Objects))
+
+    def test_g_cancelled_scan_shows_message(self):
+        before = self.object_names()
+        FreeCADGui.runCommand("PicoScan_Scan")
+        process_events()
+        panel = ScanTaskPanel.current
+        panel.folder.setText(os.path.join(self.folder, "cancelled"))
+        panel.should_cancel = lambda: True  # as if the user pressed Stop at once
+        self.assertFalse(panel.accept())
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("cancelled", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+
+    def test_h_encoding_view_and_fit_primitives_commands(self):
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        FreeCADGui.Selection.addSelection(view)
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        windows_before = len(mdi.subWindowList())
+        FreeCADGui.runCommand("PicoScan_EncodingView")
+        process_events()
+        self.assertEqual(self.messages, [])
+        encoding_windows = [w for w in mdi.subWindowList() if "encoding" in w.windowTitle()]
+        self.assertEqual(len(mdi.subWindowList()) - windows_before, 4)
+        self.assertEqual(len(encoding_windows), 4)
+        for window in encoding_windows:
+            window.close()
+        FreeCADGui.runCommand("PicoScan_FitPrimitives")
+        process_events()
+        self.assertEqual(self.messages, [])
+        cylinders = [o for o in self.doc.Objects if o.TypeId == "Part::Cylinder"]
+        self.assertEqual(len(cylinders), 1)
+        self.assertAlmostEqual(cylinders[0].Radius.Value, 12.5, delta=0.02)
+        # Undo removes what the command added, in one step.
+        self.doc.undo()
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Cylinder"], [])
+
+    @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
+    def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
+        calibration = os.path.join(self.folder, "seed_rig.yml")
+        picoscan.write_calibration(picoscan.seed_rig_calibration(), calibration)
+        FreeCADGui.runCommand("PicoScan_Scan")
+        process_events()
+        panel = ScanTaskPanel.current
+        panel.source.setCurrentText("Camera + projector")
+        panel.camera.setText("virtual")
+        panel.projector_screen.setValue(-1)
+        panel.calibration.setText(os.path.join(self.folder, "no_such_rig.yml"))
+        panel.folder.setText(os.path.join(self.folder, "captured"))
+        before = self.object_names()
+        self.assertFalse(panel.accept())
+        self.assertIn("no_such_rig.yml: calibration file does not exist", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+        panel.calibration.setText(calibration)
+        self.assertTrue(panel.accept(), self.messages)
+        self.assertEqual(len(self.messages), 1)
+        self.assertGreater(panel.created.PointCount, 400000)
+        self.assertEqual(panel.created.CaptureFolder, os.path.join(self.folder, "captured"))
+
+    def test_z_scan_mesh_and_screenshot(self):
+        FreeCADGui.runCommand("PicoScan_Scan")
+        process_events()
+        panel = ScanTaskPanel.current
+        panel.scene.setCurrentText("Demo part")
+        panel.folder.setText(os.path.join(self.folder, "demo"))
+        self.assertTrue(panel.accept(), self.messages)
+        view = panel.created
+        self.assertGreater(view.PointCount, 100000)
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        # Dialogs take their first proposal: Grid for the mesh, "Y" at the mesh's centre for the section.
+        QtWidgets.QInputDialog.getItem = lambda parent, title, label, items, current, editable: (items[current], True)
+        QtWidgets.QInputDialog.getDouble = lambda parent, title, label, value, *limits: (value, True)
+        FreeCADGui.runCommand("PicoScan_Mesh")
+        process_events()
+        meshes = [o for o in self.doc.Objects if o.TypeId == "Mesh::FeaturePython"]
+        self.assertEqual(len(meshes), 1, self.messages)
+        self.assertGreater(meshes[0].Mesh.CountFacets, 100000)
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(meshes[0])
+        FreeCADGui.runCommand("PicoScan_CrossSection")
+        process_events()
+        sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
+        self.assertEqual(len(sections), 1, self.messages)
+        self.assertGreater(sections[0].GeometryCount, 50)
+        self.assertTrue(os.path.isfile(sections[0].ProfilePlot))
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.runCommand("PicoScan_ShowRig")
+        process_events()
+        self.assertEqual(self.messages, [])
+        # The scanned mesh seen obliquely from the scanner's side (the camera looks along +z, y down).
+        self.doc.getObject("Rig").ViewObject.Visibility = False
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.getMainWindow().showMaximized()
+        # The section's profile plot opened in its own tab: bring the document's 3D view to the front.
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(self.doc.Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        self.assertTrue(hasattr(view3d, "setCameraOrientation"), "the 3D view is not active")
+        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        view3d.fitAll()
+        for _ in range(5):
+            process_events()
+        path = os.environ.get("PICOSCAN_SCREENSHOT")
+        if path:
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            temporary = path + ".tmp.png"
+            subprocess.run(["import", "-window", "root", temporary], check=True)
+            os.replace(temporary, path)
+            self.assertGreater(os.path.getsize(path), 50000)

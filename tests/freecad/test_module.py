@@ -1,0 +1,123 @@
+"""The `picoscan` module from plain Python (Debian's /usr/bin/python3): NumPy in and out without
+copies where the core owns the data, errors as picoscan.Error, progress callbacks, GIL released."""
+import os
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy
+
+import picoscan
+
+
+def small_rig():
+    """The seed rig with a 400 x 300 camera: a quick simulated scan."""
+    calibration = picoscan.seed_rig_calibration()
+    scale = 0.25
+    calibration.camera_size = (400, 300)
+    matrix = calibration.camera_matrix
+    matrix[:2, :2] *= scale
+    matrix[:2, 2] = (matrix[:2, 2] + 0.5) * scale - 0.5
+    calibration.camera_matrix = matrix
+    return calibration
+
+
+class ModuleTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.calibration = small_rig()
+        cls.scene = picoscan.Scene()
+        cls.scene.add_plane((0, 0, 450), (0, 0, -1))
+        cls.scene.add_sphere((0, 0, 400), 20)
+        options = picoscan.PatternOptions()
+        options.shifts = 8
+        cls.stages = []
+        cls.captures = picoscan.simulate_capture(picoscan.make_pattern_sequence(options), cls.calibration, cls.scene,
+                                                 progress=lambda fraction, stage: cls.stages.append(stage) or True)
+        cls.view = picoscan.triangulate(picoscan.decode(cls.captures), cls.calibration, cls.captures.white_colour)
+
+    def test_images_are_numpy_arrays(self):
+        image = self.captures.images[0]
+        self.assertEqual(image.shape, (300, 400))
+        self.assertEqual(image.dtype, numpy.uint8)
+        self.assertEqual(self.captures.white_colour.shape, (300, 400, 3))
+        self.assertGreater(len(self.stages), 0)
+
+    def test_view_arrays_share_the_core_buffers(self):
+        points = self.view.points
+        self.assertEqual(points.shape, (300, 400, 3))
+        self.assertEqual(points.dtype, numpy.float32)
+        again = self.view.points
+        self.assertEqual(points.__array_interface__["data"][0], again.__array_interface__["data"][0])
+        valid = numpy.isfinite(points).all(axis=2)
+        self.assertEqual(int(valid.sum()), self.view.valid_count())
+        self.assertGreater(self.view.valid_count(), 100000)
+
+    def test_sphere_measured_within_a_tenth_of_a_millimetre(self):
+        cloud = picoscan.to_point_cloud(self.view)
+        points = cloud.points
+        near = points[points[:, 2] < 440]
+        fit = picoscan.fit_sphere(near)
+        self.assertAlmostEqual(fit.radius_mm, 20.0, delta=0.1)
+        self.assertLess(numpy.linalg.norm(fit.centre - numpy.array([0, 0, 400])), 0.1)
+
+    def test_cloud_arrays_are_views_and_settable(self):
+        cloud = picoscan.PointCloud()
+        cloud.points = numpy.array([[1, 2, 3], [4, 5, 6]], numpy.float64)  # converted to float32
+        self.assertEqual(len(cloud), 2)
+        view = cloud.points
+        view[0, 0] = 10
+        self.assertEqual(cloud.points[0, 0], 10)  # the array writes into the cloud
+
+    def test_detect_shapes_finds_sphere_and_plane(self):
+        shapes = picoscan.detect_shapes(picoscan.to_point_cloud(self.view))
+        kinds = sorted(str(shape.kind).split(".")[-1] for shape in shapes)
+        self.assertEqual(kinds, ["Plane", "Sphere"])
+        sphere = [s for s in shapes if s.kind == picoscan.ShapeKind.Sphere][0]
+        self.assertAlmostEqual(sphere.radius_mm, 20.0, delta=0.05)
+
+    def test_grid_mesh_and_stl_round_trip(self):
+        mesh = picoscan.grid_mesh(self.view, float(self.calibration.camera_matrix[0, 0]))
+        self.assertEqual(mesh.faces.shape[1], 3)
+        self.assertGreater(len(mesh.faces), 100000)
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "scan.stl")
+            picoscan.write_stl(mesh, path)
+            self.assertEqual(len(picoscan.read_mesh(path).faces), len(mesh.faces))
+
+    def test_errors_name_the_input(self):
+        with self.assertRaisesRegex(picoscan.Error, "no_such_folder"):
+            picoscan.load_capture_set("/no_such_folder")
+        with self.assertRaisesRegex(picoscan.Error, "--board"):
+            picoscan.parse_board_spec("square")
+        with self.assertRaisesRegex(picoscan.Error, "cloud"):
+            picoscan.detect_shapes(picoscan.PointCloud())
+
+    def test_progress_can_cancel(self):
+        with self.assertRaisesRegex(picoscan.Error, "cancel"):
+            picoscan.decode(self.captures, progress=lambda fraction, stage: False)
+
+    def test_long_calls_release_the_gil(self):
+        # A Python thread keeps counting while the core decodes.
+        ticks = []
+        stop = threading.Event()
+
+        def count():
+            while not stop.is_set():
+                ticks.append(1)
+                time.sleep(0.001)
+
+        thread = threading.Thread(target=count)
+        thread.start()
+        started = time.time()
+        for _ in range(3):
+            picoscan.detect_shapes(picoscan.to_point_cloud(self.view))
+        elapsed = time.time() - started
+        stop.set()
+        thread.join()
+        self.assertGreater(len(ticks), 0.1 * elapsed / 0.001)  # held GIL: next to no ticks
+
+
+if __name__ == "__main__":
+    unittest.main()
