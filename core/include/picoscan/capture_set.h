@@ -26,4 +26,8 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
 // Writes images and manifest into `directory` (each file through a temporary + rename).
 void write_capture_set(const CaptureSet& captures, const std::string& directory);
 
+// Throws Error naming `directory` unless it is absent or an empty folder, so that a new
+// capture set never overwrites or mixes with existing files.
+void require_empty_directory(const std::string& directory);
+
 }  // namespace picoscan
