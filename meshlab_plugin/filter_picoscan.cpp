@@ -12,9 +12,16 @@
 #include "picoscan/simulate.h"
 #include "picoscan/triangulate.h"
 
+#include <QApplication>
 #include <QDir>
+#include <QFile>
 #include <QFileInfo>
+#include <QMainWindow>
+#include <QMenu>
+#include <QMenuBar>
 #include <QTemporaryDir>
+#include <QTextStream>
+#include <QTimer>
 
 #include <functional>
 
@@ -157,11 +164,44 @@ void require_scan_grid(MeshModel& layer) {
                     "'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan'");
 }
 
+// Every entry of a menu and its submenus, one "Submenu/Entry" per line.
+void list_menu(const QMenu& menu, const QString& path, QTextStream& out) {
+    for (QAction* action : menu.actions()) {
+        if (action->isSeparator()) continue;
+        const QString entry = path + action->text().remove('&');
+        if (action->menu() != nullptr) list_menu(*action->menu(), entry + "/", out);
+        else out << entry << "\n";
+    }
+}
+
+// For the GUI smoke test: with PICOSCAN_MESHLAB_MENU_REPORT=FILE, once MeshLab's main window
+// is up, its Filters menu is written to FILE, so the test reads the real menu.
+void report_filters_menu_when_ready(const QString& path, int attempts_left) {
+    QTimer::singleShot(500, [path, attempts_left] {
+        for (QWidget* widget : QApplication::topLevelWidgets()) {
+            auto* window = qobject_cast<QMainWindow*>(widget);
+            if (window == nullptr || !window->isVisible()) continue;
+            for (QAction* action : window->menuBar()->actions()) {
+                if (action->menu() == nullptr || action->text().remove('&') != "Filters") continue;
+                QFile file(path);
+                if (!file.open(QIODevice::WriteOnly | QIODevice::Truncate)) return;
+                QTextStream out(&file);
+                list_menu(*action->menu(), "Filters/", out);
+                return;
+            }
+        }
+        if (attempts_left > 0) report_filters_menu_when_ready(path, attempts_left - 1);
+    });
+}
+
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
     typeList << Reconstruct << Simulate << Clean << Measure;
     for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
+    const QString menu_report = qEnvironmentVariable("PICOSCAN_MESHLAB_MENU_REPORT");
+    if (!menu_report.isEmpty() && qobject_cast<QApplication*>(QCoreApplication::instance()) != nullptr)
+        report_filters_menu_when_ready(menu_report, 120);
 }
 
 QString PicoScanFilterPlugin::pluginName() const { return "FilterPicoScan"; }
@@ -447,7 +487,7 @@ void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterLi
             fit.point_count);
     } else {
         const PlaneFit fit = fit_plane(points);
-        Log("PicoScan plane fit of %s: normal %.5f %.5f %.5f, offset %.4f mm, RMS %.4f mm over %zu points",
+        Log("PicoScan plane fit of %s: normal %.7f %.7f %.7f, offset %.4f mm, RMS %.4f mm over %zu points",
             subject.c_str(), fit.normal[0], fit.normal[1], fit.normal[2], fit.offset_mm, fit.rms_mm, fit.point_count);
     }
 }
