@@ -65,7 +65,7 @@ enum SequenceSource { OwnManifest, SlmasterCgc, SlstudioGray };
 enum OutputKind { PointCloudLayer, GridMeshLayer };
 enum FitShape { SphereShape, PlaneShape };
 
-std::string text(const QString& value) { return value.trimmed().toStdString(); }
+std::string parameter_text(const QString& value) { return value.trimmed().toStdString(); }
 
 // Reports core progress through MeshLab's callback, only when the percentage or stage changes.
 ProgressCallback meshlab_progress(vcg::CallBackPos* callback) {
@@ -368,9 +368,9 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
 
 void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParameterList& parameters,
                                        vcg::CallBackPos* callback) {
-    const std::string folder = text(parameters.getString(kCaptureFolder));
-    const std::string calibration_file = text(parameters.getString(kCalibrationFile));
-    std::string manifest = text(parameters.getString(kManifestFile));
+    const std::string folder = parameter_text(parameters.getString(kCaptureFolder));
+    const std::string calibration_file = parameter_text(parameters.getString(kCalibrationFile));
+    std::string manifest = parameter_text(parameters.getString(kManifestFile));
     if (folder.empty()) throw Error(kCaptureFolder, "is required: the folder of the capture set");
     if (calibration_file.empty()) throw Error(kCalibrationFile, "is required: the rig's calibration file");
     if (!QFileInfo(QString::fromStdString(folder)).isDir()) throw Error(folder, "capture folder not found");
@@ -409,9 +409,9 @@ void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParamet
 
 void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterList& parameters,
                                     vcg::CallBackPos* callback) {
-    const std::string scene_file = text(parameters.getString(kSceneFile));
-    const std::string calibration_file = text(parameters.getString(kCalibrationFile));
-    const std::string save_folder = text(parameters.getString(kSaveCaptures));
+    const std::string scene_file = parameter_text(parameters.getString(kSceneFile));
+    const std::string calibration_file = parameter_text(parameters.getString(kCalibrationFile));
+    const std::string save_folder = parameter_text(parameters.getString(kSaveCaptures));
     const Calibration calibration = calibration_file.empty() ? seed_rig_calibration() : read_calibration(calibration_file);
     const Scene scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
     PatternOptions patterns;

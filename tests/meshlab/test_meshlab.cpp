@@ -234,6 +234,11 @@ TEST(MeshlabPlugin, ClearErrorsForMissingFolderWrongCalibrationAndPlainLayers) {
               std::string::npos)
         << run.log;
 
+    // Simulate refuses to write captures into a folder that holds files, before any work.
+    run = run_meshlabserver(directory, simulate({{"shifts", "3"}, {"saveCaptureFolder", captures}}), "-o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find(captures + ": output folder exists and is not empty"), std::string::npos) << run.log;
+
     // A layer read from a plain PLY has no pixel grid: Clean says so and changes nothing.
     Mesh plain;
     plain.vertices = {{0, 0, 400}, {1, 0, 400}, {0, 1, 400}, {1, 1, 401}};
