@@ -1,5 +1,7 @@
 // picoscan: the command-line front end. Argument parsing and printing only; the work is in the core.
 #include "picoscan/calibration.h"
+#include "picoscan/capture.h"
+#include "picoscan/capture_qt.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/clean.h"
 #include "picoscan/decode.h"
@@ -17,6 +19,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -42,6 +45,9 @@ Commands:
   calibrate     calibrate camera + projector from captures of a board in several poses
   response      measure the projector's response (gamma) and store its correction
   demo          simulated scan of the built-in part -> demo-output/ (PLY, STL, PNG)
+  screens       list the screens (find the projector's index)
+  capture       project the patterns and capture them with webcams (or the virtual camera)
+  scan          capture + reconstruct in one step
 
 Run 'picoscan COMMAND --help' for the options of one command.
 
@@ -185,19 +191,19 @@ public:
             }
             if (index + 1 >= argc) throw Error(key, "needs a value");
             values_[key] = argv[++index];
+            all_values_[key].push_back(values_[key]);  // a repeated option adds (--camera 0 --camera 1)
             // Further values up to the next option belong to the same key (--captures A B C).
-            while (index + 1 < argc && std::string(argv[index + 1]).rfind("--", 0) != 0)
+            while (index + 1 < argc && std::string(argv[index + 1]).rfind("--", 0) != 0) {
                 extra_values_[key].push_back(argv[++index]);
+                all_values_[key].push_back(extra_values_[key].back());
+            }
         }
     }
     // Every value given for a key that takes several.
     std::vector<std::string> list(const std::string& key) const {
         used_.insert(key);
         if (!has(key)) return {};
-        std::vector<std::string> values{values_.at(key)};
-        auto extra = extra_values_.find(key);
-        if (extra != extra_values_.end()) values.insert(values.end(), extra->second.begin(), extra->second.end());
-        return values;
+        return all_values_.at(key);
     }
     bool has(const std::string& key) const { return values_.count(key) > 0; }
     std::string text(const std::string& key, const std::string& fallback = "") const {
@@ -247,6 +253,7 @@ public:
 private:
     std::map<std::string, std::string> values_;
     std::map<std::string, std::vector<std::string>> extra_values_;
+    std::map<std::string, std::vector<std::string>> all_values_;  // every value, repeats included
     std::set<std::string> list_keys_;
     mutable std::set<std::string> used_;
 };
@@ -593,6 +600,8 @@ int run_demo(const Arguments& arguments) {
     return reconstruct(request);
 }
 
+#include "capture_commands.inc"
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -614,6 +623,9 @@ int main(int argc, char** argv) {
         {"calibrate", {kCalibrateHelp, run_calibrate, {}}},
         {"response", {kResponseHelp, run_response, {}}},
         {"demo", {kDemoHelp, run_demo, {}}},
+        {"screens", {kScreensHelp, run_screens, {}}},
+        {"capture", {kCaptureHelp, run_capture, {"--rows", "--no-rows", "--resume"}}},
+        {"scan", {kScanHelp, run_scan, {"--rows", "--no-rows", "--resume", "--clean"}}},
     };
     const auto found = commands.find(command);
     if (found == commands.end()) {
@@ -623,6 +635,7 @@ int main(int argc, char** argv) {
     try {
         Arguments arguments(argc, argv, 2, found->second.flags);
         if (command == "calibrate") arguments.allow_several("--captures");
+        if (command == "capture" || command == "scan") arguments.allow_several("--camera");
         if (arguments.has("--help") || arguments.has("-h")) {
             std::fputs(found->second.help, stdout);
             return 0;

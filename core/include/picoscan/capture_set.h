@@ -30,4 +30,8 @@ void write_capture_set(const CaptureSet& captures, const std::string& directory)
 // capture set never overwrites or mixes with existing files.
 void require_empty_directory(const std::string& directory);
 
+// Writes one frame's image as `directory`/frame.file (encoded by the file's extension, through
+// a temporary + rename): what write_capture_set does per frame, for captures taken one by one.
+void write_capture_frame(const Frame& frame, const cv::Mat& image, const std::string& directory);
+
 }  // namespace picoscan

@@ -17,9 +17,9 @@ namespace picoscan {
 struct RegistrationOptions {
     int orb_features = 6000;            // ORB keypoints per white frame
     double ransac_inlier_mm = 1.5;      // 3D distance for a feature match to count as an inlier
-    int ransac_iterations = 4000;
-    int min_ransac_inliers = 12;        // fewer means no reliable coarse alignment
-    int icp_iterations = 60;
+    int ransac_iterations = 20000;
+    int min_ransac_inliers = 7;         // fewer means no reliable coarse alignment (ICP then checks it)
+    int icp_iterations = 100;
     double icp_trim_fraction = 0.85;    // keep this best fraction of correspondences each iteration
     double icp_max_distance_mm = 3.0;   // correspondences farther apart than this are never used
     double sample_spacing_mm = 0.7;     // points are thinned to about this spacing for ICP
@@ -34,6 +34,9 @@ struct PairRegistration {
     int ransac_inliers = 0;
     double overlap = 0;        // fraction of points with a partner within icp_max_distance_mm
     double rms_mm = 0;         // point-to-plane RMS over the kept correspondences
+    // Correlation of the white-frame levels of paired points: near 1 when the paint lines up,
+    // near 0 when a symmetric shape was matched the wrong way round; NaN without texture.
+    double texture_agreement = 0;
     bool converged = false;
     std::string problem;       // why it failed, empty when it worked
 };
@@ -76,8 +79,10 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
                       const RegistrationOptions& options = {}, const std::optional<TurntableAxis>& turntable = std::nullopt,
                       const ProgressCallback& progress = nullptr);
 
-// Angle (degrees) and translation (mm) of the rigid transform a^-1 * b: how far apart two poses are.
+// How far apart two poses are: the angle (degrees) of the rotation a^-1 * b, and how far
+// (mm) the two move the point `at` apart. Give `at` on the part (its centroid): measured at
+// the camera origin, 400 mm away, a tiny angle would show as a large shift.
 struct PoseDifference { double rotation_deg = 0; double translation_mm = 0; };
-PoseDifference pose_difference(const cv::Matx44d& a, const cv::Matx44d& b);
+PoseDifference pose_difference(const cv::Matx44d& a, const cv::Matx44d& b, const cv::Vec3d& at = {0, 0, 0});
 
 }  // namespace picoscan

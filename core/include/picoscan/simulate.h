@@ -21,6 +21,8 @@ struct Sphere { cv::Vec3d centre; double radius_mm = 10; double albedo = 0.8; };
 struct Plane { cv::Vec3d point; cv::Vec3d normal{0, 0, -1}; double albedo = 0.8; };
 struct Box { cv::Vec3d centre; cv::Vec3d half_size_mm{10, 10, 10}; cv::Matx33d rotation = cv::Matx33d::eye(); double albedo = 0.8; };
 struct Cylinder { cv::Vec3d base_centre; cv::Vec3d axis{0, 1, 0}; double radius_mm = 10; double height_mm = 20; double albedo = 0.8; };  // capped
+// With vertex colours, the albedo at a vertex is albedo * its grey level (0..255 -> 0..1),
+// interpolated across each face: a painted or speckled part.
 struct TriangleMesh { Mesh mesh; double albedo = 0.8; };
 
 // A planar chessboard calibration target: (inner_corners.width + 1) x (inner_corners.height + 1)
@@ -100,6 +102,40 @@ Calibration seed_rig_calibration();
 // The built-in demo part (a bracket-like block with a hole, a boss and a sphere) on a
 // background plane, placed at the seed rig's working distance.
 Scene demo_scene();
+
+// The built-in mechanical test part, in its own frame: z up, origin at the centre of the
+// block's bottom face. A block with one vertical edge chamfered (at +x, +y), a vertical
+// through hole and a cylindrical boss on the top face; finely tessellated (edges <= 0.6 mm)
+// and speckle-painted (vertex colours) so that features can be found on its white frames.
+struct MechanicalPartShape {
+    double length_mm = 50, width_mm = 36, height_mm = 24;  // block along x, y, z
+    double chamfer_mm = 8;                                 // legs of the 45 degree chamfer
+    cv::Vec2d hole_centre_mm{-11, 0};
+    double hole_diameter_mm = 10;
+    cv::Vec2d boss_centre_mm{12, -2};
+    double boss_diameter_mm = 14, boss_height_mm = 8;
+    uint64_t paint_seed = 7;
+};
+Mesh mechanical_part(const MechanicalPartShape& shape = {});
+
+// A turntable scan plan: the part turned in equal steps on a table the camera looks down on
+// at `elevation_deg`, plus an optional view from nearly above; each pose may be disturbed
+// by a random rotation and shift (a part knocked or re-placed by hand).
+struct TurntablePlan {
+    int turntable_views = 8;
+    double elevation_deg = 25;
+    bool top_view = true;
+    double top_elevation_deg = 60;
+    double max_disturbance_deg = 0, max_disturbance_mm = 0;
+    cv::Vec3d part_centre_mm{0, 0, 400};  // where the part's middle sits, camera frame
+    double part_middle_height_mm = 16;    // height (part z) of that middle
+    uint64_t seed = 1;
+};
+// Part frame -> camera frame transform of each view.
+std::vector<cv::Matx44d> turntable_part_poses(const TurntablePlan& plan);
+
+// The mesh with its vertices (and normals) moved by a rigid transform.
+Mesh transformed(const Mesh& mesh, const cv::Matx44d& transform);
 
 // Scene description file (YAML/JSON via OpenCV FileStorage): lists of spheres, planes,
 // boxes, cylinders, meshes (file paths relative to the scene file) and calibration boards.

@@ -117,6 +117,17 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
     return captures;
 }
 
+void write_capture_frame(const Frame& frame, const cv::Mat& image, const std::string& directory) {
+    const std::string file = (fs::path(directory) / frame.file).string();
+    std::vector<uint8_t> bytes;
+    try {
+        if (!cv::imencode(fs::path(file).extension().string(), image, bytes)) throw Error(file, "cannot encode image");
+    } catch (const cv::Exception& failure) {
+        throw Error(file, std::string("cannot encode image: ") + failure.what());
+    }
+    write_file_atomically(file, std::string(bytes.begin(), bytes.end()));
+}
+
 void write_capture_set(const CaptureSet& captures, const std::string& directory) {
     const auto& frames = captures.sequence.frames;
     if (frames.size() != captures.images.size())
@@ -128,12 +139,8 @@ void write_capture_set(const CaptureSet& captures, const std::string& directory)
     std::vector<std::string> errors(frames.size());
     detail::parallel_rows(static_cast<int>(frames.size()), [&](int begin, int end) {
         for (int index = begin; index < end; ++index) {
-            const std::string file = (fs::path(directory) / frames[index].file).string();
-            std::string extension = fs::path(file).extension().string();
-            std::vector<uint8_t> bytes;
             try {
-                if (!cv::imencode(extension, captures.images[index], bytes)) throw Error(file, "cannot encode image");
-                write_file_atomically(file, std::string(bytes.begin(), bytes.end()));
+                write_capture_frame(frames[index], captures.images[index], directory);
             } catch (const std::exception& failure) {
                 errors[index] = failure.what();
             }

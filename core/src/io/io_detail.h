@@ -8,6 +8,7 @@
 #include <cstring>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace picoscan::detail {
 
@@ -49,6 +50,15 @@ cv::Vec3f face_normal(const cv::Vec3f& a, const cv::Vec3f& b, const cv::Vec3f& c
 // Throws Error(path, ...) when normals/colours do not have one entry per vertex or a face
 // index is out of range.
 void check_mesh(const Mesh& mesh, const std::string& path);
+
+// What read_ply_with_extras returns beside the mesh: the header comments and the vertex
+// properties "quality" and "pixel" (empty when absent).
+struct PlyExtras {
+    std::vector<std::string> comments;
+    std::vector<float> quality;
+    std::vector<int64_t> pixels;
+};
+Mesh read_ply_with_extras(const std::string& path, PlyExtras& extras);
 
 // ASCII lower case of a string.
 std::string lower_case(std::string_view text);

@@ -78,6 +78,7 @@ struct Element {
 
 struct Header {
     Format format = Format::Ascii;
+    std::vector<std::string> comments;
     std::vector<Element> elements;
     size_t body_offset = 0;
 };
@@ -127,7 +128,11 @@ Header parse_header(const std::string& data, const std::string& path) {
         }
         if (words.empty()) continue;
         const std::string_view keyword = words[0];
-        if (keyword == "comment" || keyword == "obj_info") continue;
+        if (keyword == "comment" || keyword == "obj_info") {
+            const size_t text = line.find(keyword) + keyword.size();
+            header.comments.emplace_back(line.substr(std::min(text + 1, line.size())));
+            continue;
+        }
         if (keyword == "end_header") {
             if (!have_format) throw fail("format line missing");
             header.body_offset = pos;
@@ -309,7 +314,7 @@ void skip_element(const Element& element, BodyReader& body) {
     }
 }
 
-void read_vertices(const Element& element, BodyReader& body, Mesh& mesh) {
+void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail::PlyExtras* extras) {
     const int x = element.find("x"), y = element.find("y"), z = element.find("z");
     if (x < 0 || y < 0 || z < 0) body.fail("element vertex lacks x, y or z");
     for (int p : {x, y, z})
@@ -327,6 +332,8 @@ void read_vertices(const Element& element, BodyReader& body, Mesh& mesh) {
     const int blue = scalar_index({"blue", "b", "diffuse_blue"});
     const bool has_normals = nx >= 0 && ny >= 0 && nz >= 0;
     const bool has_colours = red >= 0 && green >= 0 && blue >= 0;
+    const int quality = extras ? scalar_index({"quality"}) : -1;
+    const int pixel = extras ? scalar_index({"pixel"}) : -1;
 
     const size_t count = static_cast<size_t>(element.count);
     mesh.vertices.reserve(count);
@@ -354,6 +361,12 @@ void read_vertices(const Element& element, BodyReader& body, Mesh& mesh) {
             mesh.colours.emplace_back(to_colour_channel(values[red], element.properties[red].type),
                                       to_colour_channel(values[green], element.properties[green].type),
                                       to_colour_channel(values[blue], element.properties[blue].type));
+        if (quality >= 0) extras->quality.push_back(detail::to_float(values[quality]));
+        if (pixel >= 0) {
+            const double value = values[pixel];
+            if (!(value >= 0 && value < 9.0e15) || value != std::floor(value)) body.fail("pixel index is not a count");
+            extras->pixels.push_back(static_cast<int64_t>(value));
+        }
     }
 }
 
@@ -394,9 +407,7 @@ void read_faces(const Element& element, BodyReader& body, uint64_t vertex_count,
     }
 }
 
-}  // namespace
-
-Mesh read_ply(const std::string& path) {
+Mesh read_ply_body(const std::string& path, detail::PlyExtras* extras) {
     const std::string data = detail::read_whole_file(path);
     const Header header = parse_header(data, path);
 
@@ -417,11 +428,70 @@ Mesh read_ply(const std::string& path) {
     Mesh mesh;
     for (const Element& element : header.elements) {
         check_count_fits(element, body);
-        if (element.name == "vertex") read_vertices(element, body, mesh);
+        if (element.name == "vertex") read_vertices(element, body, mesh, extras);
         else if (element.name == "face") read_faces(element, body, vertex_count, mesh);
         else skip_element(element, body);
     }
+    if (extras) extras->comments = header.comments;
     return mesh;
+}
+
+}  // namespace
+
+namespace detail {
+
+Mesh read_ply_with_extras(const std::string& path, PlyExtras& extras) { return read_ply_body(path, &extras); }
+
+}  // namespace detail
+
+Mesh read_ply(const std::string& path) { return read_ply_body(path, nullptr); }
+
+ScanView read_view_ply(const std::string& path) {
+    detail::PlyExtras extras;
+    const Mesh mesh = read_ply_with_extras(path, extras);
+    int width = 0, height = 0;
+    cv::Matx44d pose = cv::Matx44d::eye();
+    bool have_grid = false;
+    for (const std::string& comment : extras.comments) {
+        const std::vector<std::string_view> words = split_words(comment);
+        if (words.size() == 3 && words[0] == "picoscan_grid") {
+            uint64_t w = 0, h = 0;
+            if (!parse_count(words[1], w) || !parse_count(words[2], h) || w == 0 || h == 0 || w > 100000 ||
+                h > 100000)
+                throw Error(path, "picoscan_grid comment has no valid width and height");
+            width = static_cast<int>(w);
+            height = static_cast<int>(h);
+            have_grid = true;
+        } else if (!words.empty() && words[0] == "picoscan_pose") {
+            if (words.size() != 17) throw Error(path, "picoscan_pose comment needs 16 numbers");
+            for (int i = 0; i < 16; ++i)
+                if (!detail::parse_double(words[static_cast<size_t>(i) + 1], pose(i / 4, i % 4)))
+                    throw Error(path, "picoscan_pose comment has a malformed number");
+        }
+    }
+    if (!have_grid || extras.pixels.size() != mesh.vertices.size())
+        throw Error(path, "has no camera pixel grid (write it with 'picoscan reconstruct' to keep one)");
+
+    ScanView view;
+    view.pose = pose;
+    view.points = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    if (!mesh.normals.empty()) view.normals = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(0));
+    if (!mesh.colours.empty()) view.colours = cv::Mat(height, width, CV_8UC3, cv::Scalar::all(0));
+    if (!extras.quality.empty()) view.quality = cv::Mat(height, width, CV_32F, cv::Scalar::all(0));
+    const int64_t pixel_count = static_cast<int64_t>(width) * height;
+    for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+        const int64_t pixel = extras.pixels[i];
+        if (pixel >= pixel_count) throw Error(path, "vertex " + std::to_string(i) + " has a pixel outside the grid");
+        const int y = static_cast<int>(pixel / width), x = static_cast<int>(pixel % width);
+        view.points.at<cv::Vec3f>(y, x) = mesh.vertices[i];
+        if (!view.normals.empty()) view.normals.at<cv::Vec3f>(y, x) = mesh.normals[i];
+        if (!view.colours.empty()) {
+            const cv::Vec3b rgb = mesh.colours[i];
+            view.colours.at<cv::Vec3b>(y, x) = cv::Vec3b(rgb[2], rgb[1], rgb[0]);
+        }
+        if (!view.quality.empty()) view.quality.at<float>(y, x) = extras.quality[i];
+    }
+    return view;
 }
 
 }  // namespace picoscan

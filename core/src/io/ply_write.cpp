@@ -3,6 +3,8 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 
+#include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -16,6 +18,8 @@ struct PlyPayload {
     const std::vector<cv::Vec3b>& colours;
     const std::vector<float>& quality;
     const std::vector<cv::Vec3i>& faces;
+    const std::vector<int32_t>& pixels;          // empty or one per point
+    const std::vector<std::string>& comments;    // extra header comments
 };
 
 std::string build_ply(const PlyPayload& data, Encoding encoding) {
@@ -23,17 +27,20 @@ std::string build_ply(const PlyPayload& data, Encoding encoding) {
     const bool has_normals = !data.normals.empty();
     const bool has_colours = !data.colours.empty();
     const bool has_quality = !data.quality.empty();
+    const bool has_pixels = !data.pixels.empty();
     const bool binary = encoding == Encoding::Binary;
 
     std::string out;
     out += "ply\n";
     out += binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n";
     out += "comment written by PicoScan\n";
+    for (const std::string& comment : data.comments) out += "comment " + comment + "\n";
     out += "element vertex " + std::to_string(count) + "\n";
     out += "property float x\nproperty float y\nproperty float z\n";
     if (has_normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
     if (has_colours) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     if (has_quality) out += "property float quality\n";
+    if (has_pixels) out += "property int pixel\n";
     if (!data.faces.empty()) {
         out += "element face " + std::to_string(data.faces.size()) + "\n";
         out += "property list uchar int vertex_indices\n";
@@ -41,7 +48,7 @@ std::string build_ply(const PlyPayload& data, Encoding encoding) {
     out += "end_header\n";
 
     if (binary) {
-        const size_t record = 12 + (has_normals ? 12 : 0) + (has_colours ? 3 : 0) + (has_quality ? 4 : 0);
+        const size_t record = 12 + (has_normals ? 12 : 0) + (has_colours ? 3 : 0) + (has_quality ? 4 : 0) + (has_pixels ? 4 : 0);
         out.reserve(out.size() + count * record + data.faces.size() * 13);
         for (size_t i = 0; i < count; ++i) {
             for (int k = 0; k < 3; ++k) detail::append_le(out, data.points[i][k]);
@@ -50,6 +57,7 @@ std::string build_ply(const PlyPayload& data, Encoding encoding) {
             if (has_colours)
                 for (int k = 0; k < 3; ++k) out.push_back(static_cast<char>(data.colours[i][k]));
             if (has_quality) detail::append_le(out, data.quality[i]);
+            if (has_pixels) detail::append_le(out, data.pixels[i]);
         }
         for (const cv::Vec3i& face : data.faces) {
             out.push_back(3);
@@ -74,6 +82,10 @@ std::string build_ply(const PlyPayload& data, Encoding encoding) {
             if (has_quality) {
                 out += ' ';
                 detail::append_number(out, data.quality[i]);
+            }
+            if (has_pixels) {
+                out += ' ';
+                detail::append_number(out, static_cast<long long>(data.pixels[i]));
             }
             out += '\n';
         }
@@ -102,15 +114,50 @@ void write_ply(const PointCloud& cloud, const std::string& path, Encoding encodi
     check(cloud.colours.size(), "colours");
     check(cloud.quality.size(), "quality values");
     static const std::vector<cv::Vec3i> no_faces;
-    write_file_atomically(
-        path, build_ply({cloud.points, cloud.normals, cloud.colours, cloud.quality, no_faces}, encoding));
+    static const std::vector<int32_t> no_pixels;
+    static const std::vector<std::string> no_comments;
+    write_file_atomically(path, build_ply({cloud.points, cloud.normals, cloud.colours, cloud.quality, no_faces,
+                                           no_pixels, no_comments},
+                                          encoding));
 }
 
 void write_ply(const Mesh& mesh, const std::string& path, Encoding encoding) {
     detail::check_mesh(mesh, path);
     static const std::vector<float> no_quality;
-    write_file_atomically(
-        path, build_ply({mesh.vertices, mesh.normals, mesh.colours, no_quality, mesh.faces}, encoding));
+    static const std::vector<int32_t> no_pixels;
+    static const std::vector<std::string> no_comments;
+    write_file_atomically(path, build_ply({mesh.vertices, mesh.normals, mesh.colours, no_quality, mesh.faces,
+                                           no_pixels, no_comments},
+                                          encoding));
+}
+
+void write_view_ply(const ScanView& view, const std::string& path, Encoding encoding) {
+    // The view's own (camera-frame) points: the pose travels in a comment so that the
+    // organised grid stays in the frame its white-frame features were seen in.
+    ScanView camera_frame = view;
+    camera_frame.pose = cv::Matx44d::eye();
+    const PointCloud cloud = to_point_cloud(camera_frame);
+    std::vector<int32_t> pixels;
+    pixels.reserve(cloud.points.size());
+    for (int y = 0; y < view.points.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < view.points.cols; ++x)
+            if (std::isfinite(row[x][0]) && std::isfinite(row[x][1]) && std::isfinite(row[x][2]))
+                pixels.push_back(y * view.points.cols + x);
+    }
+    if (pixels.size() != cloud.points.size()) throw Error(path, "view points and pixel grid disagree");
+    std::string pose = "picoscan_pose";
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+            pose += ' ';
+            detail::append_number(pose, view.pose(r, c));
+        }
+    const std::vector<std::string> comments = {
+        "picoscan_grid " + std::to_string(view.points.cols) + " " + std::to_string(view.points.rows), pose};
+    static const std::vector<cv::Vec3i> no_faces;
+    write_file_atomically(path, build_ply({cloud.points, cloud.normals, cloud.colours, cloud.quality, no_faces,
+                                           pixels, comments},
+                                          encoding));
 }
 
 }  // namespace picoscan

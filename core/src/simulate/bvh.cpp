@@ -278,6 +278,21 @@ cv::Vec3d TriangleBvh::normal(int triangle) const {
     return cv::normalize(cross(t.e1, t.e2));
 }
 
+double TriangleBvh::albedo_at(int triangle, const cv::Vec3d& point) const {
+    const cv::Vec3f& corner = albedo_[triangle];
+    if (corner[0] == corner[1] && corner[1] == corner[2]) return corner[0];
+    // Barycentric coordinates of the point from the normal equations of the two edges.
+    const Triangle& t = triangles_[triangle];
+    const cv::Vec3d e1(t.e1[0], t.e1[1], t.e1[2]), e2(t.e2[0], t.e2[1], t.e2[2]);
+    const cv::Vec3d d = point - cv::Vec3d(t.v0[0], t.v0[1], t.v0[2]);
+    const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2);
+    const double b1 = d.dot(e1), b2 = d.dot(e2);
+    const double det = a11 * a22 - a12 * a12;
+    const double u = std::clamp((a22 * b1 - a12 * b2) / det, 0.0, 1.0);
+    const double v = std::clamp((a11 * b2 - a12 * b1) / det, 0.0, 1.0 - u);
+    return (1.0 - u - v) * corner[0] + u * corner[1] + v * corner[2];
+}
+
 template <bool AnyHit>
 bool TriangleBvh::traverse(const RayData& ray, double t_min, double& t_max, int& triangle) const {
     const Node* nodes = nodes_.data();

@@ -12,7 +12,7 @@ namespace picoscan::detail {
 
 struct BvhTriangle {
     cv::Vec3d a, b, c;
-    float albedo = 0.8f;
+    cv::Vec3f albedo{0.8f, 0.8f, 0.8f};  // at a, b, c; interpolated across the face
 };
 
 class TriangleBvh {
@@ -31,9 +31,10 @@ public:
     // Whether anything lies on the ray with t in (t_min, t_max).
     bool occluded(const cv::Vec3d& origin, const cv::Vec3d& direction, double t_min, double t_max) const;
 
-    // Unit geometric normal (right-hand rule over a, b, c) and albedo of a triangle.
+    // Unit geometric normal (right-hand rule over a, b, c) of a triangle, and its albedo at a
+    // point on it.
     cv::Vec3d normal(int triangle) const;
-    float albedo(int triangle) const { return albedo_[triangle]; }
+    double albedo_at(int triangle, const cv::Vec3d& point) const;
 
 private:
     // Four-wide node: the boxes of up to four children side by side (one SIMD test for all
@@ -53,7 +54,7 @@ private:
 
     std::vector<Node> nodes_;
     std::vector<Triangle> triangles_;  // in leaf order
-    std::vector<float> albedo_;
+    std::vector<cv::Vec3f> albedo_;  // per triangle, at its corners
 };
 
 }  // namespace picoscan::detail

@@ -267,6 +267,9 @@ SceneTracer::SceneTracer(const Scene& scene) {
         const std::string where = "meshes[" + std::to_string(m) + "]";
         check_albedo(mesh.albedo, where);
         const int vertex_count = static_cast<int>(mesh.mesh.vertices.size());
+        const bool painted = !mesh.mesh.colours.empty();
+        if (painted && mesh.mesh.colours.size() != mesh.mesh.vertices.size())
+            throw Error("scene", where + ": needs one colour per vertex or none");
         for (size_t f = 0; f < mesh.mesh.faces.size(); ++f) {
             const cv::Vec3i& face = mesh.mesh.faces[f];
             BvhTriangle tri;
@@ -277,8 +280,10 @@ SceneTracer::SceneTracer(const Scene& scene) {
                                              std::to_string(face[k]) + " of " + std::to_string(vertex_count));
                 const cv::Vec3f& v = mesh.mesh.vertices[face[k]];
                 *corners[k] = cv::Vec3d(v[0], v[1], v[2]);
+                // A painted mesh: the vertex colour's grey level scales the albedo.
+                const cv::Vec3b colour = painted ? mesh.mesh.colours[face[k]] : cv::Vec3b(255, 255, 255);
+                tri.albedo[k] = static_cast<float>(mesh.albedo * (colour[0] + colour[1] + colour[2]) / (3.0 * 255.0));
             }
-            tri.albedo = static_cast<float>(mesh.albedo);
             triangles.push_back(tri);
         }
     }
@@ -327,7 +332,7 @@ bool SceneTracer::trace(const cv::Vec3d& origin, const cv::Vec3d& direction, dou
     if (bvh_.nearest(origin, direction, t_min, t_mesh, triangle)) {
         hit->t = t_mesh;
         hit->normal = bvh_.normal(triangle);
-        hit->albedo = bvh_.albedo(triangle);
+        hit->albedo = bvh_.albedo_at(triangle, origin + t_mesh * direction);
         hit->board = -1;
         return true;
     }

@@ -1,0 +1,231 @@
+// Coarse alignment: ORB on the white frames, lifted to 3D through the organised grid,
+// matched with a ratio test, and a rigid fit by RANSAC (the seed's plan).
+#include "cloud/view_check.h"
+#include "register/registration_steps.h"
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace picoscan::detail {
+
+ViewFeatures view_features(const ScanView& view, int max_features) {
+    ViewFeatures features;
+    if (view.points.empty() || view.colours.empty()) return features;
+    cv::Mat grey;
+    cv::cvtColor(view.colours, grey, cv::COLOR_BGR2GRAY);
+    cv::Mat measured(view.points.size(), CV_8U);
+    for (int y = 0; y < view.points.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+        uchar* out = measured.ptr<uchar>(y);
+        for (int x = 0; x < view.points.cols; ++x) out[x] = finite_point(row[x]) ? 255 : 0;
+    }
+    // Keypoints near the edge of the measured area sit on depth jumps or on unmeasured
+    // background texture: keep away from it.
+    cv::erode(measured, measured, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(17, 17)));
+    const cv::Ptr<cv::ORB> orb = cv::ORB::create(max_features, 1.2f, 8, 19, 0, 2, cv::ORB::HARRIS_SCORE, 19, 10);
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    orb->detectAndCompute(grey, measured, keypoints, descriptors);
+    for (size_t i = 0; i < keypoints.size(); ++i) {
+        const int x = cvRound(keypoints[i].pt.x), y = cvRound(keypoints[i].pt.y);
+        if (x < 0 || y < 0 || x >= view.points.cols || y >= view.points.rows) continue;
+        const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
+        if (!finite_point(p)) continue;
+        features.points.emplace_back(p);
+        features.descriptors.push_back(descriptors.row(static_cast<int>(i)));
+    }
+    return features;
+}
+
+ViewFeatures geometric_features(const SurfaceSamples& samples, double spacing_mm, double radius_mm) {
+    // Thin to the keypoint spacing (one sample per cube).
+    std::vector<cv::Vec3d> points, normals;
+    {
+        std::unordered_map<long long, int> taken;
+        for (size_t i = 0; i < samples.points.size(); ++i) {
+            const cv::Vec3d& p = samples.points[i];
+            const long long key = (static_cast<long long>(std::floor(p[0] / spacing_mm)) * 73856093LL) ^
+                                  (static_cast<long long>(std::floor(p[1] / spacing_mm)) * 19349663LL) ^
+                                  (static_cast<long long>(std::floor(p[2] / spacing_mm)) * 83492791LL);
+            if (!taken.emplace(key, 0).second) continue;
+            points.push_back(p);
+            normals.push_back(samples.normals[i]);
+        }
+    }
+    const int bins = 11;
+    const PointGrid grid(points, radius_mm);
+    std::vector<std::vector<int>> neighbours(points.size());
+    cv::Mat simple(static_cast<int>(points.size()), 3 * bins, CV_32F, cv::Scalar(0));
+    // Simplified histograms: the Darboux-frame angles between each point and its neighbours.
+    for (size_t i = 0; i < points.size(); ++i) {
+        grid.within(points[i], radius_mm, neighbours[i]);
+        float* histogram = simple.ptr<float>(static_cast<int>(i));
+        int counted = 0;
+        for (int j : neighbours[i]) {
+            if (static_cast<size_t>(j) == i) continue;
+            const cv::Vec3d d = points[static_cast<size_t>(j)] - points[i];
+            const double length = cv::norm(d);
+            if (length < 1e-9) continue;
+            const cv::Vec3d& u = normals[i];
+            const cv::Vec3d& m = normals[static_cast<size_t>(j)];
+            const cv::Vec3d v = cv::normalize(u.cross(d * (1.0 / length)));
+            if (!std::isfinite(v[0])) continue;
+            const cv::Vec3d w = u.cross(v);
+            const double alpha = v.dot(m), phi = u.dot(d) / length, theta = std::atan2(w.dot(m), u.dot(m));
+            auto bin = [&](double value, double lo, double hi) {
+                return std::clamp(static_cast<int>((value - lo) / (hi - lo) * bins), 0, bins - 1);
+            };
+            histogram[bin(alpha, -1, 1)] += 1;
+            histogram[bins + bin(phi, -1, 1)] += 1;
+            histogram[2 * bins + bin(theta, -CV_PI, CV_PI)] += 1;
+            ++counted;
+        }
+        if (counted > 0)
+            for (int k = 0; k < 3 * bins; ++k) histogram[k] *= 100.0f / static_cast<float>(counted);
+    }
+    ViewFeatures features;
+    for (size_t i = 0; i < points.size(); ++i) {
+        if (neighbours[i].size() < 8) continue;  // too sparse to describe
+        cv::Mat descriptor = simple.row(static_cast<int>(i)).clone();
+        double weights = 0;
+        cv::Mat spread(1, 3 * bins, CV_32F, cv::Scalar(0));
+        for (int j : neighbours[i]) {
+            if (static_cast<size_t>(j) == i) continue;
+            const double weight = 1.0 / std::max(cv::norm(points[static_cast<size_t>(j)] - points[i]), 1e-3);
+            spread += simple.row(j) * weight;
+            weights += weight;
+        }
+        if (weights > 0) descriptor += spread * (1.0 / weights);
+        features.points.push_back(points[i]);
+        features.descriptors.push_back(descriptor);
+    }
+    return features;
+}
+
+cv::Matx44d rigid_fit(const std::vector<cv::Vec3d>& from, const std::vector<cv::Vec3d>& to) {
+    const size_t n = from.size();
+    cv::Vec3d mean_from(0, 0, 0), mean_to(0, 0, 0);
+    for (size_t i = 0; i < n; ++i) {
+        mean_from += from[i];
+        mean_to += to[i];
+    }
+    mean_from *= 1.0 / static_cast<double>(n);
+    mean_to *= 1.0 / static_cast<double>(n);
+    cv::Matx33d covariance = cv::Matx33d::zeros();
+    for (size_t i = 0; i < n; ++i) covariance += (to[i] - mean_to) * (from[i] - mean_from).t();
+    cv::Mat w, u, vt;
+    cv::SVD::compute(cv::Mat(covariance), w, u, vt);
+    cv::Matx33d rotation = cv::Matx33d(cv::Mat(u * vt));
+    if (cv::determinant(rotation) < 0) {  // a reflection: flip the weakest axis
+        cv::Mat flip = cv::Mat::eye(3, 3, CV_64F);
+        flip.at<double>(2, 2) = -1;
+        rotation = cv::Matx33d(cv::Mat(u * flip * vt));
+    }
+    const cv::Vec3d translation = mean_to - rotation * mean_from;
+    cv::Matx44d transform = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) transform(r, c) = rotation(r, c);
+        transform(r, 3) = translation[r];
+    }
+    return transform;
+}
+
+namespace {
+
+cv::Vec3d apply(const cv::Matx44d& t, const cv::Vec3d& p) {
+    return {t(0, 0) * p[0] + t(0, 1) * p[1] + t(0, 2) * p[2] + t(0, 3),
+            t(1, 0) * p[0] + t(1, 1) * p[1] + t(1, 2) * p[2] + t(1, 3),
+            t(2, 0) * p[0] + t(2, 1) * p[1] + t(2, 2) * p[2] + t(2, 3)};
+}
+
+}  // namespace
+
+std::vector<CoarseAlignment> match_features(const ViewFeatures& fixed, const ViewFeatures& moving,
+                                            const RegistrationOptions& options, int hypotheses) {
+    std::vector<CoarseAlignment> results;
+    if (fixed.points.size() < 3 || moving.points.size() < 3) return results;
+    const bool binary = moving.descriptors.type() == CV_8U;
+    cv::BFMatcher matcher(binary ? cv::NORM_HAMMING : cv::NORM_L2);
+    std::vector<std::vector<cv::DMatch>> candidates;
+    matcher.knnMatch(moving.descriptors, fixed.descriptors, candidates, 2);
+    std::vector<cv::Vec3d> from, to;
+    // ORB descriptors are distinctive: Lowe's ratio test. Histograms of a machined part repeat
+    // (every flat face looks alike), so they only need to be a mutual best match.
+    std::vector<cv::DMatch> backward;
+    if (!binary) matcher.match(fixed.descriptors, moving.descriptors, backward);
+    for (const auto& pair : candidates) {
+        if (pair.empty()) continue;
+        if (binary && (pair.size() < 2 || pair[0].distance > 0.8f * pair[1].distance)) continue;
+        if (!binary && backward[static_cast<size_t>(pair[0].trainIdx)].trainIdx != pair[0].queryIdx) continue;
+        from.push_back(moving.points[static_cast<size_t>(pair[0].queryIdx)]);
+        to.push_back(fixed.points[static_cast<size_t>(pair[0].trainIdx)]);
+    }
+    const int matches = static_cast<int>(from.size());
+    if (from.size() < 3) return {CoarseAlignment{cv::Matx44d::eye(), matches, 0}};
+
+    const double inlier = options.ransac_inlier_mm;
+    auto inliers_of = [&](const cv::Matx44d& transform, std::vector<int>* indices) {
+        int count = 0;
+        for (size_t i = 0; i < from.size(); ++i) {
+            if (cv::norm(apply(transform, from[i]) - to[i]) > inlier) continue;
+            ++count;
+            if (indices) indices->push_back(static_cast<int>(i));
+        }
+        return count;
+    };
+    auto refit = [&](cv::Matx44d transform) {
+        // Refit on all inliers, twice (the set may grow once the fit is better).
+        for (int round = 0; round < 2; ++round) {
+            std::vector<int> indices;
+            inliers_of(transform, &indices);
+            if (indices.size() < 3) break;
+            std::vector<cv::Vec3d> f, t;
+            for (int i : indices) {
+                f.push_back(from[static_cast<size_t>(i)]);
+                t.push_back(to[static_cast<size_t>(i)]);
+            }
+            transform = rigid_fit(f, t);
+        }
+        return CoarseAlignment{transform, matches, inliers_of(transform, nullptr)};
+    };
+    auto distinct = [&](const cv::Matx44d& a, const cv::Matx44d& b) {
+        // Distinct when the sampled points land more than a few inlier distances apart.
+        double worst = 0;
+        for (size_t i = 0; i < from.size(); i += std::max<size_t>(1, from.size() / 20))
+            worst = std::max(worst, cv::norm(apply(a, from[i]) - apply(b, from[i])));
+        return worst > 5 * inlier;
+    };
+    cv::RNG rng(0x5eed);  // deterministic: the same views register the same way
+    const int n = static_cast<int>(from.size());
+    std::vector<CoarseAlignment> best;  // most inliers first, pairwise distinct
+    for (int iteration = 0; iteration < options.ransac_iterations; ++iteration) {
+        const int a = rng.uniform(0, n), b = rng.uniform(0, n), c = rng.uniform(0, n);
+        if (a == b || b == c || a == c) continue;
+        // A rigid motion keeps distances: reject inconsistent samples before fitting.
+        auto consistent = [&](int i, int j) {
+            return std::abs(cv::norm(from[i] - from[j]) - cv::norm(to[i] - to[j])) < 2 * inlier &&
+                   cv::norm(from[i] - from[j]) > 5 * inlier;
+        };
+        if (!consistent(a, b) || !consistent(b, c) || !consistent(a, c)) continue;
+        const cv::Matx44d transform = rigid_fit({from[a], from[b], from[c]}, {to[a], to[b], to[c]});
+        const int count = inliers_of(transform, nullptr);
+        if (count < 3 || (static_cast<int>(best.size()) == hypotheses && count <= best.back().inliers)) continue;
+        const CoarseAlignment candidate{transform, matches, count};
+        auto same = std::find_if(best.begin(), best.end(), [&](const CoarseAlignment& h) { return !distinct(h.transform, transform); });
+        if (same != best.end()) {
+            if (same->inliers < count) *same = candidate;
+        } else {
+            best.push_back(candidate);
+        }
+        std::sort(best.begin(), best.end(), [](const CoarseAlignment& x, const CoarseAlignment& y) { return x.inliers > y.inliers; });
+        if (static_cast<int>(best.size()) > hypotheses) best.pop_back();
+    }
+    for (const CoarseAlignment& hypothesis : best) results.push_back(refit(hypothesis.transform));
+    if (results.empty()) results.push_back(CoarseAlignment{cv::Matx44d::eye(), matches, 0});
+    return results;
+}
+
+}  // namespace picoscan::detail

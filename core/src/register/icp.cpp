@@ -1,0 +1,109 @@
+// Point-to-plane ICP (Chen & Medioni 1992) with trimmed correspondences (Chetverikov et al.
+// 2002): each iteration linearises the rotation and solves a 6x6 least-squares system.
+#include "register/registration_steps.h"
+
+#include <opencv2/calib3d.hpp>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace picoscan::detail {
+
+cv::Matx44d motion_matrix(const cv::Vec3d& rotation_vector, const cv::Vec3d& translation) {
+    cv::Matx33d rotation;
+    cv::Rodrigues(rotation_vector, rotation);
+    cv::Matx44d motion = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) motion(r, c) = rotation(r, c);
+        motion(r, 3) = translation[r];
+    }
+    return motion;
+}
+
+namespace {
+
+struct Pairing {
+    double residual;  // signed point-to-plane distance
+    double distance;  // point-to-point distance, for trimming
+    cv::Vec3d point, normal;
+    int moving, fixed;  // sample indices
+};
+
+// Pearson correlation of the grey levels of the paired samples (NaN when either is flat).
+double texture_correlation(const std::vector<Pairing>& pairs, size_t count, const SurfaceSamples& fixed,
+                           const SurfaceSamples& moving) {
+    if (fixed.grey.empty() || moving.grey.empty() || count < 10) return std::numeric_limits<double>::quiet_NaN();
+    double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+    for (size_t k = 0; k < count; ++k) {
+        const double a = moving.grey[static_cast<size_t>(pairs[k].moving)], b = fixed.grey[static_cast<size_t>(pairs[k].fixed)];
+        sa += a; sb += b; saa += a * a; sbb += b * b; sab += a * b;
+    }
+    const double n = static_cast<double>(count);
+    const double va = saa / n - (sa / n) * (sa / n), vb = sbb / n - (sb / n) * (sb / n);
+    if (va < 1e-3 || vb < 1e-3) return std::numeric_limits<double>::quiet_NaN();  // no paint to compare
+    return (sab / n - (sa / n) * (sb / n)) / std::sqrt(va * vb);
+}
+
+}  // namespace
+
+IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
+                             const RegistrationOptions& options) {
+    IcpResult result;
+    result.transform = initial;
+    if (fixed.points.empty() || moving.points.empty()) return result;
+    const PointGrid grid(fixed.points, options.icp_max_distance_mm);
+    const double min_normal_cos = std::cos(CV_PI / 4);  // partners must face the same way
+    double limit = options.icp_max_distance_mm;
+    std::vector<Pairing> pairings;
+    for (int iteration = 0; iteration < options.icp_iterations; ++iteration) {
+        const cv::Matx33d rotation = result.transform.get_minor<3, 3>(0, 0);
+        const cv::Vec3d translation(result.transform(0, 3), result.transform(1, 3), result.transform(2, 3));
+        pairings.clear();
+        for (size_t i = 0; i < moving.points.size(); ++i) {
+            const cv::Vec3d p = rotation * moving.points[i] + translation;
+            const int j = grid.nearest(p, limit);
+            if (j < 0) continue;
+            const cv::Vec3d& n = fixed.normals[static_cast<size_t>(j)];
+            if ((rotation * moving.normals[i]).dot(n) < min_normal_cos) continue;
+            const cv::Vec3d q = fixed.points[static_cast<size_t>(j)];
+            pairings.push_back({(p - q).dot(n), cv::norm(p - q), p, n, static_cast<int>(i), j});
+        }
+        if (pairings.size() < 6) return result;
+        // Trimmed: only the best fraction of pairs (overlap is never complete).
+        const size_t kept = std::max<size_t>(6, static_cast<size_t>(options.icp_trim_fraction * pairings.size()));
+        std::nth_element(pairings.begin(), pairings.begin() + static_cast<long>(kept - 1), pairings.end(),
+                         [](const Pairing& a, const Pairing& b) { return a.distance < b.distance; });
+        cv::Matx66d normal_matrix = cv::Matx66d::zeros();
+        cv::Vec6d right_side(0, 0, 0, 0, 0, 0);
+        double squared = 0;
+        for (size_t k = 0; k < kept; ++k) {
+            const Pairing& pair = pairings[k];
+            const cv::Vec3d c = pair.point.cross(pair.normal);
+            const cv::Vec6d row(c[0], c[1], c[2], pair.normal[0], pair.normal[1], pair.normal[2]);
+            normal_matrix += row * row.t();
+            right_side -= row * pair.residual;
+            squared += pair.residual * pair.residual;
+        }
+        result.rms_mm = std::sqrt(squared / static_cast<double>(kept));
+        cv::Vec6d step;
+        if (!cv::solve(normal_matrix, right_side, step, cv::DECOMP_CHOLESKY)) return result;
+        const cv::Vec3d omega(step[0], step[1], step[2]), delta(step[3], step[4], step[5]);
+        result.transform = motion_matrix(omega, delta) * result.transform;
+        // Tighten the correspondence distance as the alignment improves (outliers drop out).
+        std::vector<double> distances;
+        distances.reserve(kept);
+        for (size_t k = 0; k < kept; ++k) distances.push_back(pairings[k].distance);
+        std::nth_element(distances.begin(), distances.begin() + static_cast<long>(kept / 2), distances.end());
+        limit = std::clamp(6.0 * distances[kept / 2], options.sample_spacing_mm, options.icp_max_distance_mm);
+        result.overlap = static_cast<double>(pairings.size()) /
+                         static_cast<double>(std::min(fixed.points.size(), moving.points.size()));
+        result.texture_agreement = texture_correlation(pairings, kept, fixed, moving);
+        if (cv::norm(omega) < 1e-6 && cv::norm(delta) < 1e-4) {
+            result.converged = true;
+            break;
+        }
+    }
+    return result;
+}
+
+}  // namespace picoscan::detail

@@ -1,0 +1,118 @@
+#include "register/point_grid.h"
+
+#include "cloud/view_check.h"
+
+#include <opencv2/imgproc.hpp>
+#include <cmath>
+#include <limits>
+
+namespace picoscan::detail {
+
+SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
+    SurfaceSamples samples;
+    if (view.points.empty()) return samples;
+    const bool has_normals = !view.normals.empty();
+    // Paint only: the white frame divided by its local mean (over measured pixels), so that
+    // shading, which any two faces share, does not count as texture.
+    cv::Mat paint;
+    if (!view.colours.empty()) {
+        cv::Mat grey, measured(view.points.size(), CV_32F);
+        cv::cvtColor(view.colours, grey, cv::COLOR_BGR2GRAY);
+        grey.convertTo(grey, CV_32F);
+        for (int y = 0; y < measured.rows; ++y)
+            for (int x = 0; x < measured.cols; ++x)
+                measured.at<float>(y, x) = finite_point(view.points.at<cv::Vec3f>(y, x)) ? 1.f : 0.f;
+        cv::Mat local_sum, local_count;
+        cv::GaussianBlur(grey.mul(measured), local_sum, cv::Size(), 8);
+        cv::GaussianBlur(measured, local_count, cv::Size(), 8);
+        paint = grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0);
+    }
+    std::unordered_map<long long, int> taken;
+    auto cell = [&](double value) { return static_cast<long long>(std::floor(value / spacing_mm)); };
+    for (int y = 0; y < view.points.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < view.points.cols; ++x) {
+            if (!finite_point(row[x])) continue;
+            cv::Vec3d normal(0, 0, -1);
+            if (has_normals) {
+                const cv::Vec3f n = view.normals.at<cv::Vec3f>(y, x);
+                if (!finite_point(n) || cv::norm(n) < 0.5) continue;
+                normal = cv::normalize(cv::Vec3d(n));
+            }
+            const long long key = (cell(row[x][0]) * 73856093LL) ^ (cell(row[x][1]) * 19349663LL) ^
+                                  (cell(row[x][2]) * 83492791LL);
+            if (!taken.emplace(key, 0).second) continue;
+            samples.points.emplace_back(row[x]);
+            samples.normals.push_back(normal);
+            if (!paint.empty()) samples.grey.push_back(paint.at<float>(y, x));
+        }
+    }
+    return samples;
+}
+
+SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& transform) {
+    const cv::Matx33d rotation = transform.get_minor<3, 3>(0, 0);
+    const cv::Vec3d translation(transform(0, 3), transform(1, 3), transform(2, 3));
+    SurfaceSamples out;
+    out.points.reserve(samples.points.size());
+    out.normals.reserve(samples.normals.size());
+    out.grey = samples.grey;
+    for (size_t i = 0; i < samples.points.size(); ++i) {
+        out.points.push_back(rotation * samples.points[i] + translation);
+        out.normals.push_back(rotation * samples.normals[i]);
+    }
+    return out;
+}
+
+PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : points_(points), cell_mm_(cell_mm) {
+    cells_.reserve(points.size() / 4 + 1);
+    for (size_t i = 0; i < points.size(); ++i) {
+        const cv::Vec3d& p = points[i];
+        cells_[key(static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
+                   static_cast<long long>(std::floor(p[2] / cell_mm_)))]
+            .push_back(static_cast<int>(i));
+    }
+}
+
+int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
+    const long long cx = static_cast<long long>(std::floor(query[0] / cell_mm_));
+    const long long cy = static_cast<long long>(std::floor(query[1] / cell_mm_));
+    const long long cz = static_cast<long long>(std::floor(query[2] / cell_mm_));
+    double best = max_distance_mm * max_distance_mm;
+    int best_index = -1;
+    for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy)
+            for (long long dz = -1; dz <= 1; ++dz) {
+                const auto found = cells_.find(key(cx + dx, cy + dy, cz + dz));
+                if (found == cells_.end()) continue;
+                for (int index : found->second) {
+                    const cv::Vec3d d = points_[static_cast<size_t>(index)] - query;
+                    const double distance = d.dot(d);
+                    if (distance < best) {
+                        best = distance;
+                        best_index = index;
+                    }
+                }
+            }
+    return best_index;
+}
+
+void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
+    found.clear();
+    const long long cx = static_cast<long long>(std::floor(query[0] / cell_mm_));
+    const long long cy = static_cast<long long>(std::floor(query[1] / cell_mm_));
+    const long long cz = static_cast<long long>(std::floor(query[2] / cell_mm_));
+    const double limit = radius_mm * radius_mm;
+    for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy)
+            for (long long dz = -1; dz <= 1; ++dz) {
+                const auto cell = cells_.find(key(cx + dx, cy + dy, cz + dz));
+                if (cell == cells_.end()) continue;
+                for (int index : cell->second) {
+                    const cv::Vec3d d = points_[static_cast<size_t>(index)] - query;
+                    if (d.dot(d) <= limit) found.push_back(index);
+                }
+            }
+}
+
+}  // namespace picoscan::detail

@@ -1,0 +1,41 @@
+// Surface samples of a view and a uniform grid over them for nearest-neighbour queries
+// within a bounded distance (all ICP needs: partners farther than the bound are unused).
+#pragma once
+
+#include "picoscan/cloud.h"
+
+#include <opencv2/core.hpp>
+#include <unordered_map>
+#include <vector>
+
+namespace picoscan::detail {
+
+struct SurfaceSamples {
+    std::vector<cv::Vec3d> points;
+    std::vector<cv::Vec3d> normals;  // unit
+    std::vector<float> grey;         // white frame / its local mean (paint, not shading); empty without colours
+};
+
+// One valid point (with a finite normal) per spacing_mm cube, in the view's own frame.
+SurfaceSamples sample_view(const ScanView& view, double spacing_mm);
+
+SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& transform);
+
+class PointGrid {
+public:
+    // cell_mm: the largest distance nearest() will be asked for.
+    PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm);
+
+    // Index of the nearest point within max_distance_mm (<= cell_mm), or -1.
+    int nearest(const cv::Vec3d& query, double max_distance_mm) const;
+    // Indices of all points within radius_mm (<= cell_mm) of the query.
+    void within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const;
+
+private:
+    long long key(long long ix, long long iy, long long iz) const { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
+    const std::vector<cv::Vec3d>& points_;
+    double cell_mm_;
+    std::unordered_map<long long, std::vector<int>> cells_;
+};
+
+}  // namespace picoscan::detail

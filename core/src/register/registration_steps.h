@@ -1,0 +1,55 @@
+// The steps of registration, shared by register_pair and align_views.
+#pragma once
+
+#include "picoscan/register.h"
+#include "register/point_grid.h"
+
+#include <opencv2/core.hpp>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace picoscan::detail {
+
+// ORB keypoints of a view's white frame that land on a measured point, with that point.
+struct ViewFeatures {
+    std::vector<cv::Vec3d> points;  // view frame
+    cv::Mat descriptors;            // one row per point
+};
+ViewFeatures view_features(const ScanView& view, int max_features);
+
+// Fast point feature histograms (Rusu et al. 2009) of the samples thinned to spacing_mm,
+// over neighbourhoods of radius_mm: for views whose white frames share too few features
+// (large viewpoint changes, plain parts). Descriptors are CV_32F.
+ViewFeatures geometric_features(const SurfaceSamples& samples, double spacing_mm, double radius_mm);
+
+// Least-squares rigid transform taking `from` onto `to` (Kabsch / Umeyama without scale).
+cv::Matx44d rigid_fit(const std::vector<cv::Vec3d>& from, const std::vector<cv::Vec3d>& to);
+
+struct CoarseAlignment {
+    cv::Matx44d transform = cv::Matx44d::eye();  // moving -> fixed
+    int matches = 0;
+    int inliers = 0;
+};
+// Matches descriptors and fits rigid transforms by RANSAC on the 3D points: the best few
+// distinct hypotheses, most inliers first (a symmetric part has several good ones).
+std::vector<CoarseAlignment> match_features(const ViewFeatures& fixed, const ViewFeatures& moving,
+                                            const RegistrationOptions& options, int hypotheses = 1);
+
+struct IcpResult {
+    cv::Matx44d transform = cv::Matx44d::eye();  // moving -> fixed
+    double rms_mm = 0;
+    double overlap = 0;  // matched moving samples / the smaller sample count
+    bool converged = false;
+    // Correlation of the white-frame levels of paired points: near 1 when the paint lines up,
+    // near 0 when a symmetric shape was matched the wrong way round; NaN without texture.
+    double texture_agreement = std::numeric_limits<double>::quiet_NaN();
+};
+// Point-to-plane ICP with trimmed correspondences, starting from `initial`.
+IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
+                             const RegistrationOptions& options);
+
+// Small-motion update: rotation vector (rad) and translation -> 4x4 transform.
+cv::Matx44d motion_matrix(const cv::Vec3d& rotation_vector, const cv::Vec3d& translation);
+
+}  // namespace picoscan::detail

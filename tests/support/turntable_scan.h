@@ -1,0 +1,42 @@
+// The multi-view test scan shared by the registration and meshing suites: the built-in
+// mechanical part on a simulated turntable, 8 views plus one from above. Scanned once and
+// kept as view PLYs in the build tree, since every test runs in its own process.
+#pragma once
+
+#include "picoscan/cloud.h"
+#include "picoscan/simulate.h"
+
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace picoscan::test_support {
+
+struct TurntableScan {
+    std::vector<ScanView> views;                   // cleaned, camera frame, pose = identity
+    std::vector<std::string> names;                // view_0.ply ...
+    std::vector<cv::Matx44d> part_to_camera;       // ground truth per view
+    std::vector<cv::Matx44d> true_view_to_model;   // view i -> view 0 camera frame
+    Mesh part;                                     // ground-truth part, part frame
+    cv::Vec3d centroid(size_t view) const;         // of a view's points, its own frame
+};
+
+// Each view's pose knocked by up to 10 degrees and 20 mm.
+const TurntableScan& disturbed_turntable_scan();
+// Exact turntable steps of 45 degrees.
+const TurntableScan& turntable_scan();
+
+// Distances (mm) from points to the nearest triangle of a finely tessellated mesh; points
+// farther than `reach_mm` from every triangle get reach_mm.
+class MeshDistance {
+public:
+    MeshDistance(const Mesh& mesh, double reach_mm);
+    double operator()(const cv::Vec3d& point) const;
+
+private:
+    const Mesh& mesh_;
+    double reach_mm_;
+    std::unordered_map<long long, std::vector<int>> cells_;
+};
+
+}  // namespace picoscan::test_support
