@@ -9,6 +9,7 @@
 #include "picoscan/error.h"
 #include "picoscan/fit.h"
 #include "picoscan/patterns.h"
+#include "picoscan/register.h"
 #include "picoscan/simulate.h"
 #include "picoscan/triangulate.h"
 
@@ -46,9 +47,11 @@ const char* const kMeshStep = "meshStep";
 const char* const kSceneFile = "sceneFile";
 const char* const kPeriodBits = "periodBits";
 const char* const kNoise = "noise";
+const char* const kFullScale = "fullScale";
 const char* const kBlur = "blur";
 const char* const kSeed = "seed";
 const char* const kSaveCaptures = "saveCaptureFolder";
+const char* const kPartView = "partView";
 const char* const kMinQuality = "minQuality";
 const char* const kMaxGrazing = "maxGrazingDeg";
 const char* const kWindow = "windowPx";
@@ -56,6 +59,10 @@ const char* const kOutlierSigma = "outlierSigma";
 const char* const kRadiusFootprints = "radiusFootprints";
 const char* const kMinNeighbours = "minNeighbours";
 const char* const kMinCluster = "minClusterPoints";
+const char* const kOrbFeatures = "orbFeatures";
+const char* const kIcpMaxDistance = "icpMaxDistance";
+const char* const kAlignSpacing = "sampleSpacing";
+const char* const kMinOverlap = "minOverlap";
 const char* const kShape = "shape";
 const char* const kSelectedOnly = "selectedOnly";
 const char* const kModelFrame = "modelFrame";
@@ -194,10 +201,23 @@ void report_filters_menu_when_ready(const QString& path, int attempts_left) {
     });
 }
 
+// The visible layers, each of which must carry a pixel grid.
+std::vector<MeshModel*> visible_scan_layers(MeshDocument& document) {
+    std::vector<MeshModel*> layers;
+    for (MeshModel* layer : document.meshList)
+        if (layer->isVisible()) {
+            require_scan_grid(*layer);
+            layers.push_back(layer);
+        }
+    return layers;
+}
+
+std::string layer_name(const MeshModel& layer) { return layer.label().toStdString(); }
+
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
-    typeList << Reconstruct << Simulate << Clean << Measure;
+    typeList << Reconstruct << Simulate << Clean << Align << Measure;
     for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
     const QString menu_report = qEnvironmentVariable("PICOSCAN_MESHLAB_MENU_REPORT");
     if (!menu_report.isEmpty() && qobject_cast<QApplication*>(QCoreApplication::instance()) != nullptr)
@@ -211,6 +231,7 @@ QString PicoScanFilterPlugin::filterName(FilterIDType filter) const {
     case Reconstruct: return "PicoScan: Reconstruct from Capture Set";
     case Simulate: return "PicoScan: Simulate Scan";
     case Clean: return "PicoScan: Clean Scan";
+    case Align: return "PicoScan: Align Layers";
     case Measure: return "PicoScan: Measure Sphere or Plane";
     }
     return {};
@@ -233,6 +254,11 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
         return "Removes unreliable points from a PicoScan point cloud layer, on its camera pixel grid: low quality, "
                "grazing angles, statistical and radius outliers, small disconnected clusters. The log says how many "
                "points each step removed.";
+    case Align:
+        return "Registers all visible PicoScan layers into one model: ORB features on the white frames lifted to 3D, "
+               "a RANSAC rigid fit, point-to-plane ICP, then a global refinement of all views together. The first "
+               "visible layer stays where it is; each other layer's transform is set. The log gives each layer's "
+               "residual and overlap. If any layer cannot be aligned, no transform is changed.";
     case Measure:
         return "Fits a sphere or a plane (least squares) to the current layer's points, or to the selected ones, and "
                "writes centre, radius or normal, and the RMS residual to the log: for checking a scanner with a "
@@ -246,6 +272,7 @@ MeshFilterInterface::FilterClass PicoScanFilterPlugin::getClass(QAction* action)
     case Reconstruct:
     case Simulate: return MeshFilterInterface::MeshCreation;
     case Clean: return MeshFilterInterface::Cleaning;
+    case Align: return MeshFilterInterface::RangeMap;
     case Measure: return MeshFilterInterface::Measure;
     }
     return MeshFilterInterface::MeshCreation;
@@ -255,17 +282,23 @@ MeshFilterInterface::FILTER_ARITY PicoScanFilterPlugin::filterArity(QAction* act
     switch (ID(action)) {
     case Reconstruct:
     case Simulate: return NONE;
+    case Align: return VARIABLE;
     default: return SINGLE_MESH;
     }
 }
 
 int PicoScanFilterPlugin::getPreConditions(QAction* action) const {
-    return ID(action) == Clean ? MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL : MeshModel::MM_NONE;
+    switch (ID(action)) {
+    case Clean:
+    case Align: return MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL;
+    default: return MeshModel::MM_NONE;
+    }
 }
 
 int PicoScanFilterPlugin::postCondition(QAction* action) const {
     switch (ID(action)) {
     case Clean: return MeshModel::MM_VERTNUMBER | MeshModel::MM_FACENUMBER;
+    case Align: return MeshModel::MM_TRANSFMATRIX;
     case Measure: return MeshModel::MM_NONE;
     default: return MeshModel::MM_ALL;
     }
@@ -303,10 +336,16 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
         parameters.addParam(RichString(kSceneFile, "", "Scene file (optional)",
                                        "Scene description (YAML/JSON: spheres, planes, boxes, cylinders, meshes); "
                                        "empty: the built-in demo part."));
+        parameters.addParam(RichInt(kPartView, -1, "Turntable view of the mechanical part",
+                                    "Instead of the scene: view n of the built-in mechanical test part on a turntable "
+                                    "(0..7: turned in 45 degree steps, 8: from above), for trying Align Layers; "
+                                    "-1: not used."));
         parameters.addParam(RichString(kCalibrationFile, "", "Calibration file (optional)",
                                        "Rig to simulate; empty: the seed-like rig."));
         parameters.addParam(RichInt(kShifts, patterns.shifts, "Phase shifts", "Phase shifts per axis (3..64)."));
         parameters.addParam(RichInt(kPeriodBits, patterns.period_bits, "Period bits", "Fringe period = 2^n projector pixels."));
+        parameters.addParam(RichFloat(kFullScale, float(simulation.full_scale_dn), "Full scale (grey levels)",
+                                      "Camera level of a white-lit white surface facing the projector: the exposure."));
         parameters.addParam(RichFloat(kNoise, float(simulation.noise_sigma_dn), "Camera noise (grey levels)", "Gaussian noise sigma."));
         parameters.addParam(RichFloat(kBlur, 0.7f, "Defocus blur (pixels)", "Gaussian blur sigma in camera pixels."));
         parameters.addParam(RichInt(kSeed, 1, "Noise seed", "The same seed renders the same images."));
@@ -336,6 +375,18 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                     "Disconnected clusters smaller than this go."));
         break;
     }
+    case Align: {
+        const RegistrationOptions defaults;
+        parameters.addParam(RichInt(kOrbFeatures, defaults.orb_features, "ORB features per view",
+                                    "Keypoints found on each layer's white frame for the coarse alignment."));
+        parameters.addParam(RichFloat(kIcpMaxDistance, float(defaults.icp_max_distance_mm), "ICP max distance (mm)",
+                                      "Point pairs farther apart than this are never used by ICP."));
+        parameters.addParam(RichFloat(kAlignSpacing, float(defaults.sample_spacing_mm), "Sample spacing (mm)",
+                                      "Points are thinned to about this spacing for ICP."));
+        parameters.addParam(RichFloat(kMinOverlap, float(defaults.min_overlap), "Min overlap (fraction)",
+                                      "Views overlapping less than this are not registered to each other."));
+        break;
+    }
     case Measure:
         parameters.addParam(RichEnum(kShape, SphereShape, QStringList{"Sphere", "Plane"}, "Shape", "The shape to fit."));
         parameters.addParam(RichBool(kSelectedOnly, false, "Selected points only",
@@ -355,6 +406,7 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
         case Reconstruct: reconstruct(document, parameters, callback); break;
         case Simulate: simulate(document, parameters, callback); break;
         case Clean: clean(document, parameters); break;
+        case Align: align(document, parameters, callback); break;
         case Measure: measure(document, parameters); break;
         }
         return true;
@@ -413,15 +465,23 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
     const std::string calibration_file = parameter_text(parameters.getString(kCalibrationFile));
     const std::string save_folder = parameter_text(parameters.getString(kSaveCaptures));
     const Calibration calibration = calibration_file.empty() ? seed_rig_calibration() : read_calibration(calibration_file);
-    const Scene scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
+    const int part_view = parameters.getInt(kPartView);
+    const std::vector<cv::Matx44d> turntable = turntable_part_poses(TurntablePlan{});
+    if (part_view >= int(turntable.size())) throw Error(kPartView, "must be -1.." + std::to_string(turntable.size() - 1));
+    if (part_view >= 0 && !scene_file.empty()) throw Error(kPartView, "conflicts with the scene file; use one of them");
+    Scene scene;
+    if (part_view >= 0) scene.meshes.push_back({transformed(mechanical_part(), turntable[size_t(part_view)]), 0.85});
+    else scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
     PatternOptions patterns;
     patterns.projector_size = calibration.projector_size;
     patterns.shifts = parameters.getInt(kShifts);
     patterns.period_bits = parameters.getInt(kPeriodBits);
     SimulationOptions simulation;
+    simulation.full_scale_dn = parameters.getFloat(kFullScale);
     simulation.noise_sigma_dn = parameters.getFloat(kNoise);
     simulation.blur_sigma_px = parameters.getFloat(kBlur);
     simulation.seed = uint64_t(std::max(0, parameters.getInt(kSeed)));
+    if (simulation.full_scale_dn <= 0) throw Error(kFullScale, "must be > 0");
     if (simulation.noise_sigma_dn < 0) throw Error(kNoise, "must be >= 0");
     if (simulation.blur_sigma_px < 0) throw Error(kBlur, "must be >= 0");
     const DecodeOptions options = decode_options(parameters);
@@ -434,8 +494,11 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
     const CaptureSet captures = simulate_capture(make_pattern_sequence(patterns), calibration, scene, simulation, progress);
     scan.view = scan_captures(captures, calibration, calibration_file.empty() ? "seed rig" : calibration_file, options, progress);
     scan.focal_px = calibration.camera_matrix(0, 0);
-    const std::string source = scene_file.empty() ? "demo part" : scene_file;
-    const QString label = scene_file.empty() ? "Simulated demo part" : "Simulated " + QFileInfo(QString::fromStdString(scene_file)).baseName();
+    const std::string source = part_view >= 0 ? "mechanical part view " + std::to_string(part_view)
+                               : scene_file.empty() ? "demo part" : scene_file;
+    const QString label = part_view >= 0       ? QString("Part view %1").arg(part_view)
+                          : scene_file.empty() ? "Simulated demo part"
+                                               : "Simulated " + QFileInfo(QString::fromStdString(scene_file)).baseName();
     // The layer is made before anything is written, so a failed scan leaves no capture folder either.
     MeshModel* layer = add_scan_layer(document, label, scan, source);
     if (!save_folder.empty()) {
@@ -471,6 +534,43 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
         "%d in small clusters), %d remain",
         qUtf8Printable(layer.label()), deleted, report.by_quality, report.by_grazing, report.by_statistics,
         report.by_radius, report.by_cluster, layer.cm.vn);
+}
+
+void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
+    RegistrationOptions options;
+    options.orb_features = parameters.getInt(kOrbFeatures);
+    options.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
+    options.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
+    options.min_overlap = parameters.getFloat(kMinOverlap);
+    if (options.orb_features < 100) throw Error(kOrbFeatures, "must be at least 100");
+    if (options.icp_max_distance_mm <= 0) throw Error(kIcpMaxDistance, "must be > 0");
+    if (options.sample_spacing_mm <= 0) throw Error(kAlignSpacing, "must be > 0");
+    std::vector<ScanView> views;
+    std::vector<std::string> names;
+    for (MeshModel* layer : layers) {
+        views.push_back(layer_view(*layer).view);
+        views.back().pose = cv::Matx44d::eye();  // camera frame in; the result is relative to the first layer
+        names.push_back(layer_name(*layer));
+    }
+    const Alignment alignment = align_views(views, names, options, std::nullopt, meshlab_progress(callback));
+    std::string failures;
+    for (const ViewAlignment& view : alignment.views)
+        if (!view.aligned) failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
+    // All or nothing: a partly aligned set would look aligned in the viewer.
+    if (!failures.empty())
+        throw Error("Align Layers", std::to_string(layers.size() - alignment.aligned_count()) + " of " +
+                                        std::to_string(layers.size()) + " layers could not be aligned, no transform "
+                                        "changed (" + failures + ")");
+    const cv::Matx44d first_layer_pose = layer_pose(*layers.front());
+    for (size_t i = 0; i < layers.size(); ++i) {
+        const ViewAlignment& view = alignment.views[i];
+        set_layer_pose(*layers[i], first_layer_pose * view.pose);
+        Log("PicoScan aligned %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(), view.rms_mm,
+            100 * view.overlap);
+    }
+    Log("PicoScan aligned %zu layers", layers.size());
 }
 
 void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterList& parameters) {

@@ -11,7 +11,7 @@ class PicoScanFilterPlugin : public QObject, public MeshFilterInterface {
     Q_INTERFACES(MeshFilterInterface)
 
 public:
-    enum FilterId { Reconstruct, Simulate, Clean, Measure };
+    enum FilterId { Reconstruct, Simulate, Clean, Align, Measure };
 
     PicoScanFilterPlugin();
 
@@ -34,5 +34,6 @@ private:
     void reconstruct(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void simulate(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void clean(MeshDocument& document, const RichParameterList& parameters);
+    void align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void measure(MeshDocument& document, const RichParameterList& parameters);
 };

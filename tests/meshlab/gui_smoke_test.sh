@@ -19,9 +19,11 @@ cat > scan.mlx <<'XML'
 <FilterScript>
  <filter name="PicoScan: Simulate Scan">
   <Param type="RichString" name="sceneFile" value=""/>
+  <Param type="RichInt" name="partView" value="-1"/>
   <Param type="RichString" name="calibrationFile" value=""/>
   <Param type="RichInt" name="shifts" value="4"/>
   <Param type="RichInt" name="periodBits" value="4"/>
+  <Param type="RichFloat" name="fullScale" value="220"/>
   <Param type="RichFloat" name="noise" value="1"/>
   <Param type="RichFloat" name="blur" value="0.7"/>
   <Param type="RichInt" name="seed" value="1"/>
@@ -73,6 +75,7 @@ expected=(
   "PicoScan: Reconstruct from Capture Set"
   "PicoScan: Simulate Scan"
   "PicoScan: Clean Scan"
+  "PicoScan: Align Layers"
   "PicoScan: Measure Sphere or Plane"
 )
 listed=$(grep -c "/PicoScan: " filters.txt || true)

@@ -4,6 +4,7 @@
 #include "picoscan/calibration.h"
 #include "picoscan/fit.h"
 #include "picoscan/io.h"
+#include "picoscan/register.h"
 #include "picoscan/simulate.h"
 #include "support/test_support.h"
 
@@ -29,8 +30,9 @@ using Params = std::vector<Param>;
 // meshlabserver (2020.09) needs every parameter of a filter in the script, so each filter's
 // full list with its defaults is here; tests override single values.
 const Params kSimulateDefaults{
-    {"RichString", "sceneFile", ""},     {"RichString", "calibrationFile", ""}, {"RichInt", "shifts", "24"},
-    {"RichInt", "periodBits", "4"},      {"RichFloat", "noise", "1"},           {"RichFloat", "blur", "0.7"},
+    {"RichString", "sceneFile", ""},     {"RichInt", "partView", "-1"},         {"RichString", "calibrationFile", ""},
+    {"RichInt", "shifts", "24"},
+    {"RichInt", "periodBits", "4"},      {"RichFloat", "fullScale", "220"},     {"RichFloat", "noise", "1"},           {"RichFloat", "blur", "0.7"},
     {"RichInt", "seed", "1"},            {"RichString", "saveCaptureFolder", ""}, {"RichBool", "binaryOnly", "false"},
     {"RichFloat", "minContrast", "15"},  {"RichFloat", "minModulation", "4"},   {"RichEnum", "output", "0"},
     {"RichInt", "meshStep", "1"}};
@@ -43,6 +45,10 @@ const Params kCleanDefaults{{"RichFloat", "minQuality", "0"},      {"RichFloat",
                             {"RichInt", "windowPx", "2"},          {"RichFloat", "outlierSigma", "4"},
                             {"RichFloat", "radiusFootprints", "4"}, {"RichInt", "minNeighbours", "3"},
                             {"RichInt", "minClusterPoints", "100"}};
+const Params kAlignDefaults{{"RichInt", "orbFeatures", "6000"},
+                            {"RichFloat", "icpMaxDistance", "3"},
+                            {"RichFloat", "sampleSpacing", "0.7"},
+                            {"RichFloat", "minOverlap", "0.08"}};
 const Params kMeasureDefaults{
     {"RichEnum", "shape", "0"}, {"RichBool", "selectedOnly", "false"}, {"RichBool", "modelFrame", "true"}};
 
@@ -69,6 +75,7 @@ std::string reconstruct(const std::map<std::string, std::string>& overrides) {
     return filter("PicoScan: Reconstruct from Capture Set", kReconstructDefaults, overrides);
 }
 std::string clean() { return filter("PicoScan: Clean Scan", kCleanDefaults); }
+std::string align() { return filter("PicoScan: Align Layers", kAlignDefaults); }
 std::string measure(const std::string& shape) {
     return filter("PicoScan: Measure Sphere or Plane", kMeasureDefaults, {{"shape", shape == "sphere" ? "0" : "1"}});
 }
@@ -247,6 +254,96 @@ TEST(MeshlabPlugin, ClearErrorsForMissingFolderWrongCalibrationAndPlainLayers) {
     EXPECT_NE(run.exit_code, 0);
     EXPECT_NE(run.log.find("this layer has no camera pixel grid"), std::string::npos) << run.log;
     EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
+}
+
+namespace {
+
+// The layer transforms MeshLab saved in a project (.mlp), in layer order.
+std::vector<cv::Matx44d> project_transforms(const std::string& path) {
+    std::ifstream file(path);
+    const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    std::vector<cv::Matx44d> transforms;
+    for (size_t at = text.find("<MLMatrix44>"); at != std::string::npos; at = text.find("<MLMatrix44>", at + 1)) {
+        std::istringstream numbers(text.substr(at + 12));
+        cv::Matx44d transform;
+        for (int i = 0; i < 16; ++i) numbers >> transform.val[i];
+        transforms.push_back(transform);
+    }
+    return transforms;
+}
+
+cv::Matx44d inverse_rigid(const cv::Matx44d& t) {
+    const cv::Matx33d r = t.get_minor<3, 3>(0, 0).t();
+    const cv::Vec3d shift = -(r * cv::Vec3d(t(0, 3), t(1, 3), t(2, 3)));
+    cv::Matx44d inverse = cv::Matx44d::eye();
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) inverse(i, j) = r(i, j);
+        inverse(i, 3) = shift[i];
+    }
+    return inverse;
+}
+
+}  // namespace
+
+// Nine turntable views of the mechanical part -> Align Layers, saved as a project (the transforms).
+TEST(MeshlabPlugin, AlignTurntableViewsToTruePoses) {
+    const std::string directory = make_temp_dir("meshlab_turntable");
+    const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
+    std::string filters;
+    for (size_t i = 0; i < part_to_camera.size(); ++i)
+        filters += simulate({{"partView", std::to_string(i)}, {"shifts", "16"}, {"fullScale", "250"},
+                             {"minModulation", "15"}, {"blur", "0.5"}}) +
+                   clean();
+    filters += align();
+    const ServerRun run = run_meshlabserver(directory, filters, "-w project.mlp");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+
+    // Each layer's transform is its true pose relative to the first view.
+    const std::vector<cv::Matx44d> transforms = project_transforms(directory + "/project.mlp");
+    ASSERT_EQ(transforms.size(), part_to_camera.size()) << run.log;
+    double worst_rotation = 0, worst_translation = 0;
+    for (size_t i = 0; i < part_to_camera.size(); ++i) {
+        const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[i]);
+        // Measured at the part's middle (part frame z = 16 mm), in view i's coordinates.
+        const cv::Vec4d middle = part_to_camera[i] * cv::Vec4d(0, 0, 16, 1);
+        const PoseDifference error = pose_difference(truth, transforms[i], cv::Vec3d(middle[0], middle[1], middle[2]));
+        worst_rotation = std::max(worst_rotation, error.rotation_deg);
+        worst_translation = std::max(worst_translation, error.translation_mm);
+    }
+    const std::vector<double> residuals = numbers_after(run.log, "residual", 1);
+    ASSERT_EQ(residuals.size(), 1u) << run.log;
+    std::printf("alignment of %zu views: worst pose error %.3f deg, %.3f mm; last layer's residual %.4f mm\n",
+                part_to_camera.size(), worst_rotation, worst_translation, residuals[0]);
+    EXPECT_LT(residuals[0], 0.1);
+    EXPECT_LT(worst_rotation, 0.15);
+    EXPECT_LT(worst_translation, 0.1);
+    EXPECT_NE(run.log.find("PicoScan aligned " + std::to_string(part_to_camera.size()) + " layers"), std::string::npos);
+
+}
+
+// Align refuses plain layers, naming them.
+TEST(MeshlabPlugin, AlignNeedsPicoScanLayers) {
+    const std::string directory = make_temp_dir("meshlab_align_plain");
+    Mesh plain;
+    plain.vertices = {{0, 0, 400}, {1, 0, 400}, {0, 1, 400}, {1, 1, 401}};
+    write_ply(plain, directory + "/plain.ply");
+    const ServerRun run = run_meshlabserver(directory, simulate({{"shifts", "3"}}) + align(), "-i plain.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("plain.ply: this layer has no camera pixel grid"), std::string::npos) << run.log;
+}
+
+// Front and back of the part do not overlap: Align fails, names the layer and changes nothing.
+TEST(MeshlabPlugin, AlignReportsLayersThatCannotBeAligned) {
+    const std::string directory = make_temp_dir("meshlab_align_apart");
+    const ServerRun run = run_meshlabserver(
+        directory,
+        simulate({{"partView", "0"}, {"shifts", "8"}, {"fullScale", "250"}, {"minModulation", "15"}}) +
+            simulate({{"partView", "4"}, {"shifts", "8"}, {"fullScale", "250"}, {"minModulation", "15"}}) + align(),
+        "-o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("Align Layers: 1 of 2 layers could not be aligned, no transform changed (Part view 4: "),
+              std::string::npos)
+        << run.log;
 }
 
 // The real SLMaster monocular set reconstructs through the plugin to the CLI's cloud.
