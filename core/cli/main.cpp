@@ -7,6 +7,8 @@
 #include "picoscan/decode.h"
 #include "picoscan/error.h"
 #include "picoscan/io.h"
+#include "picoscan/mesh.h"
+#include "picoscan/register.h"
 #include "picoscan/multi_camera.h"
 #include "picoscan/patterns.h"
 #include "picoscan/preview.h"
@@ -22,6 +24,9 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
+#include <optional>
+#include <sstream>
 #include <iostream>
 #include <map>
 #include <set>
@@ -44,7 +49,10 @@ Commands:
   manifest      write a sequence.json describing a capture set made by another system
   calibrate     calibrate camera + projector from captures of a board in several poses
   response      measure the projector's response (gamma) and store its correction
-  demo          simulated scan of the built-in part -> demo-output/ (PLY, STL, PNG)
+  clean         remove stray-light noise, background and outliers from a view
+  stitch        align several views of a part into one model (features, RANSAC, ICP)
+  mesh          mesh a cloud: watertight Poisson, advancing front or pixel grid -> STL
+  demo          simulated 360-degree turntable scan of the built-in part -> watertight STL
   screens       list the screens (find the projector's index)
   capture       project the patterns and capture them with webcams (or the virtual camera)
   scan          capture + reconstruct in one step
@@ -170,13 +178,6 @@ frame; each corner's projector position comes from the decoded codes around it.
 Prints the RMS reprojection errors of the camera and the projector, per pose, and advice.
 )";
 
-const char* kDemoHelp = R"(picoscan demo [--out DIR]
-
-Simulates a scan of the built-in part with the seed-like rig and reconstructs it.
-Writes DIR/cloud.ply (full resolution), DIR/part.stl (grid mesh of every 2nd pixel),
-DIR/preview.png, the rig in DIR/calibration.yml and the capture set in DIR/captures/.
-Default DIR: demo-output
-)";
 
 // Parsed "--key value" and "--flag" arguments of one command.
 class Arguments {
@@ -397,7 +398,7 @@ int reconstruct(const ReconstructRequest& request) {
     }
     const PointCloud cloud = to_point_cloud(view);
     if (cloud.points.empty()) throw Error(request.captures, "no pixel could be decoded and triangulated");
-    write_ply(cloud, request.cloud, request.encoding);
+    write_view_ply(view, request.cloud, request.encoding);  // keeps the pixel grid for clean and stitch
     std::printf("%zu points (%.1f %% of the camera pixels), %d fringe orders corrected -> %s\n", cloud.points.size(),
                 100.0 * cloud.points.size() / view.points.total(), correspondences.order_corrections, request.cloud.c_str());
     if (!request.mesh.empty()) {
@@ -568,9 +569,13 @@ int run_calibrate(const Arguments& arguments) {
     return 0;
 }
 
+#include "model_commands.inc"
+
 int run_demo(const Arguments& arguments) {
     const fs::path directory = arguments.text("--out", "demo-output");
+    const bool single_view = arguments.flag("--single-view");
     arguments.reject_unknown();
+    if (!single_view) return run_demo_360(directory);
     const fs::path captures = directory / "captures";
     const fs::path marker = captures / ".picoscan-demo";
     if (fs::exists(captures)) {
@@ -612,17 +617,37 @@ int main(int argc, char** argv) {
     }
     struct Command {
         const char* help;
-        int (*run)(const Arguments&);
+        std::function<int(const Arguments&)> run;
         std::set<std::string> flags;
     };
+    // clean, stitch and mesh take their input files first, before the options.
+    int first_option = 2;
+    while (first_option < argc && std::string(argv[first_option]).rfind("--", 0) != 0) ++first_option;
+    const std::vector<std::string> inputs(argv + std::min(2, argc), argv + first_option);
+    auto one_input = [&](int (*run)(const Arguments&, const std::string&)) {
+        return [&inputs, run](const Arguments& arguments) {
+            if (inputs.size() != 1)
+                throw Error(inputs.empty() ? std::string("input") : inputs[1], inputs.empty() ? "give one input file first (see --help)"
+                                                                                                : "unexpected second input file");
+            if (!fs::is_regular_file(inputs[0])) throw Error(inputs[0], "no such file");
+            return run(arguments, inputs[0]);
+        };
+    };
     const std::map<std::string, Command> commands{
+        {"clean", {kCleanHelp, one_input(run_clean), {}}},
+        {"stitch", {kStitchHelp, [&inputs](const Arguments& arguments) {
+             for (const std::string& input : inputs)
+                 if (!fs::is_regular_file(input)) throw Error(input, "no such file");
+             return run_stitch(arguments, inputs);
+         }, {}}},
+        {"mesh", {kMeshHelp, one_input(run_mesh), {}}},
         {"patterns", {kPatternsHelp, run_patterns, {"--rows", "--no-rows"}}},
         {"simulate", {kSimulateHelp, run_simulate, {"--rows", "--no-rows"}}},
         {"reconstruct", {kReconstructHelp, run_reconstruct, {"--binary-only", "--ascii", "--clean"}}},
         {"manifest", {kManifestHelp, run_manifest, {}}},
         {"calibrate", {kCalibrateHelp, run_calibrate, {}}},
         {"response", {kResponseHelp, run_response, {}}},
-        {"demo", {kDemoHelp, run_demo, {}}},
+        {"demo", {kDemo360Help, run_demo, {"--single-view"}}},
         {"screens", {kScreensHelp, run_screens, {}}},
         {"capture", {kCaptureHelp, run_capture, {"--rows", "--no-rows", "--resume"}}},
         {"scan", {kScanHelp, run_scan, {"--rows", "--no-rows", "--resume", "--clean"}}},
@@ -633,7 +658,9 @@ int main(int argc, char** argv) {
         return 2;
     }
     try {
-        Arguments arguments(argc, argv, 2, found->second.flags);
+        const bool takes_inputs = command == "clean" || command == "stitch" || command == "mesh";
+        if (!takes_inputs && first_option != 2) throw Error(argv[2], "unexpected argument (options start with --)");
+        Arguments arguments(argc, argv, first_option, found->second.flags);
         if (command == "calibrate") arguments.allow_several("--captures");
         if (command == "capture" || command == "scan") arguments.allow_several("--camera");
         if (arguments.has("--help") || arguments.has("-h")) {

@@ -32,6 +32,11 @@ struct CleanReport {
     int removed() const { return by_quality + by_grazing + by_working_volume + by_statistics + by_radius + by_cluster; }
 };
 
+// Background removal with a scan of the empty scene (same rig, same camera pose): a point
+// that lies within tolerance_mm of the background's point at the same pixel, or behind it,
+// is background and goes. Returns how many points were removed.
+int remove_background(ScanView& view, const ScanView& background, double tolerance_mm = 1.0);
+
 // Sets removed points (and their normals) to NaN. `camera_focal_px` gives a pixel's footprint.
 CleanReport clean_view(ScanView& view, double camera_focal_px, const CleanOptions& options = {});
 

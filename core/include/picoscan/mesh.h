@@ -15,11 +15,11 @@ enum class MeshMethod { Poisson, AdvancingFront };
 
 struct MeshOptions {
     MeshMethod method = MeshMethod::Poisson;
-    double sample_spacing_mm = 0.5;     // the cloud is thinned to about this spacing first (0 keeps all)
+    double sample_spacing_mm = 0.4;     // the cloud is thinned to about this spacing first (0 keeps all)
     // Poisson: triangle size and the distance the surface may stray from the implicit one,
     // both in multiples of the average point spacing.
-    double poisson_triangle_size = 2.0;
-    double poisson_distance = 0.25;
+    double poisson_triangle_size = 1.0;
+    double poisson_distance = 0.1;
     // Advancing front: triangles whose circumradius exceeds this multiple of the spacing are not made.
     double advancing_front_max_radius = 4.0;
     double max_hole_diameter_mm = 10;   // holes up to this size are filled (triangulate, refine, fair)

@@ -181,4 +181,24 @@ CleanReport clean_view(ScanView& view, double camera_focal_px, const CleanOption
     return report;
 }
 
+int remove_background(ScanView& view, const ScanView& background, double tolerance_mm) {
+    if (background.points.size() != view.points.size())
+        throw Error("background", "its pixel grid differs from the view's (scan it with the same camera)");
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    int removed = 0;
+    for (int y = 0; y < view.points.rows; ++y)
+        for (int x = 0; x < view.points.cols; ++x) {
+            cv::Vec3f& p = view.points.at<cv::Vec3f>(y, x);
+            const cv::Vec3f& b = background.points.at<cv::Vec3f>(y, x);
+            if (!std::isfinite(p[2]) || !std::isfinite(b[2])) continue;
+            // Along one camera ray, depth orders the two: nearer than the background by more
+            // than the tolerance means something stands in front of it.
+            if (cv::norm(p) < cv::norm(b) - tolerance_mm) continue;
+            p = cv::Vec3f(nan, nan, nan);
+            if (!view.normals.empty()) view.normals.at<cv::Vec3f>(y, x) = cv::Vec3f(nan, nan, nan);
+            ++removed;
+        }
+    return removed;
+}
+
 }  // namespace picoscan

@@ -2,6 +2,7 @@
 
 #include "picoscan/error.h"
 #include "picoscan/io.h"
+#include "picoscan/simulate.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -53,6 +54,26 @@ cv::Mat render_preview(const ScanView& view) {
 void write_preview_png(const ScanView& view, const std::string& path) {
     std::vector<uint8_t> png;
     if (!cv::imencode(".png", render_preview(view), png)) throw Error(path, "cannot encode the preview");
+    write_file_atomically(path, std::string(png.begin(), png.end()));
+}
+
+void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const std::string& path) {
+    Scene scene;
+    scene.meshes.push_back({mesh, 0.8});
+    const Simulator simulator(camera, scene);
+    ScanView view;
+    view.points = simulator.geometry().points;
+    view.normals = simulator.geometry().normals;
+    cv::Mat seen(view.points.size(), CV_8U, cv::Scalar(0));
+    for (int y = 0; y < seen.rows; ++y)
+        for (int x = 0; x < seen.cols; ++x) seen.at<uint8_t>(y, x) = std::isfinite(view.points.at<cv::Vec3f>(y, x)[2]) ? 255 : 0;
+    cv::Rect box = cv::boundingRect(seen);
+    if (box.empty()) throw Error(path, "the mesh is not in the camera's view");
+    const int margin = 40;
+    box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+          cv::Rect(0, 0, view.points.cols, view.points.rows);
+    std::vector<uint8_t> png;
+    if (!cv::imencode(".png", render_preview(view)(box), png)) throw Error(path, "cannot encode the preview");
     write_file_atomically(path, std::string(png.begin(), png.end()));
 }
 

@@ -1,0 +1,61 @@
+// CGAL types and conversions shared by the meshing translation units (only these include CGAL:
+// it is header-heavy, so it stays out of the rest of the core).
+#pragma once
+
+#include "picoscan/cloud.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Surface_mesh.h>
+
+#include <utility>
+#include <vector>
+
+namespace picoscan::detail {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point3 = Kernel::Point_3;
+using Vector3 = Kernel::Vector_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point3>;
+using PointWithNormal = std::pair<Point3, Vector3>;
+
+inline SurfaceMesh to_surface_mesh(const Mesh& mesh) {
+    SurfaceMesh out;
+    std::vector<SurfaceMesh::Vertex_index> vertices;
+    vertices.reserve(mesh.vertices.size());
+    for (const cv::Vec3f& v : mesh.vertices) vertices.push_back(out.add_vertex(Point3(v[0], v[1], v[2])));
+    for (const cv::Vec3i& f : mesh.faces) out.add_face(vertices[f[0]], vertices[f[1]], vertices[f[2]]);
+    return out;
+}
+
+inline Mesh to_mesh(const SurfaceMesh& mesh) {
+    Mesh out;
+    std::vector<int> index(mesh.number_of_vertices() + mesh.number_of_removed_vertices(), -1);
+    for (SurfaceMesh::Vertex_index v : mesh.vertices()) {
+        index[v] = static_cast<int>(out.vertices.size());
+        const Point3& p = mesh.point(v);
+        out.vertices.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    }
+    for (SurfaceMesh::Face_index f : mesh.faces()) {
+        cv::Vec3i face;
+        int k = 0;
+        for (SurfaceMesh::Vertex_index v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) {
+            if (k < 3) face[k] = index[v];
+            ++k;
+        }
+        if (k == 3) out.faces.push_back(face);
+    }
+    return out;
+}
+
+// Each stage of mesh_cloud, in its own translation unit.
+Mesh poisson_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double triangle_size,
+                  double distance);
+Mesh advancing_front_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double max_radius);
+// Points thinned to the spacing, normals re-estimated by PCA and flipped to agree with the given ones.
+std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, double& average_spacing_mm);
+// Moves each vertex onto the plane fitted to its nearest input points (undoes Poisson's smoothing).
+void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
+Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm);
+Mesh simplify(const Mesh& mesh, int target_faces);
+
+}  // namespace picoscan::detail

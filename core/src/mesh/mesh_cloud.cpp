@@ -1,0 +1,79 @@
+// mesh_cloud: prepare the points, reconstruct, fill small holes, simplify.
+#include "mesh/cgal_types.h"
+#include "picoscan/error.h"
+#include "picoscan/mesh.h"
+
+#include <opencv2/core.hpp>
+#include <cmath>
+
+namespace picoscan {
+
+PointCloud merge_views(const std::vector<ScanView>& views) {
+    PointCloud merged;
+    for (const ScanView& view : views) {
+        const PointCloud cloud = to_point_cloud(view);
+        merged.points.insert(merged.points.end(), cloud.points.begin(), cloud.points.end());
+        merged.normals.insert(merged.normals.end(), cloud.normals.begin(), cloud.normals.end());
+        merged.colours.insert(merged.colours.end(), cloud.colours.begin(), cloud.colours.end());
+        merged.quality.insert(merged.quality.end(), cloud.quality.begin(), cloud.quality.end());
+    }
+    // A layer some views lack is dropped for all, so every layer stays one per point.
+    auto keep = [&](auto& layer) { if (layer.size() != merged.points.size()) layer.clear(); };
+    keep(merged.normals);
+    keep(merged.colours);
+    keep(merged.quality);
+    return merged;
+}
+
+Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const ProgressCallback& progress) {
+    auto report = [&](double fraction, const char* stage) {
+        if (progress && !progress(fraction, stage)) throw Error("cancelled", "meshing cancelled");
+    };
+    if (cloud.points.empty()) throw Error("point cloud", "is empty: nothing to mesh");
+    if (cloud.normals.size() != cloud.points.size())
+        throw Error("point cloud", "has no normals; mesh a cloud written by picoscan (reconstruct or stitch)");
+    report(0.0, "estimating normals");
+    double spacing = 0;
+    const std::vector<detail::PointWithNormal> points = detail::prepare_points(cloud, options.sample_spacing_mm, spacing);
+    if (points.size() < 100)
+        throw Error("point cloud", "has only " + std::to_string(points.size()) + " usable points; at least 100 are needed");
+    // Degenerate: all points on a line or (for a closed surface) a plane.
+    cv::Vec3d centre(0, 0, 0);
+    for (const auto& p : points) centre += cv::Vec3d(p.first.x(), p.first.y(), p.first.z());
+    centre *= 1.0 / static_cast<double>(points.size());
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    for (const auto& p : points) {
+        const cv::Vec3d d = cv::Vec3d(p.first.x(), p.first.y(), p.first.z()) - centre;
+        scatter += d * d.t();
+    }
+    cv::Matx31d extent;
+    cv::eigen(scatter * (1.0 / static_cast<double>(points.size())), extent);
+    const double thickness = std::sqrt(std::max(extent(2), 0.0)), width = std::sqrt(std::max(extent(1), 0.0));
+    if (width < 2 * spacing) throw Error("point cloud", "is degenerate (its points lie along a line)");
+    if (options.method == MeshMethod::Poisson && thickness < 0.5 * spacing)
+        throw Error("point cloud", "is flat (all points on one plane): Poisson needs a closed shape; use --method advancing-front or grid");
+
+    Mesh mesh;
+    if (options.method == MeshMethod::Poisson) {
+        report(0.2, "Poisson reconstruction");
+        mesh = detail::poisson_mesh(points, spacing, options.poisson_triangle_size, options.poisson_distance);
+        report(0.7, "projecting onto the points");
+        detail::project_onto_points(mesh, points, 2.0 * spacing);
+    } else {
+        report(0.2, "advancing-front reconstruction");
+        mesh = detail::advancing_front_mesh(points, spacing, options.advancing_front_max_radius);
+        if (options.max_hole_diameter_mm > 0) {
+            report(0.7, "filling small holes");
+            mesh = detail::fill_small_holes(mesh, options.max_hole_diameter_mm);
+        }
+    }
+    if (mesh.faces.empty()) throw Error("point cloud", "meshing produced no triangles");
+    if (options.target_faces > 0 && static_cast<int>(mesh.faces.size()) > options.target_faces) {
+        report(0.85, "simplifying");
+        mesh = detail::simplify(mesh, options.target_faces);
+    }
+    report(1.0, "meshed");
+    return mesh;
+}
+
+}  // namespace picoscan

@@ -1,0 +1,96 @@
+// Point preparation and Poisson surface reconstruction (Kazhdan et al. 2006, CGAL's
+// Delaunay-refinement implementation), then a projection of the surface back onto the points.
+#define CGAL_EIGEN3_ENABLED 1
+#include "mesh/cgal_types.h"
+#include "picoscan/error.h"
+
+#include <CGAL/Orthogonal_k_neighbor_search.h>
+#include <CGAL/Search_traits_3.h>
+#include <CGAL/compute_average_spacing.h>
+#include <CGAL/grid_simplify_point_set.h>
+#include <CGAL/pca_estimate_normals.h>
+#include <CGAL/poisson_surface_reconstruction.h>
+#include <CGAL/property_map.h>
+
+#include <opencv2/core.hpp>
+#include <cmath>
+
+namespace picoscan::detail {
+
+namespace {
+using PointMap = CGAL::First_of_pair_property_map<PointWithNormal>;
+using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
+}  // namespace
+
+std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, double& average_spacing_mm) {
+    std::vector<PointWithNormal> points;
+    points.reserve(cloud.points.size());
+    const bool has_normals = cloud.normals.size() == cloud.points.size();
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        const cv::Vec3f& p = cloud.points[i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+        const cv::Vec3f n = has_normals ? cloud.normals[i] : cv::Vec3f(0, 0, 0);
+        points.emplace_back(Point3(p[0], p[1], p[2]), Vector3(n[0], n[1], n[2]));
+    }
+    if (spacing_mm > 0) {
+        points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
+    }
+    if (points.size() < 20) return points;
+    // Re-estimated normals are smoother than per-pixel ones; the sensor's side says which way.
+    std::vector<Vector3> sensor_side;
+    sensor_side.reserve(points.size());
+    for (const PointWithNormal& p : points) sensor_side.push_back(p.second);
+    CGAL::pca_estimate_normals<CGAL::Parallel_if_available_tag>(
+        points, 18, CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()));
+    for (size_t i = 0; i < points.size(); ++i) {
+        Vector3& n = points[i].second;
+        const double length = std::sqrt(n.squared_length());
+        if (length > 0) n = n / length;
+        if (has_normals && n * sensor_side[i] < 0) n = -n;
+    }
+    average_spacing_mm = CGAL::compute_average_spacing<CGAL::Parallel_if_available_tag>(
+        points, 6, CGAL::parameters::point_map(PointMap()));
+    return points;
+}
+
+Mesh poisson_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double triangle_size, double distance) {
+    SurfaceMesh surface;
+    if (!CGAL::poisson_surface_reconstruction_delaunay(points.begin(), points.end(), PointMap(), NormalMap(), surface,
+                                                       spacing_mm, 20.0, triangle_size, distance))
+        throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)");
+    return to_mesh(surface);
+}
+
+void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm) {
+    using Traits = CGAL::Search_traits_3<Kernel>;
+    using Search = CGAL::Orthogonal_k_neighbor_search<Traits>;
+    std::vector<Point3> cloud;
+    cloud.reserve(points.size());
+    for (const PointWithNormal& p : points) cloud.push_back(p.first);
+    const Search::Tree tree(cloud.begin(), cloud.end());
+    const int neighbours = 16;
+    for (cv::Vec3f& vertex : mesh.vertices) {
+        const Point3 query(vertex[0], vertex[1], vertex[2]);
+        Search search(tree, query, neighbours);
+        std::vector<cv::Vec3d> near;
+        for (const auto& found : search)
+            if (found.second <= reach_mm * reach_mm)
+                near.emplace_back(found.first.x(), found.first.y(), found.first.z());
+        if (near.size() < 6) continue;  // unsupported by data (a closed-over gap): leave it
+        cv::Vec3d centre(0, 0, 0);
+        for (const cv::Vec3d& p : near) centre += p;
+        centre *= 1.0 / static_cast<double>(near.size());
+        cv::Matx33d scatter = cv::Matx33d::zeros();
+        for (const cv::Vec3d& p : near) scatter += (p - centre) * (p - centre).t();
+        cv::Matx31d eigenvalues;
+        cv::Matx33d eigenvectors;
+        cv::eigen(scatter, eigenvalues, eigenvectors);
+        // Only where the points are locally flat: at edges a plane would cut the corner.
+        if (eigenvalues(2) > 0.05 * eigenvalues(1)) continue;
+        const cv::Vec3d normal(eigenvectors(2, 0), eigenvectors(2, 1), eigenvectors(2, 2));
+        const cv::Vec3d v(vertex);
+        vertex = cv::Vec3f(v - normal * normal.dot(v - centre));
+    }
+}
+
+}  // namespace picoscan::detail

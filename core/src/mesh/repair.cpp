@@ -1,0 +1,135 @@
+// Mesh repair and checks: small-hole filling (Liepa 2003: triangulate, refine, fair),
+// edge-collapse simplification (Lindstrom-Turk), and the topology check before export.
+#define CGAL_EIGEN3_ENABLED 1
+#include "mesh/cgal_types.h"
+#include "picoscan/mesh.h"
+
+#include <CGAL/Polygon_mesh_processing/border.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
+#include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <numeric>
+#include <set>
+
+namespace picoscan {
+
+namespace detail {
+
+Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm) {
+    SurfaceMesh surface = to_surface_mesh(mesh);
+    std::vector<SurfaceMesh::Halfedge_index> borders;
+    CGAL::Polygon_mesh_processing::extract_boundary_cycles(surface, std::back_inserter(borders));
+    for (SurfaceMesh::Halfedge_index border : borders) {
+        cv::Vec3d lo(1e30, 1e30, 1e30), hi(-1e30, -1e30, -1e30);
+        for (SurfaceMesh::Halfedge_index h : CGAL::halfedges_around_face(border, surface)) {
+            const Point3& p = surface.point(surface.target(h));
+            const cv::Vec3d q(p.x(), p.y(), p.z());
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = std::min(lo[k], q[k]);
+                hi[k] = std::max(hi[k], q[k]);
+            }
+        }
+        if (cv::norm(hi - lo) > max_hole_diameter_mm) continue;  // a real opening, not a gap
+        std::vector<SurfaceMesh::Face_index> faces;
+        std::vector<SurfaceMesh::Vertex_index> vertices;
+        CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole(surface, border, std::back_inserter(faces),
+                                                                        std::back_inserter(vertices));
+    }
+    return to_mesh(surface);
+}
+
+Mesh simplify(const Mesh& mesh, int target_faces) {
+    SurfaceMesh surface = to_surface_mesh(mesh);
+    // A closed triangle mesh has 3/2 edges per face.
+    const CGAL::Surface_mesh_simplification::Count_stop_predicate<SurfaceMesh> stop(
+        static_cast<std::size_t>(target_faces) * 3 / 2);
+    CGAL::Surface_mesh_simplification::edge_collapse(surface, stop);
+    surface.collect_garbage();
+    return to_mesh(surface);
+}
+
+}  // namespace detail
+
+std::string MeshCheck::summary() const {
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "%zu vertices, %zu faces, %zu component(s); %s; %zu border edges, %zu non-manifold edges, "
+                  "%zu non-manifold vertices%s%s",
+                  vertices, faces, components, watertight() ? "watertight" : "NOT watertight", border_edges,
+                  non_manifold_edges, non_manifold_vertices, self_intersecting ? "; self-intersecting" : "",
+                  closed_volume ? "; encloses a volume (printable)" : "");
+    std::string out = text;
+    if (closed_volume) {
+        std::snprintf(text, sizeof text, " of %.1f cm^3", volume_mm3 / 1000.0);
+        out += text;
+    }
+    return out;
+}
+
+MeshCheck check_mesh(const Mesh& mesh) {
+    MeshCheck check;
+    check.vertices = mesh.vertices.size();
+    check.faces = mesh.faces.size();
+    // Faces per undirected edge.
+    std::map<std::pair<int, int>, std::vector<int>> edges;
+    for (size_t f = 0; f < mesh.faces.size(); ++f)
+        for (int k = 0; k < 3; ++k) {
+            const int a = mesh.faces[f][k], b = mesh.faces[f][(k + 1) % 3];
+            edges[{std::min(a, b), std::max(a, b)}].push_back(static_cast<int>(f));
+        }
+    std::vector<int> parent(mesh.faces.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    auto root = [&](int x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+    };
+    for (const auto& [edge, faces] : edges) {
+        if (faces.size() == 1) ++check.border_edges;
+        if (faces.size() > 2) ++check.non_manifold_edges;
+        for (size_t i = 1; i < faces.size(); ++i) parent[root(faces[i])] = root(faces[0]);
+    }
+    for (size_t f = 0; f < parent.size(); ++f) check.components += root(static_cast<int>(f)) == static_cast<int>(f) ? 1 : 0;
+    // A vertex is manifold when its faces form one fan (joined through edges at the vertex).
+    std::vector<std::vector<int>> faces_of(mesh.vertices.size());
+    for (size_t f = 0; f < mesh.faces.size(); ++f)
+        for (int k = 0; k < 3; ++k) faces_of[static_cast<size_t>(mesh.faces[f][k])].push_back(static_cast<int>(f));
+    for (size_t v = 0; v < faces_of.size(); ++v) {
+        const std::vector<int>& around = faces_of[v];
+        if (around.size() < 2) continue;
+        std::vector<size_t> fan(around.size());  // local union-find over the faces around v
+        std::iota(fan.begin(), fan.end(), size_t{0});
+        auto group = [&](size_t i) {
+            while (fan[i] != i) i = fan[i] = fan[fan[i]];
+            return i;
+        };
+        for (size_t i = 0; i < around.size(); ++i)
+            for (size_t j = i + 1; j < around.size(); ++j) {
+                // Two faces around v are joined when they share a second vertex (an edge at v).
+                int shared = 0;
+                for (int a = 0; a < 3; ++a)
+                    for (int b = 0; b < 3; ++b) shared += mesh.faces[around[i]][a] == mesh.faces[around[j]][b] ? 1 : 0;
+                if (shared >= 2) fan[group(i)] = group(j);
+            }
+        std::set<size_t> groups;
+        for (size_t i = 0; i < around.size(); ++i) groups.insert(group(i));
+        if (groups.size() > 1) ++check.non_manifold_vertices;
+    }
+    if (check.watertight()) {
+        check.self_intersecting = CGAL::Polygon_mesh_processing::does_self_intersect(detail::to_surface_mesh(mesh));
+        double volume = 0;  // divergence theorem over outward-facing triangles
+        for (const cv::Vec3i& f : mesh.faces) {
+            const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
+            volume += a.dot(b.cross(c)) / 6.0;
+        }
+        check.volume_mm3 = volume;
+        check.closed_volume = !check.self_intersecting && volume > 0;
+    }
+    return check;
+}
+
+}  // namespace picoscan
