@@ -8,6 +8,7 @@
 #include "picoscan/decode.h"
 #include "picoscan/error.h"
 #include "picoscan/fit.h"
+#include "picoscan/mesh.h"
 #include "picoscan/patterns.h"
 #include "picoscan/register.h"
 #include "picoscan/simulate.h"
@@ -63,6 +64,13 @@ const char* const kOrbFeatures = "orbFeatures";
 const char* const kIcpMaxDistance = "icpMaxDistance";
 const char* const kAlignSpacing = "sampleSpacing";
 const char* const kMinOverlap = "minOverlap";
+const char* const kMethod = "method";
+const char* const kMeshSpacing = "sampleSpacing";
+const char* const kPoissonTriangleSize = "poissonTriangleSize";
+const char* const kPoissonDistance = "poissonDistance";
+const char* const kFrontMaxRadius = "frontMaxRadius";
+const char* const kMaxHole = "maxHoleDiameter";
+const char* const kTargetFaces = "targetFaces";
 const char* const kShape = "shape";
 const char* const kSelectedOnly = "selectedOnly";
 const char* const kModelFrame = "modelFrame";
@@ -71,6 +79,7 @@ const char* const kModelFrame = "modelFrame";
 enum SequenceSource { OwnManifest, SlmasterCgc, SlstudioGray };
 enum OutputKind { PointCloudLayer, GridMeshLayer };
 enum FitShape { SphereShape, PlaneShape };
+enum MeshingMethod { PoissonMethod, AdvancingFrontMethod };
 
 std::string parameter_text(const QString& value) { return value.trimmed().toStdString(); }
 
@@ -217,7 +226,7 @@ std::string layer_name(const MeshModel& layer) { return layer.label().toStdStrin
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
-    typeList << Reconstruct << Simulate << Clean << Align << Measure;
+    typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure;
     for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
     const QString menu_report = qEnvironmentVariable("PICOSCAN_MESHLAB_MENU_REPORT");
     if (!menu_report.isEmpty() && qobject_cast<QApplication*>(QCoreApplication::instance()) != nullptr)
@@ -232,6 +241,7 @@ QString PicoScanFilterPlugin::filterName(FilterIDType filter) const {
     case Simulate: return "PicoScan: Simulate Scan";
     case Clean: return "PicoScan: Clean Scan";
     case Align: return "PicoScan: Align Layers";
+    case Fuse: return "PicoScan: Fuse and Mesh";
     case Measure: return "PicoScan: Measure Sphere or Plane";
     }
     return {};
@@ -259,6 +269,10 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
                "a RANSAC rigid fit, point-to-plane ICP, then a global refinement of all views together. The first "
                "visible layer stays where it is; each other layer's transform is set. The log gives each layer's "
                "residual and overlap. If any layer cannot be aligned, no transform is changed.";
+    case Fuse:
+        return "Merges the visible PicoScan layers (each through its transform) into one cloud and meshes it with "
+               "CGAL: Poisson (watertight) or advancing front (open surfaces), fills small holes and checks the "
+               "result. Creates a new layer; the log gives the mesh check (watertight, manifold, volume).";
     case Measure:
         return "Fits a sphere or a plane (least squares) to the current layer's points, or to the selected ones, and "
                "writes centre, radius or normal, and the RMS residual to the log: for checking a scanner with a "
@@ -273,6 +287,7 @@ MeshFilterInterface::FilterClass PicoScanFilterPlugin::getClass(QAction* action)
     case Simulate: return MeshFilterInterface::MeshCreation;
     case Clean: return MeshFilterInterface::Cleaning;
     case Align: return MeshFilterInterface::RangeMap;
+    case Fuse: return MeshFilterInterface::Remeshing;
     case Measure: return MeshFilterInterface::Measure;
     }
     return MeshFilterInterface::MeshCreation;
@@ -282,7 +297,8 @@ MeshFilterInterface::FILTER_ARITY PicoScanFilterPlugin::filterArity(QAction* act
     switch (ID(action)) {
     case Reconstruct:
     case Simulate: return NONE;
-    case Align: return VARIABLE;
+    case Align:
+    case Fuse: return VARIABLE;
     default: return SINGLE_MESH;
     }
 }
@@ -290,7 +306,8 @@ MeshFilterInterface::FILTER_ARITY PicoScanFilterPlugin::filterArity(QAction* act
 int PicoScanFilterPlugin::getPreConditions(QAction* action) const {
     switch (ID(action)) {
     case Clean:
-    case Align: return MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL;
+    case Align:
+    case Fuse: return MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL;
     default: return MeshModel::MM_NONE;
     }
 }
@@ -338,7 +355,7 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                        "empty: the built-in demo part."));
         parameters.addParam(RichInt(kPartView, -1, "Turntable view of the mechanical part",
                                     "Instead of the scene: view n of the built-in mechanical test part on a turntable "
-                                    "(0..7: turned in 45 degree steps, 8: from above), for trying Align Layers; "
+                                    "(0..7: turned in 45 degree steps, 8: from above), for trying Align and Fuse; "
                                     "-1: not used."));
         parameters.addParam(RichString(kCalibrationFile, "", "Calibration file (optional)",
                                        "Rig to simulate; empty: the seed-like rig."));
@@ -387,6 +404,26 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                       "Views overlapping less than this are not registered to each other."));
         break;
     }
+    case Fuse: {
+        const MeshOptions defaults;
+        parameters.addParam(RichEnum(kMethod, PoissonMethod, QStringList{"Poisson (watertight)", "Advancing front (open)"},
+                                     "Method", "Poisson gives a closed surface; advancing front keeps the scanned "
+                                               "surface only."));
+        parameters.addParam(RichFloat(kMeshSpacing, float(defaults.sample_spacing_mm), "Sample spacing (mm)",
+                                      "The merged cloud is thinned to about this spacing first (0 keeps all)."));
+        parameters.addParam(RichFloat(kPoissonTriangleSize, float(defaults.poisson_triangle_size),
+                                      "Poisson triangle size (spacings)", "Triangle size in average point spacings."));
+        parameters.addParam(RichFloat(kPoissonDistance, float(defaults.poisson_distance), "Poisson distance (spacings)",
+                                      "How far the mesh may stray from the implicit surface, in point spacings."));
+        parameters.addParam(RichFloat(kFrontMaxRadius, float(defaults.advancing_front_max_radius),
+                                      "Advancing front max radius (spacings)",
+                                      "Triangles with a larger circumradius are not made."));
+        parameters.addParam(RichFloat(kMaxHole, float(defaults.max_hole_diameter_mm), "Max hole diameter (mm)",
+                                      "Holes up to this size are filled."));
+        parameters.addParam(RichInt(kTargetFaces, defaults.target_faces, "Target faces",
+                                    "Simplify to about this many faces (0 keeps all)."));
+        break;
+    }
     case Measure:
         parameters.addParam(RichEnum(kShape, SphereShape, QStringList{"Sphere", "Plane"}, "Shape", "The shape to fit."));
         parameters.addParam(RichBool(kSelectedOnly, false, "Selected points only",
@@ -407,6 +444,7 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
         case Simulate: simulate(document, parameters, callback); break;
         case Clean: clean(document, parameters); break;
         case Align: align(document, parameters, callback); break;
+        case Fuse: fuse(document, parameters, callback); break;
         case Measure: measure(document, parameters); break;
         }
         return true;
@@ -571,6 +609,36 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
             100 * view.overlap);
     }
     Log("PicoScan aligned %zu layers", layers.size());
+}
+
+void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
+    MeshOptions options;
+    options.method = parameters.getEnum(kMethod) == AdvancingFrontMethod ? MeshMethod::AdvancingFront : MeshMethod::Poisson;
+    options.sample_spacing_mm = parameters.getFloat(kMeshSpacing);
+    options.poisson_triangle_size = parameters.getFloat(kPoissonTriangleSize);
+    options.poisson_distance = parameters.getFloat(kPoissonDistance);
+    options.advancing_front_max_radius = parameters.getFloat(kFrontMaxRadius);
+    options.max_hole_diameter_mm = parameters.getFloat(kMaxHole);
+    options.target_faces = parameters.getInt(kTargetFaces);
+    if (options.sample_spacing_mm < 0) throw Error(kMeshSpacing, "must be >= 0");
+    if (options.poisson_triangle_size <= 0) throw Error(kPoissonTriangleSize, "must be > 0");
+    if (options.poisson_distance <= 0) throw Error(kPoissonDistance, "must be > 0");
+    if (options.advancing_front_max_radius <= 0) throw Error(kFrontMaxRadius, "must be > 0");
+    if (options.max_hole_diameter_mm < 0) throw Error(kMaxHole, "must be >= 0");
+    if (options.target_faces < 0) throw Error(kTargetFaces, "must be >= 0");
+    std::vector<ScanView> views;
+    for (MeshModel* layer : layers) views.push_back(layer_view(*layer).view);  // pose = the layer's transform
+    const PointCloud merged = merge_views(views);
+    const Mesh mesh = mesh_cloud(merged, options, meshlab_progress(callback));
+    if (mesh.faces.empty()) throw Error("Fuse and Mesh", "meshing produced no triangles");
+    const MeshCheck check = check_mesh(mesh);
+    add_filled_layer(document,
+                     options.method == MeshMethod::Poisson ? "Fused mesh (Poisson)" : "Fused mesh (advancing front)",
+                     [&](MeshModel& layer) { fill_layer(layer, mesh); });
+    Log("PicoScan fused %zu layers (%zu points) into %zu vertices, %zu faces; %s", layers.size(), merged.points.size(),
+        mesh.vertices.size(), mesh.faces.size(), check.summary().c_str());
 }
 
 void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterList& parameters) {

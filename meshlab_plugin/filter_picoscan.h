@@ -11,7 +11,7 @@ class PicoScanFilterPlugin : public QObject, public MeshFilterInterface {
     Q_INTERFACES(MeshFilterInterface)
 
 public:
-    enum FilterId { Reconstruct, Simulate, Clean, Align, Measure };
+    enum FilterId { Reconstruct, Simulate, Clean, Align, Fuse, Measure };
 
     PicoScanFilterPlugin();
 
@@ -35,5 +35,6 @@ private:
     void simulate(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void clean(MeshDocument& document, const RichParameterList& parameters);
     void align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
+    void fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void measure(MeshDocument& document, const RichParameterList& parameters);
 };

@@ -76,6 +76,7 @@ expected=(
   "PicoScan: Simulate Scan"
   "PicoScan: Clean Scan"
   "PicoScan: Align Layers"
+  "PicoScan: Fuse and Mesh"
   "PicoScan: Measure Sphere or Plane"
 )
 listed=$(grep -c "/PicoScan: " filters.txt || true)

@@ -4,9 +4,11 @@
 #include "picoscan/calibration.h"
 #include "picoscan/fit.h"
 #include "picoscan/io.h"
+#include "picoscan/mesh.h"
 #include "picoscan/register.h"
 #include "picoscan/simulate.h"
 #include "support/test_support.h"
+#include "support/turntable_scan.h"
 
 #include <gtest/gtest.h>
 
@@ -49,6 +51,10 @@ const Params kAlignDefaults{{"RichInt", "orbFeatures", "6000"},
                             {"RichFloat", "icpMaxDistance", "3"},
                             {"RichFloat", "sampleSpacing", "0.7"},
                             {"RichFloat", "minOverlap", "0.08"}};
+const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichFloat", "sampleSpacing", "0.4"},
+                           {"RichFloat", "poissonTriangleSize", "1"}, {"RichFloat", "poissonDistance", "0.1"},
+                           {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
+                           {"RichInt", "targetFaces", "0"}};
 const Params kMeasureDefaults{
     {"RichEnum", "shape", "0"}, {"RichBool", "selectedOnly", "false"}, {"RichBool", "modelFrame", "true"}};
 
@@ -76,6 +82,9 @@ std::string reconstruct(const std::map<std::string, std::string>& overrides) {
 }
 std::string clean() { return filter("PicoScan: Clean Scan", kCleanDefaults); }
 std::string align() { return filter("PicoScan: Align Layers", kAlignDefaults); }
+std::string fuse(const std::map<std::string, std::string>& overrides = {}) {
+    return filter("PicoScan: Fuse and Mesh", kFuseDefaults, overrides);
+}
 std::string measure(const std::string& shape) {
     return filter("PicoScan: Measure Sphere or Plane", kMeasureDefaults, {{"shape", shape == "sphere" ? "0" : "1"}});
 }
@@ -258,18 +267,40 @@ TEST(MeshlabPlugin, ClearErrorsForMissingFolderWrongCalibrationAndPlainLayers) {
 
 namespace {
 
-// The layer transforms MeshLab saved in a project (.mlp), in layer order.
-std::vector<cv::Matx44d> project_transforms(const std::string& path) {
-    std::ifstream file(path);
-    const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-    std::vector<cv::Matx44d> transforms;
-    for (size_t at = text.find("<MLMatrix44>"); at != std::string::npos; at = text.find("<MLMatrix44>", at + 1)) {
-        std::istringstream numbers(text.substr(at + 12));
-        cv::Matx44d transform;
-        for (int i = 0; i < 16; ++i) numbers >> transform.val[i];
-        transforms.push_back(transform);
+// The layers MeshLab saved in a project (.mlp), in layer order: mesh file and transform.
+struct ProjectLayer {
+    std::string file;
+    cv::Matx44d transform;
+};
+std::vector<ProjectLayer> read_project(const std::string& path) {
+    std::ifstream stream(path);
+    const std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+    const std::string folder = path.substr(0, path.rfind('/') + 1);
+    std::vector<ProjectLayer> layers;
+    for (size_t at = text.find("<MLMesh "); at != std::string::npos; at = text.find("<MLMesh ", at + 1)) {
+        ProjectLayer layer;
+        const size_t name = text.find("filename=\"", at) + 10;
+        const std::string file = text.substr(name, text.find('"', name) - name);
+        layer.file = file.front() == '/' ? file : folder + file;
+        std::istringstream numbers(text.substr(text.find("<MLMatrix44>", at) + 12));
+        for (int i = 0; i < 16; ++i) numbers >> layer.transform.val[i];
+        layers.push_back(layer);
     }
-    return transforms;
+    return layers;
+}
+
+// Edges counted on the file as saved: a closed 2-manifold has every edge in exactly two faces.
+struct EdgeCount {
+    size_t edges = 0, border = 0, non_manifold = 0;
+};
+EdgeCount count_edges(const Mesh& mesh) {
+    std::map<std::pair<int, int>, int> uses;
+    for (const cv::Vec3i& face : mesh.faces)
+        for (int k = 0; k < 3; ++k) ++uses[std::minmax(face[k], face[(k + 1) % 3])];
+    EdgeCount count;
+    count.edges = uses.size();
+    for (const auto& [edge, faces] : uses) count.border += faces == 1, count.non_manifold += faces > 2;
+    return count;
 }
 
 cv::Matx44d inverse_rigid(const cv::Matx44d& t) {
@@ -285,8 +316,9 @@ cv::Matx44d inverse_rigid(const cv::Matx44d& t) {
 
 }  // namespace
 
-// Nine turntable views of the mechanical part -> Align Layers, saved as a project (the transforms).
-TEST(MeshlabPlugin, AlignTurntableViewsToTruePoses) {
+// Nine turntable views of the mechanical part -> Align Layers -> Fuse and Mesh (Poisson), saved
+// as a project (the transforms) and the fused layer as PLY and STL.
+TEST(MeshlabPlugin, AlignAndFuseTurntableViewsIntoWatertightPart) {
     const std::string directory = make_temp_dir("meshlab_turntable");
     const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
     std::string filters;
@@ -294,19 +326,21 @@ TEST(MeshlabPlugin, AlignTurntableViewsToTruePoses) {
         filters += simulate({{"partView", std::to_string(i)}, {"shifts", "16"}, {"fullScale", "250"},
                              {"minModulation", "15"}, {"blur", "0.5"}}) +
                    clean();
-    filters += align();
-    const ServerRun run = run_meshlabserver(directory, filters, "-w project.mlp");
+    filters += align() + fuse();
+    const std::string fused_layer = std::to_string(part_to_camera.size());
+    const ServerRun run = run_meshlabserver(directory, filters,
+                                            "-w project.mlp -o fused.ply -l " + fused_layer + " -o fused.stl -l " + fused_layer);
     ASSERT_EQ(run.exit_code, 0) << run.log;
 
     // Each layer's transform is its true pose relative to the first view.
-    const std::vector<cv::Matx44d> transforms = project_transforms(directory + "/project.mlp");
-    ASSERT_EQ(transforms.size(), part_to_camera.size()) << run.log;
+    const std::vector<ProjectLayer> layers = read_project(directory + "/project.mlp");
+    ASSERT_EQ(layers.size(), part_to_camera.size() + 1) << run.log;
     double worst_rotation = 0, worst_translation = 0;
     for (size_t i = 0; i < part_to_camera.size(); ++i) {
         const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[i]);
         // Measured at the part's middle (part frame z = 16 mm), in view i's coordinates.
         const cv::Vec4d middle = part_to_camera[i] * cv::Vec4d(0, 0, 16, 1);
-        const PoseDifference error = pose_difference(truth, transforms[i], cv::Vec3d(middle[0], middle[1], middle[2]));
+        const PoseDifference error = pose_difference(truth, layers[i].transform, cv::Vec3d(middle[0], middle[1], middle[2]));
         worst_rotation = std::max(worst_rotation, error.rotation_deg);
         worst_translation = std::max(worst_translation, error.translation_mm);
     }
@@ -319,6 +353,50 @@ TEST(MeshlabPlugin, AlignTurntableViewsToTruePoses) {
     EXPECT_LT(worst_translation, 0.1);
     EXPECT_NE(run.log.find("PicoScan aligned " + std::to_string(part_to_camera.size()) + " layers"), std::string::npos);
 
+    // The fused mesh, as MeshLab saved it: closed, and on the true part.
+    for (const std::string file : {"fused.ply", "fused.stl"}) {
+        const Mesh fused = read_mesh(directory + "/" + file);
+        const EdgeCount edges = count_edges(fused);
+        std::printf("%s: %zu vertices, %zu faces, %zu edges, %zu border, %zu non-manifold\n", file.c_str(),
+                    fused.vertices.size(), fused.faces.size(), edges.edges, edges.border, edges.non_manifold);
+        EXPECT_GT(fused.faces.size(), 5000u) << file;
+        EXPECT_EQ(edges.border, 0u) << file;
+        EXPECT_EQ(edges.non_manifold, 0u) << file;
+        EXPECT_EQ(2 * edges.edges, 3 * fused.faces.size()) << file;
+    }
+    // The part's bottom face stood on the turntable and was never seen; Poisson closes it with a
+    // smooth cap. Only vertices with measured points nearby (the saved layers through their saved
+    // transforms) are judged against the true part.
+    const Mesh fused = read_ply(directory + "/fused.ply");
+    const MeshCheck check = check_mesh(fused);
+    std::printf("core check of fused.ply: %s\n", check.summary().c_str());
+    EXPECT_EQ(check.components, 1u);
+    Mesh data;  // measured points as degenerate triangles, for the distance grid
+    for (size_t i = 0; i < part_to_camera.size(); ++i) {
+        const Mesh view = read_ply(layers[i].file);
+        for (size_t k = 0; k < view.vertices.size(); k += 3) {
+            const cv::Vec4d p = layers[i].transform * cv::Vec4d(view.vertices[k][0], view.vertices[k][1], view.vertices[k][2], 1);
+            data.vertices.emplace_back(float(p[0]), float(p[1]), float(p[2]));
+            const int index = int(data.vertices.size()) - 1;
+            data.faces.emplace_back(index, index, index);
+        }
+    }
+    const test_support::MeshDistance distance_to_data(data, 1.0);
+    const Mesh truth = transformed(mechanical_part(), part_to_camera[0]);
+    const test_support::MeshDistance distance_to_part(truth, 5.0);
+    std::vector<double> distances;
+    for (const cv::Vec3f& vertex : fused.vertices)
+        if (distance_to_data(cv::Vec3d(vertex)) <= 0.5) distances.push_back(distance_to_part(cv::Vec3d(vertex)));
+    ASSERT_GT(distances.size(), fused.vertices.size() / 2);
+    std::sort(distances.begin(), distances.end());
+    double mean = 0;
+    for (double distance : distances) mean += distance / double(distances.size());
+    const double p95 = distances[distances.size() * 95 / 100];
+    std::printf("fused mesh vs true part over the %zu of %zu vertices near measured points: mean %.4f mm, p95 %.4f mm, "
+                "max %.4f mm\n",
+                distances.size(), fused.vertices.size(), mean, p95, distances.back());
+    EXPECT_LT(mean, 0.03);
+    EXPECT_LT(p95, 0.12);
 }
 
 // Align refuses plain layers, naming them.
