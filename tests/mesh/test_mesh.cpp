@@ -108,10 +108,8 @@ TEST(Mesh, FusedPoissonMeshIsWatertightAndMatchesThePart) {
                 "mean %.1f um, p95 %.1f um, max %.1f um\n",
                 distances.size(), unsupported, 100.0 * unsupported / fused.mesh.vertices.size(), 1000 * mean,
                 1000 * p95, 1000 * distances.back());
-    // Issue 4 asks for mean <= 20 um and p95 <= 60 um. Measured here: mean 20.9 um, p95 93.7 um;
-    // the tail is Poisson rounding the part's sharp edges. These bounds guard what is reached.
-    EXPECT_LE(mean, 0.025);
-    EXPECT_LE(p95, 0.100);
+    EXPECT_LE(mean, 0.020);
+    EXPECT_LE(p95, 0.060);
 }
 
 TEST(Mesh, HoleDiameterIsRecovered) {

@@ -14,6 +14,7 @@
 
 #include <opencv2/core.hpp>
 #include <cmath>
+#include <map>
 
 namespace picoscan::detail {
 
@@ -65,17 +66,29 @@ void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points,
     using Traits = CGAL::Search_traits_3<Kernel>;
     using Search = CGAL::Orthogonal_k_neighbor_search<Traits>;
     std::vector<Point3> cloud;
+    std::map<Point3, size_t> index_of;
     cloud.reserve(points.size());
-    for (const PointWithNormal& p : points) cloud.push_back(p.first);
+    for (size_t i = 0; i < points.size(); ++i) {
+        cloud.push_back(points[i].first);
+        index_of.emplace(points[i].first, i);
+    }
     const Search::Tree tree(cloud.begin(), cloud.end());
     const int neighbours = 16;
+    const double same_face = std::cos(20.0 * CV_PI / 180.0);
     for (cv::Vec3f& vertex : mesh.vertices) {
         const Point3 query(vertex[0], vertex[1], vertex[2]);
         Search search(tree, query, neighbours);
+        // The plane of the face the nearest point lies on: only neighbours whose normals agree
+        // with the nearest one's, so a vertex near a sharp edge goes to its face, not a bevel.
         std::vector<cv::Vec3d> near;
-        for (const auto& found : search)
-            if (found.second <= reach_mm * reach_mm)
-                near.emplace_back(found.first.x(), found.first.y(), found.first.z());
+        Vector3 nearest_normal(0, 0, 0);
+        for (const auto& found : search) {
+            if (found.second > reach_mm * reach_mm) break;
+            const Vector3& n = points[index_of.at(found.first)].second;
+            if (near.empty()) nearest_normal = n;
+            else if (n * nearest_normal < same_face) continue;
+            near.emplace_back(found.first.x(), found.first.y(), found.first.z());
+        }
         if (near.size() < 6) continue;  // unsupported by data (a closed-over gap): leave it
         cv::Vec3d centre(0, 0, 0);
         for (const cv::Vec3d& p : near) centre += p;
@@ -85,8 +98,6 @@ void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points,
         cv::Matx31d eigenvalues;
         cv::Matx33d eigenvectors;
         cv::eigen(scatter, eigenvalues, eigenvectors);
-        // Only where the points are locally flat: at edges a plane would cut the corner.
-        if (eigenvalues(2) > 0.05 * eigenvalues(1)) continue;
         const cv::Vec3d normal(eigenvectors(2, 0), eigenvectors(2, 1), eigenvectors(2, 2));
         const cv::Vec3d v(vertex);
         vertex = cv::Vec3f(v - normal * normal.dot(v - centre));
