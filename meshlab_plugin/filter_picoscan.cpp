@@ -505,10 +505,11 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
     const Calibration calibration = calibration_file.empty() ? seed_rig_calibration() : read_calibration(calibration_file);
     const int part_view = parameters.getInt(kPartView);
     const std::vector<cv::Matx44d> turntable = turntable_part_poses(TurntablePlan{});
-    if (part_view >= int(turntable.size())) throw Error(kPartView, "must be -1.." + std::to_string(turntable.size() - 1));
+    if (part_view < -1 || part_view >= int(turntable.size())) throw Error(kPartView, "must be -1.." + std::to_string(turntable.size() - 1));
     if (part_view >= 0 && !scene_file.empty()) throw Error(kPartView, "conflicts with the scene file; use one of them");
     Scene scene;
-    if (part_view >= 0) scene.meshes.push_back({transformed(mechanical_part(), turntable[size_t(part_view)]), 0.85});
+    const double part_albedo = 0.85;  // a light grey part, as in the core's turntable tests
+    if (part_view >= 0) scene.meshes.push_back({transformed(mechanical_part(), turntable[size_t(part_view)]), part_albedo});
     else scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
     PatternOptions patterns;
     patterns.projector_size = calibration.projector_size;
