@@ -15,16 +15,19 @@
 namespace picoscan {
 
 struct RegistrationOptions {
-    int orb_features = 6000;            // ORB keypoints per white frame
+    int orb_features = 4000;            // ORB keypoints per white frame and simulated tilt
     double ransac_inlier_mm = 1.5;      // 3D distance for a feature match to count as an inlier
     int ransac_iterations = 20000;
-    int min_ransac_inliers = 7;         // fewer means no reliable coarse alignment (ICP then checks it)
+    int min_ransac_inliers = 6;         // fewer: not even tried (ICP and the texture check judge the rest)
     int icp_iterations = 100;
     double icp_trim_fraction = 0.85;    // keep this best fraction of correspondences each iteration
     double icp_max_distance_mm = 3.0;   // correspondences farther apart than this are never used
     double sample_spacing_mm = 0.7;     // points are thinned to about this spacing for ICP
     double min_overlap = 0.08;          // fraction of the smaller view's points with a close partner
     int global_sweeps = 6;              // multi-view refinement passes over all views
+    // align_views: view -> model guesses, one per view (a previous alignment, a manual one);
+    // ICP starts from them instead of features. Empty: features (or the turntable).
+    std::vector<cv::Matx44d> initial_poses;
 };
 
 // Rigid transform turning `moving` (view coordinates) into `fixed`'s view coordinates.
@@ -70,9 +73,10 @@ struct Alignment {
     int aligned_count() const;
 };
 
-// Aligns all views: pairwise registration along a chain and between every pair that overlaps
-// (loop closures), a spanning tree of the best pairs for the initial poses, then simultaneous
-// multi-view point-to-plane ICP. Views that cannot be registered are reported, not forced.
+// Aligns all views: a tree of pairwise registrations grown from view 0, neighbours in the
+// given order first (turntable order), then simultaneous multi-view point-to-plane ICP over
+// every overlapping pair, which closes the loops. Views that cannot be registered are
+// reported, not forced.
 // `names` label the views in messages (file names). With `turntable`, its steps are the
 // initial guesses instead of features.
 Alignment align_views(const std::vector<ScanView>& views, const std::vector<std::string>& names,

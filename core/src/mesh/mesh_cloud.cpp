@@ -58,7 +58,16 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         report(0.2, "Poisson reconstruction");
         mesh = detail::poisson_mesh(points, spacing, options.poisson_triangle_size, options.poisson_distance);
         report(0.7, "projecting onto the points");
+        const Mesh smooth = mesh;
         detail::project_onto_points(mesh, points, 2.0 * spacing);
+        // Where moving vertices onto their faces folded triangles through each other (at
+        // tight concave edges), those vertices go back to the smooth surface.
+        for (int round = 0; round < 5; ++round) {
+            const std::vector<int> folded = detail::self_intersecting_faces(mesh);
+            if (folded.empty()) break;
+            for (int f : folded)
+                for (int k = 0; k < 3; ++k) mesh.vertices[mesh.faces[f][k]] = smooth.vertices[mesh.faces[f][k]];
+        }
     } else {
         report(0.2, "advancing-front reconstruction");
         mesh = detail::advancing_front_mesh(points, spacing, options.advancing_front_max_radius);

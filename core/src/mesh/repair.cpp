@@ -20,6 +20,18 @@ namespace picoscan {
 
 namespace detail {
 
+std::vector<int> self_intersecting_faces(const Mesh& mesh) {
+    const SurfaceMesh surface = to_surface_mesh(mesh);
+    std::vector<std::pair<SurfaceMesh::Face_index, SurfaceMesh::Face_index>> pairs;
+    CGAL::Polygon_mesh_processing::self_intersections(surface, std::back_inserter(pairs));
+    std::vector<int> faces;
+    for (const auto& [a, b] : pairs) {
+        faces.push_back(static_cast<int>(a));
+        faces.push_back(static_cast<int>(b));
+    }
+    return faces;
+}
+
 Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm) {
     SurfaceMesh surface = to_surface_mesh(mesh);
     std::vector<SurfaceMesh::Halfedge_index> borders;

@@ -58,43 +58,45 @@ PairRegistration register_samples(const detail::SurfaceSamples& fixed, const det
                        " samples)";
         return pair;
     }
-    std::vector<detail::CoarseAlignment> starts;
-    if (initial_guess) {
-        starts.push_back({*initial_guess, 0, 0});
-    } else {
-        starts = detail::match_features(*fixed_features, *moving_features, options);
-        if (starts.front().inliers < options.min_ransac_inliers) {
-            // The white frames share too little (a large turn, a plain part): try the shape,
-            // keeping several hypotheses since machined parts are nearly symmetric.
+    // Candidate starting poses, in the order they are tried: the guess; else ORB hypotheses
+    // on the white frames, then shape (FPFH) hypotheses. Several of each, because a nearly
+    // symmetric part offers several good-looking fits and only ICP with the texture check can
+    // tell which is right.
+    const int hypotheses = 15;
+    PairRegistration first;
+    bool tried = false;
+    for (int round = 0; round < (initial_guess ? 1 : 2); ++round) {
+        std::vector<detail::CoarseAlignment> starts;
+        if (initial_guess) {
+            starts = {{*initial_guess, 0, options.min_ransac_inliers}};
+        } else if (round == 0) {
+            starts = detail::match_features(*fixed_features, *moving_features, options, hypotheses);
+        } else {
             const double spacing = 2.0, radius = 6.0;
-            std::vector<detail::CoarseAlignment> shape = detail::match_features(
-                detail::geometric_features(fixed, spacing, radius), detail::geometric_features(moving, spacing, radius), options, 5);
-            if (shape.front().inliers > starts.front().inliers) starts = shape;
+            starts = detail::match_features(detail::geometric_features(fixed, spacing, radius),
+                                            detail::geometric_features(moving, spacing, radius), options, hypotheses);
         }
-        pair.feature_matches = starts.front().matches;
-        pair.ransac_inliers = starts.front().inliers;
-        if (starts.front().inliers < options.min_ransac_inliers) {
-            pair.problem = "no reliable feature alignment (" + std::to_string(starts.front().inliers) + " RANSAC inliers of " +
-                           std::to_string(starts.front().matches) + " matches, need " +
-                           std::to_string(options.min_ransac_inliers) + ")";
-            return pair;
+        for (const detail::CoarseAlignment& start : starts) {
+            if (start.inliers < options.min_ransac_inliers) continue;
+            const detail::IcpResult icp = detail::icp_point_to_plane(fixed, moving, start.transform, options);
+            PairRegistration candidate = pair;
+            candidate.transform = icp.transform;
+            candidate.overlap = icp.overlap;
+            candidate.rms_mm = icp.rms_mm;
+            candidate.converged = icp.converged;
+            candidate.texture_agreement = icp.texture_agreement;
+            candidate.feature_matches = start.matches;
+            candidate.ransac_inliers = start.inliers;
+            judge(candidate, options, options.sample_spacing_mm, icp.texture_agreement);
+            if (candidate.problem.empty()) return candidate;
+            if (!tried || candidate.overlap > first.overlap) first = candidate;
+            tried = true;
         }
     }
-    // The first hypothesis that ICP confirms wins; otherwise the best one's verdict stands.
-    PairRegistration first;
-    for (size_t h = 0; h < starts.size(); ++h) {
-        if (h > 0 && starts[h].inliers < options.min_ransac_inliers) break;
-        const detail::IcpResult icp = detail::icp_point_to_plane(fixed, moving, starts[h].transform, options);
-        PairRegistration candidate = pair;
-        candidate.transform = icp.transform;
-        candidate.overlap = icp.overlap;
-        candidate.rms_mm = icp.rms_mm;
-        candidate.converged = icp.converged;
-        candidate.texture_agreement = icp.texture_agreement;
-        candidate.ransac_inliers = starts[h].inliers;
-        judge(candidate, options, options.sample_spacing_mm, icp.texture_agreement);
-        if (candidate.problem.empty()) return candidate;
-        if (h == 0) first = candidate;
+    if (!tried) {
+        first = pair;
+        first.problem = "no reliable feature alignment (fewer than " + std::to_string(options.min_ransac_inliers) +
+                        " RANSAC inliers, on the white frames or the shape)";
     }
     return first;
 }
@@ -240,6 +242,9 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
                       const ProgressCallback& progress) {
     if (views.empty()) throw Error("views", "nothing to align");
     if (names.size() != views.size()) throw Error("views", "one name per view is needed");
+    if (!options.initial_poses.empty() && options.initial_poses.size() != views.size())
+        throw Error("initial poses", std::to_string(options.initial_poses.size()) + " given for " + std::to_string(views.size()) + " views");
+    const bool guessed = turntable || !options.initial_poses.empty();
     const size_t n = views.size();
     Alignment alignment;
     alignment.views.resize(n);
@@ -253,40 +258,45 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
     for (size_t i = 0; i < n; ++i) {
         report(0.1 * i / n, "sampling and finding features");
         samples[i] = detail::sample_view(views[i], options.sample_spacing_mm);
-        if (!turntable) features[i] = detail::view_features(views[i], options.orb_features);
+        if (!guessed) features[i] = detail::view_features(views[i], options.orb_features);
     }
 
-    // Pairwise edges: with a turntable, neighbours by its steps; otherwise every pair by features.
+    // Grow a tree of registered views from view 0, trying the likeliest pairs first: views
+    // next to each other in the given (turntable) order, then farther ones. Only pairs that
+    // join a new view are registered; loops are closed by the multi-view refinement, which
+    // pairs every overlapping view with every other.
     struct Edge { size_t fixed, moving; PairRegistration result; };
     std::vector<Edge> edges;
     std::vector<std::pair<size_t, size_t>> candidates;
-    for (size_t i = 0; i < n; ++i)
-        for (size_t j = i + 1; j < n; ++j) candidates.emplace_back(i, j);
-    for (size_t c = 0; c < candidates.size(); ++c) {
-        const auto [i, j] = candidates[c];
-        report(0.1 + 0.5 * c / candidates.size(), "registering " + names[i] + " and " + names[j]);
-        std::optional<cv::Matx44d> guess;
-        if (turntable) guess = inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
-        edges.push_back({i, j, register_samples(samples[i], samples[j], &features[i], &features[j], options, guess)});
-    }
-
-    // Maximum spanning tree (Prim) over accepted edges, weighted by overlap, from view 0.
-    std::vector<bool> reached(n, false);
+    for (size_t step = 1; step <= n / 2; ++step)
+        for (size_t i = 0; i < n; ++i) {
+            const size_t j = (i + step) % n;
+            if (step * 2 == n && j < i) continue;  // the opposite pair once only
+            candidates.emplace_back(i, j);
+        }
+    std::vector<bool> reached(n, false), tried(candidates.size(), false);
     std::vector<cv::Matx44d> poses(n, cv::Matx44d::eye());
     reached[0] = true;
-    for (;;) {
-        const Edge* best = nullptr;
-        for (const Edge& e : edges) {
-            if (!e.result.problem.empty() || reached[e.fixed] == reached[e.moving]) continue;
-            if (!best || e.result.overlap > best->result.overlap) best = &e;
-        }
-        if (!best) break;
-        if (reached[best->fixed]) {
-            poses[best->moving] = poses[best->fixed] * best->result.transform;
-            reached[best->moving] = true;
-        } else {
-            poses[best->fixed] = poses[best->moving] * inverse_rigid(best->result.transform);
-            reached[best->fixed] = true;
+    size_t reached_count = 1;
+    for (bool grew = true; grew && reached_count < n;) {
+        grew = false;
+        for (size_t c = 0; c < candidates.size() && reached_count < n; ++c) {
+            auto [i, j] = candidates[c];
+            if (tried[c] || reached[i] == reached[j]) continue;
+            if (!reached[i]) std::swap(i, j);  // i is in the tree, j joins it
+            tried[c] = true;
+            report(0.1 + 0.5 * reached_count / n, "registering " + names[j] + " to " + names[i]);
+            std::optional<cv::Matx44d> guess;
+            if (!options.initial_poses.empty())
+                guess = inverse_rigid(options.initial_poses[i]) * options.initial_poses[j];
+            else if (turntable)
+                guess = inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
+            edges.push_back({i, j, register_samples(samples[i], samples[j], &features[i], &features[j], options, guess)});
+            if (!edges.back().result.problem.empty()) continue;
+            poses[j] = poses[i] * edges.back().result.transform;
+            reached[j] = true;
+            ++reached_count;
+            grew = true;
         }
     }
     const std::vector<double> rms = refine_together(samples, poses, reached, 0, options, progress);

@@ -25,17 +25,28 @@ ViewFeatures view_features(const ScanView& view, int max_features) {
     // Keypoints near the edge of the measured area sit on depth jumps or on unmeasured
     // background texture: keep away from it.
     cv::erode(measured, measured, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(17, 17)));
-    const cv::Ptr<cv::ORB> orb = cv::ORB::create(max_features, 1.2f, 8, 19, 0, 2, cv::ORB::HARRIS_SCORE, 19, 10);
-    std::vector<cv::KeyPoint> keypoints;
-    cv::Mat descriptors;
-    orb->detectAndCompute(grey, measured, keypoints, descriptors);
-    for (size_t i = 0; i < keypoints.size(); ++i) {
-        const int x = cvRound(keypoints[i].pt.x), y = cvRound(keypoints[i].pt.y);
-        if (x < 0 || y < 0 || x >= view.points.cols || y >= view.points.rows) continue;
-        const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
-        if (!finite_point(p)) continue;
-        features.points.emplace_back(p);
-        features.descriptors.push_back(descriptors.row(static_cast<int>(i)));
+    // ORB is not affine invariant, and neighbouring turntable views see each face foreshortened
+    // differently. As in ASIFT (Morel & Yu 2009), features are also taken on squeezed copies
+    // of the image (simulated tilts), at twice the resolution since parts are small in frame.
+    const double upscale = 2.0;
+    const cv::Vec2d squeezes[] = {{1.0, 1.0}, {0.7, 1.0}, {1.0, 0.6}};
+    const cv::Ptr<cv::ORB> orb = cv::ORB::create(max_features, 1.2f, 8, 19, 0, 2, cv::ORB::HARRIS_SCORE, 19, 5);
+    for (const cv::Vec2d& squeeze : squeezes) {
+        const double sx = upscale * squeeze[0], sy = upscale * squeeze[1];
+        cv::Mat image, mask;
+        cv::resize(grey, image, cv::Size(), sx, sy, cv::INTER_AREA);
+        cv::resize(measured, mask, image.size(), 0, 0, cv::INTER_NEAREST);
+        std::vector<cv::KeyPoint> keypoints;
+        cv::Mat descriptors;
+        orb->detectAndCompute(image, mask, keypoints, descriptors);
+        for (size_t i = 0; i < keypoints.size(); ++i) {
+            const int x = cvRound(keypoints[i].pt.x / sx), y = cvRound(keypoints[i].pt.y / sy);
+            if (x < 0 || y < 0 || x >= view.points.cols || y >= view.points.rows) continue;
+            const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
+            if (!finite_point(p)) continue;
+            features.points.emplace_back(p);
+            features.descriptors.push_back(descriptors.row(static_cast<int>(i)));
+        }
     }
     return features;
 }
@@ -201,7 +212,15 @@ std::vector<CoarseAlignment> match_features(const ViewFeatures& fixed, const Vie
     cv::RNG rng(0x5eed);  // deterministic: the same views register the same way
     const int n = static_cast<int>(from.size());
     std::vector<CoarseAlignment> best;  // most inliers first, pairwise distinct
-    for (int iteration = 0; iteration < options.ransac_iterations; ++iteration) {
+    // Stop once a better consensus than the best would have been drawn with 99.9 % certainty
+    // (Fischler & Bolles), but not before 2000 draws, so that the runners-up are sampled too.
+    int needed = options.ransac_iterations;
+    for (int iteration = 0; iteration < std::min(needed, options.ransac_iterations); ++iteration) {
+        if (!best.empty()) {
+            const double w = static_cast<double>(best.front().inliers) / n;
+            const double draws = std::log(1e-3) / std::log(std::max(1e-12, 1.0 - w * w * w));
+            needed = std::max(2000, static_cast<int>(std::min(draws, 1e9)));
+        }
         const int a = rng.uniform(0, n), b = rng.uniform(0, n), c = rng.uniform(0, n);
         if (a == b || b == c || a == c) continue;
         // A rigid motion keeps distances: reject inconsistent samples before fitting.

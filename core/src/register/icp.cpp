@@ -98,6 +98,8 @@ IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& 
         result.overlap = static_cast<double>(pairings.size()) /
                          static_cast<double>(std::min(fixed.points.size(), moving.points.size()));
         result.texture_agreement = texture_correlation(pairings, kept, fixed, moving);
+        // A start that shares almost nothing with the fixed view will not get better.
+        if (iteration == 10 && result.overlap < options.min_overlap / 2) break;
         if (cv::norm(omega) < 1e-6 && cv::norm(delta) < 1e-4) {
             result.converged = true;
             break;

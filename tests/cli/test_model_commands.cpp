@@ -1,0 +1,152 @@
+// picoscan clean / stitch / mesh, run as a user would on the turntable views of the
+// mechanical part (written by write_view_ply, as 'picoscan reconstruct' writes them).
+#include "picoscan/calibration.h"
+#include "picoscan/io.h"
+#include "picoscan/mesh.h"
+#include "picoscan/register.h"
+#include "picoscan/simulate.h"
+#include "support/test_support.h"
+#include "support/turntable_scan.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+using namespace picoscan;
+using test_support::cli_path;
+using test_support::make_temp_dir;
+using test_support::run_command;
+
+namespace {
+
+struct Result {
+    int exit_code;
+    std::string output;
+};
+
+Result run_picoscan(const std::string& arguments) {
+    Result result;
+    result.exit_code = run_command(cli_path() + " " + arguments, &result.output);
+    return result;
+}
+
+std::string view_file(size_t index) {
+    test_support::disturbed_turntable_scan();  // makes the cached view files
+    return (fs::path(PICOSCAN_TEST_CACHE_DIR) / "turntable-v1-disturbed" / ("view_" + std::to_string(index) + ".ply")).string();
+}
+
+std::string file_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+}
+
+std::vector<cv::Matx44d> read_pose_file(const std::string& path) {
+    std::ifstream in(path);
+    std::vector<cv::Matx44d> poses;
+    std::string line;
+    while (std::getline(in, line)) {
+        if (line.empty() || line[0] == '#') continue;
+        cv::Matx44d pose;
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) in >> pose(r, c);
+        std::getline(in, line);
+        poses.push_back(pose);
+    }
+    return poses;
+}
+
+}  // namespace
+
+TEST(StitchCli, NeighbouringViewsMergeWithTheTruePoses) {
+    const fs::path dir = make_temp_dir("stitch_cli");
+    const std::string out = (dir / "merged.ply").string();
+    const Result result = run_picoscan("stitch " + view_file(0) + " " + view_file(1) + " " + view_file(2) + " --out " + out);
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("3 of 3 views merged"), std::string::npos) << result.output;
+    const std::vector<cv::Matx44d> poses = read_pose_file((dir / "merged.poses.txt").string());
+    ASSERT_EQ(poses.size(), 3u);
+    const test_support::TurntableScan& scan = test_support::disturbed_turntable_scan();
+    for (size_t i = 1; i < 3; ++i) {
+        const PoseDifference error = pose_difference(scan.true_view_to_model[i], poses[i], scan.centroid(i));
+        EXPECT_LT(error.rotation_deg, 0.05) << i;
+        EXPECT_LT(error.translation_mm, 0.05) << i;
+    }
+    const Mesh merged = read_ply(out);
+    EXPECT_EQ(merged.vertices.size(), static_cast<size_t>(scan.views[0].valid_count() + scan.views[1].valid_count() +
+                                                          scan.views[2].valid_count()));
+    EXPECT_EQ(merged.normals.size(), merged.vertices.size());
+}
+
+TEST(StitchCli, ViewsThatDoNotOverlapAreNamedAndWrittenUnmerged) {
+    const fs::path dir = make_temp_dir("stitch_cli_apart");
+    const std::string out = (dir / "merged.ply").string();
+    const std::string before = file_bytes(view_file(4));
+    const Result result = run_picoscan("stitch " + view_file(0) + " " + view_file(4) + " --out " + out);
+    EXPECT_EQ(result.exit_code, 3) << result.output;
+    EXPECT_NE(result.output.find("view_4.ply               NOT aligned"), std::string::npos) << result.output;
+    EXPECT_NE(result.output.find("overlap"), std::string::npos) << result.output;
+    EXPECT_TRUE(fs::exists(dir / "merged.unmerged-view_4.ply"));
+    EXPECT_EQ(read_ply(out).vertices.size(), static_cast<size_t>(test_support::disturbed_turntable_scan().views[0].valid_count()));
+    EXPECT_EQ(file_bytes(view_file(4)), before);  // inputs untouched
+}
+
+TEST(MeshCli, PoissonOfStitchedViewsIsWatertightAndBadCloudsAreRefused) {
+    const fs::path dir = make_temp_dir("mesh_cli");
+    const std::string merged = (dir / "merged.ply").string();
+    std::string views;
+    for (size_t i = 0; i < 9; ++i) views += view_file(i) + " ";
+    ASSERT_EQ(run_picoscan("stitch " + views + "--out " + merged).exit_code, 0);
+    const std::string stl = (dir / "part.stl").string();
+    const Result meshed = run_picoscan("mesh " + merged + " --out " + stl + " --spacing-mm 0.8 --target-faces 20000");
+    ASSERT_EQ(meshed.exit_code, 0) << meshed.output;
+    EXPECT_NE(meshed.output.find("; watertight;"), std::string::npos) << meshed.output;
+    const MeshCheck check = check_mesh(read_stl(stl));
+    EXPECT_TRUE(check.watertight()) << check.summary();
+    EXPECT_NEAR(static_cast<double>(check.faces), 20000.0, 2000.0) << check.summary();
+
+    const std::string empty = (dir / "empty.ply").string();
+    write_ply(PointCloud{}, empty);
+    const Result refused = run_picoscan("mesh " + empty + " --out " + (dir / "empty.stl").string());
+    EXPECT_EQ(refused.exit_code, 1);
+    EXPECT_NE(refused.output.find("empty: nothing to mesh"), std::string::npos) << refused.output;
+    EXPECT_FALSE(fs::exists(dir / "empty.stl"));
+    const Result bad_method = run_picoscan("mesh " + merged + " --out " + (dir / "x.stl").string() + " --method marching");
+    EXPECT_EQ(bad_method.exit_code, 1);
+    EXPECT_NE(bad_method.output.find("--method: must be poisson, advancing-front or grid"), std::string::npos);
+    const Result missing = run_picoscan("mesh " + (dir / "nothing.ply").string() + " --out " + (dir / "x.stl").string());
+    EXPECT_NE(missing.output.find("nothing.ply: no such file"), std::string::npos) << missing.output;
+}
+
+TEST(CleanCli, FiltersReportTheirCountsAndTheInputStays) {
+    const fs::path dir = make_temp_dir("clean_cli");
+    const std::string calibration = (dir / "rig.yml").string();
+    write_calibration(seed_rig_calibration(), calibration);
+    const std::string input = view_file(0);
+    const std::string before = file_bytes(input);
+    const std::string out = (dir / "clean.ply").string();
+    // A working-volume box that cuts the part in half (camera frame: keep x < 0).
+    const Result result = run_picoscan("clean " + input + " --calibration " + calibration + " --out " + out +
+                                       " --box -1000,-1000,0,0,1000,1000");
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("working volume: "), std::string::npos) << result.output;
+    const ScanView cleaned = read_view_ply(out);
+    const int kept = cleaned.valid_count(), had = read_view_ply(input).valid_count();
+    EXPECT_GT(kept, had / 5);
+    EXPECT_LT(kept, had * 4 / 5);
+    for (const cv::Vec3f& p : to_point_cloud(cleaned).points) ASSERT_LT(p[0], 0.0f);
+    EXPECT_EQ(file_bytes(input), before);
+
+    // The view as its own background removes everything; the error says so and writes nothing.
+    const Result all_gone = run_picoscan("clean " + input + " --calibration " + calibration + " --out " +
+                                         (dir / "none.ply").string() + " --background " + input);
+    EXPECT_EQ(all_gone.exit_code, 1);
+    EXPECT_NE(all_gone.output.find("no point survived"), std::string::npos) << all_gone.output;
+    EXPECT_FALSE(fs::exists(dir / "none.ply"));
+    const Result overwrite = run_picoscan("clean " + input + " --calibration " + calibration + " --out " + input);
+    EXPECT_NE(overwrite.output.find("would overwrite an input"), std::string::npos) << overwrite.output;
+}
