@@ -379,11 +379,7 @@ int reconstruct(const ReconstructRequest& request) {
     const Calibration calibration = read_calibration(request.calibration);
     const ProgressCallback progress = terminal_progress();
     const CaptureSet captures = load_capture_set(request.captures, request.manifest, progress);
-    if (captures.images.front().size() != calibration.camera_size)
-        throw Error(request.calibration, "camera_size " + std::to_string(calibration.camera_size.width) + "x" +
-                                             std::to_string(calibration.camera_size.height) + " differs from the captures' " +
-                                             std::to_string(captures.images.front().cols) + "x" +
-                                             std::to_string(captures.images.front().rows));
+    check_camera_size(calibration, captures, request.calibration);
     const CorrespondenceMap correspondences = decode(captures, request.decode, progress);
     ScanView view = triangulate(correspondences, calibration, captures.white_colour, {}, progress);
     if (!request.second_calibration.empty()) {
@@ -456,11 +452,6 @@ SimulationOptions simulation_options(const Arguments& arguments) {
     return options;
 }
 
-void require_empty_output(const std::string& directory) {
-    if (fs::exists(directory) && (!fs::is_directory(directory) || !fs::is_empty(directory)))
-        throw Error(directory, "output folder exists and is not empty (nothing is overwritten)");
-}
-
 int run_simulate(const Arguments& arguments) {
     const std::string directory = arguments.required("--out");
     const Calibration calibration =
@@ -469,7 +460,7 @@ int run_simulate(const Arguments& arguments) {
     const PatternOptions patterns = pattern_options(arguments, calibration.projector_size);
     const SimulationOptions options = simulation_options(arguments);
     arguments.reject_unknown();
-    require_empty_output(directory);
+    require_empty_directory(directory);
     const CaptureSet captures =
         simulate_capture(make_pattern_sequence(patterns), calibration, scene, options, terminal_progress());
     write_capture_set(captures, directory);

@@ -26,6 +26,10 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
 // Writes images and manifest into `directory` (each file through a temporary + rename).
 void write_capture_set(const CaptureSet& captures, const std::string& directory);
 
+// Throws Error naming `directory` unless it is absent or an empty folder, so that a new
+// capture set never overwrites or mixes with existing files.
+void require_empty_directory(const std::string& directory);
+
 // Writes one frame's image as `directory`/frame.file (encoded by the file's extension, through
 // a temporary + rename): what write_capture_set does per frame, for captures taken one by one.
 void write_capture_frame(const Frame& frame, const cv::Mat& image, const std::string& directory);

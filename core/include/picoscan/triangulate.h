@@ -39,6 +39,10 @@ private:
                               // row v (projector frame): unit normal n and n.T, per projector pixel
 };
 
+// Throws Error naming `calibration_name` (its file) when the calibration's camera size
+// differs from the captures' image size: the wrong calibration for these captures.
+void check_camera_size(const Calibration& calibration, const CaptureSet& captures, const std::string& calibration_name);
+
 // One-off convenience: builds a Triangulator and triangulates.
 ScanView triangulate(const CorrespondenceMap& correspondences, const Calibration& calibration,
                      const cv::Mat& colour = cv::Mat(), const TriangulateOptions& options = {},

@@ -1,0 +1,664 @@
+#include "filter_picoscan.h"
+
+#include "scan_layer.h"
+
+#include "picoscan/calibration.h"
+#include "picoscan/capture_set.h"
+#include "picoscan/clean.h"
+#include "picoscan/decode.h"
+#include "picoscan/error.h"
+#include "picoscan/fit.h"
+#include "picoscan/mesh.h"
+#include "picoscan/patterns.h"
+#include "picoscan/register.h"
+#include "picoscan/simulate.h"
+#include "picoscan/triangulate.h"
+
+#include <QApplication>
+#include <QDir>
+#include <QFile>
+#include <QFileInfo>
+#include <QMainWindow>
+#include <QMenu>
+#include <QMenuBar>
+#include <QTemporaryDir>
+#include <QTextStream>
+#include <QTimer>
+
+#include <functional>
+
+using namespace picoscan;
+using namespace picoscan_meshlab;
+
+namespace {
+
+// Parameter names, shared by initParameterSet, applyFilter and the .mlx scripts.
+const char* const kCaptureFolder = "captureFolder";
+const char* const kCalibrationFile = "calibrationFile";
+const char* const kSequence = "sequence";
+const char* const kManifestFile = "manifestFile";
+const char* const kShifts = "shifts";
+const char* const kPeriods = "periods";
+const char* const kGrayBits = "grayBits";
+const char* const kBinaryOnly = "binaryOnly";
+const char* const kMinContrast = "minContrast";
+const char* const kMinModulation = "minModulation";
+const char* const kOutput = "output";
+const char* const kMeshStep = "meshStep";
+const char* const kSceneFile = "sceneFile";
+const char* const kPeriodBits = "periodBits";
+const char* const kNoise = "noise";
+const char* const kFullScale = "fullScale";
+const char* const kBlur = "blur";
+const char* const kSeed = "seed";
+const char* const kSaveCaptures = "saveCaptureFolder";
+const char* const kPartView = "partView";
+const char* const kMinQuality = "minQuality";
+const char* const kMaxGrazing = "maxGrazingDeg";
+const char* const kWindow = "windowPx";
+const char* const kOutlierSigma = "outlierSigma";
+const char* const kRadiusFootprints = "radiusFootprints";
+const char* const kMinNeighbours = "minNeighbours";
+const char* const kMinCluster = "minClusterPoints";
+const char* const kOrbFeatures = "orbFeatures";
+const char* const kIcpMaxDistance = "icpMaxDistance";
+const char* const kAlignSpacing = "sampleSpacing";
+const char* const kMinOverlap = "minOverlap";
+const char* const kMethod = "method";
+const char* const kMeshSpacing = "sampleSpacing";
+const char* const kPoissonTriangleSize = "poissonTriangleSize";
+const char* const kPoissonDistance = "poissonDistance";
+const char* const kFrontMaxRadius = "frontMaxRadius";
+const char* const kMaxHole = "maxHoleDiameter";
+const char* const kTargetFaces = "targetFaces";
+const char* const kShape = "shape";
+const char* const kSelectedOnly = "selectedOnly";
+const char* const kModelFrame = "modelFrame";
+
+// Values of the "sequence" enum: where the frame order of a capture set comes from.
+enum SequenceSource { OwnManifest, SlmasterCgc, SlstudioGray };
+enum OutputKind { PointCloudLayer, GridMeshLayer };
+enum FitShape { SphereShape, PlaneShape };
+enum MeshingMethod { PoissonMethod, AdvancingFrontMethod };
+
+std::string parameter_text(const QString& value) { return value.trimmed().toStdString(); }
+
+// Reports core progress through MeshLab's callback, only when the percentage or stage changes.
+ProgressCallback meshlab_progress(vcg::CallBackPos* callback) {
+    if (callback == nullptr) return nullptr;
+    auto last = std::make_shared<std::pair<int, std::string>>(-1, "");
+    return [callback, last](double fraction, const std::string& stage) {
+        // Steps of 5 %: meshlabserver prints every call.
+        const int percent = 5 * std::max(0, std::min(20, int(fraction * 20)));
+        if (percent == last->first && stage == last->second) return true;
+        *last = {percent, stage};
+        return callback(percent, ("PicoScan " + stage).c_str());
+    };
+}
+
+DecodeOptions decode_options(const RichParameterList& parameters) {
+    DecodeOptions options;
+    options.binary_only = parameters.getBool(kBinaryOnly);
+    options.min_contrast = parameters.getFloat(kMinContrast);
+    options.min_modulation = parameters.getFloat(kMinModulation);
+    if (options.min_contrast < 0) throw Error(kMinContrast, "must be >= 0");
+    if (options.min_modulation < 0) throw Error(kMinModulation, "must be >= 0");
+    return options;
+}
+
+void add_decode_parameters(RichParameterList& parameters) {
+    const DecodeOptions defaults;
+    parameters.addParam(RichBool(kBinaryOnly, defaults.binary_only, "Binary only",
+                                 "Decode the Gray code only and ignore the phase-shift frames (coarser; for comparison)."));
+    parameters.addParam(RichFloat(kMinContrast, float(defaults.min_contrast), "Min contrast (grey levels)",
+                                  "Pixels whose white - black difference is below this are shadow or background."));
+    parameters.addParam(RichFloat(kMinModulation, float(defaults.min_modulation), "Min modulation (grey levels)",
+                                  "Pixels whose fringe amplitude is below this are rejected as unreliable."));
+}
+
+void add_output_parameters(RichParameterList& parameters) {
+    parameters.addParam(RichEnum(kOutput, PointCloudLayer, QStringList{"Point cloud", "Grid mesh"}, "Layer",
+                                 "Point cloud: coloured points with normals that keep their camera pixel, so the layer "
+                                 "can be cleaned and aligned. Grid mesh: the pixel grid triangulated without bridging "
+                                 "depth jumps."));
+    parameters.addParam(RichInt(kMeshStep, 1, "Grid mesh step (pixels)",
+                                "Grid mesh only: join every n-th pixel (n*n times fewer triangles)."));
+}
+
+// Decodes and triangulates a capture set: the same core calls as 'picoscan reconstruct'.
+ScanView scan_captures(const CaptureSet& captures, const Calibration& calibration, const std::string& calibration_name,
+                       const DecodeOptions& options, const ProgressCallback& progress) {
+    check_camera_size(calibration, captures, calibration_name);
+    const CorrespondenceMap correspondences = decode(captures, options, progress);
+    return triangulate(correspondences, calibration, captures.white_colour, {}, progress);
+}
+
+// A finished scan becomes a new layer; nothing is added unless it has points.
+struct ScanResult {
+    ScanView view;
+    double focal_px = 0;
+    OutputKind output = PointCloudLayer;
+    int mesh_step = 1;
+};
+
+// Adds a layer and fills it; a failure while filling removes it again, so no layer is left half-filled.
+MeshModel* add_filled_layer(MeshDocument& document, const QString& label, const std::function<void(MeshModel&)>& fill) {
+    MeshModel* layer = document.addNewMesh("", label, true);
+    try {
+        fill(*layer);
+    } catch (...) {
+        document.delMesh(layer);
+        throw;
+    }
+    return layer;
+}
+
+MeshModel* add_scan_layer(MeshDocument& document, const QString& label, const ScanResult& scan,
+                          const std::string& source) {
+    if (scan.view.valid_count() == 0) throw Error(source, "no pixel could be decoded and triangulated");
+    if (scan.output == GridMeshLayer) {
+        GridMeshOptions options;
+        options.pixel_step = scan.mesh_step;
+        const Mesh mesh = grid_mesh(scan.view, scan.focal_px, options);
+        if (mesh.faces.empty()) throw Error(source, "the grid mesh has no triangles");
+        return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, mesh); });
+    }
+    return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, scan.view, scan.focal_px); });
+}
+
+int checked_mesh_step(const RichParameterList& parameters) {
+    const int step = parameters.getInt(kMeshStep);
+    if (step < 1 || step > 64) throw Error(kMeshStep, "must be 1..64");
+    return step;
+}
+
+// Clean needs the organised pixel grid; other layers get a plain answer.
+void require_scan_grid(MeshModel& layer) {
+    if (!has_scan_grid(layer))
+        throw Error(layer.label().toStdString(),
+                    "this layer has no camera pixel grid: it needs a point cloud layer made by "
+                    "'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan'");
+}
+
+// Every entry of a menu and its submenus, one "Submenu/Entry" per line.
+void list_menu(const QMenu& menu, const QString& path, QTextStream& out) {
+    for (QAction* action : menu.actions()) {
+        if (action->isSeparator()) continue;
+        const QString entry = path + action->text().remove('&');
+        if (action->menu() != nullptr) list_menu(*action->menu(), entry + "/", out);
+        else out << entry << "\n";
+    }
+}
+
+// For the GUI smoke test: with PICOSCAN_MESHLAB_MENU_REPORT=FILE, once MeshLab's main window
+// is up, its Filters menu is written to FILE, so the test reads the real menu.
+void report_filters_menu_when_ready(const QString& path, int attempts_left) {
+    QTimer::singleShot(500, [path, attempts_left] {
+        for (QWidget* widget : QApplication::topLevelWidgets()) {
+            auto* window = qobject_cast<QMainWindow*>(widget);
+            if (window == nullptr || !window->isVisible()) continue;
+            for (QAction* action : window->menuBar()->actions()) {
+                if (action->menu() == nullptr || action->text().remove('&') != "Filters") continue;
+                QFile file(path);
+                if (!file.open(QIODevice::WriteOnly | QIODevice::Truncate)) return;
+                QTextStream out(&file);
+                list_menu(*action->menu(), "Filters/", out);
+                return;
+            }
+        }
+        if (attempts_left > 0) report_filters_menu_when_ready(path, attempts_left - 1);
+    });
+}
+
+// The visible layers, each of which must carry a pixel grid.
+std::vector<MeshModel*> visible_scan_layers(MeshDocument& document) {
+    std::vector<MeshModel*> layers;
+    for (MeshModel* layer : document.meshList)
+        if (layer->isVisible()) {
+            require_scan_grid(*layer);
+            layers.push_back(layer);
+        }
+    return layers;
+}
+
+std::string layer_name(const MeshModel& layer) { return layer.label().toStdString(); }
+
+}  // namespace
+
+PicoScanFilterPlugin::PicoScanFilterPlugin() {
+    typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure;
+    for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
+    const QString menu_report = qEnvironmentVariable("PICOSCAN_MESHLAB_MENU_REPORT");
+    if (!menu_report.isEmpty() && qobject_cast<QApplication*>(QCoreApplication::instance()) != nullptr)
+        report_filters_menu_when_ready(menu_report, 120);
+}
+
+QString PicoScanFilterPlugin::pluginName() const { return "FilterPicoScan"; }
+
+QString PicoScanFilterPlugin::filterName(FilterIDType filter) const {
+    switch (filter) {
+    case Reconstruct: return "PicoScan: Reconstruct from Capture Set";
+    case Simulate: return "PicoScan: Simulate Scan";
+    case Clean: return "PicoScan: Clean Scan";
+    case Align: return "PicoScan: Align Layers";
+    case Fuse: return "PicoScan: Fuse and Mesh";
+    case Measure: return "PicoScan: Measure Sphere or Plane";
+    }
+    return {};
+}
+
+QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
+    switch (filter) {
+    case Reconstruct:
+        return "Decodes a structured-light capture set (Gray code + phase shift, hybrid unwrapping) and triangulates "
+               "every camera pixel with the rig's calibration. Creates a new layer: a coloured point cloud with "
+               "normals and quality (fringe modulation) that keeps each point's camera pixel, or a grid mesh.<br>"
+               "The frame order comes from <i>sequence.json</i> in the capture folder, a manifest file, or a preset "
+               "for capture sets made by SLMaster or SLStudio.";
+    case Simulate:
+        return "Simulates a scan with PicoScan's virtual rig (ray-cast camera and projector, noise, defocus) and "
+               "reconstructs it into a new layer, for trying the tool without hardware. The scene is the built-in "
+               "demo part or a scene file; the rig is the seed-like rig (1600x1200 camera, 854x480 projector) or a "
+               "calibration file. The simulated capture set can be saved for <i>Reconstruct from Capture Set</i>.";
+    case Clean:
+        return "Removes unreliable points from a PicoScan point cloud layer, on its camera pixel grid: low quality, "
+               "grazing angles, statistical and radius outliers, small disconnected clusters. The log says how many "
+               "points each step removed.";
+    case Align:
+        return "Registers all visible PicoScan layers into one model: ORB features on the white frames lifted to 3D, "
+               "a RANSAC rigid fit, point-to-plane ICP, then a global refinement of all views together. The first "
+               "visible layer stays where it is; each other layer's transform is set. The log gives each layer's "
+               "residual and overlap. If any layer cannot be aligned, no transform is changed.";
+    case Fuse:
+        return "Merges the visible PicoScan layers (each through its transform) into one cloud and meshes it with "
+               "CGAL: Poisson (watertight) or advancing front (open surfaces), fills small holes and checks the "
+               "result. Creates a new layer; the log gives the mesh check (watertight, manifold, volume).";
+    case Measure:
+        return "Fits a sphere or a plane (least squares) to the current layer's points, or to the selected ones, and "
+               "writes centre, radius or normal, and the RMS residual to the log: for checking a scanner with a "
+               "reference sphere or a flat plate.";
+    }
+    return {};
+}
+
+MeshFilterInterface::FilterClass PicoScanFilterPlugin::getClass(QAction* action) {
+    switch (ID(action)) {
+    case Reconstruct:
+    case Simulate: return MeshFilterInterface::MeshCreation;
+    case Clean: return MeshFilterInterface::Cleaning;
+    case Align: return MeshFilterInterface::RangeMap;
+    case Fuse: return MeshFilterInterface::Remeshing;
+    case Measure: return MeshFilterInterface::Measure;
+    }
+    return MeshFilterInterface::MeshCreation;
+}
+
+MeshFilterInterface::FILTER_ARITY PicoScanFilterPlugin::filterArity(QAction* action) const {
+    switch (ID(action)) {
+    case Reconstruct:
+    case Simulate: return NONE;
+    case Align:
+    case Fuse: return VARIABLE;
+    default: return SINGLE_MESH;
+    }
+}
+
+int PicoScanFilterPlugin::getPreConditions(QAction* action) const {
+    switch (ID(action)) {
+    case Clean:
+    case Align:
+    case Fuse: return MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL;
+    default: return MeshModel::MM_NONE;
+    }
+}
+
+int PicoScanFilterPlugin::postCondition(QAction* action) const {
+    switch (ID(action)) {
+    case Clean: return MeshModel::MM_VERTNUMBER | MeshModel::MM_FACENUMBER;
+    case Align: return MeshModel::MM_TRANSFMATRIX;
+    case Measure: return MeshModel::MM_NONE;
+    default: return MeshModel::MM_ALL;
+    }
+}
+
+int PicoScanFilterPlugin::getRequirements(QAction*) { return MeshModel::MM_NONE; }
+
+void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& document, RichParameterList& parameters) {
+    switch (ID(action)) {
+    case Reconstruct:
+        parameters.addParam(RichString(kCaptureFolder, "", "Capture folder",
+                                       "Folder with the capture set's images (and its sequence.json)."));
+        parameters.addParam(RichString(kCalibrationFile, "", "Calibration file",
+                                       "Camera-projector calibration: PicoScan YAML, SLMaster caliInfo.yml or "
+                                       "SLStudio calibration.xml."));
+        parameters.addParam(RichEnum(kSequence, OwnManifest,
+                                     QStringList{"sequence.json in the capture folder",
+                                                 "SLMaster sinus + complementary Gray code",
+                                                 "SLStudio Gray code"},
+                                     "Frame order",
+                                     "Where the order and meaning of the frames comes from. The presets use the "
+                                     "calibration's projector size."));
+        parameters.addParam(RichString(kManifestFile, "", "Manifest file (optional)",
+                                       "A sequence.json to use instead (e.g. written by 'picoscan manifest'); "
+                                       "overrides the frame order."));
+        parameters.addParam(RichInt(kShifts, 12, "Phase shifts (SLMaster)", "Phase shifts per period of the SLMaster preset."));
+        parameters.addParam(RichInt(kPeriods, 32, "Fringe periods (SLMaster)", "Fringe periods across the projector (SLMaster preset)."));
+        parameters.addParam(RichInt(kGrayBits, 0, "Gray bits (SLStudio)", "Projected Gray code bits (SLStudio preset); 0: all."));
+        add_decode_parameters(parameters);
+        add_output_parameters(parameters);
+        break;
+    case Simulate: {
+        const PatternOptions patterns;
+        const SimulationOptions simulation;
+        parameters.addParam(RichString(kSceneFile, "", "Scene file (optional)",
+                                       "Scene description (YAML/JSON: spheres, planes, boxes, cylinders, meshes); "
+                                       "empty: the built-in demo part."));
+        parameters.addParam(RichInt(kPartView, -1, "Turntable view of the mechanical part",
+                                    "Instead of the scene: view n of the built-in mechanical test part on a turntable "
+                                    "(0..7: turned in 45 degree steps, 8: from above), for trying Align and Fuse; "
+                                    "-1: not used."));
+        parameters.addParam(RichString(kCalibrationFile, "", "Calibration file (optional)",
+                                       "Rig to simulate; empty: the seed-like rig."));
+        parameters.addParam(RichInt(kShifts, patterns.shifts, "Phase shifts", "Phase shifts per axis (3..64)."));
+        parameters.addParam(RichInt(kPeriodBits, patterns.period_bits, "Period bits", "Fringe period = 2^n projector pixels."));
+        parameters.addParam(RichFloat(kFullScale, float(simulation.full_scale_dn), "Full scale (grey levels)",
+                                      "Camera level of a white-lit white surface facing the projector: the exposure."));
+        parameters.addParam(RichFloat(kNoise, float(simulation.noise_sigma_dn), "Camera noise (grey levels)", "Gaussian noise sigma."));
+        parameters.addParam(RichFloat(kBlur, 0.7f, "Defocus blur (pixels)", "Gaussian blur sigma in camera pixels."));
+        parameters.addParam(RichInt(kSeed, 1, "Noise seed", "The same seed renders the same images."));
+        parameters.addParam(RichString(kSaveCaptures, "", "Save capture set to (optional)",
+                                       "Also write the simulated images, sequence.json and calibration.yml into this "
+                                       "folder (must be empty or new), for 'Reconstruct from Capture Set'."));
+        add_decode_parameters(parameters);
+        add_output_parameters(parameters);
+        break;
+    }
+    case Clean: {
+        const CleanOptions defaults;
+        parameters.addParam(RichFloat(kMinQuality, float(defaults.min_quality), "Min quality",
+                                      "Points whose quality (fringe modulation, grey levels) is below this go."));
+        parameters.addParam(RichFloat(kMaxGrazing, float(defaults.max_grazing_deg), "Max grazing angle (deg)",
+                                      "Points seen more obliquely than this go; 90 or more disables."));
+        parameters.addParam(RichInt(kWindow, defaults.window_px, "Window (pixels)",
+                                    "Neighbourhood: a (2w+1)x(2w+1) window of camera pixels."));
+        parameters.addParam(RichFloat(kOutlierSigma, float(defaults.outlier_sigma), "Outlier sigma",
+                                      "Statistical outliers: distance to the 4th neighbour beyond median + sigma * "
+                                      "robust spread."));
+        parameters.addParam(RichFloat(kRadiusFootprints, float(defaults.radius_footprints), "Radius (pixel footprints)",
+                                      "Radius outliers: neighbours counted within this many pixel footprints."));
+        parameters.addParam(RichInt(kMinNeighbours, defaults.min_neighbours, "Min neighbours",
+                                    "Radius outliers: fewer neighbours than this within the radius go."));
+        parameters.addParam(RichInt(kMinCluster, defaults.min_cluster_points, "Min cluster size (points)",
+                                    "Disconnected clusters smaller than this go."));
+        break;
+    }
+    case Align: {
+        const RegistrationOptions defaults;
+        parameters.addParam(RichInt(kOrbFeatures, defaults.orb_features, "ORB features per view",
+                                    "Keypoints found on each layer's white frame for the coarse alignment."));
+        parameters.addParam(RichFloat(kIcpMaxDistance, float(defaults.icp_max_distance_mm), "ICP max distance (mm)",
+                                      "Point pairs farther apart than this are never used by ICP."));
+        parameters.addParam(RichFloat(kAlignSpacing, float(defaults.sample_spacing_mm), "Sample spacing (mm)",
+                                      "Points are thinned to about this spacing for ICP."));
+        parameters.addParam(RichFloat(kMinOverlap, float(defaults.min_overlap), "Min overlap (fraction)",
+                                      "Views overlapping less than this are not registered to each other."));
+        break;
+    }
+    case Fuse: {
+        const MeshOptions defaults;
+        parameters.addParam(RichEnum(kMethod, PoissonMethod, QStringList{"Poisson (watertight)", "Advancing front (open)"},
+                                     "Method", "Poisson gives a closed surface; advancing front keeps the scanned "
+                                               "surface only."));
+        parameters.addParam(RichFloat(kMeshSpacing, float(defaults.sample_spacing_mm), "Sample spacing (mm)",
+                                      "The merged cloud is thinned to about this spacing first (0 keeps all)."));
+        parameters.addParam(RichFloat(kPoissonTriangleSize, float(defaults.poisson_triangle_size),
+                                      "Poisson triangle size (spacings)", "Triangle size in average point spacings."));
+        parameters.addParam(RichFloat(kPoissonDistance, float(defaults.poisson_distance), "Poisson distance (spacings)",
+                                      "How far the mesh may stray from the implicit surface, in point spacings."));
+        parameters.addParam(RichFloat(kFrontMaxRadius, float(defaults.advancing_front_max_radius),
+                                      "Advancing front max radius (spacings)",
+                                      "Triangles with a larger circumradius are not made."));
+        parameters.addParam(RichFloat(kMaxHole, float(defaults.max_hole_diameter_mm), "Max hole diameter (mm)",
+                                      "Holes up to this size are filled."));
+        parameters.addParam(RichInt(kTargetFaces, defaults.target_faces, "Target faces",
+                                    "Simplify to about this many faces (0 keeps all)."));
+        break;
+    }
+    case Measure:
+        parameters.addParam(RichEnum(kShape, SphereShape, QStringList{"Sphere", "Plane"}, "Shape", "The shape to fit."));
+        parameters.addParam(RichBool(kSelectedOnly, false, "Selected points only",
+                                     "Fit only the selected vertices (e.g. the reference sphere, not its stand)."));
+        parameters.addParam(RichBool(kModelFrame, true, "Apply layer transform",
+                                     "Measure in model coordinates (after the layer's transform) rather than the "
+                                     "camera frame."));
+        break;
+    }
+    (void)document;
+}
+
+bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, const RichParameterList& parameters,
+                                       vcg::CallBackPos* callback) {
+    try {
+        switch (ID(action)) {
+        case Reconstruct: reconstruct(document, parameters, callback); break;
+        case Simulate: simulate(document, parameters, callback); break;
+        case Clean: clean(document, parameters); break;
+        case Align: align(document, parameters, callback); break;
+        case Fuse: fuse(document, parameters, callback); break;
+        case Measure: measure(document, parameters); break;
+        }
+        return true;
+    } catch (const std::exception& error) {
+        // meshlabserver prints only the log, the GUI shows errorMessage: give both the same line.
+        errorMessage = QString::fromStdString(error.what());
+        Log(GLLogStream::WARNING, "%s error: %s", qUtf8Printable(filterName(ID(action))), qUtf8Printable(errorMessage));
+        return false;
+    }
+}
+
+void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParameterList& parameters,
+                                       vcg::CallBackPos* callback) {
+    const std::string folder = parameter_text(parameters.getString(kCaptureFolder));
+    const std::string calibration_file = parameter_text(parameters.getString(kCalibrationFile));
+    std::string manifest = parameter_text(parameters.getString(kManifestFile));
+    if (folder.empty()) throw Error(kCaptureFolder, "is required: the folder of the capture set");
+    if (calibration_file.empty()) throw Error(kCalibrationFile, "is required: the rig's calibration file");
+    if (!QFileInfo(QString::fromStdString(folder)).isDir()) throw Error(folder, "capture folder not found");
+    if (!QFileInfo(QString::fromStdString(calibration_file)).isFile()) throw Error(calibration_file, "calibration file not found");
+    const DecodeOptions options = decode_options(parameters);
+    ScanResult scan;
+    scan.output = OutputKind(parameters.getEnum(kOutput));
+    scan.mesh_step = checked_mesh_step(parameters);
+
+    const Calibration calibration = read_calibration(calibration_file);
+    // Presets describe foreign capture sets: their manifest is written to a temporary folder.
+    QTemporaryDir preset_folder;
+    const int sequence = parameters.getEnum(kSequence);
+    if (manifest.empty() && sequence != OwnManifest) {
+        PatternSequence preset;
+        if (sequence == SlmasterCgc) {
+            preset = make_slmaster_cgc_sequence(calibration.projector_size, parameters.getInt(kShifts), parameters.getInt(kPeriods));
+        } else {
+            const int bits = parameters.getInt(kGrayBits);
+            preset = make_slstudio_gray_sequence(calibration.projector_size,
+                                                 bits > 0 ? bits : gray_bits_for(calibration.projector_size.width));
+        }
+        if (!preset_folder.isValid()) throw Error("temporary folder", "cannot be created for the preset's manifest");
+        manifest = preset_folder.filePath("sequence.json").toStdString();
+        write_manifest(preset, manifest);
+    }
+    const ProgressCallback progress = meshlab_progress(callback);
+    const CaptureSet captures = load_capture_set(folder, manifest, progress);
+    scan.view = scan_captures(captures, calibration, calibration_file, options, progress);
+    scan.focal_px = calibration.camera_matrix(0, 0);
+    const QString label = QDir(QString::fromStdString(folder)).dirName();
+    MeshModel* layer = add_scan_layer(document, label.isEmpty() ? "PicoScan scan" : label, scan, folder);
+    Log("PicoScan reconstructed %s: %d points (%.1f %% of the camera pixels), %d faces", folder.c_str(),
+        scan.view.valid_count(), 100.0 * scan.view.valid_count() / double(scan.view.points.total()), layer->cm.fn);
+}
+
+void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterList& parameters,
+                                    vcg::CallBackPos* callback) {
+    const std::string scene_file = parameter_text(parameters.getString(kSceneFile));
+    const std::string calibration_file = parameter_text(parameters.getString(kCalibrationFile));
+    const std::string save_folder = parameter_text(parameters.getString(kSaveCaptures));
+    const Calibration calibration = calibration_file.empty() ? seed_rig_calibration() : read_calibration(calibration_file);
+    const int part_view = parameters.getInt(kPartView);
+    const std::vector<cv::Matx44d> turntable = turntable_part_poses(TurntablePlan{});
+    if (part_view < -1 || part_view >= int(turntable.size())) throw Error(kPartView, "must be -1.." + std::to_string(turntable.size() - 1));
+    if (part_view >= 0 && !scene_file.empty()) throw Error(kPartView, "conflicts with the scene file; use one of them");
+    Scene scene;
+    const double part_albedo = 0.85;  // a light grey part, as in the core's turntable tests
+    if (part_view >= 0) scene.meshes.push_back({transformed(mechanical_part(), turntable[size_t(part_view)]), part_albedo});
+    else scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
+    PatternOptions patterns;
+    patterns.projector_size = calibration.projector_size;
+    patterns.shifts = parameters.getInt(kShifts);
+    patterns.period_bits = parameters.getInt(kPeriodBits);
+    SimulationOptions simulation;
+    simulation.full_scale_dn = parameters.getFloat(kFullScale);
+    simulation.noise_sigma_dn = parameters.getFloat(kNoise);
+    simulation.blur_sigma_px = parameters.getFloat(kBlur);
+    simulation.seed = uint64_t(std::max(0, parameters.getInt(kSeed)));
+    if (simulation.full_scale_dn <= 0) throw Error(kFullScale, "must be > 0");
+    if (simulation.noise_sigma_dn < 0) throw Error(kNoise, "must be >= 0");
+    if (simulation.blur_sigma_px < 0) throw Error(kBlur, "must be >= 0");
+    const DecodeOptions options = decode_options(parameters);
+    ScanResult scan;
+    scan.output = OutputKind(parameters.getEnum(kOutput));
+    scan.mesh_step = checked_mesh_step(parameters);
+    if (!save_folder.empty()) require_empty_directory(save_folder);
+
+    const ProgressCallback progress = meshlab_progress(callback);
+    const CaptureSet captures = simulate_capture(make_pattern_sequence(patterns), calibration, scene, simulation, progress);
+    scan.view = scan_captures(captures, calibration, calibration_file.empty() ? "seed rig" : calibration_file, options, progress);
+    scan.focal_px = calibration.camera_matrix(0, 0);
+    const std::string source = part_view >= 0 ? "mechanical part view " + std::to_string(part_view)
+                               : scene_file.empty() ? "demo part" : scene_file;
+    const QString label = part_view >= 0       ? QString("Part view %1").arg(part_view)
+                          : scene_file.empty() ? "Simulated demo part"
+                                               : "Simulated " + QFileInfo(QString::fromStdString(scene_file)).baseName();
+    // The layer is made before anything is written, so a failed scan leaves no capture folder either.
+    MeshModel* layer = add_scan_layer(document, label, scan, source);
+    if (!save_folder.empty()) {
+        try {
+            write_capture_set(captures, save_folder);
+            write_calibration(calibration, QDir(QString::fromStdString(save_folder)).filePath("calibration.yml").toStdString());
+        } catch (...) {
+            document.delMesh(layer);
+            throw;
+        }
+        Log("PicoScan simulated capture set (%zu frames) and calibration.yml written to %s", captures.images.size(),
+            save_folder.c_str());
+    }
+    Log("PicoScan simulated %s: %d points, %d faces", source.c_str(), scan.view.valid_count(), layer->cm.fn);
+}
+
+void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList& parameters) {
+    MeshModel& layer = *document.mm();
+    require_scan_grid(layer);
+    CleanOptions options;
+    options.min_quality = parameters.getFloat(kMinQuality);
+    options.max_grazing_deg = parameters.getFloat(kMaxGrazing);
+    options.window_px = parameters.getInt(kWindow);
+    options.outlier_sigma = parameters.getFloat(kOutlierSigma);
+    options.radius_footprints = parameters.getFloat(kRadiusFootprints);
+    options.min_neighbours = parameters.getInt(kMinNeighbours);
+    options.min_cluster_points = parameters.getInt(kMinCluster);
+    if (options.window_px < 1 || options.window_px > 10) throw Error(kWindow, "must be 1..10");
+    LayerView scan = layer_view(layer);
+    const CleanReport report = clean_view(scan.view, scan.focal_px, options);
+    const int deleted = remove_vertices_missing_from(layer, scan.view);
+    Log("PicoScan cleaned %s: removed %d points (%d low quality, %d grazing, %d outliers, %d with too few neighbours, "
+        "%d in small clusters), %d remain",
+        qUtf8Printable(layer.label()), deleted, report.by_quality, report.by_grazing, report.by_statistics,
+        report.by_radius, report.by_cluster, layer.cm.vn);
+}
+
+void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
+    RegistrationOptions options;
+    options.orb_features = parameters.getInt(kOrbFeatures);
+    options.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
+    options.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
+    options.min_overlap = parameters.getFloat(kMinOverlap);
+    if (options.orb_features < 100) throw Error(kOrbFeatures, "must be at least 100");
+    if (options.icp_max_distance_mm <= 0) throw Error(kIcpMaxDistance, "must be > 0");
+    if (options.sample_spacing_mm <= 0) throw Error(kAlignSpacing, "must be > 0");
+    std::vector<ScanView> views;
+    std::vector<std::string> names;
+    for (MeshModel* layer : layers) {
+        views.push_back(layer_view(*layer).view);
+        views.back().pose = cv::Matx44d::eye();  // camera frame in; the result is relative to the first layer
+        names.push_back(layer_name(*layer));
+    }
+    const Alignment alignment = align_views(views, names, options, std::nullopt, meshlab_progress(callback));
+    std::string failures;
+    for (const ViewAlignment& view : alignment.views)
+        if (!view.aligned) failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
+    // All or nothing: a partly aligned set would look aligned in the viewer.
+    if (!failures.empty())
+        throw Error("Align Layers", std::to_string(layers.size() - alignment.aligned_count()) + " of " +
+                                        std::to_string(layers.size()) + " layers could not be aligned, no transform "
+                                        "changed (" + failures + ")");
+    const cv::Matx44d first_layer_pose = layer_pose(*layers.front());
+    for (size_t i = 0; i < layers.size(); ++i) {
+        const ViewAlignment& view = alignment.views[i];
+        set_layer_pose(*layers[i], first_layer_pose * view.pose);
+        Log("PicoScan aligned %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(), view.rms_mm,
+            100 * view.overlap);
+    }
+    Log("PicoScan aligned %zu layers", layers.size());
+}
+
+void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
+    MeshOptions options;
+    options.method = parameters.getEnum(kMethod) == AdvancingFrontMethod ? MeshMethod::AdvancingFront : MeshMethod::Poisson;
+    options.sample_spacing_mm = parameters.getFloat(kMeshSpacing);
+    options.poisson_triangle_size = parameters.getFloat(kPoissonTriangleSize);
+    options.poisson_distance = parameters.getFloat(kPoissonDistance);
+    options.advancing_front_max_radius = parameters.getFloat(kFrontMaxRadius);
+    options.max_hole_diameter_mm = parameters.getFloat(kMaxHole);
+    options.target_faces = parameters.getInt(kTargetFaces);
+    if (options.sample_spacing_mm < 0) throw Error(kMeshSpacing, "must be >= 0");
+    if (options.poisson_triangle_size <= 0) throw Error(kPoissonTriangleSize, "must be > 0");
+    if (options.poisson_distance <= 0) throw Error(kPoissonDistance, "must be > 0");
+    if (options.advancing_front_max_radius <= 0) throw Error(kFrontMaxRadius, "must be > 0");
+    if (options.max_hole_diameter_mm < 0) throw Error(kMaxHole, "must be >= 0");
+    if (options.target_faces < 0) throw Error(kTargetFaces, "must be >= 0");
+    std::vector<ScanView> views;
+    for (MeshModel* layer : layers) views.push_back(layer_view(*layer).view);  // pose = the layer's transform
+    const PointCloud merged = merge_views(views);
+    const Mesh mesh = mesh_cloud(merged, options, meshlab_progress(callback));
+    if (mesh.faces.empty()) throw Error("Fuse and Mesh", "meshing produced no triangles");
+    const MeshCheck check = check_mesh(mesh);
+    add_filled_layer(document,
+                     options.method == MeshMethod::Poisson ? "Fused mesh (Poisson)" : "Fused mesh (advancing front)",
+                     [&](MeshModel& layer) { fill_layer(layer, mesh); });
+    Log("PicoScan fused %zu layers (%zu points) into %zu vertices, %zu faces; %s", layers.size(), merged.points.size(),
+        mesh.vertices.size(), mesh.faces.size(), check.summary().c_str());
+}
+
+void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterList& parameters) {
+    MeshModel& layer = *document.mm();
+    const bool selected_only = parameters.getBool(kSelectedOnly);
+    const std::vector<cv::Vec3f> points = layer_points(layer, parameters.getBool(kModelFrame), selected_only);
+    const std::string subject = layer.label().toStdString() + (selected_only ? " (selection)" : "");
+    if (points.empty()) throw Error(subject, selected_only ? "no vertex is selected" : "the layer has no vertices");
+    if (parameters.getEnum(kShape) == SphereShape) {
+        const SphereFit fit = fit_sphere(points);
+        Log("PicoScan sphere fit of %s: centre %.4f %.4f %.4f mm, radius %.4f mm (diameter %.4f mm), RMS %.4f mm over "
+            "%zu points",
+            subject.c_str(), fit.centre[0], fit.centre[1], fit.centre[2], fit.radius_mm, 2 * fit.radius_mm, fit.rms_mm,
+            fit.point_count);
+    } else {
+        const PlaneFit fit = fit_plane(points);
+        Log("PicoScan plane fit of %s: normal %.7f %.7f %.7f, offset %.4f mm, RMS %.4f mm over %zu points",
+            subject.c_str(), fit.normal[0], fit.normal[1], fit.normal[2], fit.offset_mm, fit.rms_mm, fit.point_count);
+    }
+}
+
+MESHLAB_PLUGIN_NAME_EXPORTER(PicoScanFilterPlugin)

@@ -1,0 +1,455 @@
+// The PicoScan MeshLab plugin, driven through the real meshlabserver under xvfb-run with
+// .mlx scripts; the saved meshes are read back with the core and checked against ground
+// truth and against the CLI.
+#include "picoscan/calibration.h"
+#include "picoscan/fit.h"
+#include "picoscan/io.h"
+#include "picoscan/mesh.h"
+#include "picoscan/register.h"
+#include "picoscan/simulate.h"
+#include "support/test_support.h"
+#include "support/turntable_scan.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <vector>
+
+using namespace picoscan;
+using test_support::make_temp_dir;
+using test_support::run_command;
+
+namespace {
+
+struct Param {
+    std::string type, name, value;
+};
+using Params = std::vector<Param>;
+
+// meshlabserver (2020.09) needs every parameter of a filter in the script, so each filter's
+// full list with its defaults is here; tests override single values.
+const Params kSimulateDefaults{
+    {"RichString", "sceneFile", ""},     {"RichInt", "partView", "-1"},         {"RichString", "calibrationFile", ""},
+    {"RichInt", "shifts", "24"},
+    {"RichInt", "periodBits", "4"},      {"RichFloat", "fullScale", "220"},     {"RichFloat", "noise", "1"},           {"RichFloat", "blur", "0.7"},
+    {"RichInt", "seed", "1"},            {"RichString", "saveCaptureFolder", ""}, {"RichBool", "binaryOnly", "false"},
+    {"RichFloat", "minContrast", "15"},  {"RichFloat", "minModulation", "4"},   {"RichEnum", "output", "0"},
+    {"RichInt", "meshStep", "1"}};
+const Params kReconstructDefaults{
+    {"RichString", "captureFolder", ""}, {"RichString", "calibrationFile", ""}, {"RichEnum", "sequence", "0"},
+    {"RichString", "manifestFile", ""},  {"RichInt", "shifts", "12"},            {"RichInt", "periods", "32"},
+    {"RichInt", "grayBits", "0"},        {"RichBool", "binaryOnly", "false"},    {"RichFloat", "minContrast", "15"},
+    {"RichFloat", "minModulation", "4"}, {"RichEnum", "output", "0"},            {"RichInt", "meshStep", "1"}};
+const Params kCleanDefaults{{"RichFloat", "minQuality", "0"},      {"RichFloat", "maxGrazingDeg", "80"},
+                            {"RichInt", "windowPx", "2"},          {"RichFloat", "outlierSigma", "4"},
+                            {"RichFloat", "radiusFootprints", "4"}, {"RichInt", "minNeighbours", "3"},
+                            {"RichInt", "minClusterPoints", "100"}};
+const Params kAlignDefaults{{"RichInt", "orbFeatures", "6000"},
+                            {"RichFloat", "icpMaxDistance", "3"},
+                            {"RichFloat", "sampleSpacing", "0.7"},
+                            {"RichFloat", "minOverlap", "0.08"}};
+const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichFloat", "sampleSpacing", "0.4"},
+                           {"RichFloat", "poissonTriangleSize", "1"}, {"RichFloat", "poissonDistance", "0.1"},
+                           {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
+                           {"RichInt", "targetFaces", "0"}};
+const Params kMeasureDefaults{
+    {"RichEnum", "shape", "0"}, {"RichBool", "selectedOnly", "false"}, {"RichBool", "modelFrame", "true"}};
+
+std::string filter(const std::string& name, Params params, const std::map<std::string, std::string>& overrides = {}) {
+    for (const auto& [key, value] : overrides) {
+        bool found = false;
+        for (Param& param : params)
+            if (param.name == key) param.value = value, found = true;
+        EXPECT_TRUE(found) << "no parameter " << key << " in " << name;
+    }
+    std::string xml = " <filter name=\"" + name + "\">\n";
+    for (const Param& param : params) {
+        xml += "  <Param type=\"" + param.type + "\" name=\"" + param.name + "\" value=\"" + param.value + "\"";
+        if (param.type == "RichEnum") xml += " enum_cardinality=\"4\"";  // required by MeshLab's parser
+        xml += "/>\n";
+    }
+    return xml + " </filter>\n";
+}
+
+std::string simulate(const std::map<std::string, std::string>& overrides) {
+    return filter("PicoScan: Simulate Scan", kSimulateDefaults, overrides);
+}
+std::string reconstruct(const std::map<std::string, std::string>& overrides) {
+    return filter("PicoScan: Reconstruct from Capture Set", kReconstructDefaults, overrides);
+}
+std::string clean() { return filter("PicoScan: Clean Scan", kCleanDefaults); }
+std::string align() { return filter("PicoScan: Align Layers", kAlignDefaults); }
+std::string fuse(const std::map<std::string, std::string>& overrides = {}) {
+    return filter("PicoScan: Fuse and Mesh", kFuseDefaults, overrides);
+}
+std::string measure(const std::string& shape) {
+    return filter("PicoScan: Measure Sphere or Plane", kMeasureDefaults, {{"shape", shape == "sphere" ? "0" : "1"}});
+}
+
+struct ServerRun {
+    int exit_code = -1;
+    std::string log;
+};
+
+// Runs meshlabserver from the private prefix on a script; `arguments` are its -i/-o options.
+ServerRun run_meshlabserver(const std::string& directory, const std::string& filters, const std::string& arguments) {
+    const std::string script = directory + "/script.mlx";
+    std::ofstream(script) << "<!DOCTYPE FilterScript>\n<FilterScript>\n" << filters << "</FilterScript>\n";
+    ServerRun run;
+    run.exit_code = run_command("cd '" + directory + "' && xvfb-run -a -s '-screen 0 1024x768x24' '" MESHLAB_TEST_PREFIX
+                                "/bin/meshlabserver' -s script.mlx " + arguments,
+                                &run.log);
+    return run;
+}
+
+std::string write_file(const std::string& path, const std::string& text) {
+    std::ofstream(path) << text;
+    return path;
+}
+
+// The numbers after `label` in a log line such as "radius 30.0012 mm".
+std::vector<double> numbers_after(const std::string& log, const std::string& label, int count) {
+    const size_t at = log.rfind(label);
+    if (at == std::string::npos) return {};
+    std::istringstream stream(log.substr(at + label.size()));
+    std::vector<double> values(count);
+    for (double& value : values)
+        if (!(stream >> value)) return {};
+    return values;
+}
+
+double max_distance(const std::vector<cv::Vec3f>& a, const std::vector<cv::Vec3f>& b) {
+    double worst = 0;
+    for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) worst = std::max(worst, double(cv::norm(a[i] - b[i])));
+    return worst;
+}
+
+const cv::Vec3d kSphereCentre{8, -5, 410};
+const double kSphereRadius = 35;
+
+}  // namespace
+
+// simulate -> (captures saved) -> reconstruct from the capture set -> clean -> measure, then
+// a grid mesh of the same captures saved as STL.
+TEST(MeshlabPlugin, SimulateReconstructCleanMeasureMatchGroundTruthAndCli) {
+    const std::string directory = make_temp_dir("meshlab_sphere");
+    const std::string scene = write_file(directory + "/sphere.yml",
+                                         "spheres:\n  - { centre: [8, -5, 410], radius_mm: 35 }\n");
+    const std::string captures = directory + "/captures";
+    const std::string filters =
+        simulate({{"sceneFile", scene}, {"shifts", "4"}, {"saveCaptureFolder", captures}}) +
+        reconstruct({{"captureFolder", captures}, {"calibrationFile", captures + "/calibration.yml"}}) + clean() +
+        measure("sphere") +
+        reconstruct({{"captureFolder", captures}, {"calibrationFile", captures + "/calibration.yml"}, {"output", "1"},
+                     {"meshStep", "2"}});
+    const ServerRun run = run_meshlabserver(
+        directory, filters, "-o simulated.ply -l 0 -m vc vn vq -o cleaned.ply -l 1 -m vc vn vq -o grid.stl -l 2");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+
+    // The plugin's simulated layer is the CLI's reconstruction of the saved captures, point for point.
+    std::string cli_log;
+    ASSERT_EQ(run_command(test_support::cli_path() + " reconstruct --calibration " + captures + "/calibration.yml --captures " +
+                              captures + " --out " + directory + "/cli.ply --mesh " + directory + "/cli.stl --mesh-step 2",
+                          &cli_log),
+              0)
+        << cli_log;
+    const Mesh simulated = read_ply(directory + "/simulated.ply");
+    const Mesh cli = read_ply(directory + "/cli.ply");
+    ASSERT_GT(cli.vertices.size(), 100000u);
+    ASSERT_EQ(simulated.vertices.size(), cli.vertices.size());
+    EXPECT_LT(max_distance(simulated.vertices, cli.vertices), 1e-4);
+
+    // Cleaning removed what the log says, and the sphere is the scene's sphere.
+    const Mesh cleaned = read_ply(directory + "/cleaned.ply");
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    EXPECT_EQ(cleaned.vertices.size() + size_t(removed[0]), cli.vertices.size());
+    EXPECT_LT(removed[0], 0.05 * cli.vertices.size());
+    const SphereFit fit = fit_sphere(cleaned.vertices);
+    std::printf("sphere: %zu points, %zu after cleaning; radius %.4f mm (truth %.1f), centre error %.4f mm, RMS %.4f mm\n",
+                cli.vertices.size(), cleaned.vertices.size(), fit.radius_mm, kSphereRadius,
+                cv::norm(fit.centre - kSphereCentre), fit.rms_mm);
+    EXPECT_NEAR(fit.radius_mm, kSphereRadius, 0.05);
+    EXPECT_LT(cv::norm(fit.centre - kSphereCentre), 0.1);
+    EXPECT_LT(fit.rms_mm, 0.05);
+    // Measure logged the same fit.
+    const std::vector<double> logged_radius = numbers_after(run.log, "radius", 1);
+    ASSERT_EQ(logged_radius.size(), 1u) << run.log;
+    EXPECT_NEAR(logged_radius[0], fit.radius_mm, 1e-3);
+
+    // The grid mesh layer, saved by MeshLab as STL, has the CLI's triangles.
+    const Mesh grid = read_stl(directory + "/grid.stl");
+    const Mesh cli_grid = read_stl(directory + "/cli.stl");
+    ASSERT_GT(cli_grid.faces.size(), 50000u);
+    EXPECT_EQ(grid.faces.size(), cli_grid.faces.size());
+    EXPECT_EQ(grid.vertices.size(), cli_grid.vertices.size());
+}
+
+TEST(MeshlabPlugin, MeasurePlaneOfSimulatedPlate) {
+    const std::string directory = make_temp_dir("meshlab_plane");
+    // A plate tilted 20 degrees about the camera's y axis.
+    const double angle = 20 * CV_PI / 180;
+    const cv::Vec3d normal(std::sin(angle), 0, -std::cos(angle));
+    char text[200];
+    std::snprintf(text, sizeof text, "planes:\n  - { point: [0, 0, 420], normal: [%.9f, 0, %.9f] }\n", normal[0], normal[2]);
+    const std::string scene = write_file(directory + "/plate.yml", text);
+    const ServerRun run = run_meshlabserver(directory, simulate({{"sceneFile", scene}, {"shifts", "4"}}) + measure("plane"),
+                                            "-o plate.ply");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    // Ground truth for the saved points: their distances to the scene's plane.
+    const Mesh plate = read_ply(directory + "/plate.ply");
+    ASSERT_GT(plate.vertices.size(), 1000000u);
+    double sum_squares = 0, x_min = 1e9, x_max = -1e9;
+    for (const cv::Vec3f& p : plate.vertices) {
+        const double distance = (cv::Vec3d(p) - cv::Vec3d(0, 0, 420)).dot(normal);
+        sum_squares += distance * distance;
+        x_min = std::min(x_min, double(p[0])), x_max = std::max(x_max, double(p[0]));
+    }
+    const double truth_rms = std::sqrt(sum_squares / plate.vertices.size());
+    std::printf("plate: %zu points, x %.1f..%.1f mm, RMS distance to the true plane %.4f mm\n", plate.vertices.size(),
+                x_min, x_max, truth_rms);
+    EXPECT_LT(truth_rms, 0.05);
+    EXPECT_GT(x_max - x_min, 200);
+    const std::vector<double> fitted = numbers_after(run.log, "normal", 3);
+    const std::vector<double> rms = numbers_after(run.log, "RMS", 1);
+    ASSERT_EQ(fitted.size(), 3u) << run.log;
+    ASSERT_EQ(rms.size(), 1u) << run.log;
+    // atan2 of |cross| and dot: acos loses precision near 0 degrees.
+    const cv::Vec3d measured(fitted[0], fitted[1], fitted[2]);
+    const double angle_error_deg =
+        std::atan2(cv::norm(measured.cross(normal)), std::abs(measured.dot(normal))) * 180 / CV_PI;
+    std::printf("plate: normal error %.4f deg, RMS %.4f mm\n", angle_error_deg, rms[0]);
+    EXPECT_LT(angle_error_deg, 0.01);
+    EXPECT_LT(rms[0], 0.05);
+}
+
+TEST(MeshlabPlugin, ClearErrorsForMissingFolderWrongCalibrationAndPlainLayers) {
+    const std::string directory = make_temp_dir("meshlab_errors");
+    const std::string captures = directory + "/captures";
+    // A capture set and its calibration, plus a calibration for another camera size.
+    ServerRun run = run_meshlabserver(directory, simulate({{"shifts", "3"}, {"saveCaptureFolder", captures}}), "");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    Calibration other = seed_rig_calibration();
+    other.camera_size = {800, 600};
+    const std::string wrong_calibration = directory + "/other.yml";
+    write_calibration(other, wrong_calibration);
+
+    run = run_meshlabserver(directory, reconstruct({{"captureFolder", directory + "/missing"},
+                                                    {"calibrationFile", captures + "/calibration.yml"}}),
+                            "-o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find(directory + "/missing: capture folder not found"), std::string::npos) << run.log;
+
+    run = run_meshlabserver(directory, reconstruct({{"captureFolder", captures}, {"calibrationFile", wrong_calibration}}),
+                            "-o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find(wrong_calibration + ": camera_size 800x600 differs from the captures' 1600x1200"),
+              std::string::npos)
+        << run.log;
+
+    // Simulate refuses to write captures into a folder that holds files, before any work.
+    run = run_meshlabserver(directory, simulate({{"shifts", "3"}, {"saveCaptureFolder", captures}}), "-o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find(captures + ": output folder exists and is not empty"), std::string::npos) << run.log;
+
+    // A layer read from a plain PLY has no pixel grid: Clean says so and changes nothing.
+    Mesh plain;
+    plain.vertices = {{0, 0, 400}, {1, 0, 400}, {0, 1, 400}, {1, 1, 401}};
+    write_ply(plain, directory + "/plain.ply");
+    run = run_meshlabserver(directory, clean(), "-i plain.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("this layer has no camera pixel grid"), std::string::npos) << run.log;
+    EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
+}
+
+namespace {
+
+// The layers MeshLab saved in a project (.mlp), in layer order: mesh file and transform.
+struct ProjectLayer {
+    std::string file;
+    cv::Matx44d transform;
+};
+std::vector<ProjectLayer> read_project(const std::string& path) {
+    std::ifstream stream(path);
+    const std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+    const std::string folder = path.substr(0, path.rfind('/') + 1);
+    std::vector<ProjectLayer> layers;
+    for (size_t at = text.find("<MLMesh "); at != std::string::npos; at = text.find("<MLMesh ", at + 1)) {
+        ProjectLayer layer;
+        const size_t name = text.find("filename=\"", at) + 10;
+        const std::string file = text.substr(name, text.find('"', name) - name);
+        layer.file = file.front() == '/' ? file : folder + file;
+        std::istringstream numbers(text.substr(text.find("<MLMatrix44>", at) + 12));
+        for (int i = 0; i < 16; ++i) numbers >> layer.transform.val[i];
+        layers.push_back(layer);
+    }
+    return layers;
+}
+
+// Edges counted on the file as saved: a closed 2-manifold has every edge in exactly two faces.
+struct EdgeCount {
+    size_t edges = 0, border = 0, non_manifold = 0;
+};
+EdgeCount count_edges(const Mesh& mesh) {
+    std::map<std::pair<int, int>, int> uses;
+    for (const cv::Vec3i& face : mesh.faces)
+        for (int k = 0; k < 3; ++k) ++uses[std::minmax(face[k], face[(k + 1) % 3])];
+    EdgeCount count;
+    count.edges = uses.size();
+    for (const auto& [edge, faces] : uses) count.border += faces == 1, count.non_manifold += faces > 2;
+    return count;
+}
+
+cv::Matx44d inverse_rigid(const cv::Matx44d& t) {
+    const cv::Matx33d r = t.get_minor<3, 3>(0, 0).t();
+    const cv::Vec3d shift = -(r * cv::Vec3d(t(0, 3), t(1, 3), t(2, 3)));
+    cv::Matx44d inverse = cv::Matx44d::eye();
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) inverse(i, j) = r(i, j);
+        inverse(i, 3) = shift[i];
+    }
+    return inverse;
+}
+
+}  // namespace
+
+// Nine turntable views of the mechanical part -> Align Layers -> Fuse and Mesh (Poisson), saved
+// as a project (the transforms) and the fused layer as PLY and STL.
+TEST(MeshlabPlugin, AlignAndFuseTurntableViewsIntoWatertightPart) {
+    const std::string directory = make_temp_dir("meshlab_turntable");
+    const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
+    std::string filters;
+    for (size_t i = 0; i < part_to_camera.size(); ++i)
+        filters += simulate({{"partView", std::to_string(i)}, {"shifts", "16"}, {"fullScale", "250"},
+                             {"minModulation", "15"}, {"blur", "0.5"}}) +
+                   clean();
+    filters += align() + fuse();
+    const std::string fused_layer = std::to_string(part_to_camera.size());
+    const ServerRun run = run_meshlabserver(directory, filters,
+                                            "-w project.mlp -o fused.ply -l " + fused_layer + " -o fused.stl -l " + fused_layer);
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+
+    // Each layer's transform is its true pose relative to the first view.
+    const std::vector<ProjectLayer> layers = read_project(directory + "/project.mlp");
+    ASSERT_EQ(layers.size(), part_to_camera.size() + 1) << run.log;
+    double worst_rotation = 0, worst_translation = 0;
+    for (size_t i = 0; i < part_to_camera.size(); ++i) {
+        const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[i]);
+        // Measured at the part's middle (part frame z = 16 mm), in view i's coordinates.
+        const cv::Vec4d middle = part_to_camera[i] * cv::Vec4d(0, 0, 16, 1);
+        const PoseDifference error = pose_difference(truth, layers[i].transform, cv::Vec3d(middle[0], middle[1], middle[2]));
+        worst_rotation = std::max(worst_rotation, error.rotation_deg);
+        worst_translation = std::max(worst_translation, error.translation_mm);
+    }
+    const std::vector<double> residuals = numbers_after(run.log, "residual", 1);
+    ASSERT_EQ(residuals.size(), 1u) << run.log;
+    std::printf("alignment of %zu views: worst pose error %.3f deg, %.3f mm; last layer's residual %.4f mm\n",
+                part_to_camera.size(), worst_rotation, worst_translation, residuals[0]);
+    EXPECT_LT(residuals[0], 0.1);
+    EXPECT_LT(worst_rotation, 0.15);
+    EXPECT_LT(worst_translation, 0.1);
+    EXPECT_NE(run.log.find("PicoScan aligned " + std::to_string(part_to_camera.size()) + " layers"), std::string::npos);
+
+    // The fused mesh, as MeshLab saved it: closed, and on the true part.
+    for (const std::string file : {"fused.ply", "fused.stl"}) {
+        const Mesh fused = read_mesh(directory + "/" + file);
+        const EdgeCount edges = count_edges(fused);
+        std::printf("%s: %zu vertices, %zu faces, %zu edges, %zu border, %zu non-manifold\n", file.c_str(),
+                    fused.vertices.size(), fused.faces.size(), edges.edges, edges.border, edges.non_manifold);
+        EXPECT_GT(fused.faces.size(), 5000u) << file;
+        EXPECT_EQ(edges.border, 0u) << file;
+        EXPECT_EQ(edges.non_manifold, 0u) << file;
+        EXPECT_EQ(2 * edges.edges, 3 * fused.faces.size()) << file;
+    }
+    // The part's bottom face stood on the turntable and was never seen; Poisson closes it with a
+    // smooth cap. Only vertices with measured points nearby (the saved layers through their saved
+    // transforms) are judged against the true part.
+    const Mesh fused = read_ply(directory + "/fused.ply");
+    const MeshCheck check = check_mesh(fused);
+    std::printf("core check of fused.ply: %s\n", check.summary().c_str());
+    EXPECT_EQ(check.components, 1u);
+    Mesh data;  // measured points as degenerate triangles, for the distance grid
+    for (size_t i = 0; i < part_to_camera.size(); ++i) {
+        const Mesh view = read_ply(layers[i].file);
+        for (size_t k = 0; k < view.vertices.size(); k += 3) {
+            const cv::Vec4d p = layers[i].transform * cv::Vec4d(view.vertices[k][0], view.vertices[k][1], view.vertices[k][2], 1);
+            data.vertices.emplace_back(float(p[0]), float(p[1]), float(p[2]));
+            const int index = int(data.vertices.size()) - 1;
+            data.faces.emplace_back(index, index, index);
+        }
+    }
+    const test_support::MeshDistance distance_to_data(data, 1.0);
+    const Mesh truth = transformed(mechanical_part(), part_to_camera[0]);
+    const test_support::MeshDistance distance_to_part(truth, 5.0);
+    std::vector<double> distances;
+    for (const cv::Vec3f& vertex : fused.vertices)
+        if (distance_to_data(cv::Vec3d(vertex)) <= 0.5) distances.push_back(distance_to_part(cv::Vec3d(vertex)));
+    ASSERT_GT(distances.size(), fused.vertices.size() / 2);
+    std::sort(distances.begin(), distances.end());
+    double mean = 0;
+    for (double distance : distances) mean += distance / double(distances.size());
+    const double p95 = distances[distances.size() * 95 / 100];
+    std::printf("fused mesh vs true part over the %zu of %zu vertices near measured points: mean %.4f mm, p95 %.4f mm, "
+                "max %.4f mm\n",
+                distances.size(), fused.vertices.size(), mean, p95, distances.back());
+    EXPECT_LT(mean, 0.025);
+    EXPECT_LT(p95, 0.07);
+}
+
+// Align refuses plain layers, naming them.
+TEST(MeshlabPlugin, AlignNeedsPicoScanLayers) {
+    const std::string directory = make_temp_dir("meshlab_align_plain");
+    Mesh plain;
+    plain.vertices = {{0, 0, 400}, {1, 0, 400}, {0, 1, 400}, {1, 1, 401}};
+    write_ply(plain, directory + "/plain.ply");
+    const ServerRun run = run_meshlabserver(directory, simulate({{"shifts", "3"}}) + align(), "-i plain.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("plain.ply: this layer has no camera pixel grid"), std::string::npos) << run.log;
+}
+
+// Front and back of the part do not overlap: Align fails, names the layer and changes nothing.
+TEST(MeshlabPlugin, AlignReportsLayersThatCannotBeAligned) {
+    const std::string directory = make_temp_dir("meshlab_align_apart");
+    const ServerRun run = run_meshlabserver(
+        directory,
+        simulate({{"partView", "0"}, {"shifts", "8"}, {"fullScale", "250"}, {"minModulation", "15"}}) +
+            simulate({{"partView", "4"}, {"shifts", "8"}, {"fullScale", "250"}, {"minModulation", "15"}}) + align(),
+        "-o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("Align Layers: 1 of 2 layers could not be aligned, no transform changed (Part view 4: "),
+              std::string::npos)
+        << run.log;
+}
+
+// The real SLMaster monocular set reconstructs through the plugin to the CLI's cloud.
+TEST(MeshlabPlugin, RealSlmasterSetMatchesCli) {
+    PICOSCAN_REQUIRE_DATASETS();
+    const std::string root = test_support::datasets_dir() + "/slmaster-sinuscgc/monocularCamera";
+    const std::string directory = make_temp_dir("meshlab_slmaster");
+    const ServerRun run = run_meshlabserver(
+        directory,
+        reconstruct({{"captureFolder", root + "/L"}, {"calibrationFile", root + "/caliInfo.yml"}, {"sequence", "1"}}),
+        "-o plugin.ply -m vc vn vq");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    std::string cli_log;
+    const std::string cli = test_support::cli_path();
+    ASSERT_EQ(run_command(cli + " manifest --preset slmaster-cgc --projector 1920x1080 --out " + directory +
+                              "/sequence.json && " + cli + " reconstruct --calibration " + root +
+                              "/caliInfo.yml --captures " + root + "/L --manifest " + directory + "/sequence.json --out " +
+                              directory + "/cli.ply",
+                          &cli_log),
+              0)
+        << cli_log;
+    const Mesh plugin = read_ply(directory + "/plugin.ply");
+    const Mesh reference = read_ply(directory + "/cli.ply");
+    std::printf("SLMaster through MeshLab: %zu points, CLI %zu points, max distance %.2g mm\n", plugin.vertices.size(),
+                reference.vertices.size(), max_distance(plugin.vertices, reference.vertices));
+    ASSERT_GT(reference.vertices.size(), 180000u);
+    ASSERT_EQ(plugin.vertices.size(), reference.vertices.size());
+    EXPECT_LT(max_distance(plugin.vertices, reference.vertices), 1e-4);
+    ASSERT_EQ(plugin.colours.size(), reference.colours.size());
+    EXPECT_TRUE(plugin.colours == reference.colours);
+}
