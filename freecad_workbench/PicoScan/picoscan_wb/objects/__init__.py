@@ -2,6 +2,25 @@
 view of a scan) are kept in memory and recomputed on demand after a document is reopened."""
 
 
+class DocumentObjectProxy:
+    """What every PicoScan proxy shares: its Type, kept across save and reopen."""
+
+    TYPE = ""
+
+    def __init__(self, obj):
+        obj.Proxy = self
+        self.Type = self.TYPE
+
+    def onDocumentRestored(self, obj):
+        self.Type = self.TYPE
+
+    def __getstate__(self):
+        return {"Type": self.Type}
+
+    def __setstate__(self, state):
+        self.Type = state.get("Type", self.TYPE)
+
+
 def proxy_type(obj):
     return getattr(getattr(obj, "Proxy", None), "Type", "")
 

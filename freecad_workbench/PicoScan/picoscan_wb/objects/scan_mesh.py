@@ -8,7 +8,7 @@ import FreeCAD
 import Mesh
 
 import picoscan
-from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch
+from picoscan_wb.objects import DocumentObjectProxy, cloud_of, is_scan_view, is_stitch
 from picoscan_wb.operations.reconstruct import camera_focal_px
 from picoscan_wb.progress import FreeCADProgress
 
@@ -24,10 +24,11 @@ def freecad_mesh(mesh):
         return Mesh.Mesh(path)
 
 
-class ScanMesh:
+class ScanMesh(DocumentObjectProxy):
+    TYPE = TYPE
+
     def __init__(self, obj):
-        obj.Proxy = self
-        self.Type = TYPE
+        super().__init__(obj)
         obj.addProperty("App::PropertyLink", "Source", "Mesh", "The ScanView or Stitch to mesh")
         obj.addProperty("App::PropertyEnumeration", "Method", "Mesh", "Meshing method")
         obj.addProperty("App::PropertyInteger", "PixelStep", "Grid", "Join every n-th pixel (n*n fewer triangles)")
@@ -76,15 +77,6 @@ class ScanMesh:
         with FreeCADProgress("Meshing " + obj.Label) as progress:
             mesh = picoscan.mesh_cloud(cloud_of(obj.Source), options, progress)
         return freecad_mesh(mesh), picoscan.check_mesh(mesh).summary()
-
-    def onDocumentRestored(self, obj):
-        self.Type = TYPE
-
-    def __getstate__(self):
-        return {"Type": self.Type}
-
-    def __setstate__(self, state):
-        self.Type = state.get("Type", TYPE)
 
 
 def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spacing_mm=None, target_faces=None):

@@ -3,6 +3,7 @@ import FreeCAD
 import Points
 
 import picoscan
+from picoscan_wb.objects import DocumentObjectProxy
 from picoscan_wb.operations.reconstruct import reconstruct
 from picoscan_wb.progress import FreeCADProgress
 
@@ -32,10 +33,11 @@ def points_of(cloud):
     return result
 
 
-class ScanView:
+class ScanView(DocumentObjectProxy):
+    TYPE = TYPE
+
     def __init__(self, obj):
-        obj.Proxy = self
-        self.Type = TYPE
+        super().__init__(obj)
         group = "Scan"
         obj.addProperty("App::PropertyPath", "CaptureFolder", group, "Folder of the capture set (images + sequence.json)")
         obj.addProperty("App::PropertyFile", "CalibrationFile", group, "Camera-projector calibration (.yml)")
@@ -78,15 +80,6 @@ class ScanView:
             self.execute(obj)
             cached = _views[_key(obj)]
         return cached[1], cached[2]
-
-    def onDocumentRestored(self, obj):
-        self.Type = TYPE
-
-    def __getstate__(self):
-        return {"Type": self.Type}
-
-    def __setstate__(self, state):
-        self.Type = state.get("Type", TYPE)
 
 
 def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file=""):

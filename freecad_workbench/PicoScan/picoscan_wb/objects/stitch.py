@@ -5,7 +5,7 @@ import numpy
 import FreeCAD
 
 import picoscan
-from picoscan_wb.objects import is_scan_view
+from picoscan_wb.objects import DocumentObjectProxy, is_scan_view
 from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
 from picoscan_wb.progress import FreeCADProgress
 
@@ -29,10 +29,11 @@ def _placement(pose):
     return FreeCAD.Placement(matrix)
 
 
-class Stitch:
+class Stitch(DocumentObjectProxy):
+    TYPE = TYPE
+
     def __init__(self, obj):
-        obj.Proxy = self
-        self.Type = TYPE
+        super().__init__(obj)
         obj.addProperty("App::PropertyLinkList", "Views", "Stitch", "ScanViews to register; the first defines the model frame")
         obj.addProperty("App::PropertyFloat", "IcpMaxDistance", "Registration", "Point pairs farther apart than this (mm) are never used")
         obj.addProperty("App::PropertyFloat", "MinOverlap", "Registration", "Share of a view's points that must have a partner")
@@ -76,15 +77,6 @@ class Stitch:
             self.execute(obj)
             cached = _clouds[_key(obj)]
         return cached[1]
-
-    def onDocumentRestored(self, obj):
-        self.Type = TYPE
-
-    def __getstate__(self):
-        return {"Type": self.Type}
-
-    def __setstate__(self, state):
-        self.Type = state.get("Type", TYPE)
 
 
 def create(doc, views, name="Stitch"):
