@@ -112,6 +112,79 @@ TEST(Mesh, FusedPoissonMeshIsWatertightAndMatchesThePart) {
     EXPECT_LE(p95, 0.060);
 }
 
+namespace {
+
+struct Spread { double mean = 0, p95 = 0, max = 0; };
+Spread spread_of(std::vector<double> values) {
+    Spread out;
+    if (values.empty()) return out;
+    std::sort(values.begin(), values.end());
+    for (double v : values) out.mean += v;
+    out.mean /= static_cast<double>(values.size());
+    out.p95 = values[values.size() * 95 / 100];
+    out.max = values.back();
+    return out;
+}
+
+// The mechanical part's volume, from its shape: block - chamfer - hole + boss above the top.
+double true_volume_mm3(const MechanicalPartShape& shape) {
+    const double block = shape.length_mm * shape.width_mm * shape.height_mm;
+    const double chamfer = shape.chamfer_mm * shape.chamfer_mm / 2 * shape.height_mm;
+    const double hole = CV_PI * std::pow(shape.hole_diameter_mm / 2, 2) * shape.height_mm;
+    const double boss = CV_PI * std::pow(shape.boss_diameter_mm / 2, 2) * shape.boss_height_mm;
+    return block - chamfer - hole + boss;
+}
+
+}  // namespace
+
+// The whole true surface, not only where it was measured: the face the part stands on was
+// never seen, so a single placement's Poisson mesh invents it. The mesh must say so.
+TEST(Mesh, WholeSurfaceIsMeasuredAndFilledSurfaceIsDeclared) {
+    const FusedPart& fused = fused_part();
+    const MeshCheck check = check_mesh(fused.mesh);
+    const MechanicalPartShape shape;
+    const double truth_volume = true_volume_mm3(shape);
+    ASSERT_EQ(fused.mesh.measured.size(), fused.mesh.vertices.size());
+    // Truth -> mesh: every vertex of the finely tessellated part that lies on its outer
+    // surface (not the boss's foot sunk into the block, nor the top face under the boss).
+    const test_support::TurntableScan& scan = test_support::disturbed_turntable_scan();
+    const test_support::MeshDistance distance_to_mesh(fused.mesh, 5.0);
+    std::vector<double> truth_to_mesh;
+    for (const cv::Vec3f& v : scan.part.vertices) {
+        const cv::Vec2d from_boss = cv::Vec2d(v[0], v[1]) - shape.boss_centre_mm;
+        const bool under_boss = cv::norm(from_boss) < shape.boss_diameter_mm / 2 - 0.01 && v[2] <= shape.height_mm + 1e-3;
+        const bool boss_foot = std::abs(cv::norm(from_boss) - shape.boss_diameter_mm / 2) < 0.01 && v[2] < shape.height_mm - 1e-3;
+        if (under_boss || boss_foot) continue;
+        const cv::Vec4d p = fused.part_to_model * cv::Vec4d(v[0], v[1], v[2], 1);
+        truth_to_mesh.push_back(distance_to_mesh(cv::Vec3d(p[0], p[1], p[2])));
+    }
+    // Mesh -> truth over every vertex, and over the filled ones alone.
+    const Mesh truth = transformed(scan.part, fused.part_to_model);
+    const test_support::MeshDistance distance_to_truth(truth, 5.0);
+    std::vector<double> all, filled;
+    for (size_t v = 0; v < fused.mesh.vertices.size(); ++v) {
+        const double d = distance_to_truth(cv::Vec3d(fused.mesh.vertices[v]));
+        all.push_back(d);
+        if (!fused.mesh.measured[v]) filled.push_back(d);
+    }
+    const Spread t2m = spread_of(truth_to_mesh), m2t = spread_of(all), invented = spread_of(filled);
+    std::printf("one placement, Poisson: %s\n", check.summary().c_str());
+    std::printf("volume %.1f mm^3, true %.1f mm^3 (%+.2f %%)\n", check.volume_mm3, truth_volume,
+                100 * (check.volume_mm3 / truth_volume - 1));
+    std::printf("truth -> mesh over %zu points of the whole true surface: mean %.1f um, p95 %.1f um, max %.1f um\n",
+                truth_to_mesh.size(), 1000 * t2m.mean, 1000 * t2m.p95, 1000 * t2m.max);
+    std::printf("mesh -> truth over all %zu vertices: mean %.1f um, p95 %.1f um, max %.1f um; over the %zu filled ones: "
+                "mean %.1f um, max %.1f um\n",
+                all.size(), 1000 * m2t.mean, 1000 * m2t.p95, 1000 * m2t.max, filled.size(), 1000 * invented.mean,
+                1000 * invented.max);
+    // The bottom (50 x 36 mm of about 9 000 mm^2) was never seen: the mesh must declare it.
+    EXPECT_GT(check.filled_fraction, 0.10);
+    EXPECT_LT(check.filled_fraction, 0.40);
+    EXPECT_NE(check.summary().find("WARNING"), std::string::npos);
+    // The filled vertices are where the surface strays: the measured ones stay close.
+    EXPECT_GT(invented.mean, 0.05);
+}
+
 TEST(Mesh, HoleDiameterIsRecovered) {
     const FusedPart& fused = fused_part();
     const MechanicalPartShape shape;

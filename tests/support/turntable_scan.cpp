@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <cstdio>
 
 namespace picoscan::test_support {
@@ -19,7 +20,8 @@ namespace {
 ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t noise_seed) {
     const Calibration rig = seed_rig_calibration();
     Scene scene;
-    scene.meshes.push_back({transformed(part, part_to_camera), 0.85});
+    // A painted part is white with dark speckles; a plain one is uniform grey plastic.
+    scene.meshes.push_back({transformed(part, part_to_camera), part.colours.empty() ? 0.6 : 0.85});
     PatternOptions patterns;
     patterns.projector_size = rig.projector_size;
     patterns.shifts = 16;
@@ -36,12 +38,9 @@ ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t
     return view;
 }
 
-TurntableScan make_scan(const std::string& name, double disturbance_deg, double disturbance_mm) {
+TurntableScan make_scan(const std::string& name, const Mesh& part, const TurntablePlan& plan) {
     TurntableScan scan;
-    scan.part = mechanical_part();
-    TurntablePlan plan;
-    plan.max_disturbance_deg = disturbance_deg;
-    plan.max_disturbance_mm = disturbance_mm;
+    scan.part = part;
     scan.part_to_camera = turntable_part_poses(plan);
     const std::filesystem::path cache = std::filesystem::path(PICOSCAN_TEST_CACHE_DIR) / name;
     std::filesystem::create_directories(cache);
@@ -70,13 +69,113 @@ cv::Vec3d TurntableScan::centroid(size_t view) const {
 
 // The cache key names everything that shapes the scan; change it when any of that changes.
 const TurntableScan& disturbed_turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v2-disturbed", 10, 20);
+    TurntablePlan plan;
+    plan.max_disturbance_deg = 10;
+    plan.max_disturbance_mm = 20;
+    static const TurntableScan scan = make_scan("turntable-v2-disturbed", mechanical_part(), plan);
     return scan;
 }
 
 const TurntableScan& turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v2-exact", 0, 0);
+    static const TurntableScan scan = make_scan("turntable-v2-exact", mechanical_part(), TurntablePlan{});
     return scan;
+}
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A straight prism over a convex outline (counter-clockwise seen from +z), from z0 to z1,
+// appended to `mesh`. Faces do not share vertices, so each stays flat and sharp.
+void add_prism(Mesh& mesh, const std::vector<cv::Vec2d>& outline, double z0, double z1) {
+    auto triangle = [&](const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+        const int first = static_cast<int>(mesh.vertices.size());
+        mesh.vertices.emplace_back(a);
+        mesh.vertices.emplace_back(b);
+        mesh.vertices.emplace_back(c);
+        mesh.faces.emplace_back(first, first + 1, first + 2);
+    };
+    cv::Vec2d centre(0, 0);
+    for (const cv::Vec2d& p : outline) centre += p;
+    centre *= 1.0 / static_cast<double>(outline.size());
+    for (size_t k = 0; k < outline.size(); ++k) {
+        const cv::Vec2d a = outline[k], b = outline[(k + 1) % outline.size()];
+        triangle({a[0], a[1], z0}, {b[0], b[1], z0}, {b[0], b[1], z1});  // side, facing out
+        triangle({a[0], a[1], z0}, {b[0], b[1], z1}, {a[0], a[1], z1});
+        triangle({centre[0], centre[1], z1}, {a[0], a[1], z1}, {b[0], b[1], z1});  // top, facing +z
+        triangle({centre[0], centre[1], z0}, {b[0], b[1], z0}, {a[0], a[1], z0});  // bottom, facing -z
+    }
+}
+
+std::vector<cv::Vec2d> rectangle(double x0, double y0, double x1, double y1) { return {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}; }
+
+std::vector<cv::Vec2d> regular_polygon(const cv::Vec2d& centre, double radius_mm, int corners, double first_deg = 0) {
+    std::vector<cv::Vec2d> outline;
+    for (int k = 0; k < corners; ++k) {
+        const double a = (first_deg + 360.0 * k / corners) * kPi / 180;
+        outline.push_back(centre + radius_mm * cv::Vec2d(std::cos(a), std::sin(a)));
+    }
+    return outline;
+}
+
+Mesh plain_part_mesh(PlainPart part) {
+    Mesh mesh;
+    switch (part) {
+    case PlainPart::GreyMechanical:
+        mesh = mechanical_part();
+        mesh.colours.clear();
+        break;
+    case PlainPart::SteppedBlock:  // an L profile: a 46 x 30 x 12 slab with a 20 mm step on one end
+        add_prism(mesh, rectangle(-23, -15, 23, 15), 0, 12);
+        add_prism(mesh, rectangle(3, -15, 23, 15), 12, 26);
+        break;
+    case PlainPart::FlattedShaft: {  // a 34 mm round with a flat 4 mm deep on one side: nearly symmetric
+        const double radius = 17, flat_x = 13, start = std::acos(flat_x / radius);
+        std::vector<cv::Vec2d> outline;
+        const int segments = 110;
+        for (int k = 0; k <= segments; ++k) {
+            const double a = start + (2 * kPi - 2 * start) * k / segments;
+            outline.push_back(radius * cv::Vec2d(std::cos(a), std::sin(a)));
+        }
+        add_prism(mesh, outline, 0, 30);
+        break;
+    }
+    case PlainPart::HexWithPeg:  // a hexagonal prism (60 degree symmetry) with a small peg off centre
+        add_prism(mesh, regular_polygon({0, 0}, 20, 6), 0, 18);
+        add_prism(mesh, regular_polygon({8, 3}, 3.5, 32), 18, 24);
+        break;
+    case PlainPart::Block:  // a plain 40 x 28 x 18 block: symmetric by a half turn
+        add_prism(mesh, rectangle(-20, -14, 20, 14), 0, 18);
+        break;
+    }
+    return mesh;
+}
+
+}  // namespace
+
+std::string plain_part_name(PlainPart part) {
+    switch (part) {
+    case PlainPart::GreyMechanical: return "grey-mechanical";
+    case PlainPart::SteppedBlock: return "stepped-block";
+    case PlainPart::FlattedShaft: return "flatted-shaft";
+    case PlainPart::HexWithPeg: return "hex-with-peg";
+    case PlainPart::Block: return "block";
+    }
+    return "unknown";
+}
+
+const TurntableScan& plain_turntable_scan(PlainPart part) {
+    static std::map<PlainPart, TurntableScan> scans;
+    const auto found = scans.find(part);
+    if (found != scans.end()) return found->second;
+    TurntablePlan plan;
+    plan.top_view = false;
+    const Mesh mesh = plain_part_mesh(part);
+    // The part's middle at the rig's working point.
+    double top = 0;
+    for (const cv::Vec3f& v : mesh.vertices) top = std::max(top, static_cast<double>(v[2]));
+    plan.part_middle_height_mm = top / 2;
+    return scans.emplace(part, make_scan("plain-v1-" + plain_part_name(part), mesh, plan)).first->second;
 }
 
 namespace {

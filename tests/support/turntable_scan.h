@@ -26,6 +26,15 @@ const TurntableScan& disturbed_turntable_scan();
 // Exact turntable steps of 45 degrees.
 const TurntableScan& turntable_scan();
 
+// Plain parts (uniform grey, no paint) of several shapes, some nearly symmetric, for
+// registration that must be right or refuse. Each: 8 views 45 degrees apart on an exact
+// turntable at 25 degrees elevation, independent camera noise per view.
+enum class PlainPart { GreyMechanical, SteppedBlock, FlattedShaft, HexWithPeg, Block };
+constexpr PlainPart kPlainParts[] = {PlainPart::GreyMechanical, PlainPart::SteppedBlock, PlainPart::FlattedShaft,
+                                     PlainPart::HexWithPeg, PlainPart::Block};
+std::string plain_part_name(PlainPart part);
+const TurntableScan& plain_turntable_scan(PlainPart part);
+
 // Distances (mm) from points to the nearest triangle of a finely tessellated mesh; points
 // farther than `reach_mm` from every triangle get reach_mm.
 class MeshDistance {

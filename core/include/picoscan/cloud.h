@@ -29,6 +29,9 @@ struct Mesh {
     std::vector<cv::Vec3i> faces;    // counter-clockwise seen from outside (or from the camera)
     std::vector<cv::Vec3f> normals;  // empty or one per vertex
     std::vector<cv::Vec3b> colours;  // empty or one per vertex, RGB
+    // Empty, or one per vertex: 1 where measured points support the surface, 0 where it was
+    // filled in (a closed-over gap, a cap): what the scanner did not see.
+    std::vector<uint8_t> measured;
 };
 
 // The valid points of a view, transformed by its pose.

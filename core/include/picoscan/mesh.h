@@ -37,6 +37,10 @@ struct MeshCheck {
     bool watertight() const { return faces > 0 && border_edges == 0 && non_manifold_edges == 0 && non_manifold_vertices == 0; }
     bool closed_volume = false;         // watertight and without self-intersections: printable
     double volume_mm3 = 0;              // enclosed volume when closed
+    // Share of the surface area (0..1) not measured but filled in (Mesh::measured); negative
+    // when the mesh does not say. A closed mesh with much of it encloses guessed volume.
+    double filled_fraction = -1;
+    static constexpr double kLargeFilledFraction = 0.02;
     std::string summary() const;        // one line for the user
 };
 

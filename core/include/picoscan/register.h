@@ -28,6 +28,9 @@ struct RegistrationOptions {
     // align_views: view -> model guesses, one per view (a previous alignment, a manual one);
     // ICP starts from them instead of features. Empty: features (or the turntable).
     std::vector<cv::Matx44d> initial_poses;
+    // align_views: the views are one full round of a turntable, in order, in equal steps
+    // (360 / count degrees); the axis is unknown and is estimated from all the views together.
+    bool turntable_round = false;
 };
 
 // Rigid transform turning `moving` (view coordinates) into `fixed`'s view coordinates.
@@ -40,6 +43,10 @@ struct PairRegistration {
     // Correlation of the white-frame levels of paired points: near 1 when the paint lines up,
     // near 0 when a symmetric shape was matched the wrong way round; NaN without texture.
     double texture_agreement = 0;
+    // The larger fraction of either view's points lying where the other view's camera saw
+    // through (free space): a wrong fit puts surface there however well the overlap fits.
+    double free_space_conflict = 0;
+    int alternatives = 0;      // other distinct fits that passed every check (a symmetric part)
     bool converged = false;
     std::string problem;       // why it failed, empty when it worked
 };
@@ -76,6 +83,10 @@ struct ViewAlignment {
 
 struct Alignment {
     std::vector<ViewAlignment> views;  // in input order; views[0] defines the model frame
+    // With RegistrationOptions::turntable_round: the step found (view k+1 -> view k) and how
+    // many neighbouring pairs agreed on it.
+    std::optional<cv::Matx44d> turntable_step;
+    int turntable_supporting_pairs = 0;
     int aligned_count() const;
 };
 

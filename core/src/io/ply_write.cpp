@@ -123,10 +123,12 @@ void write_ply(const PointCloud& cloud, const std::string& path, Encoding encodi
 
 void write_ply(const Mesh& mesh, const std::string& path, Encoding encoding) {
     detail::check_mesh(mesh, path);
-    static const std::vector<float> no_quality;
+    // Measured (1) or filled in (0) goes out as the vertex quality, which MeshLab shows.
+    std::vector<float> quality;
+    if (mesh.measured.size() == mesh.vertices.size()) quality.assign(mesh.measured.begin(), mesh.measured.end());
     static const std::vector<int32_t> no_pixels;
     static const std::vector<std::string> no_comments;
-    write_file_atomically(path, build_ply({mesh.vertices, mesh.normals, mesh.colours, no_quality, mesh.faces,
+    write_file_atomically(path, build_ply({mesh.vertices, mesh.normals, mesh.colours, quality, mesh.faces,
                                            no_pixels, no_comments},
                                           encoding));
 }

@@ -2,6 +2,7 @@
 #include "mesh/cgal_types.h"
 #include "picoscan/error.h"
 #include "picoscan/mesh.h"
+#include "register/point_grid.h"
 
 #include <opencv2/core.hpp>
 #include <cmath>
@@ -24,6 +25,25 @@ PointCloud merge_views(const std::vector<ScanView>& views) {
     keep(merged.quality);
     return merged;
 }
+
+namespace {
+
+// A vertex is measured when input points lie around it; elsewhere the surface was made up
+// (Poisson closing a side never seen, a filled hole).
+void mark_measured(Mesh& mesh, const std::vector<detail::PointWithNormal>& points, double reach_mm) {
+    std::vector<cv::Vec3d> cloud;
+    cloud.reserve(points.size());
+    for (const auto& p : points) cloud.emplace_back(p.first.x(), p.first.y(), p.first.z());
+    const detail::PointGrid grid(cloud, reach_mm);
+    std::vector<int> found;
+    mesh.measured.assign(mesh.vertices.size(), 0);
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+        grid.within(cv::Vec3d(mesh.vertices[v]), reach_mm, found);
+        mesh.measured[v] = found.size() >= 3 ? 1 : 0;
+    }
+}
+
+}  // namespace
 
 Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const ProgressCallback& progress) {
     auto report = [&](double fraction, const char* stage) {
@@ -81,6 +101,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         report(0.85, "simplifying");
         mesh = detail::simplify(mesh, options.target_faces);
     }
+    mark_measured(mesh, points, std::max(2.0 * spacing, 0.5));
     report(1.0, "meshed");
     return mesh;
 }

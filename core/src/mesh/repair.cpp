@@ -68,7 +68,7 @@ Mesh simplify(const Mesh& mesh, int target_faces) {
 }  // namespace detail
 
 std::string MeshCheck::summary() const {
-    char text[320];
+    char text[400];
     std::snprintf(text, sizeof text,
                   "%zu vertices, %zu faces, %zu component(s); %s; %zu border edges, %zu non-manifold edges, "
                   "%zu non-manifold vertices%s%s",
@@ -79,6 +79,12 @@ std::string MeshCheck::summary() const {
     if (closed_volume) {
         std::snprintf(text, sizeof text, " of %.1f cm^3", volume_mm3 / 1000.0);
         out += text;
+    }
+    if (filled_fraction >= 0) {
+        std::snprintf(text, sizeof text, "; %.1f %% of the surface filled in, not measured", 100 * filled_fraction);
+        out += text;
+        if (closed_volume && filled_fraction > kLargeFilledFraction)
+            out += " (WARNING: the closed volume rests on surface that was guessed, not scanned)";
     }
     return out;
 }
@@ -130,6 +136,18 @@ MeshCheck check_mesh(const Mesh& mesh) {
         std::set<size_t> groups;
         for (size_t i = 0; i < around.size(); ++i) groups.insert(group(i));
         if (groups.size() > 1) ++check.non_manifold_vertices;
+    }
+    if (mesh.measured.size() == mesh.vertices.size() && !mesh.faces.empty()) {
+        double total = 0, filled = 0;
+        for (const cv::Vec3i& f : mesh.faces) {
+            const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
+            const double area = 0.5 * cv::norm((b - a).cross(c - a));
+            total += area;
+            // A face counts as filled when most of its corners are.
+            const int measured = mesh.measured[f[0]] + mesh.measured[f[1]] + mesh.measured[f[2]];
+            if (measured < 2) filled += area;
+        }
+        check.filled_fraction = total > 0 ? filled / total : 0;
     }
     if (check.watertight()) {
         check.self_intersecting = CGAL::Polygon_mesh_processing::does_self_intersect(detail::to_surface_mesh(mesh));

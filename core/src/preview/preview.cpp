@@ -3,6 +3,7 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 #include "picoscan/simulate.h"
+#include "register/point_grid.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -72,8 +73,26 @@ void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const s
     const int margin = 40;
     box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
           cv::Rect(0, 0, view.points.cols, view.points.rows);
+    cv::Mat image = render_preview(view);
+    // Surface that was filled in, not measured (Mesh::measured), is shown in orange.
+    if (mesh.measured.size() == mesh.vertices.size() && std::count(mesh.measured.begin(), mesh.measured.end(), 0) > 0) {
+        std::vector<cv::Vec3d> vertices(mesh.vertices.begin(), mesh.vertices.end());
+        const double reach_mm = 3.0;
+        const detail::PointGrid grid(vertices, reach_mm);
+        for (int y = box.y; y < box.y + box.height; ++y)
+            for (int x = box.x; x < box.x + box.width; ++x) {
+                const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
+                if (!std::isfinite(p[2])) continue;
+                const int nearest = grid.nearest(cv::Vec3d(p), reach_mm);
+                if (nearest < 0 || mesh.measured[static_cast<size_t>(nearest)]) continue;
+                cv::Vec3b& pixel = image.at<cv::Vec3b>(y, x);
+                const double level = (pixel[0] + pixel[1] + pixel[2]) / 3.0 / 255.0;
+                pixel = cv::Vec3b(cv::saturate_cast<uint8_t>(40 * level), cv::saturate_cast<uint8_t>(150 * level + 40),
+                                  cv::saturate_cast<uint8_t>(255 * level + 60));
+            }
+    }
     std::vector<uint8_t> png;
-    if (!cv::imencode(".png", render_preview(view)(box), png)) throw Error(path, "cannot encode the preview");
+    if (!cv::imencode(".png", image(box), png)) throw Error(path, "cannot encode the preview");
     write_file_atomically(path, std::string(png.begin(), png.end()));
 }
 

@@ -4,6 +4,7 @@
 #include "picoscan/error.h"
 #include "picoscan/register.h"
 #include "register/registration_steps.h"
+#include "register/visibility.h"
 
 #include <opencv2/calib3d.hpp>
 #include <algorithm>
@@ -22,9 +23,68 @@ std::string format(const char* pattern, double value) {
     return text;
 }
 
-// A pair is accepted when ICP converged onto enough shared surface, tightly.
-void judge(PairRegistration& pair, const RegistrationOptions& options, double sample_spacing_mm, double texture_agreement) {
-    const double max_rms = std::max(0.25, sample_spacing_mm / 2);
+// What registration needs of a view, computed once.
+struct ViewData {
+    detail::SurfaceSamples samples;
+    detail::ViewFeatures features;  // ORB on the white frame (feature mode only)
+    detail::ViewCamera camera;      // for the free-space check
+    bool textured = false;          // the white frame carries paint worth comparing
+    cv::Vec3d centroid{0, 0, 0};    // of the samples, view frame
+};
+
+// Paint shows as spread in the white frame divided by its local mean; a plain part's spread
+// is camera noise and shading left at edges. Median absolute deviation, so edges do not count.
+bool has_texture(const std::vector<float>& grey) {
+    if (grey.size() < 100) return false;
+    std::vector<float> values(grey);
+    const size_t middle = values.size() / 2;
+    std::nth_element(values.begin(), values.begin() + static_cast<long>(middle), values.end());
+    const float median = values[middle];
+    for (float& v : values) v = std::abs(v - median);
+    std::nth_element(values.begin(), values.begin() + static_cast<long>(middle), values.end());
+    return 1.4826 * values[middle] > 0.04;
+}
+
+ViewData view_data(const ScanView& view, const RegistrationOptions& options, bool with_features) {
+    ViewData data;
+    data.samples = detail::sample_view(view, options.sample_spacing_mm);
+    if (with_features) data.features = detail::view_features(view, options.orb_features);
+    data.camera = detail::view_camera(view);
+    data.textured = has_texture(data.samples.grey);
+    for (const cv::Vec3d& p : data.samples.points) data.centroid += p;
+    if (!data.samples.points.empty()) data.centroid *= 1.0 / static_cast<double>(data.samples.points.size());
+    return data;
+}
+
+cv::Vec3d apply(const cv::Matx44d& t, const cv::Vec3d& p) {
+    return t.get_minor<3, 3>(0, 0) * p + cv::Vec3d(t(0, 3), t(1, 3), t(2, 3));
+}
+
+std::vector<cv::Vec3d> moved(const std::vector<cv::Vec3d>& points, const cv::Matx44d& transform) {
+    std::vector<cv::Vec3d> out;
+    out.reserve(points.size());
+    for (const cv::Vec3d& p : points) out.push_back(apply(transform, p));
+    return out;
+}
+
+// The larger fraction, of either view's points, lying where the other view's camera saw
+// through (in front of what it measured): a contradiction however well the overlap fits.
+double free_space_conflict(const ViewData& fixed, const ViewData& moving, const cv::Matx44d& moving_to_fixed) {
+    const double tolerance_mm = 0.5;
+    const detail::FreeSpaceCheck into_fixed =
+        detail::free_space_violations(fixed.camera, moved(moving.samples.points, moving_to_fixed), tolerance_mm);
+    const detail::FreeSpaceCheck into_moving =
+        detail::free_space_violations(moving.camera, moved(fixed.samples.points, detail::inverse_rigid(moving_to_fixed)), tolerance_mm);
+    return std::max(into_fixed.fraction(), into_moving.fraction());
+}
+
+constexpr double kMaxFreeSpaceConflict = 0.02;
+
+// A pair is accepted when ICP converged onto enough shared surface, tightly, without either
+// view's points in the other's free space, and (only where both views are painted) with the
+// paint lining up. Texture is never asked of a plain part.
+void judge(PairRegistration& pair, const RegistrationOptions& options, const ViewData& fixed, const ViewData& moving) {
+    const double max_rms = std::max(0.25, options.sample_spacing_mm / 2);
     const double min_texture_agreement = 0.4;
     if (pair.overlap < options.min_overlap)
         pair.problem = "too little overlap (" + format("%.1f", 100 * pair.overlap) + " % of points have a partner, need " +
@@ -33,69 +93,219 @@ void judge(PairRegistration& pair, const RegistrationOptions& options, double sa
         pair.problem = "ICP did not converge in " + std::to_string(options.icp_iterations) + " iterations";
     else if (pair.rms_mm > max_rms)
         pair.problem = "residual too large after ICP (" + format("%.3f", pair.rms_mm) + " mm)";
-    else if (texture_agreement < min_texture_agreement)  // false for NaN: no texture to judge by
-        pair.problem = "the shapes fit but their surface textures do not (correlation " + format("%.2f", texture_agreement) +
-                       "): a symmetric part matched the wrong way round";
+    else if (fixed.textured && moving.textured && pair.texture_agreement < min_texture_agreement)
+        pair.problem = "the shapes fit but their surface textures do not (correlation " +
+                       format("%.2f", pair.texture_agreement) + "): a symmetric part matched the wrong way round";
+    if (!pair.problem.empty()) return;
+    pair.free_space_conflict = free_space_conflict(fixed, moving, pair.transform);
+    if (pair.free_space_conflict > kMaxFreeSpaceConflict)
+        pair.problem = "the surfaces fit where they overlap, but " + format("%.1f", 100 * pair.free_space_conflict) +
+                       " % of one view's points lie where the other's camera saw through: a wrong fit";
 }
 
-PairRegistration register_samples(const detail::SurfaceSamples& fixed, const detail::SurfaceSamples& moving,
-                                  const detail::ViewFeatures* fixed_features, const detail::ViewFeatures* moving_features,
-                                  const RegistrationOptions& options, const std::optional<cv::Matx44d>& initial_guess) {
+// How far apart two moving -> fixed transforms put the moving view (its centroid).
+PoseDifference disagreement(const cv::Matx44d& a, const cv::Matx44d& b, const ViewData& moving) {
+    return pose_difference(a, b, moving.centroid);
+}
+
+bool same_pose(const cv::Matx44d& a, const cv::Matx44d& b, const ViewData& moving, double max_deg, double max_mm) {
+    const PoseDifference d = disagreement(a, b, moving);
+    return d.rotation_deg <= max_deg && d.translation_mm <= max_mm;
+}
+
+PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, const detail::CoarseAlignment& start,
+                               const RegistrationOptions& options) {
+    const detail::IcpResult icp = detail::icp_point_to_plane(fixed.samples, moving.samples, start.transform, options);
+    PairRegistration candidate;
+    candidate.transform = icp.transform;
+    candidate.overlap = icp.overlap;
+    candidate.rms_mm = icp.rms_mm;
+    candidate.converged = icp.converged;
+    candidate.texture_agreement = icp.texture_agreement;
+    candidate.feature_matches = start.matches;
+    candidate.ransac_inliers = start.inliers;
+    judge(candidate, options, fixed, moving);
+    return candidate;
+}
+
+// Coarse starting poses from features: ORB on the white frames where both are painted, then
+// shape histograms (FPFH). Several of each, because a nearly symmetric part offers several
+// good-looking fits.
+std::vector<detail::CoarseAlignment> feature_starts(const ViewData& fixed, const ViewData& moving, const RegistrationOptions& options) {
+    const int hypotheses = 15;
+    std::vector<detail::CoarseAlignment> starts;
+    if (!fixed.features.points.empty() && !moving.features.points.empty())
+        starts = detail::match_features(fixed.features, moving.features, options, hypotheses);
+    const double spacing = 2.0, radius = 6.0;
+    const std::vector<detail::CoarseAlignment> shape = detail::match_features(
+        detail::geometric_features(fixed.samples, spacing, radius), detail::geometric_features(moving.samples, spacing, radius),
+        options, hypotheses);
+    starts.insert(starts.end(), shape.begin(), shape.end());
+    return starts;
+}
+
+// Registers a pair from a guess, or else from features. Every start is refined and judged;
+// when fits that pass disagree, the pair is ambiguous and refused (unless the paint of a
+// painted part tells them apart).
+PairRegistration register_samples(const ViewData& fixed, const ViewData& moving, const RegistrationOptions& options,
+                                  const std::optional<cv::Matx44d>& initial_guess) {
     PairRegistration pair;
-    if (fixed.points.size() < 100 || moving.points.size() < 100) {
-        pair.problem = "too few points to register (" + std::to_string(std::min(fixed.points.size(), moving.points.size())) +
-                       " samples)";
+    if (fixed.samples.points.size() < 100 || moving.samples.points.size() < 100) {
+        pair.problem = "too few points to register (" +
+                       std::to_string(std::min(fixed.samples.points.size(), moving.samples.points.size())) + " samples)";
         return pair;
     }
-    // Candidate starting poses, in the order they are tried: the guess; else ORB hypotheses
-    // on the white frames, then shape (FPFH) hypotheses. Several of each, because a nearly
-    // symmetric part offers several good-looking fits and only ICP with the texture check can
-    // tell which is right.
-    const int hypotheses = 15;
-    PairRegistration first;
+    const std::vector<detail::CoarseAlignment> starts =
+        initial_guess ? std::vector<detail::CoarseAlignment>{{*initial_guess, 0, options.min_ransac_inliers}}
+                      : feature_starts(fixed, moving, options);
+    std::vector<PairRegistration> accepted;
+    PairRegistration best_refused;
     bool tried = false;
-    for (int round = 0; round < (initial_guess ? 1 : 2); ++round) {
-        std::vector<detail::CoarseAlignment> starts;
-        if (initial_guess) {
-            starts = {{*initial_guess, 0, options.min_ransac_inliers}};
-        } else if (round == 0) {
-            starts = detail::match_features(*fixed_features, *moving_features, options, hypotheses);
-        } else {
-            const double spacing = 2.0, radius = 6.0;
-            starts = detail::match_features(detail::geometric_features(fixed, spacing, radius),
-                                            detail::geometric_features(moving, spacing, radius), options, hypotheses);
+    const bool painted = fixed.textured && moving.textured;
+    for (const detail::CoarseAlignment& start : starts) {
+        if (start.inliers < options.min_ransac_inliers) continue;
+        // A start that lands where an accepted fit already is adds nothing.
+        const bool known = std::any_of(accepted.begin(), accepted.end(), [&](const PairRegistration& a) {
+            return same_pose(a.transform, start.transform, moving, 2.0, 2.0);
+        });
+        if (known) continue;
+        const PairRegistration candidate = icp_candidate(fixed, moving, start, options);
+        tried = true;
+        if (!candidate.problem.empty()) {
+            if (best_refused.problem.empty() || candidate.overlap > best_refused.overlap) best_refused = candidate;
+            continue;
         }
-        for (const detail::CoarseAlignment& start : starts) {
+        if (std::none_of(accepted.begin(), accepted.end(), [&](const PairRegistration& a) {
+                return same_pose(a.transform, candidate.transform, moving, 0.5, 0.5);
+            }))
+            accepted.push_back(candidate);
+        // Paint that lines up well settles it: no need to look further.
+        if (painted && candidate.texture_agreement > 0.6) break;
+    }
+    if (accepted.empty()) {
+        if (!tried) {
+            best_refused = pair;
+            best_refused.problem = "no reliable feature alignment (fewer than " + std::to_string(options.min_ransac_inliers) +
+                                   " RANSAC inliers, on the white frames or the shape)";
+        }
+        return best_refused;
+    }
+    std::sort(accepted.begin(), accepted.end(), [&](const PairRegistration& a, const PairRegistration& b) {
+        return painted ? a.texture_agreement > b.texture_agreement : a.rms_mm < b.rms_mm;
+    });
+    PairRegistration chosen = accepted.front();
+    chosen.alternatives = static_cast<int>(accepted.size()) - 1;
+    if (accepted.size() > 1 && !(painted && chosen.texture_agreement - accepted[1].texture_agreement > 0.3)) {
+        const PoseDifference apart = disagreement(accepted[0].transform, accepted[1].transform, moving);
+        chosen.problem = "ambiguous: the views fit " + std::to_string(accepted.size()) + " ways " +
+                         format("%.1f", apart.rotation_deg) + " degrees apart, equally well (a nearly symmetric part)";
+    }
+    return chosen;
+}
+
+double rotation_angle_deg(const cv::Matx44d& transform) {
+    const double cosine = std::clamp((cv::trace(transform.get_minor<3, 3>(0, 0)) - 1.0) / 2.0, -1.0, 1.0);
+    return std::acos(cosine) * 180.0 / CV_PI;
+}
+
+struct TurntableStep {
+    std::optional<cv::Matx44d> step;  // view k+1 -> view k, the same for every k
+    int supporting_pairs = 0;
+    std::string problem;
+};
+
+// One full round of a turntable in n equal steps, axis unknown: the camera stays, the part
+// turns, so one motion S takes every view k+1 into view k, S turns by 360/n degrees, and S^n
+// is the identity (the loop closes). Hypotheses for S come from the features of every
+// neighbouring pair; each is refined by ICP on every pair, and the one most pairs agree on
+// wins. When two different motions are each supported as well, the part is too symmetric to
+// tell and the round is refused.
+TurntableStep estimate_turntable_step(const std::vector<ViewData>& data, const RegistrationOptions& options) {
+    const size_t n = data.size();
+    const double expected_deg = 360.0 / static_cast<double>(n);
+    const double max_coarse_deg = 15.0, max_step_deg = 3.0;
+    TurntableStep result;
+    std::vector<cv::Matx44d> hypotheses;
+    for (size_t k = 0; k < n && hypotheses.size() < 12; ++k) {
+        const ViewData& fixed = data[k];
+        const ViewData& moving = data[(k + 1) % n];
+        if (fixed.samples.points.size() < 100 || moving.samples.points.size() < 100) continue;
+        for (const detail::CoarseAlignment& start : feature_starts(fixed, moving, options)) {
             if (start.inliers < options.min_ransac_inliers) continue;
-            const detail::IcpResult icp = detail::icp_point_to_plane(fixed, moving, start.transform, options);
-            PairRegistration candidate = pair;
-            candidate.transform = icp.transform;
-            candidate.overlap = icp.overlap;
-            candidate.rms_mm = icp.rms_mm;
-            candidate.converged = icp.converged;
-            candidate.texture_agreement = icp.texture_agreement;
-            candidate.feature_matches = start.matches;
-            candidate.ransac_inliers = start.inliers;
-            judge(candidate, options, options.sample_spacing_mm, icp.texture_agreement);
-            if (candidate.problem.empty()) return candidate;
-            if (!tried || candidate.overlap > first.overlap) first = candidate;
-            tried = true;
+            if (std::abs(rotation_angle_deg(start.transform) - expected_deg) > max_coarse_deg) continue;
+            const PairRegistration fit = icp_candidate(fixed, moving, start, options);
+            if (!fit.problem.empty() || std::abs(rotation_angle_deg(fit.transform) - expected_deg) > max_step_deg) continue;
+            if (std::none_of(hypotheses.begin(), hypotheses.end(),
+                             [&](const cv::Matx44d& h) { return same_pose(h, fit.transform, moving, 1.0, 1.0); }))
+                hypotheses.push_back(fit.transform);
         }
     }
-    if (!tried) {
-        first = pair;
-        first.problem = "no reliable feature alignment (fewer than " + std::to_string(options.min_ransac_inliers) +
-                        " RANSAC inliers, on the white frames or the shape)";
+    if (hypotheses.empty()) {
+        result.problem = "no neighbouring pair has a fit that turns by " + format("%.1f", expected_deg) + " degrees";
+        return result;
     }
-    return first;
+    struct Support { cv::Matx44d step; int pairs = 0; std::vector<cv::Matx44d> fits; };
+    std::vector<Support> supports;
+    for (const cv::Matx44d& hypothesis : hypotheses) {
+        Support support{hypothesis, 0, {}};
+        for (size_t k = 0; k < n; ++k) {
+            const ViewData& moving = data[(k + 1) % n];
+            const PairRegistration fit = icp_candidate(data[k], moving, {hypothesis, 0, options.min_ransac_inliers}, options);
+            if (!fit.problem.empty() || !same_pose(fit.transform, hypothesis, moving, 1.0, 1.5)) continue;
+            ++support.pairs;
+            support.fits.push_back(fit.transform);
+        }
+        supports.push_back(support);
+    }
+    std::sort(supports.begin(), supports.end(), [](const Support& a, const Support& b) { return a.pairs > b.pairs; });
+    const Support& best = supports.front();
+    result.supporting_pairs = best.pairs;
+    const int needed = std::max(2, static_cast<int>((n + 1) / 2));
+    if (best.pairs < needed) {
+        result.problem = "only " + std::to_string(best.pairs) + " of " + std::to_string(n) +
+                         " neighbouring pairs agree on one step (need " + std::to_string(needed) + ")";
+        return result;
+    }
+    for (size_t r = 1; r < supports.size(); ++r) {
+        if (same_pose(supports[r].step, best.step, data[1], 1.0, 1.5)) continue;
+        if (supports[r].pairs >= best.pairs - 1) {
+            result.problem = "two different steps fit (" + std::to_string(best.pairs) + " and " + std::to_string(supports[r].pairs) +
+                             " of " + std::to_string(n) + " pairs): the part looks too alike from different sides";
+            return result;
+        }
+        break;
+    }
+    // The step: the mean of the supporting pairs' fits (rotation vectors and translations).
+    cv::Vec3d rotation_sum(0, 0, 0), translation_sum(0, 0, 0);
+    for (const cv::Matx44d& fit : best.fits) {
+        cv::Vec3d rotation_vector;
+        cv::Rodrigues(cv::Matx33d(fit.get_minor<3, 3>(0, 0)), rotation_vector);
+        rotation_sum += rotation_vector;
+        translation_sum += cv::Vec3d(fit(0, 3), fit(1, 3), fit(2, 3));
+    }
+    const double count = static_cast<double>(best.fits.size());
+    cv::Matx33d rotation;
+    cv::Rodrigues(rotation_sum * (1.0 / count), rotation);
+    const cv::Matx44d step = detail::rigid_transform(rotation, translation_sum * (1.0 / count));
+    // Cycle: n steps must bring view 0 back onto itself.
+    cv::Matx44d loop = cv::Matx44d::eye();
+    for (size_t k = 0; k < n; ++k) loop = loop * step;
+    const PoseDifference closure = pose_difference(cv::Matx44d::eye(), loop, data[0].centroid);
+    if (closure.rotation_deg > 3.0 || closure.translation_mm > 3.0) {
+        result.problem = "the step does not close the round (" + format("%.2f", closure.rotation_deg) + " degrees, " +
+                         format("%.2f", closure.translation_mm) + " mm after " + std::to_string(n) + " steps)";
+        return result;
+    }
+    result.step = step;
+    return result;
 }
 
 // Multi-view refinement: every accepted view against every other, all poses solved together
 // (view `anchor` fixed). Returns each view's point-to-plane RMS against the others.
-std::vector<double> refine_together(const std::vector<detail::SurfaceSamples>& samples, std::vector<cv::Matx44d>& poses,
+std::vector<double> refine_together(const std::vector<ViewData>& data, std::vector<cv::Matx44d>& poses,
                                     const std::vector<bool>& active, int anchor, const RegistrationOptions& options,
                                     const ProgressCallback& progress) {
-    const size_t n = samples.size();
+    const size_t n = data.size();
     std::vector<int> unknown(n, -1);  // column block of each view's motion
     int blocks = 0;
     for (size_t i = 0; i < n; ++i)
@@ -110,7 +320,7 @@ std::vector<double> refine_together(const std::vector<detail::SurfaceSamples>& s
         std::vector<std::unique_ptr<detail::PointGrid>> grids(n);
         for (size_t i = 0; i < n; ++i) {
             if (!active[i]) continue;
-            model[i] = detail::transformed(samples[i], poses[i]);
+            model[i] = detail::transformed(data[i].samples, poses[i]);
             grids[i] = std::make_unique<detail::PointGrid>(model[i].points, limit);
         }
         cv::Mat normal_matrix = cv::Mat::zeros(6 * blocks, 6 * blocks, CV_64F);
@@ -196,14 +406,8 @@ int Alignment::aligned_count() const {
 
 PairRegistration register_pair(const ScanView& fixed, const ScanView& moving, const RegistrationOptions& options,
                                const std::optional<cv::Matx44d>& initial_guess) {
-    const detail::SurfaceSamples fixed_samples = detail::sample_view(fixed, options.sample_spacing_mm);
-    const detail::SurfaceSamples moving_samples = detail::sample_view(moving, options.sample_spacing_mm);
-    detail::ViewFeatures fixed_features, moving_features;
-    if (!initial_guess) {
-        fixed_features = detail::view_features(fixed, options.orb_features);
-        moving_features = detail::view_features(moving, options.orb_features);
-    }
-    return register_samples(fixed_samples, moving_samples, &fixed_features, &moving_features, options, initial_guess);
+    return register_samples(view_data(fixed, options, !initial_guess), view_data(moving, options, !initial_guess), options,
+                            initial_guess);
 }
 
 cv::Matx44d turntable_pose(const TurntableAxis& axis, int step) {
@@ -286,12 +490,47 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
     auto report = [&](double fraction, const std::string& stage) {
         if (progress && !progress(fraction, stage)) throw Error("cancelled", "alignment cancelled");
     };
-    std::vector<detail::SurfaceSamples> samples(n);
-    std::vector<detail::ViewFeatures> features(n);
+    std::vector<ViewData> data(n);
     for (size_t i = 0; i < n; ++i) {
         report(0.1 * i / n, "sampling and finding features");
-        samples[i] = detail::sample_view(views[i], options.sample_spacing_mm);
-        if (!guessed) features[i] = detail::view_features(views[i], options.orb_features);
+        data[i] = view_data(views[i], options, !guessed);
+    }
+
+    // The motion that guesses each pair, and how far ICP may move away from it.
+    std::function<cv::Matx44d(size_t, size_t)> guess_of;
+    double max_departure_deg = 0, max_departure_mm = 0;
+    std::string motion_name;
+    std::string round_problem;
+    if (!options.initial_poses.empty()) {
+        guess_of = [&](size_t i, size_t j) { return detail::inverse_rigid(options.initial_poses[i]) * options.initial_poses[j]; };
+    } else if (turntable) {
+        guess_of = [&](size_t i, size_t j) {
+            return detail::inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
+        };
+        max_departure_deg = 2.0;  // a calibrated axis may be a little off; ICP takes it the rest of the way
+        max_departure_mm = 3.0;
+        motion_name = "the turntable's step";
+    } else if (options.turntable_round && n >= 3) {
+        report(0.1, "estimating the turntable's step");
+        const TurntableStep round = estimate_turntable_step(data, options);
+        alignment.turntable_supporting_pairs = round.supporting_pairs;
+        if (round.step) {
+            alignment.turntable_step = round.step;
+            const cv::Matx44d step = *round.step;
+            guess_of = [step](size_t i, size_t j) {
+                cv::Matx44d motion = cv::Matx44d::eye();
+                if (j >= i)
+                    for (size_t k = i; k < j; ++k) motion = motion * step;
+                else
+                    for (size_t k = j; k < i; ++k) motion = motion * detail::inverse_rigid(step);
+                return motion;
+            };
+            max_departure_deg = 1.0;
+            max_departure_mm = 1.5;
+            motion_name = "the turntable's step estimated from all the views";
+        } else {
+            round_problem = round.problem;
+        }
     }
 
     // Grow a tree of registered views from view 0, trying the likeliest pairs first: views
@@ -311,28 +550,65 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
     std::vector<cv::Matx44d> poses(n, cv::Matx44d::eye());
     reached[0] = true;
     size_t reached_count = 1;
-    for (bool grew = true; grew && reached_count < n;) {
+    for (bool grew = round_problem.empty(); grew && reached_count < n;) {
         grew = false;
         for (size_t c = 0; c < candidates.size() && reached_count < n; ++c) {
             auto [i, j] = candidates[c];
             if (tried[c] || reached[i] == reached[j]) continue;
             if (!reached[i]) std::swap(i, j);  // i is in the tree, j joins it
             tried[c] = true;
-            report(0.1 + 0.5 * reached_count / n, "registering " + names[j] + " to " + names[i]);
+            report(0.2 + 0.4 * reached_count / n, "registering " + names[j] + " to " + names[i]);
             std::optional<cv::Matx44d> guess;
-            if (!options.initial_poses.empty())
-                guess = detail::inverse_rigid(options.initial_poses[i]) * options.initial_poses[j];
-            else if (turntable)
-                guess = detail::inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
-            edges.push_back({i, j, register_samples(samples[i], samples[j], &features[i], &features[j], options, guess)});
-            if (!edges.back().result.problem.empty()) continue;
-            poses[j] = poses[i] * edges.back().result.transform;
+            if (guess_of) guess = guess_of(i, j);
+            PairRegistration result = register_samples(data[i], data[j], options, guess);
+            if (result.problem.empty() && guess && max_departure_deg > 0) {
+                const PoseDifference departure = disagreement(*guess, result.transform, data[j]);
+                if (departure.rotation_deg > max_departure_deg || departure.translation_mm > max_departure_mm)
+                    result.problem = "ICP moved it " + format("%.2f", departure.rotation_deg) + " degrees and " +
+                                     format("%.2f", departure.translation_mm) + " mm away from " + motion_name +
+                                     ": it does not agree with the turntable's motion";
+            }
+            edges.push_back({i, j, result});
+            if (!result.problem.empty()) continue;
+            poses[j] = poses[i] * result.transform;
             reached[j] = true;
             ++reached_count;
             grew = true;
         }
     }
-    const std::vector<double> rms = refine_together(samples, poses, reached, 0, options, progress);
+    std::vector<double> rms = refine_together(data, poses, reached, 0, options, progress);
+
+    // The whole model checked against every view's free space: a view placed where another
+    // view's camera saw through is taken out (the one in most conflicts first), and the rest
+    // refined again, until no view contradicts another.
+    std::vector<std::string> conflict_problem(n);
+    for (bool removed = true; removed;) {
+        removed = false;
+        std::vector<int> conflicts(n, 0);
+        std::vector<std::pair<double, size_t>> worst(n, {0.0, 0});
+        for (size_t i = 0; i < n; ++i)
+            for (size_t j = i + 1; j < n; ++j) {
+                if (!reached[i] || !reached[j]) continue;
+                const double conflict = free_space_conflict(data[i], data[j], detail::inverse_rigid(poses[i]) * poses[j]);
+                if (conflict <= kMaxFreeSpaceConflict) continue;
+                ++conflicts[i];
+                ++conflicts[j];
+                if (conflict > worst[i].first) worst[i] = {conflict, j};
+                if (conflict > worst[j].first) worst[j] = {conflict, i};
+            }
+        size_t culprit = n;
+        for (size_t i = 0; i < n; ++i)
+            if (conflicts[i] > 0 && (culprit == n || conflicts[i] >= conflicts[culprit])) culprit = i;
+        if (culprit == n) break;
+        reached[culprit] = false;
+        conflict_problem[culprit] = "placed where it contradicts " + names[worst[culprit].second] + " (" +
+                                    format("%.1f", 100 * worst[culprit].first) +
+                                    " % of the points lie where one camera saw through): a wrong fit, left out";
+        removed = true;
+        const size_t anchor = static_cast<size_t>(std::find(reached.begin(), reached.end(), true) - reached.begin());
+        if (anchor == n) break;
+        rms = refine_together(data, poses, reached, static_cast<int>(anchor), options, progress);
+    }
     report(1.0, "aligned");
 
     for (size_t i = 0; i < n; ++i) {
@@ -349,11 +625,16 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
                           (e.result.problem.empty() ? std::string("registered") : e.result.problem);
             }
         }
-        if (!view.aligned)
-            view.problem = samples[i].points.size() < 100
-                               ? "too few points (" + std::to_string(samples[i].points.size()) + " samples)"
-                               : "could not be registered to the others (best partner " +
-                                     (closest.empty() ? std::string("none") : closest) + ")";
+        if (view.aligned) continue;
+        if (!conflict_problem[i].empty())
+            view.problem = conflict_problem[i];
+        else if (data[i].samples.points.size() < 100)
+            view.problem = "too few points (" + std::to_string(data[i].samples.points.size()) + " samples)";
+        else if (!round_problem.empty())
+            view.problem = "no turntable step fits the views: " + round_problem;
+        else
+            view.problem = "could not be registered to the others (best partner " +
+                           (closest.empty() ? std::string("none") : closest) + ")";
     }
     return alignment;
 }

@@ -1,0 +1,76 @@
+#include "register/visibility.h"
+
+#include "cloud/view_check.h"
+
+#include <opencv2/imgproc.hpp>
+#include <cmath>
+#include <limits>
+
+namespace picoscan::detail {
+
+ViewCamera view_camera(const ScanView& view) {
+    ViewCamera camera;
+    if (view.points.empty()) return camera;
+    // x = fx X/Z + cx and y = fy Y/Z + cy, least squares over a subset of the measured pixels.
+    cv::Matx22d ax = cv::Matx22d::zeros(), ay = cv::Matx22d::zeros();
+    cv::Vec2d bx(0, 0), by(0, 0);
+    size_t used = 0;
+    for (int y = 0; y < view.points.rows; y += 3)
+        for (int x = 0; x < view.points.cols; x += 3) {
+            const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
+            if (!finite_point(p) || p[2] <= 0) continue;
+            const double u = p[0] / p[2], v = p[1] / p[2];
+            ax += cv::Matx22d(u * u, u, u, 1);
+            bx += cv::Vec2d(u * x, x);
+            ay += cv::Matx22d(v * v, v, v, 1);
+            by += cv::Vec2d(v * y, y);
+            ++used;
+        }
+    if (used < 100) return camera;
+    cv::Vec2d solution_x, solution_y;
+    if (!cv::solve(ax, bx, solution_x) || !cv::solve(ay, by, solution_y)) return camera;
+    camera.fx = solution_x[0];
+    camera.cx = solution_x[1];
+    camera.fy = solution_y[0];
+    camera.cy = solution_y[1];
+    cv::Mat depth(view.points.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
+    double squared = 0;
+    size_t counted = 0;
+    for (int y = 0; y < view.points.rows; ++y)
+        for (int x = 0; x < view.points.cols; ++x) {
+            const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
+            if (!finite_point(p) || p[2] <= 0) continue;
+            depth.at<float>(y, x) = p[2];
+            if ((x % 3) || (y % 3)) continue;
+            const double ex = camera.fx * p[0] / p[2] + camera.cx - x, ey = camera.fy * p[1] / p[2] + camera.cy - y;
+            squared += ex * ex + ey * ey;
+            ++counted;
+        }
+    camera.fit_rms_px = std::sqrt(squared / static_cast<double>(counted));
+    // The nearest surface within a few pixels (more where the pinhole fits worse): a point
+    // counts as seen through only if it is in front of all of them.
+    const int radius = 2 + static_cast<int>(std::ceil(2 * camera.fit_rms_px));
+    cv::erode(depth, camera.nearest_depth, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * radius + 1, 2 * radius + 1)));
+    camera.depth = depth;
+    return camera;
+}
+
+FreeSpaceCheck free_space_violations(const ViewCamera& camera, const std::vector<cv::Vec3d>& points, double tolerance_mm) {
+    FreeSpaceCheck check;
+    if (!camera.valid()) return check;
+    const int width = camera.nearest_depth.cols, height = camera.nearest_depth.rows;
+    for (const cv::Vec3d& p : points) {
+        if (p[2] <= 0) continue;
+        const int x = static_cast<int>(std::lround(camera.fx * p[0] / p[2] + camera.cx));
+        const int y = static_cast<int>(std::lround(camera.fy * p[1] / p[2] + camera.cy));
+        if (x < 0 || y < 0 || x >= width || y >= height) continue;
+        // Only where the view measured: an unmeasured pixel may be a shadow, not empty space.
+        if (!std::isfinite(camera.depth.at<float>(y, x))) continue;
+        const float surface = camera.nearest_depth.at<float>(y, x);
+        ++check.checked;
+        if (p[2] < surface - tolerance_mm) ++check.violations;
+    }
+    return check;
+}
+
+}  // namespace picoscan::detail
