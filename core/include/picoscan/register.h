@@ -46,6 +46,9 @@ struct PairRegistration {
     // The larger fraction of either view's points lying where the other view's camera saw
     // through (free space): a wrong fit puts surface there however well the overlap fits.
     double free_space_conflict = 0;
+    // Smallest / largest eigenvalue of the final point-to-plane system (centred and scaled):
+    // near 0 when the overlap lets the views slide along each other (planes, a cylinder).
+    double stability = 0;
     int alternatives = 0;      // other distinct fits that passed every check (a symmetric part)
     bool converged = false;
     std::string problem;       // why it failed, empty when it worked

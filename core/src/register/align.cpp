@@ -79,11 +79,16 @@ double free_space_conflict(const ViewData& fixed, const ViewData& moving, const 
 }
 
 constexpr double kMaxFreeSpaceConflict = 0.02;
+// Below this, the overlap leaves a direction of motion unfixed (see IcpResult::stability):
+// a pose found from features alone cannot be confirmed. A guided pose (turntable, earlier
+// poses) keeps its guess along such a direction.
+constexpr double kMinStability = 0.01;
 
 // A pair is accepted when ICP converged onto enough shared surface, tightly, without either
 // view's points in the other's free space, and (only where both views are painted) with the
 // paint lining up. Texture is never asked of a plain part.
-void judge(PairRegistration& pair, const RegistrationOptions& options, const ViewData& fixed, const ViewData& moving) {
+void judge(PairRegistration& pair, const RegistrationOptions& options, const ViewData& fixed, const ViewData& moving,
+           bool guided) {
     const double max_rms = std::max(0.25, options.sample_spacing_mm / 2);
     const double min_texture_agreement = 0.4;
     if (pair.overlap < options.min_overlap)
@@ -93,6 +98,9 @@ void judge(PairRegistration& pair, const RegistrationOptions& options, const Vie
         pair.problem = "ICP did not converge in " + std::to_string(options.icp_iterations) + " iterations";
     else if (pair.rms_mm > max_rms)
         pair.problem = "residual too large after ICP (" + format("%.3f", pair.rms_mm) + " mm)";
+    else if (!guided && pair.stability < kMinStability)
+        pair.problem = "the overlap does not fix the pose: the surfaces could slide along each other (stability " +
+                       format("%.4f", pair.stability) + ")";
     else if (fixed.textured && moving.textured && pair.texture_agreement < min_texture_agreement)
         pair.problem = "the shapes fit but their surface textures do not (correlation " +
                        format("%.2f", pair.texture_agreement) + "): a symmetric part matched the wrong way round";
@@ -114,7 +122,7 @@ bool same_pose(const cv::Matx44d& a, const cv::Matx44d& b, const ViewData& movin
 }
 
 PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, const detail::CoarseAlignment& start,
-                               const RegistrationOptions& options) {
+                               const RegistrationOptions& options, bool guided) {
     const detail::IcpResult icp = detail::icp_point_to_plane(fixed.samples, moving.samples, start.transform, options);
     PairRegistration candidate;
     candidate.transform = icp.transform;
@@ -124,7 +132,8 @@ PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, co
     candidate.texture_agreement = icp.texture_agreement;
     candidate.feature_matches = start.matches;
     candidate.ransac_inliers = start.inliers;
-    judge(candidate, options, fixed, moving);
+    candidate.stability = icp.stability;
+    judge(candidate, options, fixed, moving, guided);
     return candidate;
 }
 
@@ -169,7 +178,7 @@ PairRegistration register_samples(const ViewData& fixed, const ViewData& moving,
             return same_pose(a.transform, start.transform, moving, 2.0, 2.0);
         });
         if (known) continue;
-        const PairRegistration candidate = icp_candidate(fixed, moving, start, options);
+        const PairRegistration candidate = icp_candidate(fixed, moving, start, options, initial_guess.has_value());
         tried = true;
         if (!candidate.problem.empty()) {
             if (best_refused.problem.empty() || candidate.overlap > best_refused.overlap) best_refused = candidate;
@@ -224,36 +233,52 @@ TurntableStep estimate_turntable_step(const std::vector<ViewData>& data, const R
     const size_t n = data.size();
     const double expected_deg = 360.0 / static_cast<double>(n);
     const double max_coarse_deg = 15.0, max_step_deg = 3.0;
+    const size_t max_starts = 24;
     TurntableStep result;
-    std::vector<cv::Matx44d> hypotheses;
-    for (size_t k = 0; k < n && hypotheses.size() < 12; ++k) {
+    std::vector<detail::SamplePair> ring;
+    for (size_t k = 0; k < n; ++k)
+        if (data[k].samples.points.size() >= 100 && data[(k + 1) % n].samples.points.size() >= 100)
+            ring.push_back({&data[k].samples, &data[(k + 1) % n].samples});
+    // Coarse starts from every neighbouring pair's features that turn about the right angle,
+    // the most inliers first; each refined on all pairs at once (the step is shared).
+    std::vector<detail::CoarseAlignment> starts;
+    for (size_t k = 0; k < n; ++k) {
         const ViewData& fixed = data[k];
         const ViewData& moving = data[(k + 1) % n];
         if (fixed.samples.points.size() < 100 || moving.samples.points.size() < 100) continue;
-        for (const detail::CoarseAlignment& start : feature_starts(fixed, moving, options)) {
-            if (start.inliers < options.min_ransac_inliers) continue;
-            if (std::abs(rotation_angle_deg(start.transform) - expected_deg) > max_coarse_deg) continue;
-            const PairRegistration fit = icp_candidate(fixed, moving, start, options);
-            if (!fit.problem.empty() || std::abs(rotation_angle_deg(fit.transform) - expected_deg) > max_step_deg) continue;
-            if (std::none_of(hypotheses.begin(), hypotheses.end(),
-                             [&](const cv::Matx44d& h) { return same_pose(h, fit.transform, moving, 1.0, 1.0); }))
-                hypotheses.push_back(fit.transform);
-        }
+        for (const detail::CoarseAlignment& start : feature_starts(fixed, moving, options))
+            if (start.inliers >= options.min_ransac_inliers &&
+                std::abs(rotation_angle_deg(start.transform) - expected_deg) <= max_coarse_deg)
+                starts.push_back(start);
+    }
+    std::stable_sort(starts.begin(), starts.end(),
+                     [](const detail::CoarseAlignment& a, const detail::CoarseAlignment& b) { return a.inliers > b.inliers; });
+    if (starts.size() > max_starts) starts.resize(max_starts);
+    std::vector<cv::Matx44d> hypotheses;
+    for (const detail::CoarseAlignment& start : starts) {
+        if (std::any_of(hypotheses.begin(), hypotheses.end(),
+                        [&](const cv::Matx44d& h) { return same_pose(h, start.transform, data[1], 2.0, 2.0); }))
+            continue;
+        const detail::IcpResult shared = detail::icp_point_to_plane(ring, start.transform, options);
+        if (!shared.converged || std::abs(rotation_angle_deg(shared.transform) - expected_deg) > max_step_deg) continue;
+        if (std::none_of(hypotheses.begin(), hypotheses.end(),
+                         [&](const cv::Matx44d& h) { return same_pose(h, shared.transform, data[1], 0.5, 0.5); }))
+            hypotheses.push_back(shared.transform);
     }
     if (hypotheses.empty()) {
-        result.problem = "no neighbouring pair has a fit that turns by " + format("%.1f", expected_deg) + " degrees";
+        result.problem = "no fit of the neighbouring pairs turns by " + format("%.1f", expected_deg) + " degrees";
         return result;
     }
-    struct Support { cv::Matx44d step; int pairs = 0; std::vector<cv::Matx44d> fits; };
+    struct Support { cv::Matx44d step; int pairs = 0; };
     std::vector<Support> supports;
     for (const cv::Matx44d& hypothesis : hypotheses) {
-        Support support{hypothesis, 0, {}};
+        Support support{hypothesis, 0};
         for (size_t k = 0; k < n; ++k) {
             const ViewData& moving = data[(k + 1) % n];
-            const PairRegistration fit = icp_candidate(data[k], moving, {hypothesis, 0, options.min_ransac_inliers}, options);
-            if (!fit.problem.empty() || !same_pose(fit.transform, hypothesis, moving, 1.0, 1.5)) continue;
+            const PairRegistration fit =
+                icp_candidate(data[k], moving, {hypothesis, 0, options.min_ransac_inliers}, options, true);
+            if (!fit.problem.empty() || !same_pose(fit.transform, hypothesis, moving, 0.5, 0.5)) continue;
             ++support.pairs;
-            support.fits.push_back(fit.transform);
         }
         supports.push_back(support);
     }
@@ -267,7 +292,7 @@ TurntableStep estimate_turntable_step(const std::vector<ViewData>& data, const R
         return result;
     }
     for (size_t r = 1; r < supports.size(); ++r) {
-        if (same_pose(supports[r].step, best.step, data[1], 1.0, 1.5)) continue;
+        if (same_pose(supports[r].step, best.step, data[1], 0.5, 0.5)) continue;
         if (supports[r].pairs >= best.pairs - 1) {
             result.problem = "two different steps fit (" + std::to_string(best.pairs) + " and " + std::to_string(supports[r].pairs) +
                              " of " + std::to_string(n) + " pairs): the part looks too alike from different sides";
@@ -275,18 +300,7 @@ TurntableStep estimate_turntable_step(const std::vector<ViewData>& data, const R
         }
         break;
     }
-    // The step: the mean of the supporting pairs' fits (rotation vectors and translations).
-    cv::Vec3d rotation_sum(0, 0, 0), translation_sum(0, 0, 0);
-    for (const cv::Matx44d& fit : best.fits) {
-        cv::Vec3d rotation_vector;
-        cv::Rodrigues(cv::Matx33d(fit.get_minor<3, 3>(0, 0)), rotation_vector);
-        rotation_sum += rotation_vector;
-        translation_sum += cv::Vec3d(fit(0, 3), fit(1, 3), fit(2, 3));
-    }
-    const double count = static_cast<double>(best.fits.size());
-    cv::Matx33d rotation;
-    cv::Rodrigues(rotation_sum * (1.0 / count), rotation);
-    const cv::Matx44d step = detail::rigid_transform(rotation, translation_sum * (1.0 / count));
+    const cv::Matx44d step = best.step;
     // Cycle: n steps must bring view 0 back onto itself.
     cv::Matx44d loop = cv::Matx44d::eye();
     for (size_t k = 0; k < n; ++k) loop = loop * step;
@@ -318,11 +332,22 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
             throw Error("cancelled", "alignment cancelled");
         std::vector<detail::SurfaceSamples> model(n);
         std::vector<std::unique_ptr<detail::PointGrid>> grids(n);
+        cv::Vec3d centre(0, 0, 0);
+        size_t count = 0;
         for (size_t i = 0; i < n; ++i) {
             if (!active[i]) continue;
             model[i] = detail::transformed(data[i].samples, poses[i]);
             grids[i] = std::make_unique<detail::PointGrid>(model[i].points, limit);
+            for (const cv::Vec3d& p : model[i].points) centre += p;
+            count += model[i].points.size();
         }
+        // Motions are taken about the model's centre, rotations scaled by its spread, so that
+        // the six directions of each view are comparable.
+        if (count) centre *= 1.0 / static_cast<double>(count);
+        double spread = 0;
+        for (size_t i = 0; i < n; ++i)
+            for (const cv::Vec3d& p : model[i].points) spread += cv::norm(p - centre, cv::NORM_L2SQR);
+        const double scale = count ? std::max(std::sqrt(spread / static_cast<double>(count)), 1.0) : 1.0;
         cv::Mat normal_matrix = cv::Mat::zeros(6 * blocks, 6 * blocks, CV_64F);
         cv::Mat right_side = cv::Mat::zeros(6 * blocks, 1, CV_64F);
         std::vector<double> squared(n, 0.0);
@@ -341,7 +366,8 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
                     const cv::Vec3d& q = model[j].points[static_cast<size_t>(m)];
                     const cv::Vec3d& normal = model[j].normals[static_cast<size_t>(m)];
                     if (model[i].normals[k].dot(normal) < min_normal_cos) continue;
-                    const cv::Vec3d pc = p.cross(normal), qc = q.cross(normal);
+                    const cv::Vec3d pc = (p - centre).cross(normal) * (1.0 / scale),
+                                    qc = (q - centre).cross(normal) * (1.0 / scale);
                     terms.push_back({(p - q).dot(normal), cv::norm(p - q),
                                      cv::Vec6d(pc[0], pc[1], pc[2], normal[0], normal[1], normal[2]),
                                      cv::Vec6d(-qc[0], -qc[1], -qc[2], -normal[0], -normal[1], -normal[2])});
@@ -375,17 +401,27 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
         }
         for (size_t i = 0; i < n; ++i) rms[i] = counted[i] ? std::sqrt(squared[i] / static_cast<double>(counted[i])) : 0.0;
         if (blocks == 0) break;
-        // A tiny damping keeps a view with a one-sided constraint (a sliding plane) in place.
-        normal_matrix += cv::Mat::eye(6 * blocks, 6 * blocks, CV_64F) * 1e-6;
-        cv::Mat step;
-        if (!cv::solve(normal_matrix, right_side, step, cv::DECOMP_CHOLESKY)) break;
+        // Views do not move along directions the surfaces leave unfixed (a plane or a cylinder
+        // sliding along itself): those keep the poses they came with.
+        cv::Mat eigenvalues, eigenvectors;
+        if (!cv::eigen(normal_matrix, eigenvalues, eigenvectors)) break;
+        cv::Mat step = cv::Mat::zeros(6 * blocks, 1, CV_64F);
+        const double strongest = eigenvalues.at<double>(0);
+        for (int e = 0; e < eigenvalues.rows; ++e) {
+            const double value = eigenvalues.at<double>(e);
+            if (value < 1e-3 * strongest) break;  // sorted, largest first
+            const cv::Mat direction = eigenvectors.row(e).t();
+            step += direction * (direction.dot(right_side) / value);
+        }
         double largest = 0;
         for (size_t i = 0; i < n; ++i) {
             if (unknown[i] < 0) continue;
             const int b = 6 * unknown[i];
-            const cv::Vec3d omega(step.at<double>(b), step.at<double>(b + 1), step.at<double>(b + 2));
+            const cv::Vec3d omega = cv::Vec3d(step.at<double>(b), step.at<double>(b + 1), step.at<double>(b + 2)) * (1.0 / scale);
             const cv::Vec3d delta(step.at<double>(b + 3), step.at<double>(b + 4), step.at<double>(b + 5));
-            poses[i] = detail::motion_matrix(omega, delta) * poses[i];
+            // x -> R (x - centre) + centre + delta
+            const cv::Matx33d turn = detail::motion_matrix(omega, {0, 0, 0}).get_minor<3, 3>(0, 0);
+            poses[i] = detail::rigid_transform(turn, centre - turn * centre + delta) * poses[i];
             largest = std::max({largest, cv::norm(omega) * 100, cv::norm(delta)});
         }
         if (!all_distances.empty()) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace picoscan::detail {
 
@@ -31,20 +32,27 @@ cv::Matx44d motion_matrix(const cv::Vec3d& rotation_vector, const cv::Vec3d& tra
 
 namespace {
 
+// Directions of motion whose eigenvalue is below this share of the largest are left alone.
+constexpr double kWeakDirection = 1e-3;
+
 struct Pairing {
     double residual;  // signed point-to-plane distance
     double distance;  // point-to-point distance, for trimming
     cv::Vec3d point, normal;
     int moving, fixed;  // sample indices
+    int pair;           // which pair of views
 };
 
 // Pearson correlation of the grey levels of the paired samples (NaN when either is flat).
-double texture_correlation(const std::vector<Pairing>& pairs, size_t count, const SurfaceSamples& fixed,
-                           const SurfaceSamples& moving) {
-    if (fixed.grey.empty() || moving.grey.empty() || count < 10) return std::numeric_limits<double>::quiet_NaN();
+double texture_correlation(const std::vector<Pairing>& pairings, size_t count, const std::vector<SamplePair>& pairs) {
+    for (const SamplePair& pair : pairs)
+        if (pair.fixed->grey.empty() || pair.moving->grey.empty()) return std::numeric_limits<double>::quiet_NaN();
+    if (count < 10) return std::numeric_limits<double>::quiet_NaN();
     double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
     for (size_t k = 0; k < count; ++k) {
-        const double a = moving.grey[static_cast<size_t>(pairs[k].moving)], b = fixed.grey[static_cast<size_t>(pairs[k].fixed)];
+        const SamplePair& pair = pairs[static_cast<size_t>(pairings[k].pair)];
+        const double a = pair.moving->grey[static_cast<size_t>(pairings[k].moving)],
+                     b = pair.fixed->grey[static_cast<size_t>(pairings[k].fixed)];
         sa += a; sb += b; saa += a * a; sbb += b * b; sab += a * b;
     }
     const double n = static_cast<double>(count);
@@ -57,10 +65,20 @@ double texture_correlation(const std::vector<Pairing>& pairs, size_t count, cons
 
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
                              const RegistrationOptions& options) {
+    return icp_point_to_plane({{&fixed, &moving}}, initial, options);
+}
+
+IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options) {
     IcpResult result;
     result.transform = initial;
-    if (fixed.points.empty() || moving.points.empty()) return result;
-    const PointGrid grid(fixed.points, options.icp_max_distance_mm);
+    std::vector<std::unique_ptr<PointGrid>> grids;
+    size_t smaller_total = 0;
+    for (const SamplePair& pair : pairs) {
+        if (pair.fixed->points.empty() || pair.moving->points.empty()) return result;
+        grids.push_back(std::make_unique<PointGrid>(pair.fixed->points, options.icp_max_distance_mm));
+        smaller_total += std::min(pair.fixed->points.size(), pair.moving->points.size());
+    }
+    if (pairs.empty()) return result;
     const double min_normal_cos = std::cos(CV_PI / 4);  // partners must face the same way
     double limit = options.icp_max_distance_mm;
     std::vector<Pairing> pairings;
@@ -68,45 +86,70 @@ IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& 
         const cv::Matx33d rotation = result.transform.get_minor<3, 3>(0, 0);
         const cv::Vec3d translation(result.transform(0, 3), result.transform(1, 3), result.transform(2, 3));
         pairings.clear();
-        for (size_t i = 0; i < moving.points.size(); ++i) {
-            const cv::Vec3d p = rotation * moving.points[i] + translation;
-            const int j = grid.nearest(p, limit);
-            if (j < 0) continue;
-            const cv::Vec3d& n = fixed.normals[static_cast<size_t>(j)];
-            if ((rotation * moving.normals[i]).dot(n) < min_normal_cos) continue;
-            const cv::Vec3d q = fixed.points[static_cast<size_t>(j)];
-            pairings.push_back({(p - q).dot(n), cv::norm(p - q), p, n, static_cast<int>(i), j});
+        for (size_t k = 0; k < pairs.size(); ++k) {
+            const SurfaceSamples& fixed = *pairs[k].fixed;
+            const SurfaceSamples& moving = *pairs[k].moving;
+            for (size_t i = 0; i < moving.points.size(); ++i) {
+                const cv::Vec3d p = rotation * moving.points[i] + translation;
+                const int j = grids[k]->nearest(p, limit);
+                if (j < 0) continue;
+                const cv::Vec3d& n = fixed.normals[static_cast<size_t>(j)];
+                if ((rotation * moving.normals[i]).dot(n) < min_normal_cos) continue;
+                const cv::Vec3d q = fixed.points[static_cast<size_t>(j)];
+                pairings.push_back({(p - q).dot(n), cv::norm(p - q), p, n, static_cast<int>(i), j, static_cast<int>(k)});
+            }
         }
         if (pairings.size() < 6) return result;
         // Trimmed: only the best fraction of pairs (overlap is never complete).
         const size_t kept = std::max<size_t>(6, static_cast<size_t>(options.icp_trim_fraction * pairings.size()));
         std::nth_element(pairings.begin(), pairings.begin() + static_cast<long>(kept - 1), pairings.end(),
                          [](const Pairing& a, const Pairing& b) { return a.distance < b.distance; });
+        // Linearised about the centroid of the paired points, rotation scaled by their spread, so
+        // the six directions are comparable: a direction the surfaces do not fix (a plane or a
+        // cylinder sliding along itself) shows as a tiny eigenvalue, and ICP does not move
+        // along it (Gelfand et al. 2003 measure the same stability).
+        cv::Vec3d centre(0, 0, 0);
+        for (size_t k = 0; k < kept; ++k) centre += pairings[k].point;
+        centre *= 1.0 / static_cast<double>(kept);
+        double spread = 0;
+        for (size_t k = 0; k < kept; ++k) spread += cv::norm(pairings[k].point - centre, cv::NORM_L2SQR);
+        const double scale = std::max(std::sqrt(spread / static_cast<double>(kept)), 1.0);
         cv::Matx66d normal_matrix = cv::Matx66d::zeros();
         cv::Vec6d right_side(0, 0, 0, 0, 0, 0);
         double squared = 0;
         for (size_t k = 0; k < kept; ++k) {
             const Pairing& pair = pairings[k];
-            const cv::Vec3d c = pair.point.cross(pair.normal);
+            const cv::Vec3d c = (pair.point - centre).cross(pair.normal) * (1.0 / scale);
             const cv::Vec6d row(c[0], c[1], c[2], pair.normal[0], pair.normal[1], pair.normal[2]);
             normal_matrix += row * row.t();
             right_side -= row * pair.residual;
             squared += pair.residual * pair.residual;
         }
         result.rms_mm = std::sqrt(squared / static_cast<double>(kept));
-        cv::Vec6d step;
-        if (!cv::solve(normal_matrix, right_side, step, cv::DECOMP_CHOLESKY)) return result;
-        const cv::Vec3d omega(step[0], step[1], step[2]), delta(step[3], step[4], step[5]);
-        result.transform = motion_matrix(omega, delta) * result.transform;
+        cv::Matx61d eigenvalues;
+        cv::Matx66d eigenvectors;  // rows
+        if (!cv::eigen(normal_matrix, eigenvalues, eigenvectors)) return result;
+        result.stability = eigenvalues(0) > 0 ? std::max(eigenvalues(5), 0.0) / eigenvalues(0) : 0.0;
+        cv::Vec6d step(0, 0, 0, 0, 0, 0);
+        for (int e = 0; e < 6; ++e) {
+            if (eigenvalues(e) < kWeakDirection * eigenvalues(0)) continue;  // not fixed by the surfaces: stay
+            cv::Vec6d direction;
+            for (int c = 0; c < 6; ++c) direction[c] = eigenvectors(e, c);
+            step += direction * (direction.dot(right_side) / eigenvalues(e));
+        }
+        const cv::Vec3d omega = cv::Vec3d(step[0], step[1], step[2]) * (1.0 / scale), delta(step[3], step[4], step[5]);
+        // x -> R (x - centre) + centre + delta
+        const cv::Matx44d turn = motion_matrix(omega, {0, 0, 0});
+        const cv::Vec3d shift = centre - turn.get_minor<3, 3>(0, 0) * centre + delta;
+        result.transform = rigid_transform(turn.get_minor<3, 3>(0, 0), shift) * result.transform;
         // Tighten the correspondence distance as the alignment improves (outliers drop out).
         std::vector<double> distances;
         distances.reserve(kept);
         for (size_t k = 0; k < kept; ++k) distances.push_back(pairings[k].distance);
         std::nth_element(distances.begin(), distances.begin() + static_cast<long>(kept / 2), distances.end());
         limit = std::clamp(6.0 * distances[kept / 2], options.sample_spacing_mm, options.icp_max_distance_mm);
-        result.overlap = static_cast<double>(pairings.size()) /
-                         static_cast<double>(std::min(fixed.points.size(), moving.points.size()));
-        result.texture_agreement = texture_correlation(pairings, kept, fixed, moving);
+        result.overlap = static_cast<double>(pairings.size()) / static_cast<double>(smaller_total);
+        result.texture_agreement = texture_correlation(pairings, kept, pairs);
         // A start that shares almost nothing with the fixed view will not get better.
         if (iteration == 10 && result.overlap < options.min_overlap / 2) break;
         if (cv::norm(omega) < 1e-5 && cv::norm(delta) < 1e-3) {  // 0.0006 degrees, 1 um: far below what is measured

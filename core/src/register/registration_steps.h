@@ -44,10 +44,18 @@ struct IcpResult {
     // Correlation of the white-frame levels of paired points: near 1 when the paint lines up,
     // near 0 when a symmetric shape was matched the wrong way round; NaN without texture.
     double texture_agreement = std::numeric_limits<double>::quiet_NaN();
+    // Smallest / largest eigenvalue of the point-to-plane system (centred, rotation scaled by
+    // the spread): near 0 when the overlap lets the views slide (planes, a cylinder).
+    double stability = 0;
 };
 // Point-to-plane ICP with trimmed correspondences, starting from `initial`.
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
                              const RegistrationOptions& options);
+
+// The same, for several pairs of views related by one shared transform (the step of a
+// turntable takes every view k+1 into view k's frame, since the camera stays where it is).
+struct SamplePair { const SurfaceSamples* fixed; const SurfaceSamples* moving; };
+IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options);
 
 // Rotation and translation -> 4x4 transform, and the inverse of such a transform.
 cv::Matx44d rigid_transform(const cv::Matx33d& rotation, const cv::Vec3d& translation);
