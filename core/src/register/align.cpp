@@ -94,7 +94,7 @@ void judge(PairRegistration& pair, const RegistrationOptions& options, const Vie
     if (pair.overlap < options.min_overlap)
         pair.problem = "too little overlap (" + format("%.1f", 100 * pair.overlap) + " % of points have a partner, need " +
                        format("%.1f", 100 * options.min_overlap) + " %)";
-    else if (!pair.converged)
+    else if (!pair.converged && !guided)  // a guided pose is judged by how far ICP took it (align_views)
         pair.problem = "ICP did not converge in " + std::to_string(options.icp_iterations) + " iterations";
     else if (pair.rms_mm > max_rms)
         pair.problem = "residual too large after ICP (" + format("%.3f", pair.rms_mm) + " mm)";
@@ -315,10 +315,10 @@ TurntableStep estimate_turntable_step(const std::vector<ViewData>& data, const R
 }
 
 // Multi-view refinement: every accepted view against every other, all poses solved together
-// (view `anchor` fixed). Returns each view's point-to-plane RMS against the others.
+// (view `anchor` fixed; none moves without move_views). Returns each view's point-to-plane RMS against the others.
 std::vector<double> refine_together(const std::vector<ViewData>& data, std::vector<cv::Matx44d>& poses,
-                                    const std::vector<bool>& active, int anchor, const RegistrationOptions& options,
-                                    const ProgressCallback& progress) {
+                                    const std::vector<bool>& active, int anchor, bool move_views,
+                                    const RegistrationOptions& options, const ProgressCallback& progress) {
     const size_t n = data.size();
     std::vector<int> unknown(n, -1);  // column block of each view's motion
     int blocks = 0;
@@ -400,7 +400,7 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
             }
         }
         for (size_t i = 0; i < n; ++i) rms[i] = counted[i] ? std::sqrt(squared[i] / static_cast<double>(counted[i])) : 0.0;
-        if (blocks == 0) break;
+        if (blocks == 0 || !move_views) break;
         // Views do not move along directions the surfaces leave unfixed (a plane or a cylinder
         // sliding along itself): those keep the poses they came with.
         cv::Mat eigenvalues, eigenvectors;
@@ -539,20 +539,39 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
     std::string round_problem;
     if (!options.initial_poses.empty()) {
         guess_of = [&](size_t i, size_t j) { return detail::inverse_rigid(options.initial_poses[i]) * options.initial_poses[j]; };
-    } else if (turntable) {
-        guess_of = [&](size_t i, size_t j) {
-            return detail::inverse_rigid(turntable_pose(*turntable, static_cast<int>(i))) * turntable_pose(*turntable, static_cast<int>(j));
-        };
-        max_departure_deg = 2.0;  // a calibrated axis may be a little off; ICP takes it the rest of the way
-        max_departure_mm = 3.0;
-        motion_name = "the turntable's step";
-    } else if (options.turntable_round && n >= 3) {
-        report(0.1, "estimating the turntable's step");
-        const TurntableStep round = estimate_turntable_step(data, options);
-        alignment.turntable_supporting_pairs = round.supporting_pairs;
-        if (round.step) {
-            alignment.turntable_step = round.step;
-            const cv::Matx44d step = *round.step;
+    } else if (turntable || (options.turntable_round && n >= 3)) {
+        // A turntable: the camera stays and the part turns by the same step S between views,
+        // so view k -> view 0 is S^k. S (from the axis given, or estimated from the views) is
+        // refined on all neighbouring pairs at once, and every view must agree with it.
+        std::optional<cv::Matx44d> start;
+        if (turntable) {
+            start = turntable_pose(*turntable, 1);
+        } else {
+            report(0.1, "estimating the turntable's step");
+            const TurntableStep round = estimate_turntable_step(data, options);
+            alignment.turntable_supporting_pairs = round.supporting_pairs;
+            start = round.step;
+            if (!start) round_problem = round.problem;
+        }
+        if (start) {
+            const bool full_round = !turntable || std::abs(static_cast<double>(n) * turntable->step_deg - 360.0) < 1.0;
+            std::vector<detail::SamplePair> ring;
+            for (size_t k = 0; k < (full_round ? n : n - 1); ++k)
+                if (data[k].samples.points.size() >= 100 && data[(k + 1) % n].samples.points.size() >= 100)
+                    ring.push_back({&data[k].samples, &data[(k + 1) % n].samples});
+            const detail::IcpResult shared = detail::icp_point_to_plane(ring, *start, options);
+            const PoseDifference moved_by = disagreement(*start, shared.transform, data[n > 1 ? 1 : 0]);
+            if (!shared.converged)
+                round_problem = "the turntable's step could not be refined on the neighbouring views (ICP did not converge)";
+            else if (moved_by.rotation_deg > 2.0 || moved_by.translation_mm > 3.0)  // a calibrated axis may be a little off
+                round_problem = "the views do not follow the given turntable axis (the step fitted to them is " +
+                                format("%.2f", moved_by.rotation_deg) + " degrees and " + format("%.2f", moved_by.translation_mm) +
+                                " mm away from it)";
+            else
+                alignment.turntable_step = shared.transform;
+        }
+        if (alignment.turntable_step) {
+            const cv::Matx44d step = *alignment.turntable_step;
             guess_of = [step](size_t i, size_t j) {
                 cv::Matx44d motion = cv::Matx44d::eye();
                 if (j >= i)
@@ -561,11 +580,9 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
                     for (size_t k = j; k < i; ++k) motion = motion * detail::inverse_rigid(step);
                 return motion;
             };
-            max_departure_deg = 1.0;
-            max_departure_mm = 1.5;
-            motion_name = "the turntable's step estimated from all the views";
-        } else {
-            round_problem = round.problem;
+            max_departure_deg = 0.5;
+            max_departure_mm = 0.75;
+            motion_name = "the turntable's step";
         }
     }
 
@@ -597,6 +614,8 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
             std::optional<cv::Matx44d> guess;
             if (guess_of) guess = guess_of(i, j);
             PairRegistration result = register_samples(data[i], data[j], options, guess);
+            if (result.problem.empty() && guess && max_departure_deg == 0 && !result.converged)
+                result.problem = "ICP did not converge in " + std::to_string(options.icp_iterations) + " iterations";
             if (result.problem.empty() && guess && max_departure_deg > 0) {
                 const PoseDifference departure = disagreement(*guess, result.transform, data[j]);
                 if (departure.rotation_deg > max_departure_deg || departure.translation_mm > max_departure_mm)
@@ -606,13 +625,15 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
             }
             edges.push_back({i, j, result});
             if (!result.problem.empty()) continue;
-            poses[j] = poses[i] * result.transform;
+            // On a turntable every view sits at its step; the pair only confirmed it.
+            poses[j] = alignment.turntable_step ? guess_of(0, j) : poses[i] * result.transform;
             reached[j] = true;
             ++reached_count;
             grew = true;
         }
     }
-    std::vector<double> rms = refine_together(data, poses, reached, 0, options, progress);
+    const bool move_views = !alignment.turntable_step;
+    std::vector<double> rms = refine_together(data, poses, reached, 0, move_views, options, progress);
 
     // The whole model checked against every view's free space: a view placed where another
     // view's camera saw through is taken out (the one in most conflicts first), and the rest
@@ -643,7 +664,7 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
         removed = true;
         const size_t anchor = static_cast<size_t>(std::find(reached.begin(), reached.end(), true) - reached.begin());
         if (anchor == n) break;
-        rms = refine_together(data, poses, reached, static_cast<int>(anchor), options, progress);
+        rms = refine_together(data, poses, reached, static_cast<int>(anchor), move_views, options, progress);
     }
     report(1.0, "aligned");
 
