@@ -1,7 +1,7 @@
 #include "picoscan/preview.h"
 
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 #include "picoscan/simulate.h"
 #include "register/point_grid.h"
 
@@ -53,9 +53,7 @@ cv::Mat render_preview(const ScanView& view) {
 }
 
 void write_preview_png(const ScanView& view, const std::string& path) {
-    std::vector<uint8_t> png;
-    if (!cv::imencode(".png", render_preview(view), png)) throw Error(path, "cannot encode the preview");
-    write_file_atomically(path, std::string(png.begin(), png.end()));
+    write_image_file(render_preview(view), path);
 }
 
 void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const std::string& path) {
@@ -91,9 +89,7 @@ void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const s
                                   cv::saturate_cast<uint8_t>(255 * level + 60));
             }
     }
-    std::vector<uint8_t> png;
-    if (!cv::imencode(".png", image(box), png)) throw Error(path, "cannot encode the preview");
-    write_file_atomically(path, std::string(png.begin(), png.end()));
+    write_image_file(image(box), path);
 }
 
 }  // namespace picoscan

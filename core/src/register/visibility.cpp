@@ -27,12 +27,19 @@ ViewCamera view_camera(const ScanView& view) {
             ++used;
         }
     if (used < 100) return camera;
-    cv::Vec2d solution_x, solution_y;
-    if (!cv::solve(ax, bx, solution_x) || !cv::solve(ay, by, solution_y)) return camera;
-    camera.fx = solution_x[0];
-    camera.cx = solution_x[1];
-    camera.fy = solution_y[0];
-    camera.cy = solution_y[1];
+    if (view.camera_matrix(0, 0) > 0) {  // the view knows its camera
+        camera.fx = view.camera_matrix(0, 0);
+        camera.fy = view.camera_matrix(1, 1);
+        camera.cx = view.camera_matrix(0, 2);
+        camera.cy = view.camera_matrix(1, 2);
+    } else {
+        cv::Vec2d solution_x, solution_y;
+        if (!cv::solve(ax, bx, solution_x) || !cv::solve(ay, by, solution_y)) return camera;
+        camera.fx = solution_x[0];
+        camera.cx = solution_x[1];
+        camera.fy = solution_y[0];
+        camera.cy = solution_y[1];
+    }
     cv::Mat depth(view.points.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
     double squared = 0;
     size_t counted = 0;

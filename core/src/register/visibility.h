@@ -10,8 +10,8 @@
 
 namespace picoscan::detail {
 
-// A view's pinhole camera, fitted to its own pixel grid (its points are in the camera
-// frame, each at its pixel), and its depth map.
+// A view's pinhole camera (its own, or else fitted to its pixel grid: its points are in the
+// camera frame, each at its pixel), how well that explains the grid, and its depth map.
 struct ViewCamera {
     double fx = 0, fy = 0, cx = 0, cy = 0;
     double fit_rms_px = 0;   // how well the pinhole explains the grid (lens distortion)
