@@ -45,7 +45,9 @@ into one model, in the first view's camera frame, and writes the merged cloud wi
   1. ORB features on each view's white frame, lifted to 3D, matched and fitted by RANSAC;
      where too few match (large turns, plain parts), shape histograms (FPFH) instead;
   2. point-to-plane ICP with trimmed correspondences for every overlapping pair; a pair is
-     accepted only when it overlaps, converges, fits tightly and its paint lines up;
+     accepted only when it overlaps, converges, fits tightly, leaves no point of either view
+     where the other's camera saw through, fixes the pose (nothing slides), fits only one
+     way, and (where both views are painted) its paint lines up;
   3. all views refined together (multi-view ICP), so no error piles up around a full turn.
 Views that cannot be aligned are named with the reason and their overlap, are left out of
 the merge and are written beside it as MERGED.unmerged-NAME.ply; the exit code is then 3.
@@ -58,6 +60,9 @@ Options:
                              the views of a turntable are stitched by features, stitch prints
                              the axis it found, ready to paste here.
   --step-deg A               turntable step between consecutive views (default 360/views)
+  --turntable-round          the views are one full turntable round, in order, in equal steps;
+                             the axis is unknown: the step is estimated from all the views
+                             together (for plain parts whose views do not register alone)
   --initial-poses P.txt      start ICP from these view->model poses (the format stitch writes
                              to MERGED.poses.txt, views in the same order) instead of features
   --spacing-mm S             points are thinned to about S mm for ICP (default 0.7)
@@ -208,8 +213,12 @@ int run_stitch(const Arguments& arguments) {
         if (cv::norm(options.turntable->direction) < 1e-9) throw Error("--turntable", "the axis direction must not be zero");
         options.turntable->step_deg = arguments.number("--step-deg", options.turntable->step_deg);
     }
+    options.registration.turntable_round = arguments.flag("--turntable-round");
+    if (options.registration.turntable_round && options.turntable)
+        throw Error("--turntable-round", "give either --turntable (axis known) or --turntable-round (axis estimated)");
     if (arguments.has("--initial-poses")) {
-        if (options.turntable) throw Error("--initial-poses", "give either --turntable or --initial-poses");
+        if (options.turntable || options.registration.turntable_round)
+            throw Error("--initial-poses", "give either --turntable, --turntable-round or --initial-poses");
         const std::string path = arguments.text("--initial-poses");
         const std::vector<ViewPose> poses = read_poses(path);
         if (poses.size() != inputs.size())
@@ -361,7 +370,7 @@ std::vector<Command> model_commands() {
         {"clean", "remove stray-light noise, background and outliers from a view", kCleanHelp, run_clean,
          {{}, {}, true}},
         {"stitch", "align several views of a part into one model (features, RANSAC, ICP)", kStitchHelp, run_stitch,
-         {{}, {}, true}},
+         {{"--turntable-round"}, {}, true}},
         {"mesh", "mesh a cloud: watertight Poisson, advancing front or pixel grid -> STL", kMeshHelp, run_mesh,
          {{}, {}, true}},
         {"demo", "simulated 360-degree turntable scan of the built-in part -> watertight STL", kDemo360Help, run_demo,

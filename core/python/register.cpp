@@ -16,7 +16,8 @@ void bind_register(py::module_& m) {
         .def_readwrite("icp_max_distance_mm", &RegistrationOptions::icp_max_distance_mm)
         .def_readwrite("sample_spacing_mm", &RegistrationOptions::sample_spacing_mm)
         .def_readwrite("min_overlap", &RegistrationOptions::min_overlap)
-        .def_readwrite("global_sweeps", &RegistrationOptions::global_sweeps);
+        .def_readwrite("global_sweeps", &RegistrationOptions::global_sweeps)
+        .def_readwrite("turntable_round", &RegistrationOptions::turntable_round);
     py::class_<TurntableAxis>(m, "TurntableAxis")
         .def(py::init<>())
         .def_readwrite("point_mm", &TurntableAxis::point_mm)

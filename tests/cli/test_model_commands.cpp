@@ -141,3 +141,36 @@ TEST(CleanCli, FiltersReportTheirCountsAndTheInputStays) {
     const Result overwrite = run_picoscan("clean " + input + " --calibration " + calibration + " --out " + input);
     EXPECT_NE(overwrite.output.find("would overwrite an input"), std::string::npos) << overwrite.output;
 }
+
+// A plain (unpainted) stepped block, 8 views of one turntable round: stitched by features
+// alone, the views that cannot be placed for sure are named and left out, never merged wrongly;
+// with --turntable-round all 8 align onto the true part.
+TEST(StitchCli, PlainPartIsRightOrRefusedAndTurntableRoundAlignsIt) {
+    const test_support::TurntableScan& scan = test_support::plain_turntable_scan(test_support::PlainPart::SteppedBlock);
+    std::string views;
+    for (size_t i = 0; i < scan.views.size(); ++i)
+        views += (fs::path(PICOSCAN_TEST_CACHE_DIR) / "plain-v1-stepped-block" / scan.names[i]).string() + " ";
+    const fs::path dir = make_temp_dir("stitch_cli_plain");
+    for (const bool round : {false, true}) {
+        const std::string out = (dir / (round ? "round.ply" : "features.ply")).string();
+        const Result result = run_picoscan("stitch " + views + "--out " + out + (round ? " --turntable-round" : ""));
+        if (round) {
+            EXPECT_EQ(result.exit_code, 0) << result.output;
+            EXPECT_NE(result.output.find("8 of 8 views merged"), std::string::npos) << result.output;
+        } else {
+            EXPECT_TRUE(result.exit_code == 0 || result.exit_code == 3) << result.output;
+        }
+        const std::vector<ViewPose> poses = read_poses(fs::path(out).replace_extension(".poses.txt").string());
+        ASSERT_EQ(poses.size(), scan.views.size());
+        for (size_t i = 1; i < poses.size(); ++i) {
+            if (!poses[i].aligned) {
+                EXPECT_NE(result.output.find(scan.names[i] + std::string(25 - scan.names[i].size(), ' ') + "NOT aligned: "),
+                          std::string::npos) << result.output;
+                continue;
+            }
+            const PoseDifference error = pose_difference(scan.true_view_to_model[i], poses[i].pose, scan.centroid(i));
+            EXPECT_LT(error.rotation_deg, 0.1) << (round ? "round " : "features ") << i;
+            EXPECT_LT(error.translation_mm, 0.1) << (round ? "round " : "features ") << i;
+        }
+    }
+}

@@ -90,7 +90,9 @@ TEST_P(PlainPartRegistration, TurntableRoundWithUnknownAxisIsRightOrRefuses) {
                 alignment.turntable_supporting_pairs);
     EXPECT_EQ(outcome.wrong, 0);
     for (const ViewAlignment& view : alignment.views)
-        if (!view.aligned) EXPECT_FALSE(view.problem.empty()) << view.name;
+        if (!view.aligned) {
+            EXPECT_FALSE(view.problem.empty()) << view.name;
+        }
 }
 
 // Built to fool it: every view given its true pose, but view 2 turned half round about the

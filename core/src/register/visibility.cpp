@@ -18,7 +18,7 @@ ViewCamera view_camera(const ScanView& view) {
     for (int y = 0; y < view.points.rows; y += 3)
         for (int x = 0; x < view.points.cols; x += 3) {
             const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
-            if (!finite_point(p) || p[2] <= 0) continue;
+            if (!is_finite_point(p) || p[2] <= 0) continue;
             const double u = p[0] / p[2], v = p[1] / p[2];
             ax += cv::Matx22d(u * u, u, u, 1);
             bx += cv::Vec2d(u * x, x);
@@ -46,7 +46,7 @@ ViewCamera view_camera(const ScanView& view) {
     for (int y = 0; y < view.points.rows; ++y)
         for (int x = 0; x < view.points.cols; ++x) {
             const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
-            if (!finite_point(p) || p[2] <= 0) continue;
+            if (!is_finite_point(p) || p[2] <= 0) continue;
             depth.at<float>(y, x) = p[2];
             if ((x % 3) || (y % 3)) continue;
             const double ex = camera.fx * p[0] / p[2] + camera.cx - x, ey = camera.fy * p[1] / p[2] + camera.cy - y;
