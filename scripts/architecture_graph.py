@@ -21,10 +21,15 @@ INCLUDE = re.compile(r'^\s*#include\s+"picoscan/(\w+)\.h"', re.M)
 FUNCTION = re.compile(r"^[A-Za-z][\w:<>, ]*?[\w>]\s+(\w+)\(", re.M)
 
 
+def read_text(path):
+    with open(path, encoding="utf-8") as file:
+        return file.read()
+
+
 def includes(paths):
     found = set()
     for path in paths:
-        found.update(INCLUDE.findall(open(path, encoding="utf-8").read()))
+        found.update(INCLUDE.findall(read_text(path)))
     return found
 
 
@@ -60,7 +65,7 @@ def main():
             if included in shown and included != header:
                 edges.add((included, header))
 
-    pipeline_text = open(os.path.join(include_dir, "pipeline.h"), encoding="utf-8").read()
+    pipeline_text = read_text(os.path.join(include_dir, "pipeline.h"))
     recipes = sorted(set(FUNCTION.findall(pipeline_text)) - {"validate"}) + ["validate"]
 
     def files(pattern):

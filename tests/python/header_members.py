@@ -14,6 +14,11 @@ ENUM_HEAD = re.compile(r"\benum\s+(?:class\s+)?(\w+)\s*(?::\s*\w+\s*)?\{")
 ACCESS = re.compile(r"^\s*(public|private|protected)\s*:", re.M)
 
 
+def read_text(path):
+    with open(path, encoding="utf-8") as file:
+        return file.read()
+
+
 def header_paths(include_dir):
     return sorted(os.path.join(include_dir, name) for name in os.listdir(include_dir) if name.endswith(".h"))
 
@@ -98,7 +103,7 @@ def _data_members(statement):
 
 def public_types(path):
     """{type name: [public data members]} for every struct and class the header defines."""
-    text = COMMENT.sub("", open(path, encoding="utf-8").read())
+    text = COMMENT.sub("", read_text(path))
     types = {}
     position = 0
     while True:
@@ -123,7 +128,7 @@ def public_types(path):
 
 
 def public_enums(path):
-    text = COMMENT.sub("", open(path, encoding="utf-8").read())
+    text = COMMENT.sub("", read_text(path))
     enums = {}
     for head in ENUM_HEAD.finditer(text):
         end = _matching_brace(text, head.end() - 1)

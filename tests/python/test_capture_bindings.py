@@ -83,7 +83,8 @@ class CaptureTest(unittest.TestCase):
     def test_a_foreign_folder_is_refused_before_anything_is_shown(self):
         folder = os.path.join(self.root, "foreign")
         os.makedirs(folder)
-        open(os.path.join(folder, "notes.txt"), "w").write("not a capture")
+        with open(os.path.join(folder, "notes.txt"), "w") as notes:
+            notes.write("not a capture")
         with self.assertRaisesRegex(picoscan.Error, "holds files but no capture"):
             self.capture(folder)
         self.assertEqual(os.listdir(folder), ["notes.txt"])

@@ -101,7 +101,7 @@ class MirrorTest(unittest.TestCase):
 
     def test_the_architecture_table_lists_every_header(self):
         """docs/architecture.md's stage table: one row per public header, naming its binding."""
-        text = open(os.path.join(SOURCE_DIR, "docs", "architecture.md"), encoding="utf-8").read()
+        text = header_members.read_text(os.path.join(SOURCE_DIR, "docs", "architecture.md"))
         missing = [os.path.basename(path) for path in all_headers()
                    if f"| `{os.path.basename(path)}` | " not in text
                    or f"| `{os.path.basename(path)[:-2]}.cpp` |" not in text]
