@@ -65,12 +65,12 @@ const TurntableScan& disturbed_turntable_scan() {
     TurntablePlan plan;
     plan.max_disturbance_deg = 10;
     plan.max_disturbance_mm = 20;
-    static const TurntableScan scan = make_scan("turntable-v2-disturbed", mechanical_part(), plan);
+    static const TurntableScan scan = make_scan("turntable-v3-disturbed", mechanical_part(), plan);
     return scan;
 }
 
 const TurntableScan& turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v2-exact", mechanical_part(), TurntablePlan{});
+    static const TurntableScan scan = make_scan("turntable-v3-exact", mechanical_part(), TurntablePlan{});
     return scan;
 }
 
@@ -168,7 +168,7 @@ const TurntableScan& plain_turntable_scan(PlainPart part) {
     double top = 0;
     for (const cv::Vec3f& v : mesh.vertices) top = std::max(top, static_cast<double>(v[2]));
     plan.part_middle_height_mm = top / 2;
-    return scans.emplace(part, make_scan("plain-v1-" + plain_part_name(part), mesh, plan)).first->second;
+    return scans.emplace(part, make_scan("plain-v2-" + plain_part_name(part), mesh, plan)).first->second;
 }
 
 namespace {
