@@ -57,6 +57,7 @@ void bind_capture_set(py::module_& m);
 void bind_decode(py::module_& m);
 void bind_calibration(py::module_& m);
 void bind_triangulate(py::module_& m);
+void bind_stereo(py::module_& m);
 void bind_cloud(py::module_& m);
 void bind_clean(py::module_& m);
 void bind_simulate(py::module_& m);

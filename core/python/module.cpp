@@ -111,6 +111,7 @@ PYBIND11_MODULE(picoscan, m) {
     bind_decode(m);
     bind_calibration(m);
     bind_triangulate(m);
+    bind_stereo(m);
     bind_cloud(m);
     bind_clean(m);
     bind_simulate(m);
