@@ -2,7 +2,9 @@
 // apart, the seed projector between them, camera noise sigma = 1 DN), and on real captures.
 #include "picoscan/decode.h"
 #include "picoscan/fit.h"
+#include "picoscan/io.h"
 #include "picoscan/patterns.h"
+#include "picoscan/preview.h"
 #include "picoscan/simulate.h"
 #include "picoscan/stereo.h"
 #include "picoscan/triangulate.h"
@@ -11,10 +13,13 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 using namespace picoscan;
 using picoscan::test_support::error_of;
@@ -81,6 +86,71 @@ const StereoScan& sphere_scan(double gamma) {
     return gamma == 1.0 ? linear : gamma_22;
 }
 
+// The method as a picture: both cameras' decoded projector columns (colour), one left image
+// row and, in the right image, where its points were found (the epipolar curve), and the
+// reconstructed view.
+void draw_binocular_figure(const StereoScan& data, const ScanView& view, int row, const std::string& path) {
+    auto colour_codes = [](const cv::Mat& codes) {
+        cv::Mat scaled;
+        codes.convertTo(scaled, CV_8U, 255.0 / 854);
+        cv::Mat coloured;
+        cv::applyColorMap(scaled, coloured, cv::COLORMAP_TURBO);
+        coloured.setTo(cv::Scalar(40, 40, 40), codes != codes);
+        return coloured;
+    };
+    cv::Mat left = colour_codes(data.left.projector_u), right = colour_codes(data.right.projector_u);
+    cv::Mat preview = render_preview(view);
+    cv::line(left, {0, row}, {left.cols - 1, row}, cv::Scalar(255, 255, 255), 3);
+    const cv::Matx33d& R = data.rig.stereo.R;
+    const cv::Vec3d& T = data.rig.stereo.T;
+    std::vector<cv::Point3d> in_right;
+    std::vector<cv::Point> left_pixels;
+    for (int x = 0; x < view.points.cols; x += 1) {
+        const cv::Vec3f point = view.points.at<cv::Vec3f>(row, x);
+        if (!std::isfinite(point[2])) continue;
+        const cv::Vec3d moved = R * cv::Vec3d(point) + T;
+        in_right.emplace_back(moved[0], moved[1], moved[2]);
+        left_pixels.emplace_back(x, row);
+    }
+    std::vector<cv::Point2d> right_pixels;
+    cv::projectPoints(in_right, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(data.rig.stereo.right_matrix),
+                      data.rig.stereo.right_distortion, right_pixels);
+    for (const cv::Point2d& pixel : right_pixels) cv::circle(right, pixel, 2, cv::Scalar(255, 255, 255), cv::FILLED);
+    for (size_t index = 0; index < right_pixels.size(); index += right_pixels.size() / 6 + 1) {
+        cv::circle(left, left_pixels[index], 12, cv::Scalar(0, 0, 0), 4);
+        cv::circle(right, right_pixels[index], 12, cv::Scalar(0, 0, 0), 4);
+    }
+    cv::Mat panels;
+    cv::hconcat(std::vector<cv::Mat>{left, right, preview}, panels);
+    cv::resize(panels, panels, cv::Size(), 0.4, 0.4, cv::INTER_AREA);
+    cv::Mat figure(panels.rows + 40, panels.cols, CV_8UC3, cv::Scalar(255, 255, 255));
+    panels.copyTo(figure(cv::Rect(0, 40, panels.cols, panels.rows)));
+    const int third = panels.cols / 3;
+    cv::putText(figure, "first camera: projector column, one row", {10, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    cv::putText(figure, "second camera: where that row's codes were found", {third + 10, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.6,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    cv::putText(figure, "reconstructed view (first camera)", {2 * third + 10, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.6,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    std::vector<uint8_t> png;
+    cv::imencode(".png", figure, png);
+    write_file_atomically(path, std::string(png.begin(), png.end()));
+}
+
+// A sphere and a box in front of a plane: shadows, occlusions seen by one camera only, depth
+// jumps; scanned once with rows.
+Scene objects_scene() {
+    Scene scene;
+    scene.spheres.push_back({cv::Vec3d(-30, 10, 390), 20.0, 0.8});
+    scene.boxes.push_back({cv::Vec3d(35, -15, 400), cv::Vec3d(15, 20, 15), cv::Matx33d::eye(), 0.7});
+    scene.planes.push_back({cv::Vec3d(0, 0, 440), cv::Vec3d(0, 0, -1), 0.6});
+    return scene;
+}
+
+const StereoScan& objects_scan() {
+    static const StereoScan instance = scan(objects_scene(), seed_sequence());
+    return instance;
+}
+
 }  // namespace
 
 TEST(StereoReconstruct, SphereOnTheTwoCameraRig) {
@@ -93,11 +163,11 @@ TEST(StereoReconstruct, SphereOnTheTwoCameraRig) {
                 "%d decoded, %d matched, %d ambiguous, left-right consistency %.4f %%, median epipolar error %.4f px\n",
                 points.size(), 2000 * (fit.radius_mm - 25), 1000 * fit.rms_mm, 1000 * cv::norm(fit.centre - kCentre),
                 s.left_decoded, s.matched, s.ambiguous, 100 * s.left_right_consistency(), s.median_epipolar_error_px);
-    EXPECT_GT(points.size(), 50000u);
+    EXPECT_GT(points.size(), 60000u);
     EXPECT_LE(std::abs(2 * fit.radius_mm - 50), 0.005);
     EXPECT_LE(fit.rms_mm, 0.008);
     EXPECT_LT(cv::norm(fit.centre - kCentre), 0.010);
-    EXPECT_GT(s.left_right_consistency(), 0.99);
+    EXPECT_GT(s.left_right_consistency(), 0.98);
     EXPECT_LT(s.median_epipolar_error_px, 0.1);
     // Every point is on the sphere (no stray points elsewhere in the empty scene).
     EXPECT_EQ(size_t(result.view.valid_count()), points.size());
@@ -123,13 +193,13 @@ TEST(StereoReconstruct, ProjectorGammaLargelyCancels) {
 }
 
 TEST(StereoReconstruct, PointsAgreeWithTheTrueSurfaceAtOcclusionsAndEdges) {
-    // A sphere and a box in front of a plane: shadows, occlusions seen by one camera only, depth jumps.
-    Scene scene;
-    scene.spheres.push_back({cv::Vec3d(-30, 10, 390), 20.0, 0.8});
-    scene.boxes.push_back({cv::Vec3d(35, -15, 400), cv::Vec3d(15, 20, 15), cv::Matx33d::eye(), 0.7});
-    scene.planes.push_back({cv::Vec3d(0, 0, 440), cv::Vec3d(0, 0, -1), 0.6});
-    const StereoScan data = scan(scene, seed_sequence(false));
-    const StereoReconstruction result = StereoMatcher(data.rig.stereo).reconstruct(data.left, data.right);
+    const StereoScan& data = objects_scan();
+    // Columns alone suffice: the row codes are left out.
+    CorrespondenceMap left = data.left, right = data.right;
+    left.projector_v = cv::Mat();
+    right.projector_v = cv::Mat();
+    const Scene scene = objects_scene();
+    const StereoReconstruction result = StereoMatcher(data.rig.stereo).reconstruct(left, right);
     const Simulator truth(data.rig.left, scene, camera_options());
     int points = 0, within_50um = 0, beyond_1mm = 0;
     for (int y = 0; y < result.view.points.rows; ++y)
@@ -149,6 +219,8 @@ TEST(StereoReconstruct, PointsAgreeWithTheTrueSurfaceAtOcclusionsAndEdges) {
     EXPECT_GT(points, 1000000);
     EXPECT_GT(double(within_50um) / points, 0.999);
     EXPECT_LE(double(beyond_1mm) / points, 1e-4);
+    if (const char* figures = std::getenv("PICOSCAN_FIGURES_DIR"))
+        draw_binocular_figure(data, result.view, 600, std::string(figures) + "/stereo_matching.png");
 }
 
 TEST(StereoReconstruct, AWrongCalibrationIsRefusedWhenRowsAreProjected) {
@@ -235,7 +307,7 @@ TEST(StereoReconstruct, StatueWithItsOwnStereoCalibration) {
 }
 
 TEST(StereoReconstruct, RefiningTheCamerasPoseFromTheCodes) {
-    const StereoScan& data = sphere_scan(1.0);
+    const StereoScan& data = objects_scan();
     StereoCalibration moved = data.rig.stereo;
     cv::Matx33d turn;
     cv::Rodrigues(cv::Vec3d(0.5 * CV_PI / 180, -0.3 * CV_PI / 180, 0.2 * CV_PI / 180), turn);
