@@ -30,12 +30,14 @@ void bind_stereo(py::module_& m) {
         .def_readwrite("max_view_rms_px", &StereoCalibrateOptions::max_view_rms_px)
         .def_readwrite("min_views", &StereoCalibrateOptions::min_views)
         .def_readwrite("recommended_views", &StereoCalibrateOptions::recommended_views)
-        .def_readwrite("min_pose_spread_deg", &StereoCalibrateOptions::min_pose_spread_deg);
+        .def_readwrite("min_pose_spread_deg", &StereoCalibrateOptions::min_pose_spread_deg)
+        .def_readwrite("radial_k3", &StereoCalibrateOptions::radial_k3);
     py::class_<StereoBoardView>(m, "StereoBoardView", "One board pose: each camera's image of the board.")
         .def(py::init<>())
         .def_readwrite("name", &StereoBoardView::name)
         .def_readwrite("left", &StereoBoardView::left)
         .def_readwrite("right", &StereoBoardView::right);
+    m.def("load_board_image", &load_board_image, py::arg("directory"), py::arg("manifest") = "");
     py::class_<StereoPoseReport>(m, "StereoPoseReport")
         .def_readonly("name", &StereoPoseReport::name)
         .def_readonly("used", &StereoPoseReport::used)

@@ -64,7 +64,16 @@ struct StereoCalibrateOptions {
     int min_views = 3;             // fewer usable poses is an error
     int recommended_views = 10;    // fewer gives a warning
     double min_pose_spread_deg = 5.0;  // largest angle between board orientations; less is degenerate
+    // Lens model: k1 k2 p1 p2, plus k3 when true (wide-angle lenses). With ordinary lenses a
+    // free k3 trades off against k2 and the principal point, which turns the cameras' relative
+    // rotation (MATLAB's calibrator also fits two radial terms by default).
+    bool radial_k3 = false;
 };
+
+// A pose folder's board image: with a manifest (or DIR/sequence.json) the capture set's white
+// frame, else the mean of its phase frames; without one, the folder's only image file.
+// Throws Error naming the folder.
+cv::Mat load_board_image(const std::string& directory, const std::string& manifest = "");
 
 // One board pose: the board image of each camera (a white frame is enough) and a name.
 struct StereoBoardView {
@@ -99,7 +108,8 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
 // Re-estimates the rotation and the direction of the baseline from the projector codes both
 // cameras decoded (columns and rows needed), keeping both cameras' intrinsics and the
 // baseline's length: for a rig whose cameras moved since calibration, or a file whose R, T
-// do not fit the captures. Pixels with equal codes are paired (their code cells' centroids),
+// do not fit the captures. The code of every third first-camera pixel is located in both
+// cameras (a linear fit of pixel position against code over the code cell's pixels), and
 // an essential matrix is fitted with RANSAC on the undistorted pairs and decomposed.
 // Throws Error when rows are missing, too few codes are shared, or too few pairs agree.
 struct ExtrinsicsRefinement {

@@ -17,21 +17,52 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Centroid of the pixels of each projector code cell (rounded u, v): sub-pixel even where a
-// binary code gives whole projector pixels only.
-std::map<long long, cv::Vec3d> code_cells(const CorrespondenceMap& map) {
-    std::map<long long, cv::Vec3d> cells;  // x sum, y sum, count
-    for (int y = 0; y < map.projector_u.rows; ++y) {
-        const float* u = map.projector_u.ptr<float>(y);
-        const float* v = map.projector_v.ptr<float>(y);
-        for (int x = 0; x < map.projector_u.cols; ++x) {
-            if (!std::isfinite(u[x]) || !std::isfinite(v[x])) continue;
-            const long long key = std::llround(v[x]) * 100000LL + std::llround(u[x]);
-            cells[key] += cv::Vec3d(x, y, 1);
+// Per projector code cell (rounded u, v) of one camera, a least-squares linear model of the
+// pixel position as a function of the code, fitted on the cell's pixels: where in this camera
+// any code inside the cell falls, to a fraction of a pixel (the cell's centroid for binary
+// codes, which are whole projector pixels).
+class CodeToPixel {
+public:
+    explicit CodeToPixel(const CorrespondenceMap& map) {
+        for (int y = 0; y < map.projector_u.rows; ++y) {
+            const float* u = map.projector_u.ptr<float>(y);
+            const float* v = map.projector_v.ptr<float>(y);
+            for (int x = 0; x < map.projector_u.cols; ++x) {
+                if (!std::isfinite(u[x]) || !std::isfinite(v[x])) continue;
+                Sums& sums = cells_[key(u[x], v[x])];
+                const double du = u[x] - std::round(u[x]), dv = v[x] - std::round(v[x]);
+                const cv::Vec3d basis(1, du, dv);
+                sums.normal += basis * basis.t();
+                sums.x += x * basis;
+                sums.y += y * basis;
+            }
         }
     }
-    return cells;
-}
+    // Pixel where the code (u, v) falls; false when its cell has too few pixels to fit.
+    bool locate(double u, double v, cv::Point2d& pixel) const {
+        const auto found = cells_.find(key(u, v));
+        if (found == cells_.end() || found->second.normal(0, 0) < 3) return false;
+        const Sums& sums = found->second;
+        if (std::abs(cv::determinant(sums.normal)) < 1e-9) {
+            // Whole-pixel (binary) codes, or codes along a line: the cell's centroid.
+            pixel = {sums.x[0] / sums.normal(0, 0), sums.y[0] / sums.normal(0, 0)};
+            return true;
+        }
+        const cv::Vec3d fit_x = sums.normal.solve(sums.x, cv::DECOMP_CHOLESKY);
+        const cv::Vec3d fit_y = sums.normal.solve(sums.y, cv::DECOMP_CHOLESKY);
+        const cv::Vec3d basis(1, u - std::round(u), v - std::round(v));
+        pixel = {fit_x.dot(basis), fit_y.dot(basis)};
+        return true;
+    }
+
+private:
+    struct Sums {
+        cv::Matx33d normal = cv::Matx33d::zeros();
+        cv::Vec3d x{0, 0, 0}, y{0, 0, 0};
+    };
+    static long long key(double u, double v) { return std::llround(v) * 100000LL + std::llround(u); }
+    std::map<long long, Sums> cells_;
+};
 
 // Distance (in normalised first-camera units) of each pair from its epipolar line.
 std::vector<double> epipolar_distances(const std::vector<cv::Point2d>& first, const std::vector<cv::Point2d>& second,
@@ -60,23 +91,28 @@ ExtrinsicsRefinement refine_stereo_extrinsics(const CorrespondenceMap& left, con
     validate_stereo_calibration(calibration, "stereo calibration");
     if (left.projector_v.empty() || right.projector_v.empty())
         throw Error("stereo", "refining the cameras' pose needs projector rows decoded in both cameras (patterns --rows)");
-    const auto left_cells = code_cells(left), right_cells = code_cells(right);
+    // Every few first-camera pixels' codes, located in both cameras the same way (exact for
+    // phase codes, the code cells' centroids for binary ones).
+    const CodeToPixel left_pixels(left), right_pixels(right);
     const detail::LensDistortion left_lens(calibration.left_distortion), right_lens(calibration.right_distortion);
     std::vector<cv::Point2d> first, second;
-    for (const auto& [key, sum] : left_cells) {
-        const auto other = right_cells.find(key);
-        if (other == right_cells.end()) continue;
-        const cv::Vec2d a = left_lens.undistort(detail::pixel_to_normalised(calibration.left_matrix, {sum[0] / sum[2], sum[1] / sum[2]}));
-        const cv::Vec3d& b_sum = other->second;
-        const cv::Vec2d b =
-            right_lens.undistort(detail::pixel_to_normalised(calibration.right_matrix, {b_sum[0] / b_sum[2], b_sum[1] / b_sum[2]}));
-        first.emplace_back(a[0], a[1]);
-        second.emplace_back(b[0], b[1]);
-    }
+    constexpr int kStep = 3;
+    for (int y = 0; y < left.projector_u.rows; y += kStep)
+        for (int x = 0; x < left.projector_u.cols; x += kStep) {
+            const float u = left.projector_u.at<float>(y, x), v = left.projector_v.at<float>(y, x);
+            cv::Point2d in_left, in_right;
+            if (!std::isfinite(u) || !std::isfinite(v) || !left_pixels.locate(u, v, in_left) ||
+                !right_pixels.locate(u, v, in_right))
+                continue;
+            const cv::Vec2d a = left_lens.undistort(detail::pixel_to_normalised(calibration.left_matrix, {in_left.x, in_left.y}));
+            const cv::Vec2d b = right_lens.undistort(detail::pixel_to_normalised(calibration.right_matrix, {in_right.x, in_right.y}));
+            first.emplace_back(a[0], a[1]);
+            second.emplace_back(b[0], b[1]);
+        }
     ExtrinsicsRefinement result;
     result.pairs = int(first.size());
     if (first.size() < 100)
-        throw Error("stereo", "only " + std::to_string(first.size()) + " projector codes seen by both cameras (100 needed)");
+        throw Error("stereo", "only " + std::to_string(first.size()) + " pixels whose projector code both cameras decoded (100 needed)");
     const double focal = calibration.left_matrix(0, 0);
     cv::Mat inlier_mask;
     const cv::Mat essential =

@@ -5,15 +5,19 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 
+#include "common/board_image.h"
 #include "common/calibration_reader.h"
 #include "common/progress_reporter.h"
 #include "common/storage_file.h"
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <initializer_list>
 #include <sstream>
 
@@ -200,6 +204,34 @@ StereoCalibration stereo_from_projector_calibrations(const Calibration& left, co
     return c;
 }
 
+cv::Mat load_board_image(const std::string& directory, const std::string& manifest) {
+    namespace fs = std::filesystem;
+    if (!manifest.empty() || fs::exists(fs::path(directory) / "sequence.json")) {
+        const cv::Mat image = detail::board_image(load_capture_set(directory, manifest));
+        if (image.empty()) throw Error(directory, "has no white frame or phase frames to find the board in");
+        return image;
+    }
+    std::error_code error;
+    if (!fs::is_directory(directory, error)) throw Error(directory, "is not a folder");
+    std::vector<fs::path> images;
+    for (const auto& entry : fs::directory_iterator(directory, error)) {
+        std::string extension = entry.path().extension().string();
+        for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+        for (const char* known : {".png", ".bmp", ".jpg", ".jpeg", ".tif", ".tiff"})
+            if (extension == known) images.push_back(entry.path());
+    }
+    if (images.size() != 1)
+        throw Error(directory, "holds " + std::to_string(images.size()) +
+                                   " images and no sequence.json; a pose folder needs one board image or a capture set");
+    cv::Mat image;
+    try {
+        image = cv::imread(images.front().string(), cv::IMREAD_UNCHANGED);
+    } catch (const cv::Exception&) {
+    }
+    if (image.empty()) throw Error(images.front().string(), "cannot be read as an image");
+    return image;
+}
+
 StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& views, const BoardSpec& board,
                                          const StereoCalibrateOptions& options, const ProgressCallback& progress) {
     if (views.empty()) throw Error("--captures", "no board poses given");
@@ -268,6 +300,7 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
     c.left_size = left_size;
     c.right_size = right_size;
     const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
+    const int lens_flags = options.radial_k3 ? 0 : cv::CALIB_FIX_K3;
     // Each camera alone first (Zhang), dropping poses whose error shows a bad detection.
     std::vector<cv::Mat> left_rotations, left_translations;
     for (int round = 0; round < 2; ++round) {
@@ -280,9 +313,10 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
         }
         cv::Mat left_matrix, left_distortion, right_matrix, right_distortion;
         std::vector<cv::Mat> right_rotations, right_translations;
-        cv::calibrateCamera(boards, lefts, left_size, left_matrix, left_distortion, left_rotations, left_translations, 0, criteria);
-        cv::calibrateCamera(boards, rights, right_size, right_matrix, right_distortion, right_rotations, right_translations, 0,
+        cv::calibrateCamera(boards, lefts, left_size, left_matrix, left_distortion, left_rotations, left_translations, lens_flags,
                             criteria);
+        cv::calibrateCamera(boards, rights, right_size, right_matrix, right_distortion, right_rotations, right_translations,
+                            lens_flags, criteria);
         c.left_matrix = cv::Matx33d(left_matrix);
         c.right_matrix = cv::Matx33d(right_matrix);
         c.left_distortion = left_distortion.reshape(1, 1);
@@ -343,7 +377,7 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
         cv::Mat left_matrix(c.left_matrix), right_matrix(c.right_matrix), R, T, essential, fundamental;
         report.stereo_rms_px = cv::stereoCalibrate(boards, lefts, rights, left_matrix, c.left_distortion, right_matrix,
                                                    c.right_distortion, left_size, R, T, essential, fundamental,
-                                                   cv::CALIB_USE_INTRINSIC_GUESS, criteria);
+                                                   cv::CALIB_USE_INTRINSIC_GUESS | lens_flags, criteria);
         c.left_matrix = cv::Matx33d(left_matrix);
         c.right_matrix = cv::Matx33d(right_matrix);
         c.R = cv::Matx33d(R);
