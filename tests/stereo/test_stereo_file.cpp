@@ -1,5 +1,6 @@
 // Stereo calibration files: PicoScan's keys and those of other tools, with errors naming the key.
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 #include "picoscan/simulate.h"
 #include "picoscan/stereo.h"

@@ -2,6 +2,7 @@
 // apart, the seed projector between them, camera noise sigma = 1 DN), and on real captures.
 #include "picoscan/decode.h"
 #include "picoscan/fit.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 #include "picoscan/patterns.h"
 #include "picoscan/preview.h"

@@ -8,6 +8,7 @@
 // at integer coordinates.
 #pragma once
 
+#include "picoscan/board.h"
 #include "picoscan/calibration.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/cloud.h"

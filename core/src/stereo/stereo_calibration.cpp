@@ -3,7 +3,7 @@
 #include "picoscan/stereo.h"
 
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 
 #include "common/board_image.h"
 #include "common/calibration_reader.h"

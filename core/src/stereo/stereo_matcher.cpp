@@ -302,6 +302,8 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
     view.points.create(c.left_size, CV_32FC3);
     view.quality = left.quality;
     view.colours = colour.empty() ? cv::Mat(c.left_size, CV_8UC3, cv::Scalar::all(200)) : colour;
+    view.camera_matrix = c.left_matrix;
+    view.camera_distortion = c.left_distortion.clone();
 
     const int height = c.left_size.height, width = c.left_size.width;
     std::vector<StereoStatistics> row_statistics(static_cast<size_t>(height));
