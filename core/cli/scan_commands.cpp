@@ -64,6 +64,8 @@ tutorial keys, see docs/formats.md), the projector needs no calibration. Give th
 camera's captures with --second-captures (no --second-calibration): each camera decodes its
 projector codes, and every first-camera pixel is matched along its rectified row, checked
 left-right and triangulated. The cloud is in the first camera's frame.
+  --second-manifest FILE  the second camera's sequence.json, when it differs from --manifest
+                       (both cameras' frames in one folder)
   --refine-stereo-pose re-estimate the cameras' relative pose from the codes both decoded first
                        (for a rig whose cameras moved, or a file whose R, T do not fit)
 )";
@@ -90,7 +92,7 @@ void print_cleaning(const std::optional<CleanReport>& cleaning) {
 }
 
 // The binocular path: a stereo calibration and both cameras' captures.
-int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_pose) {
+int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_pose, const std::string& second_manifest) {
     const auto start = std::chrono::steady_clock::now();
     if (!request.second_calibration.empty())
         throw Error("--second-calibration", request.calibration +
@@ -102,7 +104,7 @@ int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_
     check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
     check_extension(request.preview, {".png"}, "preview file");
     for (const std::string& output : {request.cloud, request.mesh, request.preview})
-        refuse_overwriting(output, {request.calibration, request.options.manifest_path},
+        refuse_overwriting(output, {request.calibration, request.options.manifest_path, second_manifest},
                            {request.captures, request.second_captures});
     MeshOptions mesh_options;
     mesh_options.method = MeshMethod::Grid;
@@ -111,6 +113,7 @@ int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_
 
     StereoReconstructOptions options;
     options.manifest_path = request.options.manifest_path;
+    options.second_manifest_path = second_manifest;
     options.decode = request.options.decode;
     options.clean = request.options.clean;
     options.cleaning = request.options.cleaning;
@@ -128,9 +131,11 @@ int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_
                 "left-right consistency %.2f %%",
                 s.left_decoded, s.matched, s.ambiguous, 100 * s.left_right_consistency());
     if (std::isfinite(s.median_epipolar_error_px))
-        std::printf(", median epipolar error %.3f px (%d points beyond %.1f px dropped)", s.median_epipolar_error_px,
+        std::printf(", median epipolar error %.3f px (%d points beyond %.1f px dropped)\n", s.median_epipolar_error_px,
                     s.epipolar_rejected, options.stereo.max_epipolar_error_px);
-    std::printf("\n");
+    else
+        std::printf("\nwarning: no projector rows in both cameras' captures, so whether the calibration fits them "
+                    "(the cameras not swapped or moved) is not checked; project rows to check it\n");
     print_cleaning(result.cleaning);
     write_view_products(result.view, request, mesh_options);
     std::printf("%d points (%.1f %% of the first camera's pixels) -> %s\n", result.point_count,
@@ -157,10 +162,12 @@ int run_reconstruct(const Arguments& arguments) {
     decode.min_modulation = arguments.number("--min-modulation", decode.min_modulation);
     request.encoding = arguments.flag("--ascii") ? Encoding::Ascii : Encoding::Binary;
     const bool refine_pose = arguments.flag("--refine-stereo-pose");
+    const std::string second_manifest = arguments.text("--second-manifest");
     arguments.reject_unknown();
     // The calibration's kind decides the method.
-    if (calibration_kind(request.calibration) == CalibrationKind::Stereo) return reconstruct_stereo_and_write(request, refine_pose);
+    if (calibration_kind(request.calibration) == CalibrationKind::Stereo) return reconstruct_stereo_and_write(request, refine_pose, second_manifest);
     if (refine_pose) throw Error("--refine-stereo-pose", "needs a stereo calibration of two cameras");
+    if (!second_manifest.empty()) throw Error("--second-manifest", "needs a stereo calibration of two cameras");
     if (request.second_calibration.empty() != request.second_captures.empty())
         throw Error("--second-captures", "--second-calibration and --second-captures go together");
     return reconstruct_and_write(request);

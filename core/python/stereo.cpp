@@ -78,6 +78,7 @@ void bind_stereo(py::module_& m) {
         .def_readonly("ambiguous", &StereoStatistics::ambiguous)
         .def_readonly("left_right_consistent", &StereoStatistics::left_right_consistent)
         .def_readonly("epipolar_rejected", &StereoStatistics::epipolar_rejected)
+        .def_readonly("behind", &StereoStatistics::behind)
         .def_readonly("valid", &StereoStatistics::valid)
         .def_readonly("median_epipolar_error_px", &StereoStatistics::median_epipolar_error_px)
         .def("left_right_consistency", &StereoStatistics::left_right_consistency);

@@ -68,7 +68,8 @@ ReconstructResult reconstruct_view(const CaptureSet& captures, const Calibration
 
 // Two cameras with a stereo calibration, the projector only labelling pixels (stereo.h).
 struct StereoReconstructOptions {
-    std::string manifest_path;  // sequence.json for both cameras' folders instead of their own
+    std::string manifest_path;         // sequence.json for both cameras' folders instead of their own
+    std::string second_manifest_path;  // the second camera's, when it differs (both cameras' frames in one folder)
     DecodeOptions decode;
     StereoOptions stereo;
     bool refine_pose = false;   // re-estimate R, T from the codes both cameras decoded first

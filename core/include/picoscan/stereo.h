@@ -151,6 +151,7 @@ struct StereoStatistics {
     int ambiguous = 0;              // the code crosses the right row more than once
     int left_right_consistent = 0;  // matches that lead back to their pixel
     int epipolar_rejected = 0;      // consistent matches whose row codes disagree
+    int behind = 0;                 // consistent matches that triangulate behind the cameras
     int valid = 0;                  // points triangulated
     double median_epipolar_error_px = std::numeric_limits<double>::quiet_NaN();  // NaN without rows
     double left_right_consistency() const { return matched > 0 ? double(left_right_consistent) / matched : 0; }

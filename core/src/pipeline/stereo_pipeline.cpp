@@ -11,8 +11,8 @@ StereoReconstructResult reconstruct_stereo_view(const std::string& first_folder,
     validate(options.decode);
     if (options.clean) validate(options.cleaning);
     validate_stereo_calibration(calibration, calibration_name);
-    auto load = [&](const std::string& folder, cv::Size size, const char* key) {
-        CaptureSet captures = load_capture_set(folder, options.manifest_path, progress);
+    auto load = [&](const std::string& folder, const std::string& manifest, cv::Size size, const char* key) {
+        CaptureSet captures = load_capture_set(folder, manifest, progress);
         const cv::Size found = captures.images.front().size();
         if (found != size)
             throw Error(calibration_name, std::string(key) + " is " + std::to_string(size.width) + "x" +
@@ -20,9 +20,12 @@ StereoReconstructResult reconstruct_stereo_view(const std::string& first_folder,
                                               std::to_string(found.width) + "x" + std::to_string(found.height));
         return captures;
     };
-    const CaptureSet first = load(first_folder, calibration.left_size, "camera1_size");
+    const CaptureSet first = load(first_folder, options.manifest_path, calibration.left_size, "camera1_size");
     const CorrespondenceMap first_map = decode(first, options.decode, progress);
-    const CorrespondenceMap second_map = decode(load(second_folder, calibration.right_size, "camera2_size"), options.decode, progress);
+    const CorrespondenceMap second_map = decode(load(second_folder,
+                                                         options.second_manifest_path.empty() ? options.manifest_path
+                                                                                              : options.second_manifest_path,
+                                                         calibration.right_size, "camera2_size"), options.decode, progress);
     StereoReconstructResult result;
     StereoCalibration used = calibration;
     if (options.refine_pose) {

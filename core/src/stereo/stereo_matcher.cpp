@@ -357,7 +357,10 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
                 const double a = left_ray[0] / left_ray[2], b = left_ray[1] / left_ray[2];
                 const double a_right = (xr - m.right.cx) / m.focal;
                 const double depth = m.baseline / (a - a_right);
-                if (!(depth > 0)) continue;
+                if (!(depth > 0)) {
+                    ++counts.behind;
+                    continue;
+                }
                 const cv::Vec3d point = to_left * cv::Vec3d(a * depth, b * depth, depth);
                 if (!(point[2] >= options.min_depth_mm && point[2] <= options.max_depth_mm)) continue;
                 points[x] = cv::Vec3f(point);
@@ -378,9 +381,17 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
         total.left_right_consistent += counts.left_right_consistent;
         total.epipolar_rejected += counts.epipolar_rejected;
         total.valid += counts.valid;
+        total.behind += counts.behind;
         epipolar.insert(epipolar.end(), row_epipolar[size_t(y)].begin(), row_epipolar[size_t(y)].end());
     }
     if (total.left_decoded == 0) throw Error("stereo", "the first camera decoded no projector columns");
+    // Matches behind the cameras: the codes run the other way along the rows than the
+    // calibration expects.
+    if (total.behind > 100 && total.behind > total.left_right_consistent / 2)
+        throw Error("stereo calibration", "does not fit these captures: " + std::to_string(total.behind) + " of " +
+                                              std::to_string(total.left_right_consistent) +
+                                              " matches lie behind the cameras; are the first and second camera's "
+                                              "captures swapped?");
     if (!epipolar.empty()) {
         std::nth_element(epipolar.begin(), epipolar.begin() + long(epipolar.size() / 2), epipolar.end());
         total.median_epipolar_error_px = epipolar[epipolar.size() / 2];
