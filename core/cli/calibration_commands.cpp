@@ -7,6 +7,7 @@
 #include "picoscan/calibration_report.h"
 #include "picoscan/error.h"
 #include "picoscan/response.h"
+#include "picoscan/stereo.h"
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -50,6 +51,14 @@ frame; each corner's projector position comes from the decoded codes around it.
   --report FILE        an HTML report: errors per pose, residual plot, coverage, the rig in 3D
 
 Prints the RMS reprojection errors of the camera and the projector, per pose, and advice.
+
+Two cameras (binocular scanning, the projector uncalibrated):
+picoscan calibrate --stereo --board SPEC --captures POSE_DIR... --second-captures POSE_DIR... --out STEREO.yml
+  --stereo             calibrate the two cameras and their relative pose instead
+  --second-captures DIR...  the second camera's pose folders, in the same order as --captures
+                       Each pose folder holds a capture set (its white frame is used) or just one
+                       image of the board; no projector is needed.
+  --report FILE        an HTML report: errors per pose and camera, the epipolar error, the rig
 )";
 int run_response(const Arguments& arguments) {
     const std::string directory = arguments.required("--captures");
@@ -78,7 +87,55 @@ int run_response(const Arguments& arguments) {
     return 0;
 }
 
+int run_calibrate_stereo(const Arguments& arguments) {
+    const BoardSpec board = parse_board_spec(arguments.required("--board"));
+    const std::vector<std::string> first = arguments.list("--captures"), second = arguments.list("--second-captures");
+    if (first.empty()) throw Error("--captures", "is required (see --help)");
+    if (second.size() != first.size())
+        throw Error("--second-captures", "needs one folder per pose of --captures (" + std::to_string(first.size()) +
+                                             "), got " + std::to_string(second.size()));
+    const std::string out = arguments.required("--out");
+    const std::string manifest = arguments.text("--manifest");
+    const std::string report_path = arguments.text("--report");
+    check_extension(report_path, {".html", ".htm"}, "report file");
+    StereoCalibrateOptions options;
+    options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
+    arguments.reject_unknown();
+    check_extension(out, {".yml", ".yaml"}, "calibration file (YAML)");
+    std::vector<std::string> folders = first;
+    folders.insert(folders.end(), second.begin(), second.end());
+    for (const std::string& output : {out, report_path}) refuse_overwriting(output, {manifest}, folders);
+
+    std::vector<StereoBoardView> views;
+    for (size_t index = 0; index < first.size(); ++index)
+        views.push_back({first[index], load_board_image(first[index], manifest), load_board_image(second[index], manifest)});
+    const StereoCalibrationReport report = calibrate_stereo(views, board, options, terminal_progress());
+    write_stereo_calibration(report.calibration, out);
+    for (const StereoPoseReport& pose : report.poses)
+        if (pose.used)
+            std::printf("  %-40s first camera %.3f px, second camera %.3f px, epipolar %.3f px\n", pose.name.c_str(),
+                        pose.left_rms_px, pose.right_rms_px, pose.epipolar_rms_px);
+        else
+            std::printf("  %-40s not used: %s\n", pose.name.c_str(), pose.reason.c_str());
+    const StereoCalibration& c = report.calibration;
+    std::printf("first camera: f = %.2f, %.2f px, centre %.2f, %.2f; RMS %.3f px\n", c.left_matrix(0, 0), c.left_matrix(1, 1),
+                c.left_matrix(0, 2), c.left_matrix(1, 2), report.left_rms_px);
+    std::printf("second camera: f = %.2f, %.2f px, centre %.2f, %.2f; RMS %.3f px\n", c.right_matrix(0, 0),
+                c.right_matrix(1, 1), c.right_matrix(0, 2), c.right_matrix(1, 2), report.right_rms_px);
+    std::printf("baseline %.3f mm; stereo RMS %.3f px; epipolar error RMS %.3f px\n", c.baseline_mm(), report.stereo_rms_px,
+                report.epipolar_rms_px);
+    for (const std::string& warning : report.warnings) std::printf("warning: %s\n", warning.c_str());
+    std::printf("stereo calibration -> %s\n", out.c_str());
+    if (!report_path.empty()) {
+        write_stereo_calibration_report(report, report_path);
+        std::printf("report -> %s\n", report_path.c_str());
+    }
+    return 0;
+}
+
 int run_calibrate(const Arguments& arguments) {
+    if (arguments.flag("--stereo")) return run_calibrate_stereo(arguments);
+    if (arguments.has("--second-captures")) throw Error("--second-captures", "goes with --stereo");
     const BoardSpec board = parse_board_spec(arguments.required("--board"));
     const std::vector<std::string> pose_directories = arguments.list("--captures");
     if (pose_directories.empty()) throw Error("--captures", "is required (see --help)");
@@ -133,7 +190,7 @@ int run_calibrate(const Arguments& arguments) {
 std::vector<Command> calibration_commands() {
     return {
         {"calibrate", "calibrate camera + projector from captures of a board in several poses", kCalibrateHelp,
-         run_calibrate, {{}, {"--captures"}, false}},
+         run_calibrate, {{"--stereo"}, {"--captures", "--second-captures"}, false}},
         {"response", "measure the projector's response (gamma) and store its correction", kResponseHelp, run_response,
          {}},
     };

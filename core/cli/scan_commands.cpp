@@ -6,6 +6,7 @@
 #include "picoscan/io.h"
 #include "picoscan/preview.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -56,7 +57,92 @@ quality, and optionally a grid mesh that does not bridge depth jumps.
                        a second camera's calibration (with the same projector) and its captures
                        of the same scan: points the second camera does not confirm (stray light,
                        interreflections, points only the first camera sees) are removed
+
+Two cameras, any projector: when --calibration is a stereo calibration of two cameras (PicoScan's
+'calibrate --stereo', OpenCV's stereo calibration keys M1 D1 M2 D2 R T, OpenCV's structured-light
+tutorial keys, see docs/formats.md), the projector needs no calibration. Give the second
+camera's captures with --second-captures (no --second-calibration): each camera decodes its
+projector codes, and every first-camera pixel is matched along its rectified row, checked
+left-right and triangulated. The cloud is in the first camera's frame.
+  --second-manifest FILE  the second camera's sequence.json, when it differs from --manifest
+                       (both cameras' frames in one folder)
+  --refine-stereo-pose re-estimate the cameras' relative pose from the codes both decoded first
+                       (for a rig whose cameras moved, or a file whose R, T do not fit)
 )";
+
+// Writes the view and what was asked of it: the cloud, a grid mesh, a preview.
+void write_view_products(const ScanView& view, const ReconstructRequest& request, const MeshOptions& mesh_options) {
+    write_view_ply(view, request.cloud, request.encoding);  // keeps the pixel grid for clean and stitch
+    if (!request.mesh.empty()) {
+        const Mesh mesh = mesh_view(view, mesh_options);
+        write_mesh_file(mesh, request.mesh, request.encoding);
+        std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
+    }
+    if (!request.preview.empty()) {
+        write_preview_png(view, request.preview);
+        std::printf("preview -> %s\n", request.preview.c_str());
+    }
+}
+
+void print_cleaning(const std::optional<CleanReport>& cleaning) {
+    if (!cleaning) return;
+    std::printf("cleaning removed %d points: %d grazing, %d outliers, %d with too few neighbours, %d in small clusters\n",
+                cleaning->removed(), cleaning->by_grazing, cleaning->by_statistics, cleaning->by_radius,
+                cleaning->by_cluster);
+}
+
+// The binocular path: a stereo calibration and both cameras' captures.
+int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_pose, const std::string& second_manifest) {
+    const auto start = std::chrono::steady_clock::now();
+    if (!request.second_calibration.empty())
+        throw Error("--second-calibration", request.calibration +
+                                                " is a stereo calibration of both cameras; give only --second-captures");
+    if (request.second_captures.empty())
+        throw Error("--second-captures", request.calibration +
+                                             " is a stereo calibration: the second camera's captures are required");
+    check_extension(request.cloud, {".ply"}, "point cloud file");
+    check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
+    check_extension(request.preview, {".png"}, "preview file");
+    for (const std::string& output : {request.cloud, request.mesh, request.preview})
+        refuse_overwriting(output, {request.calibration, request.options.manifest_path, second_manifest},
+                           {request.captures, request.second_captures});
+    MeshOptions mesh_options;
+    mesh_options.method = MeshMethod::Grid;
+    mesh_options.grid.pixel_step = request.mesh_step;
+    validate(mesh_options);
+
+    StereoReconstructOptions options;
+    options.manifest_path = request.options.manifest_path;
+    options.second_manifest_path = second_manifest;
+    options.decode = request.options.decode;
+    options.clean = request.options.clean;
+    options.cleaning = request.options.cleaning;
+    options.refine_pose = refine_pose;
+    const StereoCalibration calibration = read_stereo_calibration(request.calibration);
+    const StereoReconstructResult result = reconstruct_stereo_view(request.captures, request.second_captures, calibration,
+                                                                   request.calibration, options, terminal_progress());
+    if (result.refinement)
+        std::printf("cameras' pose refined from %d shared codes (%d agree): median epipolar error %.2f px -> %.2f px, "
+                    "rotation changed by %.3f deg\n",
+                    result.refinement->pairs, result.refinement->inliers, result.refinement->median_epipolar_before_px,
+                    result.refinement->median_epipolar_after_px, result.refinement->rotation_change_deg);
+    const StereoStatistics& s = result.statistics;
+    std::printf("binocular: %d first-camera pixels decoded, %d matched on the second camera's row (%d ambiguous), "
+                "left-right consistency %.2f %%",
+                s.left_decoded, s.matched, s.ambiguous, 100 * s.left_right_consistency());
+    if (std::isfinite(s.median_epipolar_error_px))
+        std::printf(", median epipolar error %.3f px (%d points beyond %.1f px dropped)\n", s.median_epipolar_error_px,
+                    s.epipolar_rejected, options.stereo.max_epipolar_error_px);
+    else
+        std::printf("\nwarning: no projector rows in both cameras' captures, so whether the calibration fits them "
+                    "(the cameras not swapped or moved) is not checked; project rows to check it\n");
+    print_cleaning(result.cleaning);
+    write_view_products(result.view, request, mesh_options);
+    std::printf("%d points (%.1f %% of the first camera's pixels) -> %s\n", result.point_count,
+                100.0 * result.point_count / static_cast<double>(result.view.points.total()), request.cloud.c_str());
+    std::printf("done in %.2f s\n", seconds_since(start));
+    return 0;
+}
 
 int run_reconstruct(const Arguments& arguments) {
     ReconstructRequest request;
@@ -70,14 +156,20 @@ int run_reconstruct(const Arguments& arguments) {
     request.options.clean = arguments.flag("--clean");
     request.second_calibration = arguments.text("--second-calibration");
     request.second_captures = arguments.text("--second-captures");
-    if (request.second_calibration.empty() != request.second_captures.empty())
-        throw Error("--second-captures", "--second-calibration and --second-captures go together");
     DecodeOptions& decode = request.options.decode;
     decode.binary_only = arguments.flag("--binary-only");
     decode.min_contrast = arguments.number("--min-contrast", decode.min_contrast);
     decode.min_modulation = arguments.number("--min-modulation", decode.min_modulation);
     request.encoding = arguments.flag("--ascii") ? Encoding::Ascii : Encoding::Binary;
+    const bool refine_pose = arguments.flag("--refine-stereo-pose");
+    const std::string second_manifest = arguments.text("--second-manifest");
     arguments.reject_unknown();
+    // The calibration's kind decides the method.
+    if (calibration_kind(request.calibration) == CalibrationKind::Stereo) return reconstruct_stereo_and_write(request, refine_pose, second_manifest);
+    if (refine_pose) throw Error("--refine-stereo-pose", "needs a stereo calibration of two cameras");
+    if (!second_manifest.empty()) throw Error("--second-manifest", "needs a stereo calibration of two cameras");
+    if (request.second_calibration.empty() != request.second_captures.empty())
+        throw Error("--second-captures", "--second-calibration and --second-captures go together");
     return reconstruct_and_write(request);
 }
 
@@ -135,25 +227,11 @@ int reconstruct_and_write(const ReconstructRequest& request) {
         reconstruct_view(request.captures, calibration, request.calibration, options, terminal_progress());
     if (options.second_camera)
         std::printf("%d points not confirmed by the second camera removed\n", result.unconfirmed_removed);
-    if (result.cleaning) {
-        const CleanReport& cleaned = *result.cleaning;
-        std::printf("cleaning removed %d points: %d grazing, %d outliers, %d with too few neighbours, %d in small "
-                    "clusters\n",
-                    cleaned.removed(), cleaned.by_grazing, cleaned.by_statistics, cleaned.by_radius, cleaned.by_cluster);
-    }
-    write_view_ply(result.view, request.cloud, request.encoding);  // keeps the pixel grid for clean and stitch
+    print_cleaning(result.cleaning);
+    write_view_products(result.view, request, mesh_options);
     std::printf("%d points (%.1f %% of the camera pixels), %d fringe orders corrected -> %s\n", result.point_count,
                 100.0 * result.point_count / static_cast<double>(result.view.points.total()), result.order_corrections,
                 request.cloud.c_str());
-    if (!request.mesh.empty()) {
-        const Mesh mesh = mesh_view(result.view, mesh_options);
-        write_mesh_file(mesh, request.mesh, request.encoding);
-        std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
-    }
-    if (!request.preview.empty()) {
-        write_preview_png(result.view, request.preview);
-        std::printf("preview -> %s\n", request.preview.c_str());
-    }
     std::printf("done in %.2f s\n", seconds_since(start));
     return 0;
 }
@@ -163,7 +241,7 @@ std::vector<Command> scan_commands() {
         {"simulate", "render a capture set of a virtual scene with the simulated rig", kSimulateHelp, run_simulate,
          {{"--rows", "--no-rows"}, {}, false}},
         {"reconstruct", "decode a capture set and triangulate it into a point cloud (and mesh)", kReconstructHelp,
-         run_reconstruct, {{"--binary-only", "--ascii", "--clean"}, {}, false}},
+         run_reconstruct, {{"--binary-only", "--ascii", "--clean", "--refine-stereo-pose"}, {}, false}},
     };
 }
 

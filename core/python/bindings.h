@@ -58,6 +58,7 @@ void bind_calibrate(py::module_& m);
 void bind_calibration_report(py::module_& m);
 void bind_response(py::module_& m);
 void bind_triangulate(py::module_& m);
+void bind_stereo(py::module_& m);
 void bind_cloud(py::module_& m);
 void bind_clean(py::module_& m);
 void bind_simulate(py::module_& m);

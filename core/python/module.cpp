@@ -76,6 +76,7 @@ PYBIND11_MODULE(picoscan, m) {
     bind_calibration_report(m);
     bind_response(m);
     bind_triangulate(m);
+    bind_stereo(m);
     bind_cloud(m);
     bind_clean(m);
     bind_simulate(m);

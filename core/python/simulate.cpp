@@ -123,8 +123,16 @@ void bind_simulate(py::module_& m) {
         .def_readwrite("part_middle_height_mm", &TurntablePlan::part_middle_height_mm)
         .def_readwrite("seed", &TurntablePlan::seed);
     m.def("turntable_part_poses", &turntable_part_poses, py::arg("plan"), "Part -> camera transform of each view");
+    m.def("transformed", py::overload_cast<const Scene&, const cv::Matx44d&>(&transformed), py::arg("scene"),
+          py::arg("transform"));
     m.def("read_scene", &read_scene, py::arg("path"));
     m.def("seed_rig_calibration", &seed_rig_calibration);
+    py::class_<SeedStereoRig>(m, "SeedStereoRig", "Two seed-like cameras with the seed projector between them.")
+        .def(py::init<>())
+        .def_readwrite("left", &SeedStereoRig::left)
+        .def_readwrite("right", &SeedStereoRig::right)
+        .def_readwrite("stereo", &SeedStereoRig::stereo);
+    m.def("seed_stereo_rig", &seed_stereo_rig, py::arg("baseline_mm") = 200.0);
 
     py::class_<SimulationOptions>(m, "SimulationOptions")
         .def(py::init<>())
@@ -158,6 +166,16 @@ void bind_simulate(py::module_& m) {
             return simulate_capture(sequence, calibration, scene, options, callback);
         },
         py::arg("sequence"), py::arg("calibration"), py::arg("scene"), py::arg("options") = SimulationOptions(),
+        py::arg("progress") = py::none());
+    m.def(
+        "simulate_stereo_capture",
+        [](const PatternSequence& sequence, const SeedStereoRig& rig, const Scene& scene, const SimulationOptions& options,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return simulate_stereo_capture(sequence, rig, scene, options, callback);
+        },
+        py::arg("sequence"), py::arg("rig"), py::arg("scene"), py::arg("options") = SimulationOptions(),
         py::arg("progress") = py::none());
 }
 

@@ -15,6 +15,7 @@
 #include "picoscan/progress.h"
 #include "picoscan/register.h"
 #include "picoscan/simulate.h"
+#include "picoscan/stereo.h"
 #include "picoscan/triangulate.h"
 
 #include <functional>
@@ -62,6 +63,35 @@ ReconstructResult reconstruct_view(const std::string& captures_folder, const Cal
 ReconstructResult reconstruct_view(const CaptureSet& captures, const Calibration& calibration,
                                    const std::string& calibration_name, const ReconstructOptions& options = {},
                                    const ProgressCallback& progress = nullptr);
+
+// ---- Reconstruct one view with two cameras (binocular) -----------------------------------
+
+// Two cameras with a stereo calibration, the projector only labelling pixels (stereo.h).
+struct StereoReconstructOptions {
+    std::string manifest_path;         // sequence.json for both cameras' folders instead of their own
+    std::string second_manifest_path;  // the second camera's, when it differs (both cameras' frames in one folder)
+    DecodeOptions decode;
+    StereoOptions stereo;
+    bool refine_pose = false;   // re-estimate R, T from the codes both cameras decoded first
+    bool clean = false;         // run clean_view on the result
+    CleanOptions cleaning;
+};
+
+struct StereoReconstructResult {
+    ScanView view;                                  // on the first camera's grid, knows its camera
+    StereoStatistics statistics;
+    std::optional<ExtrinsicsRefinement> refinement;  // when options.refine_pose
+    std::optional<CleanReport> cleaning;             // when options.clean
+    int point_count = 0;
+};
+
+// Loads and decodes both folders, checks their sizes against the calibration (named by
+// calibration_name), matches and triangulates, cleans. Throws Error naming the first folder
+// when no point could be reconstructed.
+StereoReconstructResult reconstruct_stereo_view(const std::string& first_folder, const std::string& second_folder,
+                                                const StereoCalibration& calibration, const std::string& calibration_name,
+                                                const StereoReconstructOptions& options = {},
+                                                const ProgressCallback& progress = nullptr);
 
 // ---- Clean one view -----------------------------------------------------------------------
 

@@ -7,11 +7,13 @@
 #include "picoscan/cloud.h"
 #include "picoscan/patterns.h"
 #include "picoscan/progress.h"
+#include "picoscan/stereo.h"
 
 #include <opencv2/core.hpp>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace picoscan {
@@ -98,6 +100,25 @@ CaptureSet simulate_capture(const PatternSequence& sequence, const Calibration& 
 // The seed-like rig: 1600x1200 camera, 854x480 projector, ~150 mm baseline, converging
 // on a working distance of 400 mm, mild lens distortion on both.
 Calibration seed_rig_calibration();
+
+// Two seed-like cameras (1600x1200, the seed rig's lens) `baseline_mm` apart along x, both
+// aimed at (0, 0, 400) in the first camera's frame, with the seed projector midway between
+// them aimed at the same point. Each camera's Calibration holds the shared projector.
+struct SeedStereoRig {
+    Calibration left, right;
+    StereoCalibration stereo;  // first camera -> second
+};
+SeedStereoRig seed_stereo_rig(double baseline_mm = 200);
+
+// The scene moved by a rigid transform (every shape and board): the scene as another camera
+// of the rig sees it.
+Scene transformed(const Scene& scene, const cv::Matx44d& transform);
+
+// Renders `sequence` through both cameras of the rig; the scene is in the first camera's
+// frame, and the second camera's noise uses options.seed + 1.
+std::pair<CaptureSet, CaptureSet> simulate_stereo_capture(const PatternSequence& sequence, const SeedStereoRig& rig,
+                                                          const Scene& scene, const SimulationOptions& options = {},
+                                                          const ProgressCallback& progress = nullptr);
 
 // The built-in demo part (a bracket-like block with a hole, a boss and a sphere) on a
 // background plane, placed at the seed rig's working distance.

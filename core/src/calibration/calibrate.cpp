@@ -5,6 +5,7 @@
 #include "picoscan/calibration.h"
 #include "picoscan/error.h"
 
+#include "common/board_image.h"
 #include "common/progress_reporter.h"
 
 #include <opencv2/calib3d.hpp>
@@ -29,26 +30,6 @@ struct PoseCorners {
 };
 
 std::string size_text(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
-
-// The image the board is detected in: the white frame, else the mean of the phase frames.
-cv::Mat board_image(const CaptureSet& captures) {
-    const auto& frames = captures.sequence.frames;
-    for (size_t index = 0; index < frames.size(); ++index)
-        if (frames[index].kind == FrameKind::White) return captures.images[index];
-    cv::Mat sum;
-    int count = 0;
-    for (size_t index = 0; index < frames.size(); ++index) {
-        if (frames[index].kind != FrameKind::Phase) continue;
-        cv::Mat frame;
-        captures.images[index].convertTo(frame, CV_32F);
-        sum = sum.empty() ? frame : sum + frame;
-        ++count;
-    }
-    if (count == 0) return cv::Mat();
-    cv::Mat mean;
-    sum.convertTo(mean, captures.images.front().depth(), 1.0 / count);
-    return mean;
-}
 
 // Projector point of a camera corner: a homography fitted on the decoded pixels around it.
 bool projector_point(const CorrespondenceMap& map, const cv::Point2f& corner, const CalibrateOptions& options,
@@ -101,7 +82,7 @@ PoseObservation observe_pose(const CaptureSet& pose, const BoardSpec& board, con
     if (!pose.sequence.columns.used() || !pose.sequence.rows.used())
         throw Error(pose.directory, "projector calibration needs the columns and the rows encoded (patterns --rows)");
     BoardDetection detection;
-    const cv::Mat image = board_image(pose);
+    const cv::Mat image = detail::board_image(pose);
     if (image.empty() || !detect_board(image, board, detection)) {
         observation.problem = "board not found in the white frame";
         return observation;
@@ -330,5 +311,28 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
     reporter.advance();
     return report;
 }
+
+namespace detail {
+
+cv::Mat board_image(const CaptureSet& captures) {
+    const auto& frames = captures.sequence.frames;
+    for (size_t index = 0; index < frames.size(); ++index)
+        if (frames[index].kind == FrameKind::White) return captures.images[index];
+    cv::Mat sum;
+    int count = 0;
+    for (size_t index = 0; index < frames.size(); ++index) {
+        if (frames[index].kind != FrameKind::Phase) continue;
+        cv::Mat frame;
+        captures.images[index].convertTo(frame, CV_32F);
+        sum = sum.empty() ? frame : sum + frame;
+        ++count;
+    }
+    if (count == 0) return cv::Mat();
+    cv::Mat mean;
+    sum.convertTo(mean, captures.images.front().depth(), 1.0 / count);
+    return mean;
+}
+
+}  // namespace detail
 
 }  // namespace picoscan

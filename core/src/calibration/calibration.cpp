@@ -4,8 +4,8 @@
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
+#include "common/calibration_reader.h"
 #include "common/storage_file.h"
-#include "common/storage_text.h"
 
 #include <opencv2/core.hpp>
 
@@ -14,68 +14,6 @@
 #include <vector>
 
 namespace picoscan {
-
-namespace {
-
-// Typed access to the entries of a calibration file, with errors naming the file and key.
-class CalibrationReader {
-public:
-    CalibrationReader(const std::string& path, detail::StorageEntries entries)
-        : path_(path), entries_(std::move(entries)) {}
-
-    bool has(const std::string& key) const { return entries_.count(key) > 0; }
-    [[noreturn]] void fail(const std::string& problem) const { throw Error(path_, problem); }
-
-    const detail::StorageValue& value(const std::string& key) const {
-        const auto found = entries_.find(key);
-        if (found == entries_.end()) fail("missing key '" + key + "'");
-        return found->second;
-    }
-    // A !!opencv-matrix, or a plain list taken as one row.
-    cv::Mat matrix(const std::string& key, int rows, int cols) const {
-        const detail::StorageValue& entry = value(key);
-        if (entry.kind != detail::StorageValue::Kind::Matrix && entry.kind != detail::StorageValue::Kind::List)
-            fail("'" + key + "' is not a matrix");
-        if (entry.numbers.empty()) fail("'" + key + "' is empty");
-        const int entry_rows = entry.kind == detail::StorageValue::Kind::Matrix ? entry.rows : 1;
-        cv::Mat matrix = cv::Mat(entry.numbers, true).reshape(1, entry_rows);
-        if (rows > 0 && cols > 0 && matrix.total() == size_t(rows * cols)) matrix = matrix.reshape(1, rows);
-        if ((rows > 0 && matrix.rows != rows) || (cols > 0 && matrix.cols != cols))
-            fail("'" + key + "' must be " + std::to_string(rows) + "x" + std::to_string(cols) + ", got " +
-                 std::to_string(matrix.rows) + "x" + std::to_string(matrix.cols));
-        return matrix;
-    }
-    cv::Mat distortion(const std::string& key) const {
-        const cv::Mat coefficients = matrix(key, 0, 0).reshape(1, 1);
-        const int count = coefficients.cols;
-        if (count != 4 && count != 5 && count != 8 && count != 12 && count != 14)
-            fail("'" + key + "' must hold 4, 5, 8, 12 or 14 coefficients, got " + std::to_string(count));
-        return coefficients.clone();
-    }
-    int whole_pixels(double number, const std::string& key) const {
-        if (!(std::abs(number) <= 1e6) || number != std::floor(number)) fail("'" + key + "' must be a whole number of pixels");
-        return static_cast<int>(number);
-    }
-    int integer(const std::string& key) const {
-        const detail::StorageValue& entry = value(key);
-        if (entry.kind != detail::StorageValue::Kind::Number) fail("'" + key + "' must be a number");
-        return whole_pixels(entry.numbers.front(), key);
-    }
-    // [width, height] as a plain list (PicoScan) or as a 2-element matrix (SLMaster).
-    cv::Size size(const std::string& key) const {
-        const detail::StorageValue& entry = value(key);
-        if ((entry.kind != detail::StorageValue::Kind::List && entry.kind != detail::StorageValue::Kind::Matrix) ||
-            entry.numbers.size() != 2)
-            fail("'" + key + "' must be [width, height]");
-        return {whole_pixels(entry.numbers[0], key), whole_pixels(entry.numbers[1], key)};
-    }
-
-private:
-    std::string path_;
-    detail::StorageEntries entries_;
-};
-
-}  // namespace
 
 void validate_calibration(const Calibration& calibration, const std::string& source) {
     auto fail = [&](const std::string& problem) { throw Error(source, problem); };
@@ -102,7 +40,7 @@ void validate_calibration(const Calibration& calibration, const std::string& sou
 }
 
 Calibration read_calibration(const std::string& path) {
-    const CalibrationReader reader(path, detail::parse_storage_text(detail::read_text_file(path, "calibration file"), path));
+    const detail::CalibrationReader reader(path, detail::parse_storage_text(detail::read_text_file(path, "calibration file"), path));
     Calibration calibration;
     {
         if (reader.has("M1") && reader.has("Rlp")) {  // SLMaster caliInfo.yml

@@ -21,6 +21,20 @@ cv::Matx33d rotation_y(double a) {
     return {c, 0, s, 0, 1, 0, -s, 0, c};
 }
 
+// Sets R, T so that the projector, at `centre` (camera frame, y = 0), sends the ray of
+// `pixel` through `working_point` (y = 0): a yaw, then a pitch, no roll.
+void aim_projector(Calibration& c, const cv::Vec3d& centre, const cv::Vec3d& working_point, const cv::Vec2d& pixel) {
+    const detail::LensModel projector(c.projector_matrix, c.projector_distortion, c.projector_size, "projector");
+    cv::Vec3d p;  // the ray to the working point in the projector frame
+    projector.pixel_ray(pixel, p);
+    const cv::Vec3d w = cv::normalize(working_point - centre);  // the same ray in the camera frame (w[1] = 0)
+    // R = Rx(pitch) * Ry(yaw): Ry must bring w's x component to p's, Rx then tilts y/z into place.
+    const double yaw = std::asin(p[0]) - std::atan2(w[0], w[2]);
+    const double pitch = std::atan2(-p[1], p[2]);
+    c.R = rotation_x(pitch) * rotation_y(yaw);
+    c.T = -(c.R * centre);
+}
+
 }  // namespace
 
 Calibration seed_rig_calibration() {
@@ -44,19 +58,67 @@ Calibration seed_rig_calibration() {
     // working point (0, 0, 400) lands at the projector pixel that centres the camera's field
     // over 340..460 mm in the projector image (margins of ~4 px above and below, ~33 px
     // left and right at the extremes of that range).
-    const cv::Vec3d projector_centre(150, 0, 0);
-    const cv::Vec3d working_point(0, 0, 400);
-    const cv::Vec2d working_pixel(391.56, 250.19);
-    const detail::LensModel projector(c.projector_matrix, c.projector_distortion, c.projector_size, "projector");
-    cv::Vec3d p;  // the ray to the working point in the projector frame
-    projector.pixel_ray(working_pixel, p);
-    const cv::Vec3d w = cv::normalize(working_point - projector_centre);  // the same ray in the camera frame (w[1] = 0)
-    // R = Rx(pitch) * Ry(yaw): Ry must bring w's x component to p's, Rx then tilts y/z into place.
-    const double yaw = std::asin(p[0]) - std::atan2(w[0], w[2]);
-    const double pitch = std::atan2(-p[1], p[2]);
-    c.R = rotation_x(pitch) * rotation_y(yaw);
-    c.T = -(c.R * projector_centre);
+    aim_projector(c, cv::Vec3d(150, 0, 0), cv::Vec3d(0, 0, 400), cv::Vec2d(391.56, 250.19));
     return c;
+}
+
+SeedStereoRig seed_stereo_rig(double baseline_mm) {
+    const cv::Vec3d working_point(0, 0, 400);
+    SeedStereoRig rig;
+    rig.left = seed_rig_calibration();
+    // The projector midway, its image centred on the working point.
+    aim_projector(rig.left, cv::Vec3d(baseline_mm / 2, 0, 0), working_point,
+                  cv::Vec2d(rig.left.projector_size.width / 2.0, rig.left.projector_size.height / 2.0));
+    // The second camera at (baseline, 0, 0), turned about y to look at the working point.
+    const cv::Vec3d centre(baseline_mm, 0, 0);
+    const cv::Vec3d z = cv::normalize(working_point - centre), y(0, 1, 0);
+    const cv::Vec3d x = y.cross(z);
+    const cv::Matx33d rotation(x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]);  // X_2 = rotation (X_1 - centre)
+    rig.right = rig.left;
+    rig.right.R = rig.left.R * rotation.t();
+    rig.right.T = rig.left.T + rig.left.R * centre;
+    rig.stereo = stereo_from_projector_calibrations(rig.left, rig.right);
+    return rig;
+}
+
+Scene transformed(const Scene& scene, const cv::Matx44d& transform) {
+    const cv::Matx33d rotation = transform.get_minor<3, 3>(0, 0);
+    const cv::Vec3d translation(transform(0, 3), transform(1, 3), transform(2, 3));
+    auto point = [&](const cv::Vec3d& p) { return rotation * p + translation; };
+    Scene moved = scene;
+    for (Sphere& sphere : moved.spheres) sphere.centre = point(sphere.centre);
+    for (Plane& plane : moved.planes) {
+        plane.point = point(plane.point);
+        plane.normal = rotation * plane.normal;
+    }
+    for (Box& box : moved.boxes) {
+        box.centre = point(box.centre);
+        box.rotation = rotation * box.rotation;
+    }
+    for (Cylinder& cylinder : moved.cylinders) {
+        cylinder.base_centre = point(cylinder.base_centre);
+        cylinder.axis = rotation * cylinder.axis;
+    }
+    for (TriangleMesh& mesh : moved.meshes) mesh.mesh = transformed(mesh.mesh, transform);
+    for (CalibrationBoard& board : moved.boards) {
+        board.rotation = rotation * board.rotation;
+        board.translation = point(board.translation);
+    }
+    return moved;
+}
+
+std::pair<CaptureSet, CaptureSet> simulate_stereo_capture(const PatternSequence& sequence, const SeedStereoRig& rig,
+                                                          const Scene& scene, const SimulationOptions& options,
+                                                          const ProgressCallback& progress) {
+    cv::Matx44d left_to_right = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+        for (int col = 0; col < 3; ++col) left_to_right(r, col) = rig.stereo.R(r, col);
+        left_to_right(r, 3) = rig.stereo.T[r];
+    }
+    SimulationOptions right_options = options;
+    right_options.seed = options.seed + 1;
+    return {simulate_capture(sequence, rig.left, scene, options, progress),
+            simulate_capture(sequence, rig.right, transformed(scene, left_to_right), right_options, progress)};
 }
 
 namespace {

@@ -1,0 +1,60 @@
+#include "stereo/board_poses.h"
+
+#include <opencv2/calib3d.hpp>
+
+namespace picoscan::test_support {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+cv::Matx33d rotation_deg(double x, double y, double z) {
+    cv::Matx33d rx, ry, rz;
+    cv::Rodrigues(cv::Vec3d(x * kPi / 180, 0, 0), rx);
+    cv::Rodrigues(cv::Vec3d(0, y * kPi / 180, 0), ry);
+    cv::Rodrigues(cv::Vec3d(0, 0, z * kPi / 180), rz);
+    return rz * ry * rx;
+}
+
+}  // namespace
+
+std::vector<StereoBoardView> board_views(const SeedStereoRig& rig, int count, uint64_t seed) {
+    struct Pose { cv::Vec3d target, tilt_deg; };
+    // Spread over the common field and tilted every way, each facing roughly the midpoint
+    // between the cameras (a yaw of -14 degrees), so both see it alike.
+    const std::vector<Pose> poses = {
+        {{0, 0, 400}, {20, -14, 0}},      {{-45, -30, 390}, {0, 11, 5}},   {{45, 30, 410}, {-20, -14, -5}},
+        {{-45, 30, 420}, {0, -39, 0}},    {{45, -30, 380}, {15, 1, 10}},   {{0, 35, 400}, {-15, -34, 0}},
+        {{0, -35, 430}, {25, -4, -10}},   {{-50, 0, 370}, {-10, 16, 0}},   {{50, 0, 400}, {10, -44, 5}},
+        {{25, 20, 440}, {30, -14, 15}},   {{-25, -20, 360}, {-25, -4, -15}}, {{0, 0, 410}, {5, 21, 0}},
+    };
+    std::vector<StereoBoardView> views;
+    cv::Matx44d left_to_right = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) left_to_right(r, c) = rig.stereo.R(r, c);
+        left_to_right(r, 3) = rig.stereo.T[r];
+    }
+    const cv::Mat white(rig.left.projector_size, CV_8U, cv::Scalar(255));
+    for (int index = 0; index < count; ++index) {
+        CalibrationBoard board;
+        board.inner_corners = {9, 6};
+        board.square_mm = 12;
+        board.rotation = rotation_deg(poses[size_t(index)].tilt_deg[0], poses[size_t(index)].tilt_deg[1], poses[size_t(index)].tilt_deg[2]);
+        const cv::Vec3d middle(4 * 12, 2.5 * 12, 0);
+        board.translation = poses[size_t(index)].target - board.rotation * middle;
+        Scene scene;
+        scene.boards.push_back(board);
+        SimulationOptions options;
+        options.full_scale_dn = 250;
+        options.blur_sigma_px = 0.5;
+        options.seed = seed + uint64_t(index);
+        StereoBoardView view;
+        view.name = "pose" + std::to_string(index);
+        view.left = Simulator(rig.left, scene, options).render(white, 0);
+        view.right = Simulator(rig.right, transformed(scene, left_to_right), options).render(white, 1);
+        views.push_back(view);
+    }
+    return views;
+}
+
+}  // namespace picoscan::test_support
