@@ -6,6 +6,7 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 #include "picoscan/patterns.h"
+#include "picoscan/register.h"
 
 #include <cstdio>
 #include <cstring>
@@ -71,7 +72,7 @@ int main(int argc, char** argv) {
         fs::remove_all(work);
         fs::create_directories(work);
         fs::copy(committed, work, fs::copy_options::recursive);
-        for (const char* target : {"ply", "stl", "manifest", "calibration"}) fs::create_directories(work / target);
+        for (const char* target : {"ply", "stl", "manifest", "calibration", "scene", "poses"}) fs::create_directories(work / target);
 
         const Mesh mesh = tetrahedron();
         PointCloud cloud;
@@ -103,6 +104,14 @@ int main(int argc, char** argv) {
         calibration.projector_matrix = {40, 0, 15.5, 0, 40, 7.5, 0, 0, 1};
         calibration.T = {-150, 0, 10};
         write_calibration(calibration, (work / "calibration" / "gen_picoscan.yml").string());
+
+        std::vector<ViewAlignment> views(3);
+        for (size_t i = 0; i < views.size(); ++i) {
+            views[i].name = "view" + std::to_string(i) + ".ply";
+            views[i].aligned = i != 2;
+            views[i].pose = turntable_pose({{0, 0, 400}, {0, 1, 0}, 45}, int(i));
+        }
+        write_file_atomically((work / "poses" / "gen_turntable.txt").string(), format_poses(views));
     } catch (const std::exception& error) {
         std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
         return 1;

@@ -1,0 +1,20 @@
+// Image sizes read from the file's header, before any decoding, so that a small file that
+// claims a huge image is refused before it is decoded.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <string>
+
+namespace picoscan::detail {
+
+struct ImageHeader {
+    cv::Size size;
+    int bytes_per_sample = 1;  // 2 for 16-bit PNG and TIFF
+};
+
+// The size in the header of a PNG, BMP, JPEG or TIFF file; throws Error(path, ...) when the
+// header is missing, truncated or names an impossible size.
+ImageHeader read_image_header(const std::string& path);
+
+}  // namespace picoscan::detail
