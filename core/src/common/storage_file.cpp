@@ -42,6 +42,7 @@ bool integer_overflows_int32(const std::string& token) {
 void screen_structure(const std::string& text, char first, const std::string& path, const std::string& what) {
     const bool xml = first == '<', yaml = first != '{' && first != '<';
     int line = 1, flow_depth = 0, element_depth = 0;
+    size_t sequence_markers = 0;  // "- " on the current YAML line
     std::vector<size_t> indents;  // YAML block levels open at this line
     std::string token;
     auto check_token = [&] {
@@ -65,20 +66,21 @@ void screen_structure(const std::string& text, char first, const std::string& pa
             if (indent < text.size() && text[indent] != '\n' && text[indent] != '\r' && text[indent] != '#') {
                 while (!indents.empty() && indents.back() > indent - at) indents.pop_back();
                 if (indents.empty() || indents.back() < indent - at) indents.push_back(indent - at);
-                size_t dashes = 0;
-                for (size_t dash = indent; dash + 1 < text.size() && text[dash] == '-' &&
-                                           (text[dash + 1] == ' ' || text[dash + 1] == '\t');) {
-                    ++dashes;
-                    dash += 2;
-                    while (dash < text.size() && (text[dash] == ' ' || text[dash] == '\t')) ++dash;
-                }
-                check_depth(indents.size() + dashes);
+                check_depth(indents.size());
             }
         }
         if (c == '\n') {
             check_token();
             ++line;
             line_start = true;
+            sequence_markers = 0;
+            continue;
+        }
+        // Each "- " opens a sequence one level deeper, also after a key ("key: - - - x").
+        if (yaml && c == '-' && token.empty() &&
+            (at + 1 == text.size() || text[at + 1] == ' ' || text[at + 1] == '\t' || text[at + 1] == '\n' ||
+             text[at + 1] == '\r')) {
+            check_depth(indents.size() + size_t(flow_depth) + ++sequence_markers);
             continue;
         }
         if (xml && c == '<') {
@@ -107,7 +109,7 @@ void screen_structure(const std::string& text, char first, const std::string& pa
             while (at + 1 < text.size() && text[at + 1] != '\n') ++at;
             continue;
         }
-        if (!xml && (c == '[' || c == '{')) check_depth(size_t(++flow_depth) + indents.size());
+        if (!xml && (c == '[' || c == '{')) check_depth(size_t(++flow_depth) + indents.size() + sequence_markers);
         else if (!xml && (c == ']' || c == '}')) flow_depth = std::max(0, flow_depth - 1);
         if (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '+' || c == '-') {
             token += c;

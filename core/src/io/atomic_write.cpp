@@ -83,19 +83,24 @@ void unregister_temporary(int index) {
     if (index >= 0) slots[index].state.store(Free);
 }
 
-// Removes the temporary file unless released (after the successful rename).
+// Registered before the file is created (so a signal never misses it), the temporary file
+// is removed unless released (after the successful rename).
 class TempFileGuard {
 public:
     explicit TempFileGuard(std::string path) : path_(std::move(path)), slot_(register_temporary(path_)) {}
     ~TempFileGuard() {
         if (fd_ >= 0) ::close(fd_);
-        if (!path_.empty()) ::unlink(path_.c_str());
+        if (created_ && !path_.empty()) ::unlink(path_.c_str());
         unregister_temporary(slot_);
     }
     TempFileGuard(const TempFileGuard&) = delete;
     TempFileGuard& operator=(const TempFileGuard&) = delete;
 
-    void set_fd(int fd) { fd_ = fd; }
+    // The descriptor of the created file; a name O_EXCL found taken is never unlinked.
+    void set_fd(int fd) {
+        fd_ = fd;
+        created_ = true;
+    }
     // Closes the descriptor; returns 0 or the errno of a failed close.
     int close_fd() {
         const int fd = fd_;
@@ -108,6 +113,7 @@ private:
     std::string path_;
     int slot_ = -1;
     int fd_ = -1;
+    bool created_ = false;
 };
 
 std::string errno_text(int error) { return std::strerror(error); }
@@ -134,11 +140,11 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
 
     const std::string temp = path + ".tmp-" + std::to_string(::getpid()) + "-" +
                              std::to_string(temp_counter.fetch_add(1));
+    TempFileGuard guard(temp);
     // O_EXCL: never write into a file somebody else owns.
     const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0)
         throw Error(path, "cannot create temporary file " + temp + ": " + errno_text(errno));
-    TempFileGuard guard(temp);
     guard.set_fd(fd);
 
     const char* data = bytes.data();
