@@ -120,4 +120,5 @@ PYBIND11_MODULE(picoscan, m) {
     bind_register(m);
     bind_mesh(m);
     bind_shapes(m);
+    bind_pipeline(m);
 }

@@ -6,8 +6,8 @@
 #include "picoscan/error.h"
 #include "picoscan/io.h"
 #include "picoscan/patterns.h"
-#include "picoscan/register.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -105,13 +105,15 @@ int main(int argc, char** argv) {
         calibration.T = {-150, 0, 10};
         write_calibration(calibration, (work / "calibration" / "gen_picoscan.yml").string());
 
-        std::vector<ViewAlignment> views(3);
+        std::vector<ViewPose> views(3);
         for (size_t i = 0; i < views.size(); ++i) {
             views[i].name = "view" + std::to_string(i) + ".ply";
             views[i].aligned = i != 2;
-            views[i].pose = turntable_pose({{0, 0, 400}, {0, 1, 0}, 45}, int(i));
+            const double angle = 0.7 * double(i);
+            views[i].pose = {std::cos(angle), 0, std::sin(angle), 10.0 * i, 0, 1, 0, 0,
+                             -std::sin(angle), 0, std::cos(angle), 400, 0, 0, 0, 1};
         }
-        write_file_atomically((work / "poses" / "gen_turntable.txt").string(), format_poses(views));
+        write_poses(views, (work / "poses" / "gen_turntable.txt").string());
     } catch (const std::exception& error) {
         std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
         return 1;

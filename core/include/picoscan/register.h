@@ -89,14 +89,6 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
                       const RegistrationOptions& options = {}, const std::optional<TurntableAxis>& turntable = std::nullopt,
                       const ProgressCallback& progress = nullptr);
 
-// Poses files (MERGED.poses.txt): per view a name line (followed by " NOT-ALIGNED" when the
-// view was left out), then its 4x4 view -> model matrix in four rows of four numbers; lines
-// starting with '#' are comments.
-std::string format_poses(const std::vector<ViewAlignment>& views);
-// Reads the poses in file order. Throws Error naming the file and line for anything else,
-// for non-finite numbers and for matrices that are not rigid transforms.
-std::vector<cv::Matx44d> read_poses(const std::string& path);
-
 // How far apart two poses are: the angle (degrees) of the rotation a^-1 * b, and how far
 // (mm) the two move the point `at` apart. Give `at` on the part (its centroid): measured at
 // the camera origin, 400 mm away, a tiny angle would show as a large shift.

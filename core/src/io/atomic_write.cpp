@@ -3,7 +3,7 @@
 // Live temporary files are listed in a fixed table that a SIGINT/SIGTERM/SIGHUP handler
 // empties (unlink only: async-signal-safe) before the signal takes its default course.
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 
 #include <atomic>
 #include <cerrno>
