@@ -3,6 +3,7 @@
 #include "commands.h"
 
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 #include "picoscan/preview.h"
 
@@ -81,6 +82,20 @@ int run_reconstruct(const Arguments& arguments) {
     return reconstruct_and_write(request);
 }
 
+constexpr const char* kSimulationMarker = ".picoscan-simulate";
+
+// simulate writes into a new or empty folder, or replaces one that an earlier (perhaps
+// interrupted) simulate run made; anything else is left alone.
+void restart_simulation_folder(const std::string& directory) {
+    std::error_code error;
+    if (fs::is_regular_file(fs::path(directory) / kSimulationMarker, error)) {
+        fs::remove_all(directory, error);
+        if (error) throw Error(directory, "cannot clear the earlier simulation: " + error.message());
+        return;
+    }
+    require_empty_directory(directory);
+}
+
 int run_simulate(const Arguments& arguments) {
     const std::string directory = arguments.required("--out");
     const Calibration calibration =
@@ -90,8 +105,13 @@ int run_simulate(const Arguments& arguments) {
     options.patterns = pattern_options(arguments, calibration.projector_size);
     options.camera = camera_options(arguments);
     arguments.reject_unknown();
-    require_empty_directory(directory);
+    restart_simulation_folder(directory);
     const CaptureSet captures = simulate_captures(scene, calibration, options, terminal_progress());
+    std::error_code ignored;
+    fs::create_directories(directory, ignored);
+    // Marked first: an interrupted run leaves a folder the next run may restart in.
+    write_file_atomically((fs::path(directory) / kSimulationMarker).string(),
+                          "made by picoscan simulate; the next simulate run into this folder replaces it\n");
     write_capture_set(captures, directory);
     write_calibration(calibration, (fs::path(directory) / "calibration.yml").string());
     std::printf("wrote %zu simulated frames, sequence.json and calibration.yml to %s\n", captures.images.size(),
@@ -120,6 +140,8 @@ int reconstruct_and_write(const ReconstructRequest& request) {
     const std::vector<std::string> inputs{request.calibration, request.options.manifest_path, request.second_calibration};
     for (const std::string& output : {request.cloud, request.mesh, request.preview})
         refuse_overwriting(output, inputs, {request.captures, request.second_captures});
+    refuse_overwriting(request.mesh, {request.cloud});  // outputs must differ from each other too
+    refuse_overwriting(request.preview, {request.cloud, request.mesh});
     MeshOptions mesh_options;
     mesh_options.method = MeshMethod::Grid;
     mesh_options.grid.pixel_step = request.mesh_step;
@@ -141,12 +163,14 @@ int reconstruct_and_write(const ReconstructRequest& request) {
                     "clusters\n",
                     cleaned.removed(), cleaned.by_grazing, cleaned.by_statistics, cleaned.by_radius, cleaned.by_cluster);
     }
+    OutputBatch outputs;  // the cloud, mesh and preview appear together, or none of them
     write_view_ply(result.view, request.cloud, request.encoding);  // keeps the pixel grid for clean and stitch
     std::printf("%d points (%.1f %% of the camera pixels), %d fringe orders corrected -> %s\n", result.point_count,
                 100.0 * result.point_count / static_cast<double>(result.view.points.total()), result.order_corrections,
                 request.cloud.c_str());
     if (!request.mesh.empty()) {
         const Mesh mesh = mesh_view(result.view, mesh_options);
+        if (mesh.faces.empty()) throw Error(request.captures, "the grid mesh has no triangles: nothing to write");
         write_mesh_file(mesh, request.mesh, request.encoding);
         std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
     }
@@ -154,6 +178,7 @@ int reconstruct_and_write(const ReconstructRequest& request) {
         write_preview_png(result.view, request.preview);
         std::printf("preview -> %s\n", request.preview.c_str());
     }
+    outputs.commit();
     std::printf("done in %.2f s\n", seconds_since(start));
     return 0;
 }

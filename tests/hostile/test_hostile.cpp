@@ -355,7 +355,7 @@ std::vector<Case> hostile_cases() {
     cases.push_back({"simulate --blur 1e6", [](const fs::path&) {
                          return std::vector<std::string>{"simulate", "--blur", "1e6", "--out", "sim"};
                      },
-                     1, {"blur"}, 10});
+                     1, {"--blur"}, 10});
 
     // Wrong answers with exit 0.
     cases.push_back({"manifest projector_width 4294968150 (wraps to 854 in 32 bits)", [](const fs::path& dir) {
@@ -391,6 +391,101 @@ std::vector<Case> hostile_cases() {
                          return std::vector<std::string>{"mesh", "two.ply", "--out", "two.stl"};
                      },
                      1, {"point cloud", "separate part"}, 60});
+
+    // Data loss: outputs checked up front, against each other and every input.
+    cases.push_back({"reconstruct --out x.ply --mesh x.ply", [](const fs::path& dir) {
+                         write_capture_folder(dir / "caps", {160, 120});
+                         write_text(dir / "rig.yml", calibration_text(small_rig(), dir / "scratch.yml"));
+                         write_text(dir / "x.ply", "old cloud");
+                         return std::vector<std::string>{"reconstruct", "--calibration", "rig.yml", "--captures", "caps",
+                                                         "--out", "x.ply", "--mesh", "x.ply"};
+                     },
+                     1, {"x.ply", "overwrite"}});
+    cases.push_back({"stitch whose MERGED.poses.txt is the --initial-poses file", [](const fs::path& dir) {
+                         write_text(dir / "a.ply", "view a");
+                         write_text(dir / "b.ply", "view b");
+                         write_text(dir / "m.poses.txt", "# poses\n");
+                         return std::vector<std::string>{"stitch", "a.ply", "b.ply", "--initial-poses", "m.poses.txt",
+                                                         "--out", "m.ply"};
+                     },
+                     1, {"m.poses.txt", "overwrite"}});
+    cases.push_back({"stitch whose MERGED.unmerged-NAME.ply is an input view", [](const fs::path& dir) {
+                         write_text(dir / "a.ply", "view a");
+                         write_text(dir / "m.unmerged-a.ply", "another view");
+                         return std::vector<std::string>{"stitch", "a.ply", "m.unmerged-a.ply", "--out", "m.ply"};
+                     },
+                     1, {"m.unmerged-a.ply", "overwrite"}});
+    cases.push_back({"patterns --out into a capture set", [](const fs::path& dir) {
+                         write_capture_folder(dir / "caps", {160, 120});
+                         return std::vector<std::string>{"patterns", "--projector", "64x32", "--out", "caps"};
+                     },
+                     1, {"caps", "did not write"}});
+    {
+        Case again{"patterns written twice into one folder", [](const fs::path& dir) {
+                       write_text(dir / "pat" / ".picoscan-patterns", "made by picoscan patterns\n");
+                       return std::vector<std::string>{"patterns", "--projector", "64x32", "--shifts", "3", "--out",
+                                                       "pat"};
+                   },
+                   0, {"wrote"}};
+        again.may_change = {"pat"};
+        cases.push_back(again);
+    }
+
+    {
+        Case restart{"simulate restarted in the folder of an interrupted simulate", [](const fs::path& dir) {
+                         write_text(dir / "rig.yml", calibration_text(small_rig(), dir / "scratch.yml"));
+                         write_text(dir / "sim" / ".picoscan-simulate", "made by picoscan simulate\n");
+                         write_text(dir / "sim" / "half_written.png", "partial");
+                         return std::vector<std::string>{"simulate", "--calibration", "rig.yml", "--shifts", "3",
+                                                         "--out", "sim"};
+                     },
+                     0, {"wrote"}};
+        restart.may_change = {"sim"};
+        cases.push_back(restart);
+    }
+    cases.push_back({"simulate into a folder of other files", [](const fs::path& dir) {
+                         write_text(dir / "rig.yml", calibration_text(small_rig(), dir / "scratch.yml"));
+                         write_text(dir / "sim" / "notes.txt", "the user's notes");
+                         return std::vector<std::string>{"simulate", "--calibration", "rig.yml", "--out", "sim"};
+                     },
+                     1, {"sim", "not empty"}});
+
+    // Options: repeated, value that looks like an option, NaN, out of range; -h everywhere.
+    cases.push_back({"repeated --out", [](const fs::path&) {
+                         return std::vector<std::string>{"simulate", "--out", "a", "--out", "b"};
+                     },
+                     1, {"--out", "more than once"}});
+    cases.push_back({"an option's value that looks like an option", [](const fs::path&) {
+                         return std::vector<std::string>{"reconstruct", "--calibration", "--captures", "caps", "--out",
+                                                         "x.ply"};
+                     },
+                     1, {"--calibration", "needs a value"}});
+    cases.push_back({"--min-contrast nan", [](const fs::path& dir) {
+                         write_capture_folder(dir / "caps", {160, 120});
+                         write_text(dir / "rig.yml", calibration_text(small_rig(), dir / "scratch.yml"));
+                         return std::vector<std::string>{"reconstruct", "--calibration", "rig.yml", "--captures", "caps",
+                                                         "--out", "x.ply", "--min-contrast", "nan"};
+                     },
+                     1, {"--min-contrast"}});
+    cases.push_back({"--period-bits 40 (would wrap to a 256 px period)", [](const fs::path&) {
+                         return std::vector<std::string>{"patterns", "--projector", "854x480", "--period-bits", "40",
+                                                         "--out", "pat"};
+                     },
+                     1, {"--period-bits"}});
+    cases.push_back({"--spacing-mm -1", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                         write_cloud(dir / "cloud.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--spacing-mm", "-1"};
+                     },
+                     1, {"--spacing-mm"}});
+    for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "calibrate", "response", "clean",
+                                "stitch", "mesh", "demo", "capture", "scan"}) {
+        cases.push_back({std::string(command) + " -h", [command](const fs::path&) {
+                             return std::vector<std::string>{command, "-h"};
+                         },
+                         0, {command}});
+    }
 
     // Interruptions: a signal during a run leaves no temporary file behind.
     for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {

@@ -107,4 +107,24 @@ ImageHeader read_image_header(const std::string& path) {
     return header;
 }
 
+bool image_file_complete(const std::string& path) {
+    try {
+        read_image_header(path);
+    } catch (const Error&) {
+        return false;
+    }
+    std::ifstream stream(path, std::ios::binary | std::ios::ate);
+    const std::streamoff size = stream.tellg();
+    if (size < 12) return false;
+    unsigned char first[2] = {0, 0}, tail[12] = {};
+    stream.seekg(0);
+    stream.read(reinterpret_cast<char*>(first), 2);
+    stream.seekg(size - 12);
+    stream.read(reinterpret_cast<char*>(tail), 12);
+    if (!stream) return false;
+    if (first[0] == 0x89 && first[1] == 'P') return std::string(reinterpret_cast<char*>(tail) + 4, 4) == "IEND";
+    if (first[0] == 0xFF && first[1] == 0xD8) return tail[10] == 0xFF && tail[11] == 0xD9;
+    return true;
+}
+
 }  // namespace picoscan::detail

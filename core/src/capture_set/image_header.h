@@ -17,4 +17,8 @@ struct ImageHeader {
 // header is missing, truncated or names an impossible size.
 ImageHeader read_image_header(const std::string& path);
 
+// Whether the file is a whole image: a readable header and, for PNG and JPEG, the end marker
+// (IEND, EOI) at the end, so that a frame cut short by a crash or a copy is not taken as present.
+bool image_file_complete(const std::string& path);
+
 }  // namespace picoscan::detail

@@ -43,7 +43,7 @@ inline void gaussian_pair(uint64_t frame_key, uint64_t pair_index, float& z0, fl
 }
 
 // Defocus beyond this blurs a fringe period away; the kernel's cost grows with sigma.
-constexpr double kLargestBlurSigmaPx = 32;
+constexpr double kLargestBlurSigmaPx = 20;
 
 void validate_options(const SimulationOptions& o) {
     auto check = [](bool ok, const std::string& problem) {
