@@ -73,7 +73,7 @@ void check_image_headers(const std::string& directory, const std::vector<Frame>&
 
 CaptureSet load_capture_set(const std::string& directory, const std::string& manifest_path,
                             const ProgressCallback& progress, cv::Size expected_size) {
-    if (!fs::is_directory(directory)) throw Error(directory, "capture directory not found");
+    if (std::error_code error; !fs::is_directory(directory, error)) throw Error(directory, "capture directory not found");
     const bool own_manifest = manifest_path.empty();
     const std::string manifest = own_manifest ? (fs::path(directory) / "sequence.json").string() : manifest_path;
 
@@ -84,16 +84,20 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
 
     for (size_t index = 0; index < frames.size(); ++index) {
         const fs::path file = fs::path(directory) / frames[index].file;
-        if (!fs::is_regular_file(file))
+        if (std::error_code error; !fs::is_regular_file(file, error))
             throw Error(file.string(), "missing " + describe(frames[index], index) + " listed in " + manifest);
     }
     if (own_manifest) {
         // A stray image usually means a capture of another sequence was mixed in.
         std::set<std::string> listed;
         for (const Frame& frame : frames) listed.insert(frame.file);
-        for (const auto& entry : fs::directory_iterator(directory))
-            if (entry.is_regular_file() && is_image_file(entry.path()) && !listed.count(entry.path().filename().string()))
-                throw Error(entry.path().string(), "extra image not listed in " + manifest);
+        // Entries that cannot be examined (a symlink loop, a dangling link) are not images.
+        std::error_code error;
+        for (auto entry = fs::directory_iterator(directory, error); !error && entry != fs::directory_iterator();
+             entry.increment(error))
+            if (std::error_code ignored; entry->is_regular_file(ignored) && is_image_file(entry->path()) &&
+                                         !listed.count(entry->path().filename().string()))
+                throw Error(entry->path().string(), "extra image not listed in " + manifest);
     }
 
     check_image_headers(directory, frames, expected_size);
