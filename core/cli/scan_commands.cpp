@@ -84,11 +84,13 @@ int run_reconstruct(const Arguments& arguments) {
 
 constexpr const char* kSimulationMarker = ".picoscan-simulate";
 
-// simulate writes into a new or empty folder, or replaces one that an earlier (perhaps
-// interrupted) simulate run made; anything else is left alone.
+// simulate writes into a new or empty folder, or restarts in one that an interrupted simulate
+// run left (its marker, written first, without calibration.yml, written last); a finished
+// set and anything else are left alone.
 void restart_simulation_folder(const std::string& directory) {
     std::error_code error;
-    if (fs::is_regular_file(fs::path(directory) / kSimulationMarker, error)) {
+    if (fs::is_regular_file(fs::path(directory) / kSimulationMarker, error) &&
+        !fs::exists(fs::path(directory) / "calibration.yml", error)) {
         fs::remove_all(directory, error);
         if (error) throw Error(directory, "cannot clear the earlier simulation: " + error.message());
         return;
@@ -111,7 +113,7 @@ int run_simulate(const Arguments& arguments) {
     fs::create_directories(directory, ignored);
     // Marked first: an interrupted run leaves a folder the next run may restart in.
     write_file_atomically((fs::path(directory) / kSimulationMarker).string(),
-                          "made by picoscan simulate; the next simulate run into this folder replaces it\n");
+                          "made by picoscan simulate; if interrupted, the next simulate run restarts here\n");
     write_capture_set(captures, directory);
     write_calibration(calibration, (fs::path(directory) / "calibration.yml").string());
     std::printf("wrote %zu simulated frames, sequence.json and calibration.yml to %s\n", captures.images.size(),
