@@ -10,6 +10,9 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
 #include <optional>
 
 namespace fs = std::filesystem;
@@ -160,6 +163,12 @@ std::vector<ViewPose> view_poses(const Alignment& alignment) {
     return poses;
 }
 
+// The outputs stitch derives from --out: the poses, and each view it could not align.
+std::string poses_path(const std::string& out) { return fs::path(out).replace_extension(".poses.txt").string(); }
+std::string unmerged_view_path(const std::string& out, const std::string& view_name) {
+    return fs::path(out).replace_extension("").string() + ".unmerged-" + view_name;
+}
+
 // Aligns the views and writes the merged cloud and its poses; returns how many views were left out.
 int stitch_and_write(const std::vector<std::string>& paths, const std::string& out, const StitchOptions& options) {
     std::vector<ScanView> views;
@@ -170,6 +179,7 @@ int stitch_and_write(const std::vector<std::string>& paths, const std::string& o
     }
     const auto start = std::chrono::steady_clock::now();
     const StitchResult result = stitch_views(views, names, options, terminal_progress());
+    OutputBatch outputs;  // the cloud, its poses and the unmerged views appear together
     int left_out = 0;
     for (size_t i = 0; i < views.size(); ++i) {
         const ViewAlignment& view = result.alignment.views[i];
@@ -181,12 +191,13 @@ int stitch_and_write(const std::vector<std::string>& paths, const std::string& o
         ++left_out;
         std::fprintf(stderr, "%-24s NOT aligned: %s; best overlap %.0f %%\n", names[i].c_str(), view.problem.c_str(),
                      100 * std::min(1.0, view.overlap));
-        const fs::path unmerged = fs::path(out).replace_extension("").string() + ".unmerged-" + names[i];
-        write_view_ply(views[i], unmerged.string());
-        std::fprintf(stderr, "%-24s written unmerged -> %s\n", "", unmerged.string().c_str());
+        const std::string unmerged = unmerged_view_path(out, names[i]);
+        write_view_ply(views[i], unmerged);
+        std::fprintf(stderr, "%-24s written unmerged -> %s\n", "", unmerged.c_str());
     }
     write_ply(result.merged, out);
-    write_poses(view_poses(result.alignment), fs::path(out).replace_extension(".poses.txt").string());
+    write_poses(view_poses(result.alignment), poses_path(out));
+    outputs.commit();
     std::printf("%d of %zu views merged, %zu points -> %s (%.1f s)\n", result.alignment.aligned_count(), views.size(),
                 result.merged.points.size(), out.c_str(), seconds_since(start));
     if (result.axis)
@@ -197,14 +208,35 @@ int stitch_and_write(const std::vector<std::string>& paths, const std::string& o
     return left_out;
 }
 
+// The same view given twice (the same file, or two files with the same bytes) would be
+// merged onto itself: worth a warning, not an error (a copy may be intended).
+void warn_about_duplicate_views(const std::vector<std::string>& inputs) {
+    std::map<std::string, std::string> first_with_content;
+    for (const std::string& input : inputs) {
+        std::ifstream file(input, std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+        const auto [found, fresh] = first_with_content.emplace(std::move(bytes), input);
+        if (!fresh)
+            std::fprintf(stderr, "picoscan stitch: warning: %s is the same view as %s\n", input.c_str(),
+                         found->second.c_str());
+    }
+}
+
 int run_stitch(const Arguments& arguments) {
     const std::vector<std::string>& inputs = arguments.inputs();
     for (const std::string& input : inputs)
         if (!fs::is_regular_file(input)) throw Error(input, "no such file");
     const std::string out = arguments.required("--out");
     check_extension(out, {".ply"}, "merged cloud (PLY)");
-    refuse_overwriting(out, inputs);
+    // Every output, derived ones included, is checked before any work: none may be an input.
+    const std::string initial_poses = arguments.text("--initial-poses");
+    std::vector<std::string> every_input = inputs;
+    every_input.push_back(initial_poses);
+    refuse_overwriting(out, every_input);
+    refuse_overwriting(poses_path(out), every_input);
+    for (const std::string& input : inputs) refuse_overwriting(unmerged_view_path(out, fs::path(input).filename().string()), every_input);
     if (inputs.size() < 2) throw Error("stitch", "needs at least two views (got " + std::to_string(inputs.size()) + ")");
+    warn_about_duplicate_views(inputs);
     StitchOptions options;
     options.registration.sample_spacing_mm = arguments.number("--spacing-mm", options.registration.sample_spacing_mm);
     if (arguments.has("--turntable")) {
@@ -270,13 +302,14 @@ int run_mesh(const Arguments& arguments) {
         cloud.normals = points.normals;
         mesh = mesh_points(cloud, options, terminal_progress());
     }
+    if (mesh.faces.empty()) throw Error(input, "meshing produced no triangles: nothing to write");
     report_mesh(mesh, out);
+    OutputBatch outputs;  // the mesh and its preview appear together
     write_mesh_file(mesh, out);
+    if (!preview.empty()) write_mesh_preview_png(mesh, read_calibration(calibration_path), preview);
+    outputs.commit();
     std::printf("%zu triangles -> %s (%.1f s)\n", mesh.faces.size(), out.c_str(), seconds_since(start));
-    if (!preview.empty()) {
-        write_mesh_preview_png(mesh, read_calibration(calibration_path), preview);
-        std::printf("preview -> %s\n", preview.c_str());
-    }
+    if (!preview.empty()) std::printf("preview -> %s\n", preview.c_str());
     return 0;
 }
 

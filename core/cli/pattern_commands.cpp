@@ -52,6 +52,24 @@ Writes a sequence.json that describes a capture set made by another system, so t
   --out FILE                 the manifest to write
 )";
 
+// Patterns and captures share file names, so a pattern folder is written only where it is
+// new, empty, or holds patterns written before (marked): never over a capture set.
+constexpr const char* kPatternsMarker = ".picoscan-patterns";
+
+void require_pattern_folder(const std::string& directory) {
+    std::error_code error;
+    if (!fs::exists(directory, error)) return;
+    if (!fs::is_directory(directory, error)) throw Error(directory, "exists and is not a folder");
+    if (fs::is_empty(directory, error) || fs::is_regular_file(fs::path(directory) / kPatternsMarker, error)) return;
+    throw Error(directory, "holds files that 'picoscan patterns' did not write (a capture set?); choose a new or "
+                           "empty --out folder");
+}
+
+void mark_pattern_folder(const std::string& directory) {
+    write_file_atomically((fs::path(directory) / kPatternsMarker).string(),
+                          "made by picoscan patterns; the next patterns run may replace these files\n");
+}
+
 int run_patterns(const Arguments& arguments) {
     const PatternOptions options = pattern_options(arguments, arguments.size("--projector"));
     const std::string directory = arguments.required("--out");
@@ -61,9 +79,11 @@ int run_patterns(const Arguments& arguments) {
     const int flat_levels = arguments.integer("--flat-levels", 0);
     arguments.reject_unknown();
     if (arguments.has("--flat-levels") && flat_levels < 3) throw Error("--flat-levels", "must be at least 3");
+    require_pattern_folder(directory);
     if (flat_levels > 0) {
         std::error_code ignored;
         fs::create_directories(directory, ignored);
+        mark_pattern_folder(directory);
         for (int level : response_levels(flat_levels))
             write_image_file(cv::Mat(options.projector_size, CV_8U, cv::Scalar(level)),
                              (fs::path(directory) / flat_level_file(level)).string());
@@ -71,6 +91,9 @@ int run_patterns(const Arguments& arguments) {
         return 0;
     }
     const PatternSequence sequence = make_pattern_sequence(options);
+    std::error_code ignored;
+    fs::create_directories(directory, ignored);
+    mark_pattern_folder(directory);
     write_pattern_images(sequence, directory, response);
     std::printf("wrote %zu patterns (%d column bits, %d row bits, %d shifts, period %g px) and sequence.json to %s\n",
                 sequence.frames.size(), sequence.columns.gray_bits, sequence.rows.gray_bits, options.shifts,

@@ -3,6 +3,7 @@
 #include "commands.h"
 
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 #include "picoscan/preview.h"
 
@@ -72,9 +73,11 @@ left-right and triangulated. The cloud is in the first camera's frame.
 
 // Writes the view and what was asked of it: the cloud, a grid mesh, a preview.
 void write_view_products(const ScanView& view, const ReconstructRequest& request, const MeshOptions& mesh_options) {
+    OutputBatch outputs;  // the cloud, mesh and preview appear together, or none of them
     write_view_ply(view, request.cloud, request.encoding);  // keeps the pixel grid for clean and stitch
     if (!request.mesh.empty()) {
         const Mesh mesh = mesh_view(view, mesh_options);
+        if (mesh.faces.empty()) throw Error(request.captures, "the grid mesh has no triangles: nothing to write");
         write_mesh_file(mesh, request.mesh, request.encoding);
         std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
     }
@@ -82,6 +85,7 @@ void write_view_products(const ScanView& view, const ReconstructRequest& request
         write_preview_png(view, request.preview);
         std::printf("preview -> %s\n", request.preview.c_str());
     }
+    outputs.commit();
 }
 
 void print_cleaning(const std::optional<CleanReport>& cleaning) {
@@ -173,6 +177,22 @@ int run_reconstruct(const Arguments& arguments) {
     return reconstruct_and_write(request);
 }
 
+constexpr const char* kSimulationMarker = ".picoscan-simulate";
+
+// simulate writes into a new or empty folder, or restarts in one that an interrupted simulate
+// run left (its marker, written first, without calibration.yml, written last); a finished
+// set and anything else are left alone.
+void restart_simulation_folder(const std::string& directory) {
+    std::error_code error;
+    if (fs::is_regular_file(fs::path(directory) / kSimulationMarker, error) &&
+        !fs::exists(fs::path(directory) / "calibration.yml", error)) {
+        fs::remove_all(directory, error);
+        if (error) throw Error(directory, "cannot clear the earlier simulation: " + error.message());
+        return;
+    }
+    require_empty_directory(directory);
+}
+
 int run_simulate(const Arguments& arguments) {
     const std::string directory = arguments.required("--out");
     const Calibration calibration =
@@ -182,8 +202,13 @@ int run_simulate(const Arguments& arguments) {
     options.patterns = pattern_options(arguments, calibration.projector_size);
     options.camera = camera_options(arguments);
     arguments.reject_unknown();
-    require_empty_directory(directory);
+    restart_simulation_folder(directory);
     const CaptureSet captures = simulate_captures(scene, calibration, options, terminal_progress());
+    std::error_code ignored;
+    fs::create_directories(directory, ignored);
+    // Marked first: an interrupted run leaves a folder the next run may restart in.
+    write_file_atomically((fs::path(directory) / kSimulationMarker).string(),
+                          "made by picoscan simulate; if interrupted, the next simulate run restarts here\n");
     write_capture_set(captures, directory);
     write_calibration(calibration, (fs::path(directory) / "calibration.yml").string());
     std::printf("wrote %zu simulated frames, sequence.json and calibration.yml to %s\n", captures.images.size(),
@@ -212,6 +237,8 @@ int reconstruct_and_write(const ReconstructRequest& request) {
     const std::vector<std::string> inputs{request.calibration, request.options.manifest_path, request.second_calibration};
     for (const std::string& output : {request.cloud, request.mesh, request.preview})
         refuse_overwriting(output, inputs, {request.captures, request.second_captures});
+    refuse_overwriting(request.mesh, {request.cloud});  // outputs must differ from each other too
+    refuse_overwriting(request.preview, {request.cloud, request.mesh});
     MeshOptions mesh_options;
     mesh_options.method = MeshMethod::Grid;
     mesh_options.grid.pixel_step = request.mesh_step;

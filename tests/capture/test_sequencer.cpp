@@ -159,11 +159,18 @@ TEST(Sequencer, ACameraLostMidSequenceKeepsItsFramesAndResumeCompletes) {
     const std::string load_message = error_of([&] { load_capture_set(directory); });
     EXPECT_NE(load_message.find("missing frame 10"), std::string::npos) << load_message;
 
+    // A frame cut short (a copy or a disk that failed) is not taken as present.
+    const std::filesystem::path cut = std::filesystem::path(directory) / sequence.frames[3].file;
+    std::filesystem::resize_file(cut, std::filesystem::file_size(cut) / 2);
+    const std::vector<bool> after_cut = frames_present(sequence, directory);
+    EXPECT_FALSE(after_cut[3]);
+    EXPECT_EQ(std::count(after_cut.begin(), after_cut.end(), true), 9);
+
     CaptureOptions resume;
     resume.resume = true;
     const CaptureReport report = capture_sequence(sequence, display, {&virtual_camera}, {directory}, resume);
-    EXPECT_EQ(report.already_present, 10);
-    EXPECT_EQ(report.captured, int(sequence.frames.size()) - 10);
+    EXPECT_EQ(report.already_present, 9);
+    EXPECT_EQ(report.captured, int(sequence.frames.size()) - 9);
     const CaptureSet completed = load_capture_set(directory);
     for (size_t index = 0; index < sequence.frames.size(); ++index)
         EXPECT_EQ(differing_pixels(completed.images[index],

@@ -140,7 +140,8 @@ TEST_F(Cli, MismatchedSize) {
 TEST_F(Cli, CorruptImage) {
     const std::string scan = copy_scan();
     std::ofstream(scan + "/003_col_gray00_inv.png", std::ios::trunc) << "this is not a PNG";
-    expect_refused(scan, "", "003_col_gray00_inv.png: unreadable or corrupt image");
+    // Caught in the header, before any frame is decoded.
+    expect_refused(scan, "", "003_col_gray00_inv.png: not a PNG, BMP, JPEG or TIFF image");
 }
 
 TEST_F(Cli, ManifestWithMissingKey) {
@@ -165,7 +166,8 @@ TEST_F(Cli, CalibrationOfAnotherCamera) {
     picoscan::Calibration calibration = picoscan::read_calibration(scan + "/calibration.yml");
     calibration.camera_size = {1280, 1024};
     picoscan::write_calibration(calibration, scan + "/calibration.yml");
-    expect_refused(scan, "", "camera_size 1280x1024 differs");
+    // The first frame's header is compared with camera_size before any frame is decoded.
+    expect_refused(scan, "", "000_white.png: image is 1600x1200 but the calibration's camera_size is 1280x1024");
 }
 
 TEST_F(Cli, AllDarkCaptures) {

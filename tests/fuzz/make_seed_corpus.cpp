@@ -7,6 +7,7 @@
 #include "picoscan/io.h"
 #include "picoscan/patterns.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -71,7 +72,7 @@ int main(int argc, char** argv) {
         fs::remove_all(work);
         fs::create_directories(work);
         fs::copy(committed, work, fs::copy_options::recursive);
-        for (const char* target : {"ply", "stl", "manifest", "calibration"}) fs::create_directories(work / target);
+        for (const char* target : {"ply", "stl", "manifest", "calibration", "scene", "poses"}) fs::create_directories(work / target);
 
         const Mesh mesh = tetrahedron();
         PointCloud cloud;
@@ -103,6 +104,16 @@ int main(int argc, char** argv) {
         calibration.projector_matrix = {40, 0, 15.5, 0, 40, 7.5, 0, 0, 1};
         calibration.T = {-150, 0, 10};
         write_calibration(calibration, (work / "calibration" / "gen_picoscan.yml").string());
+
+        std::vector<ViewPose> views(3);
+        for (size_t i = 0; i < views.size(); ++i) {
+            views[i].name = "view" + std::to_string(i) + ".ply";
+            views[i].aligned = i != 2;
+            const double angle = 0.7 * double(i);
+            views[i].pose = {std::cos(angle), 0, std::sin(angle), 10.0 * i, 0, 1, 0, 0,
+                             -std::sin(angle), 0, std::cos(angle), 400, 0, 0, 0, 1};
+        }
+        write_poses(views, (work / "poses" / "gen_turntable.txt").string());
     } catch (const std::exception& error) {
         std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
         return 1;

@@ -9,6 +9,11 @@
 
 namespace picoscan {
 
+// The largest camera or projector image PicoScan accepts (per side, and in all): sizes read
+// from files are checked against these before anything is allocated for them.
+constexpr int kLargestImageSide = 16384;
+constexpr int64_t kLargestImagePixels = int64_t(1) << 26;  // 64 Mpixel
+
 struct Calibration {
     cv::Size camera_size;
     cv::Matx33d camera_matrix = cv::Matx33d::eye();

@@ -142,8 +142,9 @@ CaptureReport capture_sequence(const PatternSequence& sequence, PatternDisplay& 
                                const std::vector<Camera*>& cameras, const std::vector<std::string>& directories,
                                const CaptureOptions& options, const ProgressCallback& progress = nullptr);
 
-// The frames of `sequence` whose image is in `directory` (a partial capture); throws Error
-// when the directory holds something other than a capture of this sequence.
+// The frames of `sequence` whose image is whole in `directory` (a partial capture: a frame cut
+// short, without its PNG/JPEG end marker, counts as missing); throws Error when the directory
+// holds something other than a capture of this sequence.
 std::vector<bool> frames_present(const PatternSequence& sequence, const std::string& directory);
 
 // Throws Error when a folder cannot take a capture of `sequence`: it holds something else, a

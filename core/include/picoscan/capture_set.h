@@ -20,8 +20,11 @@ struct CaptureSet {
 // Loads the images named by the manifest. `manifest_path` empty means
 // "<directory>/sequence.json". Throws Error naming the file for missing, unreadable or
 // corrupt images, mismatched sizes or bit depths, and extra image files in the directory.
+// Image sizes are read from the headers first: every image must match the first one and
+// `expected_size` (the calibration's camera_size) when given, within kLargestImageSide and
+// the memory budget, before any image is decoded.
 CaptureSet load_capture_set(const std::string& directory, const std::string& manifest_path = "",
-                            const ProgressCallback& progress = nullptr);
+                            const ProgressCallback& progress = nullptr, cv::Size expected_size = {});
 
 // Writes images and manifest into `directory` (each file through a temporary + rename).
 void write_capture_set(const CaptureSet& captures, const std::string& directory);

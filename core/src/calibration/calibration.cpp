@@ -18,8 +18,11 @@ namespace picoscan {
 void validate_calibration(const Calibration& calibration, const std::string& source) {
     auto fail = [&](const std::string& problem) { throw Error(source, problem); };
     auto check_size = [&](cv::Size size, const char* key) {
-        if (size.width < 2 || size.height < 2 || size.width > 65536 || size.height > 65536)
-            fail(std::string("'") + key + "' must be a positive image size");
+        if (size.width < 2 || size.height < 2 || size.width > kLargestImageSide || size.height > kLargestImageSide ||
+            int64_t(size.width) * size.height > kLargestImagePixels)
+            fail(std::string("'") + key + "' must be an image size of 2.." + std::to_string(kLargestImageSide) +
+                 " pixels a side and at most " + std::to_string(kLargestImagePixels >> 20) + " Mpixel, got " +
+                 std::to_string(size.width) + "x" + std::to_string(size.height));
     };
     check_size(calibration.camera_size, "camera_size");
     check_size(calibration.projector_size, "projector_size");

@@ -5,6 +5,8 @@
 #include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 
+#include "capture_set/image_header.h"
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -153,7 +155,7 @@ std::vector<bool> frames_present(const PatternSequence& sequence, const std::str
             throw Error(entry.path().string(), "is not part of the capture in " + directory + "; move it away first");
     }
     for (size_t index = 0; index < sequence.frames.size(); ++index)
-        present[index] = fs::is_regular_file(fs::path(directory) / sequence.frames[index].file);
+        present[index] = detail::image_file_complete((fs::path(directory) / sequence.frames[index].file).string());
     return present;
 }
 

@@ -1,9 +1,12 @@
 // Loading and writing capture sets.
 #include "picoscan/capture_set.h"
 
+#include "picoscan/calibration.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
+#include "capture_set/image_header.h"
+#include "common/memory_budget.h"
 #include "common/parallel.h"
 #include "common/progress_reporter.h"
 
@@ -37,11 +40,40 @@ std::string describe(const Frame& frame, size_t index) {
     return text + ")";
 }
 
+std::string size_text(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
+
+// Every image's size from its header, compared with the first image's, the expected size
+// and the limits, and the whole set with the memory budget, before any image is decoded.
+void check_image_headers(const std::string& directory, const std::vector<Frame>& frames, cv::Size expected_size) {
+    double bytes = 0;
+    cv::Size first_size;
+    for (size_t index = 0; index < frames.size(); ++index) {
+        const std::string file = (fs::path(directory) / frames[index].file).string();
+        const detail::ImageHeader header = detail::read_image_header(file);
+        if (!expected_size.empty() && header.size != expected_size)
+            throw Error(file, "image is " + size_text(header.size) + " but the calibration's camera_size is " +
+                                  size_text(expected_size));
+        if (index == 0) first_size = header.size;
+        else if (header.size != first_size)
+            throw Error(file, "image is " + size_text(header.size) + " but " + frames[0].file + " is " +
+                                  size_text(first_size));
+        if (header.size.width > kLargestImageSide || header.size.height > kLargestImageSide ||
+            int64_t(header.size.width) * header.size.height > kLargestImagePixels)
+            throw Error(file, "image is " + size_text(header.size) + ", larger than " +
+                                  std::to_string(kLargestImageSide) + " pixels a side or " +
+                                  std::to_string(kLargestImagePixels >> 20) + " Mpixel");
+        bytes += double(header.size.width) * header.size.height * header.bytes_per_sample;
+    }
+    // Decoding holds a colour image per worker beside the grey frames.
+    detail::check_memory_budget(bytes * 1.5, directory,
+                                "decoding " + std::to_string(frames.size()) + " frames of " + size_text(first_size));
+}
+
 }  // namespace
 
 CaptureSet load_capture_set(const std::string& directory, const std::string& manifest_path,
-                            const ProgressCallback& progress) {
-    if (!fs::is_directory(directory)) throw Error(directory, "capture directory not found");
+                            const ProgressCallback& progress, cv::Size expected_size) {
+    if (std::error_code error; !fs::is_directory(directory, error)) throw Error(directory, "capture directory not found");
     const bool own_manifest = manifest_path.empty();
     const std::string manifest = own_manifest ? (fs::path(directory) / "sequence.json").string() : manifest_path;
 
@@ -52,17 +84,23 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
 
     for (size_t index = 0; index < frames.size(); ++index) {
         const fs::path file = fs::path(directory) / frames[index].file;
-        if (!fs::is_regular_file(file))
+        if (std::error_code error; !fs::is_regular_file(file, error))
             throw Error(file.string(), "missing " + describe(frames[index], index) + " listed in " + manifest);
     }
     if (own_manifest) {
         // A stray image usually means a capture of another sequence was mixed in.
         std::set<std::string> listed;
         for (const Frame& frame : frames) listed.insert(frame.file);
-        for (const auto& entry : fs::directory_iterator(directory))
-            if (entry.is_regular_file() && is_image_file(entry.path()) && !listed.count(entry.path().filename().string()))
-                throw Error(entry.path().string(), "extra image not listed in " + manifest);
+        // Entries that cannot be examined (a symlink loop, a dangling link) are not images.
+        std::error_code error;
+        for (auto entry = fs::directory_iterator(directory, error); !error && entry != fs::directory_iterator();
+             entry.increment(error))
+            if (std::error_code ignored; entry->is_regular_file(ignored) && is_image_file(entry->path()) &&
+                                         !listed.count(entry->path().filename().string()))
+                throw Error(entry->path().string(), "extra image not listed in " + manifest);
     }
+
+    check_image_headers(directory, frames, expected_size);
 
     captures.images.resize(frames.size());
     int first_white = -1;  // its colour image colours the cloud

@@ -2,14 +2,123 @@
 
 #include "picoscan/error.h"
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 namespace picoscan::detail {
 
 namespace {
 
 constexpr std::uintmax_t kLargestStorageFile = 64u << 20;  // calibration and manifests are small
+constexpr int kDeepestNesting = 64;  // no PicoScan file nests more than 4 levels
+
+std::string at_line(int line) { return "line " + std::to_string(line) + ": "; }
+
+// An integer literal (decimal or 0x hex) that OpenCV would store in a 32-bit int.
+bool integer_overflows_int32(const std::string& token) {
+    size_t at = (token[0] == '+' || token[0] == '-') ? 1 : 0;
+    int base = 10;
+    if (token.size() > at + 2 && token[at] == '0' && (token[at + 1] == 'x' || token[at + 1] == 'X')) {
+        base = 16;
+        at += 2;
+    }
+    if (at >= token.size()) return false;
+    for (size_t i = at; i < token.size(); ++i)
+        if (base == 10 ? !std::isdigit(static_cast<unsigned char>(token[i]))
+                       : !std::isxdigit(static_cast<unsigned char>(token[i])))
+            return false;  // not an integer: OpenCV reads it as a real or a string
+    while (at + 1 < token.size() && token[at] == '0') ++at;
+    if (token.size() - at > 10) return true;
+    return std::stoll(token.substr(at), nullptr, base) > 2147483647LL;
+}
+
+// OpenCV's FileStorage parsers recurse once per nesting level (a 200 KB file 100 000
+// levels deep overflows the stack) and wrap integers to 32 bits silently. One linear pass
+// rejects both before OpenCV sees the text: nesting counts flow brackets, YAML indentation
+// levels and "- " sequence markers, or XML elements; quoted text and comments are skipped.
+void screen_structure(const std::string& text, char first, const std::string& path, const std::string& what) {
+    const bool xml = first == '<', yaml = first != '{' && first != '<';
+    int line = 1, flow_depth = 0, element_depth = 0;
+    size_t sequence_markers = 0;  // "- " on the current YAML line
+    std::vector<size_t> indents;  // YAML block levels open at this line
+    std::string token;
+    auto check_token = [&] {
+        if (!token.empty() && integer_overflows_int32(token))
+            throw Error(path, what + ": " + at_line(line) + "the whole number " + token.substr(0, 32) +
+                                  " does not fit in 32 bits");
+        token.clear();
+    };
+    auto check_depth = [&](size_t depth) {
+        if (depth > size_t(kDeepestNesting))
+            throw Error(path, what + ": " + at_line(line) + "nested more than " + std::to_string(kDeepestNesting) +
+                                  " levels deep");
+    };
+    bool line_start = true;
+    for (size_t at = 0; at < text.size(); ++at) {
+        const char c = text[at];
+        if (yaml && line_start && flow_depth == 0) {
+            line_start = false;
+            size_t indent = at;
+            while (indent < text.size() && (text[indent] == ' ' || text[indent] == '\t')) ++indent;
+            if (indent < text.size() && text[indent] != '\n' && text[indent] != '\r' && text[indent] != '#') {
+                while (!indents.empty() && indents.back() > indent - at) indents.pop_back();
+                if (indents.empty() || indents.back() < indent - at) indents.push_back(indent - at);
+                check_depth(indents.size());
+            }
+        }
+        if (c == '\n') {
+            check_token();
+            ++line;
+            line_start = true;
+            sequence_markers = 0;
+            continue;
+        }
+        // Each "- " opens a sequence one level deeper, also after a key ("key: - - - x").
+        if (yaml && c == '-' && token.empty() &&
+            (at + 1 == text.size() || text[at + 1] == ' ' || text[at + 1] == '\t' || text[at + 1] == '\n' ||
+             text[at + 1] == '\r')) {
+            check_depth(indents.size() + size_t(flow_depth) + ++sequence_markers);
+            continue;
+        }
+        if (xml && c == '<') {
+            check_token();
+            // Skips the whole tag; comments and <? ?> may hold '>' and do not nest.
+            const bool comment = text.compare(at, 4, "<!--") == 0;
+            const size_t end = comment ? text.find("-->", at) : text.find('>', at);
+            const size_t stop = end == std::string::npos ? text.size() : end + (comment ? 3 : 1);
+            const bool closing = at + 1 < text.size() && text[at + 1] == '/';
+            const bool special = at + 1 < text.size() && (text[at + 1] == '?' || text[at + 1] == '!');
+            const bool empty_element = end != std::string::npos && !comment && end > at && text[end - 1] == '/';
+            if (closing) element_depth = std::max(0, element_depth - 1);
+            else if (!special && !empty_element) check_depth(size_t(++element_depth));
+            for (; at + 1 < stop; ++at) line += text[at + 1] == '\n';
+            continue;
+        }
+        if (!xml && (c == '"' || (yaml && c == '\'' && token.empty()))) {
+            // A quoted string ends at its closing quote or, as OpenCV requires, at the line's end.
+            check_token();
+            for (++at; at < text.size() && text[at] != c && text[at] != '\n'; ++at)
+                if (c == '"' && text[at] == '\\' && at + 1 < text.size() && text[at + 1] != '\n') ++at;
+            if (at < text.size() && text[at] == '\n') --at;
+            continue;
+        }
+        if (yaml && c == '#' && token.empty()) {
+            while (at + 1 < text.size() && text[at + 1] != '\n') ++at;
+            continue;
+        }
+        if (!xml && (c == '[' || c == '{')) check_depth(size_t(++flow_depth) + indents.size() + sequence_markers);
+        else if (!xml && (c == ']' || c == '}')) flow_depth = std::max(0, flow_depth - 1);
+        if (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '+' || c == '-') {
+            token += c;
+        } else {
+            check_token();
+        }
+    }
+    check_token();
+}
 
 std::string trimmed(const std::string& text) {
     const size_t first = text.find_first_not_of(" \t\r\n");
@@ -45,6 +154,7 @@ cv::FileStorage open_storage_file(const std::string& path, const std::string& wh
     const std::string content = trimmed(text);
     const char first = content.front();
     if (formats == StorageFormats::JsonOnly && first != '{') throw Error(path, what + " must be a JSON object");
+    screen_structure(text, first, path, what);
     if (first == '<') {
         // OpenCV's XML parser reads past the end of a truncated tag; a complete file ends
         // with its root element closed.

@@ -76,6 +76,19 @@ public:
         return int(value);
     }
 
+    // Joins the lines of a "[ ..." list until one holds ']'. Only each new line is searched,
+    // so an unclosed '[' costs linear time, not quadratic.
+    template <typename Content>
+    static void append_until_closed(std::string& list, const std::vector<std::string>& lines, size_t& index,
+                                    const Content& content) {
+        bool closed = list.find(']') != std::string::npos;
+        while (!closed && index < lines.size()) {
+            const std::string next = trim(content(index++));
+            closed = next.find(']') != std::string::npos;
+            list += " " + next;
+        }
+    }
+
     StorageEntries parse_yaml(const std::string& text) const {
         std::vector<std::string> lines;
         std::stringstream stream(text);
@@ -129,7 +142,7 @@ public:
                     else if (field == "dt") continue;
                     else if (field == "data") {
                         std::string list = field_value;
-                        while (list.find(']') == std::string::npos && index < lines.size()) list += " " + trim(content(index++));
+                        append_until_closed(list, lines, index, content);
                         if (list.empty() || list.front() != '[' || list.back() != ']')
                             fail(field_number, "'" + key + "' data must be a [ ... ] list");
                         append_numbers(list.substr(1, list.size() - 2), field_number, value.numbers);
@@ -142,7 +155,7 @@ public:
                 check_matrix(value, key);
             } else if (rest.front() == '[') {
                 value.kind = StorageValue::Kind::List;
-                while (rest.find(']') == std::string::npos && index < lines.size()) rest += " " + trim(content(index++));
+                append_until_closed(rest, lines, index, content);
                 if (rest.back() != ']') fail(number, "'" + key + "' list is not closed with ']'");
                 append_numbers(rest.substr(1, rest.size() - 2), number, value.numbers);
             } else {

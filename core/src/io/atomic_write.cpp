@@ -1,13 +1,20 @@
 // write_file_atomically: temporary file beside the target, then rename over it, so a
 // reader never sees a half-written file and a failure never touches the old target.
+// Live temporary files are listed in a fixed table that a SIGINT/SIGTERM/SIGHUP handler
+// empties (unlink only: async-signal-safe) before the signal takes its default course.
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
 #include <atomic>
 #include <cerrno>
+#include <climits>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <system_error>
+#include <utility>
+#include <vector>
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -20,18 +27,80 @@ namespace {
 
 std::atomic<unsigned long long> temp_counter{0};
 
-// Removes the temporary file unless released (after the successful rename).
+// The registry of live temporary files. A slot is Free, being Written by a thread, or Live
+// (its path complete, for the handler to unlink). More live files than slots (many writer
+// threads) are still written; only those are not removed by a signal.
+constexpr int kSlots = 256;
+enum SlotState : int { Free = 0, Writing = 1, Live = 2 };
+struct Slot {
+    std::atomic<int> state{Free};
+    char path[PATH_MAX];
+};
+Slot slots[kSlots];
+static_assert(std::atomic<int>::is_always_lock_free, "the signal handler reads the slots' state");
+
+extern "C" void remove_temporaries_and_reraise(int signal_number) {
+    for (Slot& slot : slots)
+        if (slot.state.load() == Live) ::unlink(slot.path);
+    // The default action then ends the process with the signal's usual status.
+    ::signal(signal_number, SIG_DFL);
+    ::raise(signal_number);
+}
+
+// Installed on the first write, only for signals whose action is still the default: a host
+// (Python, FreeCAD, MeshLab) that handles a signal keeps doing so, and its own interruption
+// unwinds through the guards below.
+void install_signal_handlers() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+            struct sigaction current {};
+            if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler != SIG_DFL ||
+                (current.sa_flags & SA_SIGINFO))
+                continue;
+            struct sigaction action {};
+            action.sa_handler = remove_temporaries_and_reraise;
+            sigemptyset(&action.sa_mask);
+            ::sigaction(signal_number, &action, nullptr);
+        }
+    });
+}
+
+int register_temporary(const std::string& path) {
+    if (path.size() >= PATH_MAX) return -1;
+    for (int index = 0; index < kSlots; ++index) {
+        int expected = Free;
+        if (slots[index].state.compare_exchange_strong(expected, Writing)) {
+            std::memcpy(slots[index].path, path.c_str(), path.size() + 1);
+            slots[index].state.store(Live);
+            return index;
+        }
+    }
+    return -1;
+}
+
+void unregister_temporary(int index) {
+    if (index >= 0) slots[index].state.store(Free);
+}
+
+// Registered before the file is created (so a signal never misses it), the temporary file
+// is removed unless released (after the successful rename).
 class TempFileGuard {
 public:
-    explicit TempFileGuard(std::string path) : path_(std::move(path)) {}
+    explicit TempFileGuard(std::string path) : path_(std::move(path)), slot_(register_temporary(path_)) {}
     ~TempFileGuard() {
         if (fd_ >= 0) ::close(fd_);
-        if (!path_.empty()) ::unlink(path_.c_str());
+        if (created_ && !path_.empty()) ::unlink(path_.c_str());
+        unregister_temporary(slot_);
     }
     TempFileGuard(const TempFileGuard&) = delete;
     TempFileGuard& operator=(const TempFileGuard&) = delete;
 
-    void set_fd(int fd) { fd_ = fd; }
+    // The descriptor of the created file; a name O_EXCL found taken is never unlinked.
+    void set_fd(int fd) {
+        fd_ = fd;
+        created_ = true;
+    }
     // Closes the descriptor; returns 0 or the errno of a failed close.
     int close_fd() {
         const int fd = fd_;
@@ -42,23 +111,40 @@ public:
 
 private:
     std::string path_;
+    int slot_ = -1;
     int fd_ = -1;
+    bool created_ = false;
 };
 
 std::string errno_text(int error) { return std::strerror(error); }
+
+// The OutputBatch in force (at most one), and the files it holds back.
+struct PendingOutput {
+    std::string temp, target;
+    int slot = -1;
+};
+std::mutex batch_mutex;
+std::vector<PendingOutput>* active_batch = nullptr;
+
+void rename_into_place(const std::string& temp, const std::string& path) {
+    std::error_code error;
+    fs::rename(temp, path, error);
+    if (error) throw Error(path, "cannot rename temporary file into place: " + error.message());
+}
 
 }  // namespace
 
 void write_file_atomically(const std::string& path, const std::string& bytes) {
     if (path.empty()) throw Error(path, "cannot write a file with an empty path");
+    install_signal_handlers();
 
     const std::string temp = path + ".tmp-" + std::to_string(::getpid()) + "-" +
                              std::to_string(temp_counter.fetch_add(1));
+    TempFileGuard guard(temp);
     // O_EXCL: never write into a file somebody else owns.
     const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0)
         throw Error(path, "cannot create temporary file " + temp + ": " + errno_text(errno));
-    TempFileGuard guard(temp);
     guard.set_fd(fd);
 
     const char* data = bytes.data();
@@ -78,10 +164,63 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
     if (const int close_error = guard.close_fd())
         throw Error(path, "close failed: " + errno_text(close_error));
 
-    std::error_code error;
-    fs::rename(temp, path, error);
-    if (error) throw Error(path, "cannot rename temporary file into place: " + error.message());
+    {
+        std::lock_guard<std::mutex> lock(batch_mutex);
+        if (active_batch) {
+            for (const PendingOutput& pending : *active_batch)
+                if (pending.target == path) throw Error(path, "is written twice by one command");
+            active_batch->push_back({temp, path, register_temporary(temp)});
+            guard.release();  // the batch holds the file now
+            return;
+        }
+    }
+    rename_into_place(temp, path);
     guard.release();
+}
+
+OutputBatch::OutputBatch() {
+    std::lock_guard<std::mutex> lock(batch_mutex);
+    if (active_batch) throw Error("outputs", "one batch of outputs is already being written");
+    active_batch = new std::vector<PendingOutput>();
+}
+
+OutputBatch::~OutputBatch() {
+    std::lock_guard<std::mutex> lock(batch_mutex);
+    if (!active_batch) return;
+    for (const PendingOutput& pending : *active_batch) {
+        ::unlink(pending.temp.c_str());
+        unregister_temporary(pending.slot);
+    }
+    delete active_batch;
+    active_batch = nullptr;
+}
+
+void OutputBatch::commit() {
+    std::vector<PendingOutput> pending;
+    {
+        std::lock_guard<std::mutex> lock(batch_mutex);
+        if (!active_batch) return;
+        pending.swap(*active_batch);
+        delete active_batch;
+        active_batch = nullptr;
+    }
+    // Renames are quick and rarely fail, so the set appears as one; a failing rename still
+    // leaves every other file whole (old or new) and removes the remaining temporaries.
+    std::string failure;
+    for (const PendingOutput& output : pending) {
+        if (failure.empty()) {
+            try {
+                rename_into_place(output.temp, output.target);
+            } catch (const Error& error) {
+                failure = error.what();
+                ::unlink(output.temp.c_str());
+            }
+        } else {
+            ::unlink(output.temp.c_str());
+        }
+        unregister_temporary(output.slot);
+    }
+    if (!failure.empty()) throw Error("outputs", failure);
 }
 
 }  // namespace picoscan

@@ -2,6 +2,7 @@
 // unknown properties and elements skipped; polygons triangulated as fans.
 // The input is untrusted: every count is checked against the bytes that are left before
 // anything is allocated, and every failure is an Error naming the file.
+#include "common/memory_budget.h"
 #include "io/io_detail.h"
 #include "picoscan/error.h"
 #include "picoscan/io.h"
@@ -446,6 +447,14 @@ Mesh read_ply_with_extras(const std::string& path, PlyExtras& extras) { return r
 
 Mesh read_ply(const std::string& path) { return read_ply_body(path, nullptr); }
 
+namespace {
+
+constexpr int64_t kAnyGridPixels = int64_t(1) << 22;
+constexpr int64_t kGridPixelsPerPoint = 256;
+constexpr double kViewBytesPerPixel = 12 + 12 + 3 + 4;  // points, normals, colours, quality
+
+}  // namespace
+
 ScanView read_view_ply(const std::string& path) {
     detail::PlyExtras extras;
     const Mesh mesh = read_ply_with_extras(path, extras);
@@ -488,6 +497,20 @@ ScanView read_view_ply(const std::string& path) {
     if (!have_grid || extras.pixels.size() != mesh.vertices.size())
         throw Error(path, "has no camera pixel grid (write it with 'picoscan reconstruct' to keep one)");
 
+    // The grid is a camera image: a few bytes must not make it allocate gigabytes. Beyond
+    // a 4-megapixel camera, a view keeps at least one point per 256 grid pixels.
+    const int64_t pixel_count = static_cast<int64_t>(width) * height;
+    const int64_t allowed_pixels = std::max<int64_t>(kAnyGridPixels, kGridPixelsPerPoint * int64_t(mesh.vertices.size()));
+    if (pixel_count > allowed_pixels)
+        throw Error(path, "picoscan_grid " + std::to_string(width) + "x" + std::to_string(height) + " has " +
+                              std::to_string(pixel_count) + " pixels for only " + std::to_string(mesh.vertices.size()) +
+                              " points (a grid over 4 Mpixel needs a point per 256 pixels)");
+    for (size_t i = 0; i < extras.pixels.size(); ++i)
+        if (extras.pixels[i] < 0 || extras.pixels[i] >= pixel_count)
+            throw Error(path, "vertex " + std::to_string(i) + " has a pixel outside the grid");
+    detail::check_memory_budget(double(pixel_count) * kViewBytesPerPixel, path,
+                                "the " + std::to_string(width) + "x" + std::to_string(height) + " pixel grid");
+
     ScanView view;
     view.pose = pose;
     view.camera_matrix = camera_matrix;
@@ -496,10 +519,8 @@ ScanView read_view_ply(const std::string& path) {
     if (!mesh.normals.empty()) view.normals = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(0));
     if (!mesh.colours.empty()) view.colours = cv::Mat(height, width, CV_8UC3, cv::Scalar::all(0));
     if (!extras.quality.empty()) view.quality = cv::Mat(height, width, CV_32F, cv::Scalar::all(0));
-    const int64_t pixel_count = static_cast<int64_t>(width) * height;
     for (size_t i = 0; i < mesh.vertices.size(); ++i) {
         const int64_t pixel = extras.pixels[i];
-        if (pixel >= pixel_count) throw Error(path, "vertex " + std::to_string(i) + " has a pixel outside the grid");
         const int y = static_cast<int>(pixel / width), x = static_cast<int>(pixel % width);
         view.points.at<cv::Vec3f>(y, x) = mesh.vertices[i];
         if (!view.normals.empty()) view.normals.at<cv::Vec3f>(y, x) = mesh.normals[i];

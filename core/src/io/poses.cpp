@@ -13,6 +13,8 @@ namespace {
 
 constexpr size_t kMaxPosesFileBytes = 16u << 20;  // thousands of views are a few hundred KB
 constexpr const char* kNotAligned = " NOT-ALIGNED";
+constexpr size_t kMostPoses = 10000;              // views of one model
+constexpr double kFarthestTranslationMm = 1e6;
 
 }  // namespace
 
@@ -36,6 +38,12 @@ void write_poses(const std::vector<ViewPose>& poses, const std::string& path) {
 std::vector<ViewPose> read_poses(const std::string& path) {
     const std::string text = detail::read_whole_file(path);
     if (text.size() > kMaxPosesFileBytes) throw Error(path, "is larger than a poses file can be (16 MB)");
+    for (size_t offset = 0; offset < text.size(); ++offset) {
+        const unsigned char byte = static_cast<unsigned char>(text[offset]);
+        if ((byte < 0x20 && byte != '\n' && byte != '\r' && byte != '\t') || byte > 0x7e)
+            throw Error(path, "is not a plain ASCII text file (byte " + std::to_string(int(byte)) + " at offset " +
+                                  std::to_string(offset) + ")");
+    }
     std::stringstream lines(text);
     std::vector<ViewPose> poses;
     std::string line;
@@ -63,6 +71,16 @@ std::vector<ViewPose> read_poses(const std::string& path) {
                     throw Error(where(), "a pose row needs 4 finite numbers: '" + line + "'");
             if (row >> word) throw Error(where(), "a pose row has more than 4 numbers: '" + line + "'");
         }
+        const cv::Matx44d& pose = view.pose;
+        if (pose(3, 0) != 0 || pose(3, 1) != 0 || pose(3, 2) != 0 || pose(3, 3) != 1)
+            throw Error(where(), "a pose's last row must be 0 0 0 1");
+        const cv::Matx33d rotation = pose.get_minor<3, 3>(0, 0);
+        if (!(cv::norm(rotation.t() * rotation - cv::Matx33d::eye()) < 1e-4) || !(cv::determinant(rotation) > 0))
+            throw Error(where(), "a pose's upper left 3x3 must be a rotation");
+        for (int r = 0; r < 3; ++r)
+            if (!(std::abs(pose(r, 3)) <= kFarthestTranslationMm))
+                throw Error(where(), "a pose's translation is beyond 1 km");
+        if (poses.size() >= kMostPoses) throw Error(where(), "more than " + std::to_string(kMostPoses) + " poses");
         poses.push_back(view);
     }
     return poses;

@@ -55,6 +55,8 @@ Mesh advancing_front_mesh(const std::vector<PointWithNormal>& points, double spa
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, double& average_spacing_mm);
 // Moves each vertex onto the plane fitted to its nearest input points (undoes Poisson's smoothing).
 void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
+// The fraction of the points within reach_mm of a mesh vertex (what the surface covers).
+double fraction_of_points_near(const Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
 // Indices of the faces that intersect another face.
 std::vector<int> self_intersecting_faces(const Mesh& mesh);
 Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm);

@@ -26,6 +26,11 @@ void mark_measured(Mesh& mesh, const std::vector<detail::PointWithNormal>& point
     }
 }
 
+// A point counts as covered by the surface within this many average spacings of a vertex;
+// the surface must cover this share of the points.
+constexpr double kCoverageReach = 5.0;
+constexpr double kLeastCoverage = 0.95;
+
 }  // namespace
 
 Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const ProgressCallback& progress) {
@@ -54,6 +59,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     cv::Matx31d extent;
     cv::eigen(scatter * (1.0 / static_cast<double>(points.size())), extent);
     const double thickness = std::sqrt(std::max(extent(2), 0.0)), width = std::sqrt(std::max(extent(1), 0.0));
+    if (!(spacing > 0)) throw Error("point cloud", "is degenerate (its points coincide)");
     if (width < 2 * spacing) throw Error("point cloud", "is degenerate (its points lie along a line)");
     if (options.method == MeshMethod::Poisson && thickness < 0.5 * spacing)
         throw Error("point cloud", "is flat (all points on one plane): Poisson needs a closed shape; use --method advancing-front or grid");
@@ -62,6 +68,13 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     if (options.method == MeshMethod::Poisson) {
         report(0.2, "Poisson reconstruction");
         mesh = detail::poisson_mesh(points, spacing, options.poisson_triangle_size, options.poisson_distance);
+        // CGAL's mesher grows the surface from one seed: a separate part of the cloud is left
+        // out without a word. Refuse a surface that misses a share of the points.
+        const double covered = detail::fraction_of_points_near(mesh, points, kCoverageReach * spacing);
+        if (covered < kLeastCoverage)
+            throw Error("point cloud", "the Poisson surface covers only " + std::to_string(int(covered * 100)) +
+                                           "% of the points: a separate part was left out (mesh each part on its "
+                                           "own, or use --method advancing-front)");
         report(0.7, "projecting onto the points");
         const Mesh smooth = mesh;
         detail::project_onto_points(mesh, points, 2.0 * spacing);

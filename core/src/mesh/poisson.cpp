@@ -13,6 +13,7 @@
 #include <CGAL/property_map.h>
 
 #include <opencv2/core.hpp>
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -27,14 +28,30 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     std::vector<PointWithNormal> points;
     points.reserve(cloud.points.size());
     const bool has_normals = cloud.normals.size() == cloud.points.size();
+    size_t without_normal = 0;
     for (size_t i = 0; i < cloud.points.size(); ++i) {
         const cv::Vec3f& p = cloud.points[i];
         if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
         const cv::Vec3f n = has_normals ? cloud.normals[i] : cv::Vec3f(0, 0, 0);
+        // The given normal says which side the sensor saw; without it a PCA normal's sign is a guess.
+        if (has_normals && !(std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]) && cv::norm(n) > 0)) {
+            ++without_normal;
+            continue;
+        }
         points.emplace_back(Point3(p[0], p[1], p[2]), Vector3(n[0], n[1], n[2]));
     }
+    if (has_normals && without_normal * 10 > points.size() + without_normal)
+        throw Error("point cloud", std::to_string(without_normal) + " of " +
+                                       std::to_string(points.size() + without_normal) +
+                                       " points have no valid normal (NaN or zero): their outside is unknown");
     if (spacing_mm > 0) {
         points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
+    } else {
+        // Coincident points have no spacing to mesh at (and crash the reconstruction).
+        std::sort(points.begin(), points.end(), [](const PointWithNormal& a, const PointWithNormal& b) { return a.first < b.first; });
+        points.erase(std::unique(points.begin(), points.end(),
+                                 [](const PointWithNormal& a, const PointWithNormal& b) { return a.first == b.first; }),
+                     points.end());
     }
     if (points.size() < 20) return points;
     // Re-estimated normals are smoother than per-pixel ones; the sensor's side says which way.
@@ -60,6 +77,22 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, double spacing_mm,
                                                        spacing_mm, 20.0, triangle_size, distance))
         throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)");
     return to_mesh(surface);
+}
+
+double fraction_of_points_near(const Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm) {
+    using Traits = CGAL::Search_traits_3<Kernel>;
+    using Search = CGAL::Orthogonal_k_neighbor_search<Traits>;
+    if (mesh.vertices.empty() || points.empty()) return 0;
+    std::vector<Point3> vertices;
+    vertices.reserve(mesh.vertices.size());
+    for (const cv::Vec3f& v : mesh.vertices) vertices.emplace_back(v[0], v[1], v[2]);
+    const Search::Tree tree(vertices.begin(), vertices.end());
+    size_t near = 0;
+    for (const PointWithNormal& point : points) {
+        Search search(tree, point.first, 1);
+        if (search.begin() != search.end() && search.begin()->second <= reach_mm * reach_mm) ++near;
+    }
+    return double(near) / double(points.size());
 }
 
 void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm) {

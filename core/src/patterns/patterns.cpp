@@ -58,7 +58,7 @@ PatternSequence make_pattern_sequence(const PatternOptions& options) {
     if (options.shifts < 3 || options.shifts > 64)
         throw Error("--shifts", "phase shifts must be 3..64, got " + std::to_string(options.shifts));
     const int smallest_side = options.rows ? std::min(size.width, size.height) : size.width;
-    if (options.period_bits < 1 || (1 << options.period_bits) > smallest_side)
+    if (options.period_bits < 1 || options.period_bits > 14 || (1 << options.period_bits) > smallest_side)
         throw Error("--period-bits", "fringe period 2^N must be 2.." + std::to_string(smallest_side) +
                                          " projector pixels, got N=" + std::to_string(options.period_bits));
 
@@ -144,9 +144,11 @@ PatternSequence make_slstudio_phase_cue_sequence(cv::Size projector_size, int pe
 }
 
 PatternSequence make_slmaster_cgc_sequence(cv::Size projector_size, int shifts, int periods) {
+    if (periods < 2 || periods > projector_size.width / 2)
+        throw Error("periods", "SLMaster CGC needs 2 or more periods of at least 2 pixels");
     int period_bits = 0;
     while ((1 << period_bits) < periods) ++period_bits;
-    if (periods < 2 || (1 << period_bits) != periods || projector_size.width % (2 * periods) != 0)
+    if ((1 << period_bits) != periods || projector_size.width % (2 * periods) != 0)
         throw Error("periods", "SLMaster CGC needs a power-of-two period count dividing the width twice");
     PatternSequence sequence;
     sequence.projector_size = projector_size;

@@ -20,7 +20,8 @@ ReconstructResult finish_view(ScanView view, int order_corrections, const Calibr
     result.order_corrections = order_corrections;
     if (options.second_camera) {
         const SecondCamera& second = *options.second_camera;
-        const CaptureSet captures = load_capture_set(second.captures_folder, options.manifest_path, progress);
+        const CaptureSet captures =
+            load_capture_set(second.captures_folder, options.manifest_path, progress, second.calibration.camera_size);
         check_camera_size(second.calibration, captures, second.calibration_name);
         const CorrespondenceMap map = decode(captures, options.decode, progress);
         result.unconfirmed_removed = reject_unconfirmed_points(result.view, calibration, map, second.calibration);
@@ -47,7 +48,8 @@ ReconstructResult reconstruct_view(const std::string& captures_folder, const Cal
                                    const std::string& calibration_name, const ReconstructOptions& options,
                                    const ProgressCallback& progress) {
     validate(options);
-    const CaptureSet captures = load_capture_set(captures_folder, options.manifest_path, progress);
+    // The frames' headers are checked against camera_size before any frame is decoded.
+    const CaptureSet captures = load_capture_set(captures_folder, options.manifest_path, progress, calibration.camera_size);
     check_camera_size(calibration, captures, calibration_name);
     const CorrespondenceMap map = decode(captures, options.decode, progress);
     ScanView view = triangulate(map, calibration, captures.white_colour, options.triangulate, progress);

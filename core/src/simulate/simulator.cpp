@@ -2,6 +2,7 @@
 // after which each rendered frame is a cheap per-pixel sampling of the pattern.
 #include "picoscan/simulate.h"
 
+#include "common/memory_budget.h"
 #include "common/parallel.h"
 #include "picoscan/error.h"
 #include "simulate/lens_model.h"
@@ -41,6 +42,9 @@ inline void gaussian_pair(uint64_t frame_key, uint64_t pair_index, float& z0, fl
     z1 = radius * std::sin(angle);
 }
 
+// Defocus beyond this blurs a fringe period away; the kernel's cost grows with sigma.
+constexpr double kLargestBlurSigmaPx = 20;
+
 void validate_options(const SimulationOptions& o) {
     auto check = [](bool ok, const std::string& problem) {
         if (!ok) throw Error("simulation options", problem);
@@ -50,21 +54,29 @@ void validate_options(const SimulationOptions& o) {
     check(o.projector_black >= 0 && o.projector_black <= 1, "projector_black must be within 0..1");
     check(std::isfinite(o.projector_gamma) && o.projector_gamma > 0, "projector_gamma must be positive");
     check(std::isfinite(o.noise_sigma_dn) && o.noise_sigma_dn >= 0, "noise_sigma_dn must be finite and non-negative");
-    check(std::isfinite(o.blur_sigma_px) && o.blur_sigma_px >= 0, "blur_sigma_px must be finite and non-negative");
+    check(std::isfinite(o.blur_sigma_px) && o.blur_sigma_px >= 0 && o.blur_sigma_px <= kLargestBlurSigmaPx,
+          "blur_sigma_px must be within 0.." + std::to_string(int(kLargestBlurSigmaPx)));
     check(o.bit_depth == 8 || o.bit_depth == 16, "bit_depth must be 8 or 16, got " + std::to_string(o.bit_depth));
 }
 
 void validate_rig(const Calibration& c) {
-    if (c.camera_size.width <= 0 || c.camera_size.height <= 0)
-        throw Error("calibration", "camera_size must be positive");
-    if (c.projector_size.width <= 0 || c.projector_size.height <= 0)
-        throw Error("calibration", "projector_size must be positive");
+    auto check_size = [](cv::Size size, const char* key) {
+        if (size.width <= 0 || size.height <= 0 || size.width > kLargestImageSide || size.height > kLargestImageSide ||
+            int64_t(size.width) * size.height > kLargestImagePixels)
+            throw Error("calibration", std::string(key) + " must be positive, at most " +
+                                           std::to_string(kLargestImageSide) + " pixels a side and " +
+                                           std::to_string(kLargestImagePixels >> 20) + " Mpixel in all");
+    };
+    check_size(c.camera_size, "camera_size");
+    check_size(c.projector_size, "projector_size");
     const cv::Matx33d should_be_identity = c.R.t() * c.R;
     if (!(cv::norm(should_be_identity - cv::Matx33d::eye()) < 1e-6) || !(cv::determinant(c.R) > 0))
         throw Error("calibration", "R must be a rotation matrix");
     if (!(std::isfinite(c.T[0]) && std::isfinite(c.T[1]) && std::isfinite(c.T[2])))
         throw Error("calibration", "T must be finite");
 }
+
+double width_times_height(cv::Size s) { return double(s.width) * double(s.height); }
 
 std::string size_text(cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
 
@@ -108,6 +120,9 @@ Simulator::Simulator(const Calibration& calibration, const Scene& scene, const S
     const cv::Vec3d T = calibration.T;
     const cv::Vec3d projector_centre = -(R.t() * T);  // in the camera frame
 
+    // Geometry, light and ambient per camera pixel (about 80 bytes), before allocating them.
+    detail::check_memory_budget(80.0 * width_times_height(s.camera_size), "calibration",
+                                "simulating the " + size_text(s.camera_size) + " camera");
     const int width = s.camera_size.width, height = s.camera_size.height;
     const int proj_w = s.projector_size.width, proj_h = s.projector_size.height;
     const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -310,6 +325,10 @@ CaptureSet simulate_capture(const PatternSequence& sequence, const Calibration& 
     };
     report(0.0);
     const Simulator simulator(calibration, scene, options);
+    detail::check_memory_budget(width_times_height(calibration.camera_size) * double(sequence.frames.size()) *
+                                    (options.bit_depth / 8),
+                                "calibration", std::to_string(sequence.frames.size()) + " simulated frames of " +
+                                                   size_text(calibration.camera_size));
 
     CaptureSet captures;
     captures.sequence = sequence;

@@ -4,6 +4,7 @@
 #include "picoscan/error.h"
 
 #include "common/lens.h"
+#include "common/memory_budget.h"
 #include "common/normals.h"
 #include "common/parallel.h"
 #include "common/progress_reporter.h"
@@ -57,6 +58,12 @@ void intersect_row(const cv::Vec2f* __restrict camera_ray, const float* __restri
 
 Triangulator::Triangulator(const Calibration& calibration) : calibration_(calibration) {
     validate_calibration(calibration, "calibration");
+    // Camera rays (8 bytes a pixel) and projector tables (32 bytes a pixel) are built once;
+    // each view then needs about 40 bytes a camera pixel.
+    const double camera_pixels = double(calibration.camera_size.width) * calibration.camera_size.height;
+    const double projector_pixels = double(calibration.projector_size.width) * calibration.projector_size.height;
+    detail::check_memory_budget(48 * camera_pixels + 32 * projector_pixels, "calibration",
+                                "the triangulation tables of its camera and projector sizes");
     const detail::LensDistortion camera_lens(calibration.camera_distortion);
     const detail::LensDistortion projector_lens(calibration.projector_distortion);
 
