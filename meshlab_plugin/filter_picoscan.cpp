@@ -558,8 +558,6 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
 }
 
 void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList& parameters) {
-    MeshModel& layer = *document.mm();
-    require_scan_grid(layer);
     CleanOptions options;
     options.min_quality = parameters.getFloat(kMinQuality);
     options.max_grazing_deg = parameters.getFloat(kMaxGrazing);
@@ -569,6 +567,8 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
     options.min_neighbours = parameters.getInt(kMinNeighbours);
     options.min_cluster_points = parameters.getInt(kMinCluster);
     validate(options);
+    MeshModel& layer = *document.mm();
+    require_scan_grid(layer);
     ScanView view = layer_view(layer);
     const CleanReport report = clean_view(view, options);
     const int deleted = remove_vertices_missing_from(layer, view);
@@ -579,14 +579,14 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
 }
 
 void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
-    const std::vector<MeshModel*> layers = visible_scan_layers(document);
-    if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
     StitchOptions options;
     options.registration.orb_features = parameters.getInt(kOrbFeatures);
     options.registration.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
     options.registration.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
     options.registration.min_overlap = parameters.getFloat(kMinOverlap);
     validate(options.registration);
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
     std::vector<ScanView> views;
     std::vector<std::string> names;
     for (MeshModel* layer : layers) {
@@ -615,8 +615,6 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
 }
 
 void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
-    const std::vector<MeshModel*> layers = visible_scan_layers(document);
-    if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
     MeshOptions options;
     options.method = parameters.getEnum(kMethod) == AdvancingFrontMethod ? MeshMethod::AdvancingFront : MeshMethod::Poisson;
     options.sample_spacing_mm = parameters.getFloat(kMeshSpacing);
@@ -626,6 +624,8 @@ void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList&
     options.max_hole_diameter_mm = parameters.getFloat(kMaxHole);
     options.target_faces = parameters.getInt(kTargetFaces);
     validate(options);
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
     std::vector<ScanView> views;
     for (MeshModel* layer : layers) views.push_back(layer_view(*layer));  // pose = the layer's transform
     const PointCloud merged = merge_views(views);

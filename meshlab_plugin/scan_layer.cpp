@@ -1,5 +1,7 @@
 #include "scan_layer.h"
 
+#include "picoscan/io.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -48,10 +50,77 @@ int vertex_pixel(const CVertexO& vertex, int width, int height) {
     return x >= 0 && x < width && y >= 0 && y < height ? y * width + x : -1;
 }
 
+// Stores the view's camera on the layer: in full as the attribute, and as MeshLab's camera of
+// the layer (saved in PLY), for which the view's camera sits at the origin of the vertices'
+// frame; MeshLab's camera holds four distortion coefficients (k1 k2 p1 p2 in OpenCV's order).
+void set_layer_camera(MeshModel& layer, const picoscan::ScanView& view) {
+    CMeshO& mesh = layer.cm;
+    layer.updateDataMask(MeshModel::MM_CAMERA);
+    LayerCamera camera;
+    camera.width = view.points.cols;
+    camera.height = view.points.rows;
+    for (int i = 0; i < 9; ++i) camera.matrix[i] = view.camera_matrix.val[i];
+    const cv::Mat distortion = view.camera_distortion.empty() ? cv::Mat() : view.camera_distortion.reshape(1, 1);
+    camera.distortion_count = std::min(14, int(distortion.total()));
+    for (int i = 0; i < camera.distortion_count; ++i) camera.distortion[i] = distortion.at<double>(0, i);
+    vcg::tri::Allocator<CMeshO>::GetPerMeshAttribute<LayerCamera>(mesh, kCameraAttribute)() = camera;
+    auto& intrinsics = mesh.shot.Intrinsics;
+    intrinsics.cameraType = 0;
+    intrinsics.ViewportPx = vcg::Point2i(camera.width, camera.height);
+    intrinsics.FocalMm = Scalarm(view.camera_matrix(0, 0));
+    intrinsics.PixelSizeMm = vcg::Point2<Scalarm>(1, Scalarm(view.camera_matrix(0, 0) / view.camera_matrix(1, 1)));
+    intrinsics.CenterPx = vcg::Point2<Scalarm>(Scalarm(view.camera_matrix(0, 2)), Scalarm(view.camera_matrix(1, 2)));
+    intrinsics.DistorCenterPx = intrinsics.CenterPx;
+    for (int i = 0; i < 4; ++i) intrinsics.k[i] = Scalarm(i < camera.distortion_count ? camera.distortion[i] : 0);
+    mesh.shot.Extrinsics.SetIdentity();
+}
+
+// A layer opened from a PicoScan view PLY (written by 'picoscan reconstruct --out', 'picoscan
+// stitch' views or FreeCAD): MeshLab keeps its points in the file's order (row by row) but drops
+// the pixels and camera, which are read again from the file. Only while the layer still holds
+// exactly the file's points; returns why not otherwise.
+std::string adopt_view_file(MeshModel& layer) {
+    const QString file = layer.fullName();
+    if (file.isEmpty() || !file.endsWith(".ply", Qt::CaseInsensitive)) return "not opened from a PLY file";
+    picoscan::ScanView view;
+    try {
+        view = picoscan::read_view_ply(file.toStdString());
+    } catch (const std::exception&) {
+        return "its file is not a PicoScan view";
+    }
+    if (view.camera_matrix(0, 0) <= 0) return "its file is a PicoScan view without a camera (an older file)";
+    CMeshO& mesh = layer.cm;
+    if (view.valid_count() != mesh.vn) return "it no longer holds the points of its file";
+    std::vector<std::pair<int, int>> pixels;
+    pixels.reserve(size_t(mesh.vn));
+    auto vertex = mesh.vert.begin();
+    for (int y = 0; y < view.points.rows; ++y)
+        for (int x = 0; x < view.points.cols; ++x) {
+            const cv::Vec3f& p = view.points.at<cv::Vec3f>(y, x);
+            if (!finite_point(p)) continue;
+            while (vertex != mesh.vert.end() && vertex->IsD()) ++vertex;
+            if (vertex == mesh.vert.end() || cv::norm(p - cv::Vec3f(vertex->P()[0], vertex->P()[1], vertex->P()[2])) > 1e-4)
+                return "it no longer holds the points of its file";
+            pixels.emplace_back(x, y);
+            ++vertex;
+        }
+    layer.updateDataMask(MeshModel::MM_VERTTEXCOORD);
+    size_t index = 0;
+    for (CVertexO& v : mesh.vert) {
+        if (v.IsD()) continue;
+        v.T().U() = Scalarm(pixels[index].first);
+        v.T().V() = Scalarm(pixels[index].second);
+        v.T().N() = 0;
+        ++index;
+    }
+    set_layer_camera(layer, view);
+    return {};
+}
+
 }  // namespace
 
 void fill_layer(MeshModel& layer, const picoscan::ScanView& view) {
-    const double focal_px = view.focal_px();  // throws when the view does not know its camera
+    view.focal_px();  // throws when the view does not know its camera
     CMeshO& mesh = layer.cm;
     layer.updateDataMask(MeshModel::MM_VERTCOLOR | MeshModel::MM_VERTQUALITY | MeshModel::MM_VERTNORMAL |
                          MeshModel::MM_VERTTEXCOORD | MeshModel::MM_CAMERA);
@@ -79,25 +148,7 @@ void fill_layer(MeshModel& layer, const picoscan::ScanView& view) {
             vertex->T().N() = 0;
             ++vertex;
         }
-    LayerCamera camera;
-    camera.width = view.points.cols;
-    camera.height = view.points.rows;
-    for (int i = 0; i < 9; ++i) camera.matrix[i] = view.camera_matrix.val[i];
-    const cv::Mat distortion = view.camera_distortion.empty() ? cv::Mat() : view.camera_distortion.reshape(1, 1);
-    camera.distortion_count = std::min(14, int(distortion.total()));
-    for (int i = 0; i < camera.distortion_count; ++i) camera.distortion[i] = distortion.at<double>(0, i);
-    vcg::tri::Allocator<CMeshO>::GetPerMeshAttribute<LayerCamera>(mesh, kCameraAttribute)() = camera;
-    // MeshLab's own camera of the layer (saved in PLY): the view's camera sits at the origin of
-    // the vertices' frame. It holds four distortion coefficients (k1 k2 p1 p2 in OpenCV's order).
-    auto& intrinsics = mesh.shot.Intrinsics;
-    intrinsics.cameraType = 0;
-    intrinsics.ViewportPx = vcg::Point2i(camera.width, camera.height);
-    intrinsics.FocalMm = Scalarm(focal_px);
-    intrinsics.PixelSizeMm = vcg::Point2<Scalarm>(1, Scalarm(view.camera_matrix(0, 0) / view.camera_matrix(1, 1)));
-    intrinsics.CenterPx = vcg::Point2<Scalarm>(Scalarm(view.camera_matrix(0, 2)), Scalarm(view.camera_matrix(1, 2)));
-    intrinsics.DistorCenterPx = intrinsics.CenterPx;
-    for (int i = 0; i < 4; ++i) intrinsics.k[i] = Scalarm(i < camera.distortion_count ? camera.distortion[i] : 0);
-    mesh.shot.Extrinsics.SetIdentity();
+    set_layer_camera(layer, view);
     set_layer_pose(layer, view.pose);
     vcg::tri::UpdateBounding<CMeshO>::Box(mesh);
 }
@@ -126,11 +177,19 @@ void fill_layer(MeshModel& layer, const picoscan::Mesh& source) {
 }
 
 std::string missing_scan_data(MeshModel& layer) {
-    if (!layer.hasDataMask(MeshModel::MM_VERTTEXCOORD))
-        return "this layer has no camera pixel grid: it needs a point cloud layer made by 'PicoScan: Reconstruct from "
-               "Capture Set' or 'PicoScan: Simulate Scan' (saved as PLY with texture coordinates, normals and camera)";
-    if (!has_camera_attribute(layer.cm) && !has_saved_camera(layer))
-        return "this layer has pixel coordinates but no camera: save PicoScan layers as PLY, which keeps the camera";
+    const bool has_pixels = layer.hasDataMask(MeshModel::MM_VERTTEXCOORD);
+    const bool has_camera = has_camera_attribute(layer.cm) || has_saved_camera(layer);
+    if (!has_pixels || !has_camera) {
+        const std::string not_a_view = adopt_view_file(layer);
+        if (!not_a_view.empty()) {
+            if (!has_pixels)
+                return "this layer has no camera pixel grid (" + not_a_view + "): it needs a point cloud layer made "
+                       "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', saved as PLY with "
+                       "texture coordinates, normals and camera, or a PicoScan view PLY";
+            return "this layer has pixel coordinates but no camera (" + not_a_view + "): save PicoScan layers as "
+                   "PLY with their camera";
+        }
+    }
     if (layer.cm.vn > 0 && layer.cm.vert.begin()->cN().SquaredNorm() == 0)
         return "this layer was saved without vertex normals: save PicoScan layers as PLY with normals";
     return {};
