@@ -5,6 +5,13 @@
 namespace picoscan::python {
 
 void bind_decode(py::module_& m) {
+    // The numbers CorrespondenceMap.status holds per pixel.
+    py::enum_<PixelStatus>(m, "PixelStatus", py::arithmetic())
+        .value("kValid", kValid)
+        .value("kDark", kDark)
+        .value("kSaturated", kSaturated)
+        .value("kUndecidedBit", kUndecidedBit)
+        .value("kLowModulation", kLowModulation);
     py::class_<DecodeOptions>(m, "DecodeOptions")
         .def(py::init<>())
         .def_readwrite("min_contrast", &DecodeOptions::min_contrast)
