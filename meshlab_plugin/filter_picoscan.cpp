@@ -558,7 +558,8 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
 }
 
 void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList& parameters) {
-    CleanOptions options;
+    CleanScanOptions scan_options;
+    CleanOptions& options = scan_options.cleaning;
     options.min_quality = parameters.getFloat(kMinQuality);
     options.max_grazing_deg = parameters.getFloat(kMaxGrazing);
     options.window_px = parameters.getInt(kWindow);
@@ -570,7 +571,7 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
     MeshModel& layer = *document.mm();
     require_scan_grid(layer);
     ScanView view = layer_view(layer);
-    const CleanReport report = clean_view(view, options);
+    const CleanReport report = clean_scan(view, layer_name(layer), scan_options).report;
     const int deleted = remove_vertices_missing_from(layer, view);
     Log("PicoScan cleaned %s: removed %d points (%d low quality, %d grazing, %d outliers, %d with too few neighbours, "
         "%d in small clusters), %d remain",
@@ -629,7 +630,7 @@ void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList&
     std::vector<ScanView> views;
     for (MeshModel* layer : layers) views.push_back(layer_view(*layer));  // pose = the layer's transform
     const PointCloud merged = merge_views(views);
-    const Mesh mesh = mesh_cloud(merged, options, meshlab_progress(callback));
+    const Mesh mesh = mesh_points(merged, options, meshlab_progress(callback));
     if (mesh.faces.empty()) throw Error("Fuse and Mesh", "meshing produced no triangles");
     const MeshCheck check = check_mesh(mesh);
     add_filled_layer(document,
