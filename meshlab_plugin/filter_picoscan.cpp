@@ -4,28 +4,17 @@
 
 #include "picoscan/calibration.h"
 #include "picoscan/capture_set.h"
-#include "picoscan/clean.h"
-#include "picoscan/decode.h"
 #include "picoscan/error.h"
 #include "picoscan/fit.h"
-#include "picoscan/mesh.h"
-#include "picoscan/patterns.h"
-#include "picoscan/register.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/simulate.h"
-#include "picoscan/triangulate.h"
 
-#include <QApplication>
 #include <QDir>
-#include <QFile>
 #include <QFileInfo>
-#include <QMainWindow>
-#include <QMenu>
-#include <QMenuBar>
 #include <QTemporaryDir>
-#include <QTextStream>
-#include <QTimer>
 
 #include <functional>
+#include <map>
 
 using namespace picoscan;
 using namespace picoscan_meshlab;
@@ -96,13 +85,51 @@ ProgressCallback meshlab_progress(vcg::CallBackPos* callback) {
     };
 }
 
+// The core's errors name option fields ("decode.min_modulation"); the user set parameters.
+QString parameter_for_field(const std::string& field) {
+    static const std::map<std::string, const char*> parameters{
+        {"patterns.shifts", kShifts},
+        {"patterns.period_bits", kPeriodBits},
+        {"decode.min_contrast", kMinContrast},
+        {"decode.min_modulation", kMinModulation},
+        {"camera.full_scale_dn", kFullScale},
+        {"camera.noise_sigma_dn", kNoise},
+        {"camera.blur_sigma_px", kBlur},
+        {"cleaning.min_quality", kMinQuality},
+        {"cleaning.max_grazing_deg", kMaxGrazing},
+        {"cleaning.window_px", kWindow},
+        {"cleaning.outlier_sigma", kOutlierSigma},
+        {"cleaning.radius_footprints", kRadiusFootprints},
+        {"cleaning.min_neighbours", kMinNeighbours},
+        {"cleaning.min_cluster_points", kMinCluster},
+        {"registration.orb_features", kOrbFeatures},
+        {"registration.icp_max_distance_mm", kIcpMaxDistance},
+        {"registration.sample_spacing_mm", kAlignSpacing},
+        {"registration.min_overlap", kMinOverlap},
+        {"mesh.sample_spacing_mm", kMeshSpacing},
+        {"mesh.poisson_triangle_size", kPoissonTriangleSize},
+        {"mesh.poisson_distance", kPoissonDistance},
+        {"mesh.advancing_front_max_radius", kFrontMaxRadius},
+        {"mesh.max_hole_diameter_mm", kMaxHole},
+        {"mesh.target_faces", kTargetFaces},
+        {"mesh.grid.pixel_step", kMeshStep},
+    };
+    const auto found = parameters.find(field);
+    return QString::fromStdString(found == parameters.end() ? field : found->second);
+}
+
+// An error in the user's terms: "minModulation: must be 0..255" rather than the core's field.
+QString user_message(const Error& error) {
+    const std::string what = error.what();
+    if (error.subject().empty()) return QString::fromStdString(what);
+    return parameter_for_field(error.subject()) + ": " + QString::fromStdString(what.substr(error.subject().size() + 2));
+}
+
 DecodeOptions decode_options(const RichParameterList& parameters) {
     DecodeOptions options;
     options.binary_only = parameters.getBool(kBinaryOnly);
     options.min_contrast = parameters.getFloat(kMinContrast);
     options.min_modulation = parameters.getFloat(kMinModulation);
-    if (options.min_contrast < 0) throw Error(kMinContrast, "must be >= 0");
-    if (options.min_modulation < 0) throw Error(kMinModulation, "must be >= 0");
     return options;
 }
 
@@ -121,25 +148,24 @@ void add_output_parameters(RichParameterList& parameters) {
                                  "Point cloud: coloured points with normals that keep their camera pixel, so the layer "
                                  "can be cleaned and aligned. Grid mesh: the pixel grid triangulated without bridging "
                                  "depth jumps."));
-    parameters.addParam(RichInt(kMeshStep, 1, "Grid mesh step (pixels)",
+    parameters.addParam(RichInt(kMeshStep, GridMeshOptions{}.pixel_step, "Grid mesh step (pixels)",
                                 "Grid mesh only: join every n-th pixel (n*n times fewer triangles)."));
 }
 
-// Decodes and triangulates a capture set: the same core calls as 'picoscan reconstruct'.
-ScanView scan_captures(const CaptureSet& captures, const Calibration& calibration, const std::string& calibration_name,
-                       const DecodeOptions& options, const ProgressCallback& progress) {
-    check_camera_size(calibration, captures, calibration_name);
-    const CorrespondenceMap correspondences = decode(captures, options, progress);
-    return triangulate(correspondences, calibration, captures.white_colour, {}, progress);
-}
-
-// A finished scan becomes a new layer; nothing is added unless it has points.
-struct ScanResult {
-    ScanView view;
-    double focal_px = 0;
+// How a finished scan becomes a layer.
+struct LayerRequest {
     OutputKind output = PointCloudLayer;
-    int mesh_step = 1;
+    MeshOptions grid_mesh;  // for GridMeshLayer
 };
+
+LayerRequest layer_request(const RichParameterList& parameters) {
+    LayerRequest request;
+    request.output = OutputKind(parameters.getEnum(kOutput));
+    request.grid_mesh.method = MeshMethod::Grid;
+    request.grid_mesh.grid.pixel_step = parameters.getInt(kMeshStep);
+    validate(request.grid_mesh);
+    return request;
+}
 
 // Adds a layer and fills it; a failure while filling removes it again, so no layer is left half-filled.
 MeshModel* add_filled_layer(MeshDocument& document, const QString& label, const std::function<void(MeshModel&)>& fill) {
@@ -153,61 +179,20 @@ MeshModel* add_filled_layer(MeshDocument& document, const QString& label, const 
     return layer;
 }
 
-MeshModel* add_scan_layer(MeshDocument& document, const QString& label, const ScanResult& scan,
-                          const std::string& source) {
-    if (scan.view.valid_count() == 0) throw Error(source, "no pixel could be decoded and triangulated");
-    if (scan.output == GridMeshLayer) {
-        GridMeshOptions options;
-        options.pixel_step = scan.mesh_step;
-        const Mesh mesh = grid_mesh(scan.view, options);
+MeshModel* add_scan_layer(MeshDocument& document, const QString& label, const ScanView& view,
+                          const LayerRequest& request, const std::string& source) {
+    if (request.output == GridMeshLayer) {
+        const Mesh mesh = mesh_view(view, request.grid_mesh);
         if (mesh.faces.empty()) throw Error(source, "the grid mesh has no triangles");
         return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, mesh); });
     }
-    return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, scan.view, scan.focal_px); });
+    return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, view); });
 }
 
-int checked_mesh_step(const RichParameterList& parameters) {
-    const int step = parameters.getInt(kMeshStep);
-    if (step < 1 || step > 64) throw Error(kMeshStep, "must be 1..64");
-    return step;
-}
-
-// Clean needs the organised pixel grid; other layers get a plain answer.
+// Clean, Align and Fuse need the organised pixel grid and camera; other layers get a plain answer.
 void require_scan_grid(MeshModel& layer) {
-    if (!has_scan_grid(layer))
-        throw Error(layer.label().toStdString(),
-                    "this layer has no camera pixel grid: it needs a point cloud layer made by "
-                    "'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan'");
-}
-
-// Every entry of a menu and its submenus, one "Submenu/Entry" per line.
-void list_menu(const QMenu& menu, const QString& path, QTextStream& out) {
-    for (QAction* action : menu.actions()) {
-        if (action->isSeparator()) continue;
-        const QString entry = path + action->text().remove('&');
-        if (action->menu() != nullptr) list_menu(*action->menu(), entry + "/", out);
-        else out << entry << "\n";
-    }
-}
-
-// For the GUI smoke test: with PICOSCAN_MESHLAB_MENU_REPORT=FILE, once MeshLab's main window
-// is up, its Filters menu is written to FILE, so the test reads the real menu.
-void report_filters_menu_when_ready(const QString& path, int attempts_left) {
-    QTimer::singleShot(500, [path, attempts_left] {
-        for (QWidget* widget : QApplication::topLevelWidgets()) {
-            auto* window = qobject_cast<QMainWindow*>(widget);
-            if (window == nullptr || !window->isVisible()) continue;
-            for (QAction* action : window->menuBar()->actions()) {
-                if (action->menu() == nullptr || action->text().remove('&') != "Filters") continue;
-                QFile file(path);
-                if (!file.open(QIODevice::WriteOnly | QIODevice::Truncate)) return;
-                QTextStream out(&file);
-                list_menu(*action->menu(), "Filters/", out);
-                return;
-            }
-        }
-        if (attempts_left > 0) report_filters_menu_when_ready(path, attempts_left - 1);
-    });
+    const std::string missing = missing_scan_data(layer);
+    if (!missing.empty()) throw Error(layer.label().toStdString(), missing);
 }
 
 // The visible layers, each of which must carry a pixel grid.
@@ -228,9 +213,6 @@ std::string layer_name(const MeshModel& layer) { return layer.label().toStdStrin
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
     typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure;
     for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
-    const QString menu_report = qEnvironmentVariable("PICOSCAN_MESHLAB_MENU_REPORT");
-    if (!menu_report.isEmpty() && qobject_cast<QApplication*>(QCoreApplication::instance()) != nullptr)
-        report_filters_menu_when_ready(menu_report, 120);
 }
 
 QString PicoScanFilterPlugin::pluginName() const { return "FilterPicoScan"; }
@@ -341,22 +323,30 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
         parameters.addParam(RichString(kManifestFile, "", "Manifest file (optional)",
                                        "A sequence.json to use instead (e.g. written by 'picoscan manifest'); "
                                        "overrides the frame order."));
-        parameters.addParam(RichInt(kShifts, 12, "Phase shifts (SLMaster)", "Phase shifts per period of the SLMaster preset."));
-        parameters.addParam(RichInt(kPeriods, 32, "Fringe periods (SLMaster)", "Fringe periods across the projector (SLMaster preset)."));
-        parameters.addParam(RichInt(kGrayBits, 0, "Gray bits (SLStudio)", "Projected Gray code bits (SLStudio preset); 0: all."));
+    {
+        const ForeignPresetOptions preset;
+        parameters.addParam(RichInt(kShifts, preset.shifts, "Phase shifts (SLMaster)",
+                                    "Phase shifts per period of the SLMaster preset; 0: the preset's own."));
+        parameters.addParam(RichInt(kPeriods, preset.periods, "Fringe periods (SLMaster)",
+                                    "Fringe periods across the projector (SLMaster preset); 0: the preset's own."));
+        parameters.addParam(RichInt(kGrayBits, preset.gray_bits, "Gray bits (SLStudio)",
+                                    "Projected Gray code bits (SLStudio preset); 0: all."));
+    }
         add_decode_parameters(parameters);
         add_output_parameters(parameters);
         break;
     case Simulate: {
-        const PatternOptions patterns;
-        const SimulationOptions simulation;
+        const SimulateOptions defaults;
+        const PatternOptions& patterns = defaults.patterns;
+        const SimulationOptions& simulation = defaults.camera;
         parameters.addParam(RichString(kSceneFile, "", "Scene file (optional)",
                                        "Scene description (YAML/JSON: spheres, planes, boxes, cylinders, meshes); "
                                        "empty: the built-in demo part."));
         parameters.addParam(RichInt(kPartView, -1, "Turntable view of the mechanical part",
                                     "Instead of the scene: view n of the built-in mechanical test part on a turntable "
                                     "(0..7: turned in 45 degree steps, 8: from above), for trying Align and Fuse; "
-                                    "-1: not used."));
+                                    "-1: not used. A part view is simulated with the turntable session's own "
+                                    "patterns, exposure, blur and decoding (noise and seed still apply)."));
         parameters.addParam(RichString(kCalibrationFile, "", "Calibration file (optional)",
                                        "Rig to simulate; empty: the seed-like rig."));
         parameters.addParam(RichInt(kShifts, patterns.shifts, "Phase shifts", "Phase shifts per axis (3..64)."));
@@ -364,8 +354,8 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
         parameters.addParam(RichFloat(kFullScale, float(simulation.full_scale_dn), "Full scale (grey levels)",
                                       "Camera level of a white-lit white surface facing the projector: the exposure."));
         parameters.addParam(RichFloat(kNoise, float(simulation.noise_sigma_dn), "Camera noise (grey levels)", "Gaussian noise sigma."));
-        parameters.addParam(RichFloat(kBlur, 0.7f, "Defocus blur (pixels)", "Gaussian blur sigma in camera pixels."));
-        parameters.addParam(RichInt(kSeed, 1, "Noise seed", "The same seed renders the same images."));
+        parameters.addParam(RichFloat(kBlur, float(simulation.blur_sigma_px), "Defocus blur (pixels)", "Gaussian blur sigma in camera pixels."));
+        parameters.addParam(RichInt(kSeed, int(simulation.seed), "Noise seed", "The same seed renders the same images."));
         parameters.addParam(RichString(kSaveCaptures, "", "Save capture set to (optional)",
                                        "Also write the simulated images, sequence.json and calibration.yml into this "
                                        "folder (must be empty or new), for 'Reconstruct from Capture Set'."));
@@ -448,6 +438,11 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
         case Measure: measure(document, parameters); break;
         }
         return true;
+    } catch (const Error& error) {
+        // meshlabserver prints only the log, the GUI shows errorMessage: give both the same line.
+        errorMessage = user_message(error);
+        Log(GLLogStream::WARNING, "%s error: %s", qUtf8Printable(filterName(ID(action))), qUtf8Printable(errorMessage));
+        return false;
     } catch (const std::exception& error) {
         // meshlabserver prints only the log, the GUI shows errorMessage: give both the same line.
         errorMessage = QString::fromStdString(error.what());
@@ -460,41 +455,37 @@ void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParamet
                                        vcg::CallBackPos* callback) {
     const std::string folder = parameter_text(parameters.getString(kCaptureFolder));
     const std::string calibration_file = parameter_text(parameters.getString(kCalibrationFile));
-    std::string manifest = parameter_text(parameters.getString(kManifestFile));
     if (folder.empty()) throw Error(kCaptureFolder, "is required: the folder of the capture set");
     if (calibration_file.empty()) throw Error(kCalibrationFile, "is required: the rig's calibration file");
     if (!QFileInfo(QString::fromStdString(folder)).isDir()) throw Error(folder, "capture folder not found");
     if (!QFileInfo(QString::fromStdString(calibration_file)).isFile()) throw Error(calibration_file, "calibration file not found");
-    const DecodeOptions options = decode_options(parameters);
-    ScanResult scan;
-    scan.output = OutputKind(parameters.getEnum(kOutput));
-    scan.mesh_step = checked_mesh_step(parameters);
+    ReconstructOptions options;
+    options.manifest_path = parameter_text(parameters.getString(kManifestFile));
+    options.decode = decode_options(parameters);
+    validate(options);
+    const LayerRequest request = layer_request(parameters);
 
     const Calibration calibration = read_calibration(calibration_file);
     // Presets describe foreign capture sets: their manifest is written to a temporary folder.
     QTemporaryDir preset_folder;
     const int sequence = parameters.getEnum(kSequence);
-    if (manifest.empty() && sequence != OwnManifest) {
-        PatternSequence preset;
-        if (sequence == SlmasterCgc) {
-            preset = make_slmaster_cgc_sequence(calibration.projector_size, parameters.getInt(kShifts), parameters.getInt(kPeriods));
-        } else {
-            const int bits = parameters.getInt(kGrayBits);
-            preset = make_slstudio_gray_sequence(calibration.projector_size,
-                                                 bits > 0 ? bits : gray_bits_for(calibration.projector_size.width));
-        }
+    if (options.manifest_path.empty() && sequence != OwnManifest) {
+        ForeignPresetOptions preset;
+        preset.preset = sequence == SlmasterCgc ? "slmaster-cgc" : "slstudio-gray";
+        preset.projector_size = calibration.projector_size;
+        preset.shifts = parameters.getInt(kShifts);
+        preset.periods = parameters.getInt(kPeriods);
+        preset.gray_bits = parameters.getInt(kGrayBits);
         if (!preset_folder.isValid()) throw Error("temporary folder", "cannot be created for the preset's manifest");
-        manifest = preset_folder.filePath("sequence.json").toStdString();
-        write_manifest(preset, manifest);
+        options.manifest_path = preset_folder.filePath("sequence.json").toStdString();
+        write_manifest(foreign_preset_sequence(preset), options.manifest_path);
     }
-    const ProgressCallback progress = meshlab_progress(callback);
-    const CaptureSet captures = load_capture_set(folder, manifest, progress);
-    scan.view = scan_captures(captures, calibration, calibration_file, options, progress);
-    scan.focal_px = calibration.camera_matrix(0, 0);
+    const ReconstructResult result =
+        reconstruct_view(folder, calibration, calibration_file, options, meshlab_progress(callback));
     const QString label = QDir(QString::fromStdString(folder)).dirName();
-    MeshModel* layer = add_scan_layer(document, label.isEmpty() ? "PicoScan scan" : label, scan, folder);
+    MeshModel* layer = add_scan_layer(document, label.isEmpty() ? "PicoScan scan" : label, result.view, request, folder);
     Log("PicoScan reconstructed %s: %d points (%.1f %% of the camera pixels), %d faces", folder.c_str(),
-        scan.view.valid_count(), 100.0 * scan.view.valid_count() / double(scan.view.points.total()), layer->cm.fn);
+        result.point_count, 100.0 * result.point_count / double(result.view.points.total()), layer->cm.fn);
 }
 
 void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterList& parameters,
@@ -504,42 +495,49 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
     const std::string save_folder = parameter_text(parameters.getString(kSaveCaptures));
     const Calibration calibration = calibration_file.empty() ? seed_rig_calibration() : read_calibration(calibration_file);
     const int part_view = parameters.getInt(kPartView);
-    const std::vector<cv::Matx44d> turntable = turntable_part_poses(TurntablePlan{});
-    if (part_view < -1 || part_view >= int(turntable.size())) throw Error(kPartView, "must be -1.." + std::to_string(turntable.size() - 1));
+    const TurntableScanOptions turntable;
+    const std::vector<cv::Matx44d> turntable_poses = turntable_part_poses(turntable.plan);
+    if (part_view < -1 || part_view >= int(turntable_poses.size()))
+        throw Error(kPartView, "must be -1.." + std::to_string(turntable_poses.size() - 1));
     if (part_view >= 0 && !scene_file.empty()) throw Error(kPartView, "conflicts with the scene file; use one of them");
+    if (parameters.getInt(kSeed) < 0) throw Error(kSeed, "must be >= 0");
+    SimulateOptions simulation;
+    ReconstructOptions reconstruction;
     Scene scene;
-    const double part_albedo = 0.85;  // a light grey part, as in the core's turntable tests
-    if (part_view >= 0) scene.meshes.push_back({transformed(mechanical_part(), turntable[size_t(part_view)]), part_albedo});
-    else scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
-    PatternOptions patterns;
-    patterns.projector_size = calibration.projector_size;
-    patterns.shifts = parameters.getInt(kShifts);
-    patterns.period_bits = parameters.getInt(kPeriodBits);
-    SimulationOptions simulation;
-    simulation.full_scale_dn = parameters.getFloat(kFullScale);
-    simulation.noise_sigma_dn = parameters.getFloat(kNoise);
-    simulation.blur_sigma_px = parameters.getFloat(kBlur);
-    simulation.seed = uint64_t(std::max(0, parameters.getInt(kSeed)));
-    if (simulation.full_scale_dn <= 0) throw Error(kFullScale, "must be > 0");
-    if (simulation.noise_sigma_dn < 0) throw Error(kNoise, "must be >= 0");
-    if (simulation.blur_sigma_px < 0) throw Error(kBlur, "must be >= 0");
-    const DecodeOptions options = decode_options(parameters);
-    ScanResult scan;
-    scan.output = OutputKind(parameters.getEnum(kOutput));
-    scan.mesh_step = checked_mesh_step(parameters);
+    if (part_view >= 0) {
+        // One view of the core's turntable session, with its recipe: patterns, exposure, blur,
+        // decoding and the part's albedo; each view's noise seeded apart, as in the session.
+        simulation.patterns = turntable.patterns;
+        simulation.camera = turntable.camera;
+        reconstruction.decode = turntable.decode;
+        scene.meshes.push_back({transformed(mechanical_part(), turntable_poses[size_t(part_view)]), turntable.part_albedo});
+        simulation.camera.seed = uint64_t(parameters.getInt(kSeed)) + uint64_t(part_view);
+    } else {
+        scene = scene_file.empty() ? demo_scene() : read_scene(scene_file);
+        simulation.patterns.shifts = parameters.getInt(kShifts);
+        simulation.patterns.period_bits = parameters.getInt(kPeriodBits);
+        simulation.camera.full_scale_dn = parameters.getFloat(kFullScale);
+        simulation.camera.blur_sigma_px = parameters.getFloat(kBlur);
+        simulation.camera.seed = uint64_t(parameters.getInt(kSeed));
+        reconstruction.decode = decode_options(parameters);
+    }
+    simulation.camera.noise_sigma_dn = parameters.getFloat(kNoise);
+    validate(simulation);
+    validate(reconstruction);
+    const LayerRequest request = layer_request(parameters);
     if (!save_folder.empty()) require_empty_directory(save_folder);
 
     const ProgressCallback progress = meshlab_progress(callback);
-    const CaptureSet captures = simulate_capture(make_pattern_sequence(patterns), calibration, scene, simulation, progress);
-    scan.view = scan_captures(captures, calibration, calibration_file.empty() ? "seed rig" : calibration_file, options, progress);
-    scan.focal_px = calibration.camera_matrix(0, 0);
+    const CaptureSet captures = simulate_captures(scene, calibration, simulation, progress);
+    const std::string calibration_name = calibration_file.empty() ? "seed rig" : calibration_file;
+    const ReconstructResult result = reconstruct_view(captures, calibration, calibration_name, reconstruction, progress);
     const std::string source = part_view >= 0 ? "mechanical part view " + std::to_string(part_view)
                                : scene_file.empty() ? "demo part" : scene_file;
     const QString label = part_view >= 0       ? QString("Part view %1").arg(part_view)
                           : scene_file.empty() ? "Simulated demo part"
                                                : "Simulated " + QFileInfo(QString::fromStdString(scene_file)).baseName();
     // The layer is made before anything is written, so a failed scan leaves no capture folder either.
-    MeshModel* layer = add_scan_layer(document, label, scan, source);
+    MeshModel* layer = add_scan_layer(document, label, result.view, request, source);
     if (!save_folder.empty()) {
         try {
             write_capture_set(captures, save_folder);
@@ -551,13 +549,17 @@ void PicoScanFilterPlugin::simulate(MeshDocument& document, const RichParameterL
         Log("PicoScan simulated capture set (%zu frames) and calibration.yml written to %s", captures.images.size(),
             save_folder.c_str());
     }
-    Log("PicoScan simulated %s: %d points, %d faces", source.c_str(), scan.view.valid_count(), layer->cm.fn);
+    if (part_view >= 0)
+        Log("PicoScan turntable recipe for the part view: %d shifts, full scale %.0f, blur %.2f px, min modulation %.0f, "
+            "albedo %.2f, seed %d (the scene's pattern, exposure and decoding parameters are not used)",
+            simulation.patterns.shifts, simulation.camera.full_scale_dn, simulation.camera.blur_sigma_px,
+            reconstruction.decode.min_modulation, turntable.part_albedo, int(simulation.camera.seed));
+    Log("PicoScan simulated %s: %d points, %d faces", source.c_str(), result.point_count, layer->cm.fn);
 }
 
 void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList& parameters) {
-    MeshModel& layer = *document.mm();
-    require_scan_grid(layer);
-    CleanOptions options;
+    CleanScanOptions scan_options;
+    CleanOptions& options = scan_options.cleaning;
     options.min_quality = parameters.getFloat(kMinQuality);
     options.max_grazing_deg = parameters.getFloat(kMaxGrazing);
     options.window_px = parameters.getInt(kWindow);
@@ -565,10 +567,12 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
     options.radius_footprints = parameters.getFloat(kRadiusFootprints);
     options.min_neighbours = parameters.getInt(kMinNeighbours);
     options.min_cluster_points = parameters.getInt(kMinCluster);
-    if (options.window_px < 1 || options.window_px > 10) throw Error(kWindow, "must be 1..10");
-    LayerView scan = layer_view(layer);
-    const CleanReport report = clean_view(scan.view, options);
-    const int deleted = remove_vertices_missing_from(layer, scan.view);
+    validate(options);
+    MeshModel& layer = *document.mm();
+    require_scan_grid(layer);
+    ScanView view = layer_view(layer);
+    const CleanReport report = clean_scan(view, layer_name(layer), scan_options).report;
+    const int deleted = remove_vertices_missing_from(layer, view);
     Log("PicoScan cleaned %s: removed %d points (%d low quality, %d grazing, %d outliers, %d with too few neighbours, "
         "%d in small clusters), %d remain",
         qUtf8Printable(layer.label()), deleted, report.by_quality, report.by_grazing, report.by_statistics,
@@ -576,45 +580,42 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
 }
 
 void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    StitchOptions options;
+    options.registration.orb_features = parameters.getInt(kOrbFeatures);
+    options.registration.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
+    options.registration.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
+    options.registration.min_overlap = parameters.getFloat(kMinOverlap);
+    validate(options.registration);
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
     if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
-    RegistrationOptions options;
-    options.orb_features = parameters.getInt(kOrbFeatures);
-    options.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
-    options.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
-    options.min_overlap = parameters.getFloat(kMinOverlap);
-    if (options.orb_features < 100) throw Error(kOrbFeatures, "must be at least 100");
-    if (options.icp_max_distance_mm <= 0) throw Error(kIcpMaxDistance, "must be > 0");
-    if (options.sample_spacing_mm <= 0) throw Error(kAlignSpacing, "must be > 0");
     std::vector<ScanView> views;
     std::vector<std::string> names;
     for (MeshModel* layer : layers) {
-        views.push_back(layer_view(*layer).view);
+        views.push_back(layer_view(*layer));
         views.back().pose = cv::Matx44d::eye();  // camera frame in; the result is relative to the first layer
         names.push_back(layer_name(*layer));
     }
-    const Alignment alignment = align_views(views, names, options, std::nullopt, meshlab_progress(callback));
+    const StitchResult result = stitch_views(views, names, options, meshlab_progress(callback));
+    // Every layer's outcome in the log, aligned or not, with the reason.
     std::string failures;
-    for (const ViewAlignment& view : alignment.views)
-        if (!view.aligned) failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
-    // All or nothing: a partly aligned set would look aligned in the viewer.
+    for (const ViewAlignment& view : result.alignment.views) {
+        if (view.aligned)
+            Log("PicoScan aligned %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(), view.rms_mm,
+                100 * view.overlap);
+        else
+            failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
+    }
+    // All or nothing: a partly aligned set would look aligned in the viewer, and no layer is forced in.
     if (!failures.empty())
-        throw Error("Align Layers", std::to_string(layers.size() - alignment.aligned_count()) + " of " +
+        throw Error("Align Layers", std::to_string(layers.size() - result.merged_views.size()) + " of " +
                                         std::to_string(layers.size()) + " layers could not be aligned, no transform "
                                         "changed (" + failures + ")");
     const cv::Matx44d first_layer_pose = layer_pose(*layers.front());
-    for (size_t i = 0; i < layers.size(); ++i) {
-        const ViewAlignment& view = alignment.views[i];
-        set_layer_pose(*layers[i], first_layer_pose * view.pose);
-        Log("PicoScan aligned %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(), view.rms_mm,
-            100 * view.overlap);
-    }
+    for (size_t i = 0; i < layers.size(); ++i) set_layer_pose(*layers[i], first_layer_pose * result.alignment.views[i].pose);
     Log("PicoScan aligned %zu layers", layers.size());
 }
 
 void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
-    const std::vector<MeshModel*> layers = visible_scan_layers(document);
-    if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
     MeshOptions options;
     options.method = parameters.getEnum(kMethod) == AdvancingFrontMethod ? MeshMethod::AdvancingFront : MeshMethod::Poisson;
     options.sample_spacing_mm = parameters.getFloat(kMeshSpacing);
@@ -623,16 +624,13 @@ void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList&
     options.advancing_front_max_radius = parameters.getFloat(kFrontMaxRadius);
     options.max_hole_diameter_mm = parameters.getFloat(kMaxHole);
     options.target_faces = parameters.getInt(kTargetFaces);
-    if (options.sample_spacing_mm < 0) throw Error(kMeshSpacing, "must be >= 0");
-    if (options.poisson_triangle_size <= 0) throw Error(kPoissonTriangleSize, "must be > 0");
-    if (options.poisson_distance <= 0) throw Error(kPoissonDistance, "must be > 0");
-    if (options.advancing_front_max_radius <= 0) throw Error(kFrontMaxRadius, "must be > 0");
-    if (options.max_hole_diameter_mm < 0) throw Error(kMaxHole, "must be >= 0");
-    if (options.target_faces < 0) throw Error(kTargetFaces, "must be >= 0");
+    validate(options);
+    const std::vector<MeshModel*> layers = visible_scan_layers(document);
+    if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
     std::vector<ScanView> views;
-    for (MeshModel* layer : layers) views.push_back(layer_view(*layer).view);  // pose = the layer's transform
+    for (MeshModel* layer : layers) views.push_back(layer_view(*layer));  // pose = the layer's transform
     const PointCloud merged = merge_views(views);
-    const Mesh mesh = mesh_cloud(merged, options, meshlab_progress(callback));
+    const Mesh mesh = mesh_points(merged, options, meshlab_progress(callback));
     if (mesh.faces.empty()) throw Error("Fuse and Mesh", "meshing produced no triangles");
     const MeshCheck check = check_mesh(mesh);
     add_filled_layer(document,

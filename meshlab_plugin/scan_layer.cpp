@@ -1,5 +1,8 @@
 #include "scan_layer.h"
 
+#include "picoscan/io.h"
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -7,23 +10,123 @@ namespace picoscan_meshlab {
 
 namespace {
 
-const char* const kPixelAttribute = "picoscan_pixel";
-const char* const kGridAttribute = "picoscan_grid";
+const char* const kCameraAttribute = "picoscan_camera";
 
-using PixelHandle = CMeshO::PerVertexAttributeHandle<int>;
-using GridHandle = CMeshO::PerMeshAttributeHandle<ScanGrid>;
+using CameraHandle = CMeshO::PerMeshAttributeHandle<LayerCamera>;
 
 bool finite_point(const cv::Vec3f& p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
 
+bool has_camera_attribute(CMeshO& mesh) {
+    CameraHandle camera = vcg::tri::Allocator<CMeshO>::FindPerMeshAttribute<LayerCamera>(mesh, kCameraAttribute);
+    return vcg::tri::Allocator<CMeshO>::IsValidHandle(mesh, camera) && camera().width > 0 && camera().height > 0;
+}
+
+// MeshLab's camera of a layer read from a file: focal in pixels = FocalMm / PixelSizeMm.
+bool has_saved_camera(MeshModel& layer) {
+    const auto& intrinsics = layer.cm.shot.Intrinsics;
+    return layer.hasDataMask(MeshModel::MM_CAMERA) && intrinsics.ViewportPx[0] > 0 && intrinsics.ViewportPx[1] > 0 &&
+           intrinsics.FocalMm > 0 && intrinsics.PixelSizeMm[0] > 0 && intrinsics.PixelSizeMm[1] > 0;
+}
+
+LayerCamera layer_camera(MeshModel& layer) {
+    CMeshO& mesh = layer.cm;
+    if (has_camera_attribute(mesh))
+        return vcg::tri::Allocator<CMeshO>::FindPerMeshAttribute<LayerCamera>(mesh, kCameraAttribute)();
+    const auto& intrinsics = mesh.shot.Intrinsics;
+    LayerCamera camera;
+    camera.width = intrinsics.ViewportPx[0];
+    camera.height = intrinsics.ViewportPx[1];
+    const double fx = intrinsics.FocalMm / intrinsics.PixelSizeMm[0], fy = intrinsics.FocalMm / intrinsics.PixelSizeMm[1];
+    const double matrix[9] = {fx, 0, intrinsics.CenterPx[0], 0, fy, intrinsics.CenterPx[1], 0, 0, 1};
+    std::copy(matrix, matrix + 9, camera.matrix);
+    camera.distortion_count = 4;
+    for (int i = 0; i < 4; ++i) camera.distortion[i] = intrinsics.k[i];
+    return camera;
+}
+
+// The pixel a vertex came from (its texture coordinates), or -1 outside the grid.
+int vertex_pixel(const CVertexO& vertex, int width, int height) {
+    const int x = int(std::lround(vertex.cT().U())), y = int(std::lround(vertex.cT().V()));
+    return x >= 0 && x < width && y >= 0 && y < height ? y * width + x : -1;
+}
+
+// Stores the view's camera on the layer: in full as the attribute, and as MeshLab's camera of
+// the layer (saved in PLY), for which the view's camera sits at the origin of the vertices'
+// frame; MeshLab's camera holds four distortion coefficients (k1 k2 p1 p2 in OpenCV's order).
+void set_layer_camera(MeshModel& layer, const picoscan::ScanView& view) {
+    CMeshO& mesh = layer.cm;
+    layer.updateDataMask(MeshModel::MM_CAMERA);
+    LayerCamera camera;
+    camera.width = view.points.cols;
+    camera.height = view.points.rows;
+    for (int i = 0; i < 9; ++i) camera.matrix[i] = view.camera_matrix.val[i];
+    const cv::Mat distortion = view.camera_distortion.empty() ? cv::Mat() : view.camera_distortion.reshape(1, 1);
+    camera.distortion_count = std::min(14, int(distortion.total()));
+    for (int i = 0; i < camera.distortion_count; ++i) camera.distortion[i] = distortion.at<double>(0, i);
+    vcg::tri::Allocator<CMeshO>::GetPerMeshAttribute<LayerCamera>(mesh, kCameraAttribute)() = camera;
+    auto& intrinsics = mesh.shot.Intrinsics;
+    intrinsics.cameraType = 0;
+    intrinsics.ViewportPx = vcg::Point2i(camera.width, camera.height);
+    intrinsics.FocalMm = Scalarm(view.camera_matrix(0, 0));
+    intrinsics.PixelSizeMm = vcg::Point2<Scalarm>(1, Scalarm(view.camera_matrix(0, 0) / view.camera_matrix(1, 1)));
+    intrinsics.CenterPx = vcg::Point2<Scalarm>(Scalarm(view.camera_matrix(0, 2)), Scalarm(view.camera_matrix(1, 2)));
+    intrinsics.DistorCenterPx = intrinsics.CenterPx;
+    for (int i = 0; i < 4; ++i) intrinsics.k[i] = Scalarm(i < camera.distortion_count ? camera.distortion[i] : 0);
+    mesh.shot.Extrinsics.SetIdentity();
+}
+
+// A layer opened from a PicoScan view PLY (written by 'picoscan reconstruct --out', 'picoscan
+// stitch' views or FreeCAD): MeshLab keeps its points in the file's order (row by row) but drops
+// the pixels and camera, which are read again from the file. Only while the layer still holds
+// exactly the file's points; returns why not otherwise.
+std::string adopt_view_file(MeshModel& layer) {
+    const QString file = layer.fullName();
+    if (file.isEmpty() || !file.endsWith(".ply", Qt::CaseInsensitive)) return "not opened from a PLY file";
+    picoscan::ScanView view;
+    try {
+        view = picoscan::read_view_ply(file.toStdString());
+    } catch (const std::exception&) {
+        return "its file is not a PicoScan view";
+    }
+    if (view.camera_matrix(0, 0) <= 0) return "its file is a PicoScan view without a camera (an older file)";
+    CMeshO& mesh = layer.cm;
+    if (view.valid_count() != mesh.vn) return "it no longer holds the points of its file";
+    std::vector<std::pair<int, int>> pixels;
+    pixels.reserve(size_t(mesh.vn));
+    auto vertex = mesh.vert.begin();
+    for (int y = 0; y < view.points.rows; ++y)
+        for (int x = 0; x < view.points.cols; ++x) {
+            const cv::Vec3f& p = view.points.at<cv::Vec3f>(y, x);
+            if (!finite_point(p)) continue;
+            while (vertex != mesh.vert.end() && vertex->IsD()) ++vertex;
+            if (vertex == mesh.vert.end() || cv::norm(p - cv::Vec3f(vertex->P()[0], vertex->P()[1], vertex->P()[2])) > 1e-4)
+                return "it no longer holds the points of its file";
+            pixels.emplace_back(x, y);
+            ++vertex;
+        }
+    layer.updateDataMask(MeshModel::MM_VERTTEXCOORD);
+    size_t index = 0;
+    for (CVertexO& v : mesh.vert) {
+        if (v.IsD()) continue;
+        v.T().U() = Scalarm(pixels[index].first);
+        v.T().V() = Scalarm(pixels[index].second);
+        v.T().N() = 0;
+        ++index;
+    }
+    set_layer_camera(layer, view);
+    return {};
+}
+
 }  // namespace
 
-void fill_layer(MeshModel& layer, const picoscan::ScanView& view, double focal_px) {
+void fill_layer(MeshModel& layer, const picoscan::ScanView& view) {
+    view.focal_px();  // throws when the view does not know its camera
     CMeshO& mesh = layer.cm;
-    layer.updateDataMask(MeshModel::MM_VERTCOLOR | MeshModel::MM_VERTQUALITY | MeshModel::MM_VERTNORMAL);
+    layer.updateDataMask(MeshModel::MM_VERTCOLOR | MeshModel::MM_VERTQUALITY | MeshModel::MM_VERTNORMAL |
+                         MeshModel::MM_VERTTEXCOORD | MeshModel::MM_CAMERA);
     const bool has_normals = !view.normals.empty(), has_colours = !view.colours.empty(),
                has_quality = !view.quality.empty();
     auto vertex = vcg::tri::Allocator<CMeshO>::AddVertices(mesh, size_t(view.valid_count()));
-    PixelHandle pixels = vcg::tri::Allocator<CMeshO>::GetPerVertexAttribute<int>(mesh, kPixelAttribute);
     for (int y = 0; y < view.points.rows; ++y)
         for (int x = 0; x < view.points.cols; ++x) {
             const cv::Vec3f& p = view.points.at<cv::Vec3f>(y, x);
@@ -40,11 +143,12 @@ void fill_layer(MeshModel& layer, const picoscan::ScanView& view, double focal_p
                 vertex->C() = vcg::Color4b(200, 200, 200, 255);
             }
             vertex->Q() = has_quality ? view.quality.at<float>(y, x) : 0.f;
-            pixels[*vertex] = y * view.points.cols + x;
+            vertex->T().U() = Scalarm(x);
+            vertex->T().V() = Scalarm(y);
+            vertex->T().N() = 0;
             ++vertex;
         }
-    GridHandle grid = vcg::tri::Allocator<CMeshO>::GetPerMeshAttribute<ScanGrid>(mesh, kGridAttribute);
-    grid() = ScanGrid{view.points.cols, view.points.rows, focal_px};
+    set_layer_camera(layer, view);
     set_layer_pose(layer, view.pose);
     vcg::tri::UpdateBounding<CMeshO>::Box(mesh);
 }
@@ -72,25 +176,33 @@ void fill_layer(MeshModel& layer, const picoscan::Mesh& source) {
     vcg::tri::UpdateBounding<CMeshO>::Box(mesh);
 }
 
-bool has_scan_grid(MeshModel& layer) {
-    CMeshO& mesh = layer.cm;
-    PixelHandle pixels = vcg::tri::Allocator<CMeshO>::FindPerVertexAttribute<int>(mesh, kPixelAttribute);
-    GridHandle grid = vcg::tri::Allocator<CMeshO>::FindPerMeshAttribute<ScanGrid>(mesh, kGridAttribute);
-    return vcg::tri::Allocator<CMeshO>::IsValidHandle(mesh, pixels) &&
-           vcg::tri::Allocator<CMeshO>::IsValidHandle(mesh, grid) && grid().width > 0 && grid().height > 0;
+std::string missing_scan_data(MeshModel& layer) {
+    const bool has_pixels = layer.hasDataMask(MeshModel::MM_VERTTEXCOORD);
+    const bool has_camera = has_camera_attribute(layer.cm) || has_saved_camera(layer);
+    if (!has_pixels || !has_camera) {
+        const std::string not_a_view = adopt_view_file(layer);
+        if (!not_a_view.empty()) {
+            if (!has_pixels)
+                return "this layer has no camera pixel grid (" + not_a_view + "): it needs a point cloud layer made "
+                       "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', saved as PLY with "
+                       "texture coordinates, normals and camera, or a PicoScan view PLY";
+            return "this layer has pixel coordinates but no camera (" + not_a_view + "): save PicoScan layers as "
+                   "PLY with their camera";
+        }
+    }
+    if (layer.cm.vn > 0 && layer.cm.vert.begin()->cN().SquaredNorm() == 0)
+        return "this layer was saved without vertex normals: save PicoScan layers as PLY with normals";
+    return {};
 }
 
-LayerView layer_view(MeshModel& layer) {
+picoscan::ScanView layer_view(MeshModel& layer) {
     CMeshO& mesh = layer.cm;
-    PixelHandle pixels = vcg::tri::Allocator<CMeshO>::FindPerVertexAttribute<int>(mesh, kPixelAttribute);
-    GridHandle grid = vcg::tri::Allocator<CMeshO>::FindPerMeshAttribute<ScanGrid>(mesh, kGridAttribute);
-    const int width = grid().width, height = grid().height;
+    const LayerCamera camera = layer_camera(layer);
+    const int width = camera.width, height = camera.height;
     const float nan = std::numeric_limits<float>::quiet_NaN();
-    LayerView result;
-    result.focal_px = grid().focal_px;
-    picoscan::ScanView& view = result.view;
-    // The grid keeps only the focal length; the principal point is taken at the image centre.
-    view.camera_matrix = cv::Matx33d(result.focal_px, 0, (width - 1) / 2.0, 0, result.focal_px, (height - 1) / 2.0, 0, 0, 1);
+    picoscan::ScanView view;
+    view.camera_matrix = cv::Matx33d(camera.matrix);
+    if (camera.distortion_count > 0) cv::Mat(1, camera.distortion_count, CV_64F, const_cast<double*>(camera.distortion)).copyTo(view.camera_distortion);
     view.points.create(height, width, CV_32FC3);
     view.points.setTo(cv::Scalar::all(nan));
     view.normals.create(height, width, CV_32FC3);
@@ -99,8 +211,8 @@ LayerView layer_view(MeshModel& layer) {
     view.quality = cv::Mat(height, width, CV_32F, cv::Scalar(0));
     for (CVertexO& vertex : mesh.vert) {
         if (vertex.IsD()) continue;
-        const int pixel = pixels[vertex];
-        if (pixel < 0 || pixel >= width * height) continue;
+        const int pixel = vertex_pixel(vertex, width, height);
+        if (pixel < 0) continue;
         const int y = pixel / width, x = pixel % width;
         view.points.at<cv::Vec3f>(y, x) = cv::Vec3f(vertex.P()[0], vertex.P()[1], vertex.P()[2]);
         view.normals.at<cv::Vec3f>(y, x) = cv::Vec3f(vertex.N()[0], vertex.N()[1], vertex.N()[2]);
@@ -108,18 +220,17 @@ LayerView layer_view(MeshModel& layer) {
         view.quality.at<float>(y, x) = vertex.Q();
     }
     view.pose = layer_pose(layer);
-    return result;
+    return view;
 }
 
 int remove_vertices_missing_from(MeshModel& layer, const picoscan::ScanView& view) {
     CMeshO& mesh = layer.cm;
-    PixelHandle pixels = vcg::tri::Allocator<CMeshO>::FindPerVertexAttribute<int>(mesh, kPixelAttribute);
-    const int width = view.points.cols;
+    const int width = view.points.cols, height = view.points.rows;
     int deleted = 0;
     for (CVertexO& vertex : mesh.vert) {
         if (vertex.IsD()) continue;
-        const int pixel = pixels[vertex];
-        if (finite_point(view.points.at<cv::Vec3f>(pixel / width, pixel % width))) continue;
+        const int pixel = vertex_pixel(vertex, width, height);
+        if (pixel >= 0 && finite_point(view.points.at<cv::Vec3f>(pixel / width, pixel % width))) continue;
         vcg::tri::Allocator<CMeshO>::DeleteVertex(mesh, vertex);
         ++deleted;
     }

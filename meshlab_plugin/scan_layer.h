@@ -1,41 +1,44 @@
 // Moving scans between the PicoScan core and MeshLab layers.
 //
 // A layer made from an organised ScanView keeps what the core needs to rebuild the view:
-// each vertex's camera pixel (per-vertex attribute "picoscan_pixel" = y * width + x) and the
-// pixel grid with the camera focal length (per-mesh attribute "picoscan_grid"). Vertices stay
-// in the camera frame; the view's pose is the layer's transform (cm.Tr), as MeshLab's own
-// alignment tool keeps it. Vertex colour is the white frame, vertex quality the fringe modulation.
+// each vertex's camera pixel (per-vertex texture coordinates u = x, v = y, which MeshLab saves
+// in PLY as texture_u/texture_v) and the view's camera: in full (intrinsics and every
+// distortion coefficient) as the per-mesh attribute "picoscan_camera" while the layer is in
+// memory, and as the layer's MeshLab camera (cm.shot: focal, centre, viewport and the first
+// four distortion coefficients), which MeshLab writes into PLY and reads back, so a reopened
+// layer can still be cleaned, aligned and fused. Vertices stay in the camera frame; the view's
+// pose is the layer's transform (cm.Tr), as MeshLab's own alignment tool keeps it. Vertex colour
+// is the white frame, vertex quality the fringe modulation.
 #pragma once
 
 #include "picoscan/cloud.h"
 
 #include <common/meshmodel.h>
 
+#include <string>
 #include <vector>
 
 namespace picoscan_meshlab {
 
-// The per-mesh attribute "picoscan_grid".
-struct ScanGrid {
+// The per-mesh attribute "picoscan_camera": the pixel grid and the full camera of the view.
+struct LayerCamera {
     int width = 0, height = 0;
-    double focal_px = 0;
+    double matrix[9] = {};
+    double distortion[14] = {};  // OpenCV order
+    int distortion_count = 0;
 };
 
-// The organised view of a layer: the view (pose = layer transform) and its camera focal length.
-struct LayerView {
-    picoscan::ScanView view;
-    double focal_px = 0;
-};
-
-// Fills an empty layer with the valid points of `view`, their pixels and the grid.
-void fill_layer(MeshModel& layer, const picoscan::ScanView& view, double focal_px);
+// Fills an empty layer with the valid points of `view` (which must know its camera), their
+// pixels and the camera.
+void fill_layer(MeshModel& layer, const picoscan::ScanView& view);
 // Fills an empty layer with a mesh (no pixel grid: such a layer cannot be cleaned or aligned).
 void fill_layer(MeshModel& layer, const picoscan::Mesh& mesh);
 
-// True when the layer carries the pixel grid of a PicoScan reconstruction.
-bool has_scan_grid(MeshModel& layer);
-// Rebuilds the organised view of a layer with a pixel grid (check has_scan_grid first).
-LayerView layer_view(MeshModel& layer);
+// Empty when the layer carries the pixel grid and camera of a PicoScan view (in memory or read
+// back from a PLY saved with texture coordinates and camera); otherwise what it lacks.
+std::string missing_scan_data(MeshModel& layer);
+// Rebuilds the organised view of a layer (check missing_scan_data first); pose = layer transform.
+picoscan::ScanView layer_view(MeshModel& layer);
 // Deletes the vertices (and faces using them) whose pixel is no longer valid in `view`.
 // Returns how many vertices were deleted.
 int remove_vertices_missing_from(MeshModel& layer, const picoscan::ScanView& view);

@@ -57,6 +57,7 @@ cat > scan.mlp <<'XML'
 </MeshLabProject>
 XML
 
+# Read by the test-only menu report plugin in the prefix (not by the shipped plugin).
 export PICOSCAN_MESHLAB_MENU_REPORT="$work/filters.txt"
 export HOME="$work/home"  # MeshLab's settings stay in the work folder
 mkdir -p "$HOME"

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# Builds a private MeshLab install in PREFIX that loads the freshly built PicoScan plugin,
-# without touching /usr: MeshLab finds plugins relative to its executable (symlinks resolved),
-# so the binaries are copied and the system plugins linked.
-#   make_prefix.sh PREFIX PLUGIN.so MULTIARCH   (MULTIARCH: e.g. x86_64-linux-gnu)
+# Builds a private MeshLab install in PREFIX that loads the freshly built PicoScan plugin (and
+# the test-only plugins given after it), without touching /usr: MeshLab finds plugins relative
+# to its executable (symlinks resolved), so the binaries are copied and the system plugins linked.
+#   make_prefix.sh PREFIX MULTIARCH PLUGIN.so [TEST_PLUGIN.so...]   (MULTIARCH: e.g. x86_64-linux-gnu)
 set -euo pipefail
 prefix=$1
-plugin=$2
-multiarch=$3
+multiarch=$2
+plugin=$3
+shift 3
 system=/usr/lib/$multiarch/meshlab
 plugins="$prefix/lib/$multiarch/meshlab/plugins"
 mkdir -p "$prefix/bin" "$plugins"
@@ -24,3 +25,7 @@ done
 # Remove first: copying onto a symlink would write through it into /usr.
 rm -f "$plugins/$own"
 cp "$plugin" "$plugins/$own"
+for test_plugin in "$@"; do
+  rm -f "$plugins/$(basename "$test_plugin")"
+  cp "$test_plugin" "$plugins/"
+done

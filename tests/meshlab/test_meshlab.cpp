@@ -16,6 +16,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <tuple>
 #include <vector>
 
 using namespace picoscan;
@@ -80,8 +81,12 @@ std::string simulate(const std::map<std::string, std::string>& overrides) {
 std::string reconstruct(const std::map<std::string, std::string>& overrides) {
     return filter("PicoScan: Reconstruct from Capture Set", kReconstructDefaults, overrides);
 }
-std::string clean() { return filter("PicoScan: Clean Scan", kCleanDefaults); }
-std::string align() { return filter("PicoScan: Align Layers", kAlignDefaults); }
+std::string clean(const std::map<std::string, std::string>& overrides = {}) {
+    return filter("PicoScan: Clean Scan", kCleanDefaults, overrides);
+}
+std::string align(const std::map<std::string, std::string>& overrides = {}) {
+    return filter("PicoScan: Align Layers", kAlignDefaults, overrides);
+}
 std::string fuse(const std::map<std::string, std::string>& overrides = {}) {
     return filter("PicoScan: Fuse and Mesh", kFuseDefaults, overrides);
 }
@@ -452,4 +457,125 @@ TEST(MeshlabPlugin, RealSlmasterSetMatchesCli) {
     EXPECT_LT(max_distance(plugin.vertices, reference.vertices), 1e-4);
     ASSERT_EQ(plugin.colours.size(), reference.colours.size());
     EXPECT_TRUE(plugin.colours == reference.colours);
+}
+
+// Range checks are the core's (validate); the message names the MeshLab parameter the user set,
+// and nothing runs.
+TEST(MeshlabPlugin, RangeErrorsNameMeshlabParameters) {
+    const std::string directory = make_temp_dir("meshlab_ranges");
+    Mesh plain;
+    plain.vertices = {{0, 0, 400}, {1, 0, 400}, {0, 1, 400}, {1, 1, 401}};
+    write_ply(plain, directory + "/plain.ply");
+    const std::vector<std::tuple<std::string, std::string, std::string>> cases{
+        {simulate({{"minModulation", "-1"}}), "", "PicoScan: Simulate Scan error: minModulation: must be 0..255"},
+        {simulate({{"shifts", "2"}}), "", "PicoScan: Simulate Scan error: shifts: must be 3..64"},
+        {simulate({{"blur", "30"}}), "", "PicoScan: Simulate Scan error: blur: must be 0..20"},
+        {simulate({{"output", "1"}, {"meshStep", "0"}}), "", "PicoScan: Simulate Scan error: meshStep: must be 1..64"},
+        {clean({{"windowPx", "11"}}), "-i plain.ply", "PicoScan: Clean Scan error: windowPx: must be 1..10"},
+        {align({{"sampleSpacing", "0"}}), "-i plain.ply", "PicoScan: Align Layers error: sampleSpacing: must be 0.1..20"},
+        {fuse({{"poissonDistance", "0"}}), "-i plain.ply",
+         "PicoScan: Fuse and Mesh error: poissonDistance: must be 0.001..10"},
+    };
+    for (const auto& [script, input, message] : cases) {
+        const ServerRun run = run_meshlabserver(directory, script, input + " -o never.ply");
+        EXPECT_NE(run.exit_code, 0) << message;
+        EXPECT_NE(run.log.find(message), std::string::npos) << run.log;
+        // The core's field names ("decode.min_modulation") never reach the user.
+        for (const char* field : {"decode.", "patterns.", "camera.", "cleaning.", "registration.", "mesh."})
+            EXPECT_EQ(run.log.find(std::string("error: ") + field), std::string::npos) << run.log;
+        EXPECT_EQ(run.log.find("PicoScan simulate"), std::string::npos) << "work started despite " << message;
+    }
+    EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
+}
+
+// A view written by the CLI, opened in MeshLab (which drops its pixels and camera), cleans
+// exactly as 'picoscan clean' cleans the same file: the layer takes both from its file again.
+TEST(MeshlabPlugin, ViewPlyOpenedInMeshlabCleansAsCli) {
+    const std::string directory = make_temp_dir("meshlab_reopen_clean");
+    const std::string scene = write_file(directory + "/sphere.yml",
+                                         "spheres:\n  - { centre: [8, -5, 410], radius_mm: 35 }\n");
+    const std::string captures = directory + "/captures";
+    ServerRun run = run_meshlabserver(directory, simulate({{"sceneFile", scene}, {"shifts", "4"}, {"saveCaptureFolder", captures}}), "");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    const std::string cli = test_support::cli_path();
+    std::string cli_log;
+    ASSERT_EQ(run_command(cli + " reconstruct --calibration " + captures + "/calibration.yml --captures " + captures +
+                              " --out " + directory + "/view.ply && " + cli + " clean " + directory + "/view.ply --out " +
+                              directory + "/cli_clean.ply",
+                          &cli_log),
+              0)
+        << cli_log;
+    run = run_meshlabserver(directory, clean(), "-i view.ply -o plugin_clean.ply -m vc vn vq");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    const Mesh view = read_ply(directory + "/view.ply");
+    const Mesh by_cli = read_ply(directory + "/cli_clean.ply");
+    const Mesh by_plugin = read_ply(directory + "/plugin_clean.ply");
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    std::printf("reopened view: %zu points; plugin clean keeps %zu (removed %.0f), CLI clean keeps %zu\n",
+                view.vertices.size(), by_plugin.vertices.size(), removed[0], by_cli.vertices.size());
+    EXPECT_GT(removed[0], 0);
+    EXPECT_EQ(by_plugin.vertices.size() + size_t(removed[0]), view.vertices.size());
+    ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
+    EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
+
+    // The same file with one point removed is no longer the view: Clean refuses, naming why.
+    Mesh edited = view;
+    edited.vertices.pop_back();
+    edited.normals.pop_back();
+    if (!edited.colours.empty()) edited.colours.pop_back();
+    write_ply(edited, directory + "/edited.ply");
+    run = run_meshlabserver(directory, clean(), "-i edited.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("edited.ply: this layer has no camera pixel grid (its file is not a PicoScan view)"),
+              std::string::npos)
+        << run.log;
+}
+
+// MeshLab keeps a layer's pixels (texture coordinates) but meshlabserver cannot write a layer's
+// camera: such a file is refused with the reason rather than cleaned with a guessed camera.
+TEST(MeshlabPlugin, LayerSavedWithoutItsCameraIsRefused) {
+    const std::string directory = make_temp_dir("meshlab_no_camera");
+    ServerRun run = run_meshlabserver(directory, simulate({{"shifts", "3"}}), "-o scan.ply -m vc vn vq vt");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    run = run_meshlabserver(directory, clean(), "-i scan.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("scan.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
+}
+
+// A project of two turntable views (CLI view PLYs) reopened by meshlabserver aligns to the
+// true relative pose.
+TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
+    const std::string directory = make_temp_dir("meshlab_reopen_align");
+    const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
+    ServerRun run = run_meshlabserver(directory,
+                                      simulate({{"partView", "0"}, {"saveCaptureFolder", directory + "/captures_0"}}) +
+                                          simulate({{"partView", "1"}, {"saveCaptureFolder", directory + "/captures_1"}}),
+                                      "");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    const std::string cli = test_support::cli_path();
+    std::string project = "<!DOCTYPE MeshLabDocument>\n<MeshLabProject>\n <MeshGroup>\n";
+    for (int i = 0; i < 2; ++i) {
+        const std::string name = "view_" + std::to_string(i) + ".ply", captures = directory + "/captures_" + std::to_string(i);
+        std::string cli_log;
+        ASSERT_EQ(run_command(cli + " reconstruct --clean --calibration " + captures + "/calibration.yml --captures " +
+                                  captures + " --out " + directory + "/" + name,
+                              &cli_log),
+                  0)
+            << cli_log;
+        project += "  <MLMesh label=\"" + name + "\" filename=\"" + name +
+                   "\" visible=\"1\">\n   <MLMatrix44>\n1 0 0 0 \n0 1 0 0 \n0 0 1 0 \n0 0 0 1 \n</MLMatrix44>\n  </MLMesh>\n";
+    }
+    write_file(directory + "/project.mlp", project + " </MeshGroup>\n <RasterGroup/>\n</MeshLabProject>\n");
+    run = run_meshlabserver(directory, align(), "-p project.mlp -w aligned.mlp");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    const std::vector<ProjectLayer> layers = read_project(directory + "/aligned.mlp");
+    ASSERT_EQ(layers.size(), 2u);
+    const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[1]);
+    const cv::Vec4d middle = part_to_camera[1] * cv::Vec4d(0, 0, 16, 1);
+    const PoseDifference error = pose_difference(truth, layers[1].transform, cv::Vec3d(middle[0], middle[1], middle[2]));
+    std::printf("reopened project aligned: pose error %.3f deg, %.3f mm\n", error.rotation_deg, error.translation_mm);
+    EXPECT_LT(error.rotation_deg, 0.15);
+    EXPECT_LT(error.translation_mm, 0.1);
+    EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
 }
