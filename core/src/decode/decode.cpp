@@ -87,8 +87,8 @@ struct RowBuffers {
     std::vector<uint32_t> weak_bits, code;
     explicit RowBuffers(int width)
         : reference(width), contrast(width), brightest(width), sum_sin(width), sum_cos(width), sum(width),
-          cue_fraction(width), cue_modulation(width),
-          phase_fraction(width), modulation(width), weak_bits(width), code(width) {}
+          phase_fraction(width), modulation(width), cue_fraction(width), cue_modulation(width), weak_bits(width),
+          code(width) {}
 };
 
 template <typename Pixel>
