@@ -66,6 +66,8 @@ void bind_fit(py::module_& m);
 void bind_register(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_shapes(py::module_& m);
+void bind_deviation(py::module_& m);
+void bind_section_fit(py::module_& m);
 
 }  // namespace picoscan::python
 

@@ -5,6 +5,12 @@
 namespace picoscan::python {
 
 void bind_decode(py::module_& m) {
+    py::enum_<PixelStatus>(m, "PixelStatus", "Why a pixel has no correspondence (CorrespondenceMap.status)")
+        .value("Valid", kValid)
+        .value("Dark", kDark)
+        .value("Saturated", kSaturated)
+        .value("UndecidedBit", kUndecidedBit)
+        .value("LowModulation", kLowModulation);
     py::class_<DecodeOptions>(m, "DecodeOptions")
         .def(py::init<>())
         .def_readwrite("min_contrast", &DecodeOptions::min_contrast)

@@ -120,4 +120,6 @@ PYBIND11_MODULE(picoscan, m) {
     bind_register(m);
     bind_mesh(m);
     bind_shapes(m);
+    bind_deviation(m);
+    bind_section_fit(m);
 }

@@ -20,6 +20,8 @@ void bind_triangulate(py::module_& m) {
         },
         py::arg("correspondences"), py::arg("calibration"), py::arg("colour") = cv::Mat(),
         py::arg("options") = TriangulateOptions(), py::arg("progress") = py::none());
+    m.def("check_camera_size", &check_camera_size, py::arg("calibration"), py::arg("captures"),
+          py::arg("calibration_name"), "Raises picoscan.Error naming the calibration when its camera size is not the captures'");
 }
 
 }  // namespace picoscan::python

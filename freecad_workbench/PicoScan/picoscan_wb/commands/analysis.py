@@ -6,8 +6,10 @@ import tempfile
 import FreeCAD
 import FreeCADGui
 
+import picoscan
+
 from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views
-from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch, scan_mesh, stitch
+from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch, scan_mesh, stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
 from picoscan_wb.progress import FreeCADProgress
 
@@ -128,6 +130,38 @@ class CrossSectionCommand(Command):
             sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position, path)
             open_image(sketch.ProfilePlot)
         return sketch
+
+
+def _has_points(obj):
+    return (hasattr(obj, "Points") and obj.Points.CountPoints > 0) or (hasattr(obj, "Mesh") and obj.Mesh.CountPoints > 0)
+
+
+def _has_surface(obj):
+    return (hasattr(obj, "Shape") and not obj.Shape.isNull() and bool(obj.Shape.Faces)) or \
+        (hasattr(obj, "Mesh") and obj.Mesh.CountFacets > 0)
+
+
+class DeviationMapCommand(Command):
+    icon = "picoscan_deviation"
+    menu = "Deviation map"
+    tooltip = ("Colour the scan (selected first) by its signed distance to the model (selected second: any Part shape "
+               "or mesh), with the figures and an HTML report; recomputes when the model changes")
+
+    def IsActive(self):
+        selection = FreeCADGui.Selection.getSelection()
+        return len(selection) == 2 and _has_points(selection[0]) and _has_surface(selection[1])
+
+    def run(self):
+        selection = FreeCADGui.Selection.getSelection()
+        if len(selection) != 2:
+            raise picoscan.Error("Deviation map: select the scan, then the reference model (%d selected)" % len(selection))
+        scan, reference = selection
+        doc = scan.Document
+        report = os.path.join(output_folder(doc, "deviation"), "%s_vs_%s.html" % (scan.Name, reference.Name))
+        result = deviation_map.create(doc, scan, reference, report_file=report)
+        FreeCAD.Console.PrintMessage("%s: %s\n" % (result.Label, result.Summary))
+        open_image(report + ".png")
+        return result
 
 
 class ShowRigCommand(Command):

@@ -8,9 +8,9 @@ import FreeCAD
 import Mesh
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, cloud_of, is_scan_view, is_stitch
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, cloud_of, is_scan_view, is_stitch
 from picoscan_wb.operations.reconstruct import camera_focal_px
-from picoscan_wb.progress import FreeCADProgress
+from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanMesh"
 METHODS = ["Grid", "Poisson", "AdvancingFront"]
@@ -74,8 +74,8 @@ class ScanMesh(DocumentObjectProxy):
         options.sample_spacing_mm = obj.SampleSpacing
         options.max_hole_diameter_mm = obj.MaxHoleDiameter
         options.target_faces = obj.TargetFaces
-        with FreeCADProgress("Meshing " + obj.Label) as progress:
-            mesh = picoscan.mesh_cloud(cloud_of(obj.Source), options, progress)
+        cloud = cloud_of(obj.Source)
+        mesh = run_in_background("Meshing " + obj.Label, lambda progress: picoscan.mesh_cloud(cloud, options, progress))
         return freecad_mesh(mesh), picoscan.check_mesh(mesh).summary()
 
 
@@ -85,22 +85,21 @@ def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spa
         raise picoscan.Error("%s: select a ScanView or a Stitch to mesh" % getattr(source, "Label", "selection"))
     if method not in METHODS:
         raise picoscan.Error("%s: meshing method must be one of %s" % (method, ", ".join(METHODS)))
-    obj = doc.addObject("Mesh::FeaturePython", name)
-    ScanMesh(obj)
-    obj.Source = source
-    obj.Method = method
-    obj.PixelStep = pixel_step
-    if sample_spacing_mm is not None:
-        obj.SampleSpacing = sample_spacing_mm
-    if target_faces is not None:
-        obj.TargetFaces = target_faces
+
+    def setup(obj):
+        ScanMesh(obj)
+        obj.Source = source
+        obj.Method = method
+        obj.PixelStep = pixel_step
+        if sample_spacing_mm is not None:
+            obj.SampleSpacing = sample_spacing_mm
+        if target_faces is not None:
+            obj.TargetFaces = target_faces
+        if FreeCAD.GuiUp:
+            from picoscan_wb.viewproviders.view_provider import ViewProvider
+            ViewProvider(obj.ViewObject, "picoscan_mesh")
+
+    obj = add_or_remove(doc, "Mesh::FeaturePython", name, setup)
     if FreeCAD.GuiUp:
-        from picoscan_wb.viewproviders.view_provider import ViewProvider
-        ViewProvider(obj.ViewObject, "picoscan_mesh")
         source.ViewObject.Visibility = False
-    obj.recompute()
-    if not obj.isValid():
-        message = obj.getStatusString()
-        doc.removeObject(obj.Name)
-        raise picoscan.Error(message)
     return obj

@@ -17,9 +17,7 @@ def reconstruct(capture_folder, calibration_file, manifest_file="", min_contrast
         raise picoscan.Error("%s: calibration file does not exist" % (calibration_file or "(no calibration file)"))
     calibration = picoscan.read_calibration(calibration_file)
     captures = picoscan.load_capture_set(capture_folder, manifest_file or "", progress)
-    if captures.image_size != calibration.camera_size:
-        raise picoscan.Error("%s: camera_size %dx%d differs from the captures' %dx%d" % (
-            (calibration_file,) + tuple(calibration.camera_size) + tuple(captures.image_size)))
+    picoscan.check_camera_size(calibration, captures, calibration_file)
     options = picoscan.DecodeOptions()
     options.min_contrast = min_contrast
     options.min_modulation = min_modulation

@@ -230,6 +230,48 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(panel.created.PointCount, 400000)
         self.assertEqual(panel.created.CaptureFolder, os.path.join(self.folder, "captured"))
 
+    def test_j_deviation_map_command_colours_the_scan(self):
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        model = self.doc.addObject("Part::Cylinder", "ShaftModel")
+        model.Radius = 12.5
+        model.Height = 80
+        model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400),
+                                            FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(model)
+        self.assertFalse(COMMANDS["PicoScan_DeviationMap"].IsActive())  # the scan comes first
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.Selection.addSelection(model)
+        self.assertTrue(COMMANDS["PicoScan_DeviationMap"].IsActive())
+        FreeCADGui.runCommand("PicoScan_DeviationMap")
+        process_events()
+        self.assertEqual(self.messages, [])
+        maps = [o for o in self.doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "PicoScan::DeviationMap"]
+        self.assertEqual(len(maps), 1)
+        result = maps[0]
+        self.assertEqual(result.ViewObject.DisplayMode, "Color")
+        self.assertIn("Color", result.ViewObject.listDisplayModes())
+        self.assertLess(abs(result.MeanDeviation.Value), 0.05)
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        self.assertTrue(any("png" in w.windowTitle() or "vs" in w.windowTitle() for w in mdi.subWindowList()),
+                        [w.windowTitle() for w in mdi.subWindowList()])
+        # One undo step removes the map.
+        self.doc.undo()
+        self.assertEqual([o for o in self.doc.Objects if o.Name == result.Name], [])
+        # A reference with no surface: a message, nothing added.
+        FreeCADGui.Selection.clearSelection()
+        cloud = self.doc.addObject("Points::Feature", "JustPoints")
+        before = self.object_names()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.Selection.addSelection(cloud)
+        COMMANDS["PicoScan_DeviationMap"].Activated()
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("JustPoints: the reference has no faces or triangles", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
@@ -255,7 +297,8 @@ class PicoScanGuiTest(unittest.TestCase):
         process_events()
         sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
         self.assertEqual(len(sections), 1, self.messages)
-        self.assertGreater(sections[0].GeometryCount, 50)
+        self.assertGreaterEqual(len(sections[0].FitReport), 3)  # fitted lines and arcs
+        self.assertEqual(len(sections[0].FitReport), sections[0].GeometryCount)
         self.assertTrue(os.path.isfile(sections[0].ProfilePlot))
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)

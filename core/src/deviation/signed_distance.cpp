@@ -1,0 +1,176 @@
+// Signed distances of points to a triangle mesh: CGAL's AABB tree finds the closest point, the
+// angle-weighted pseudo-normal there gives the side (Baerentzen & Aanaes, "Signed distance
+// computation using the angle weighted pseudonormal", IEEE TVCG 11(3), 2005). The only CGAL
+// translation unit of this stage.
+#include "picoscan/deviation.h"
+#include "picoscan/error.h"
+
+#include "common/parallel.h"
+#include "common/progress_reporter.h"
+
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <unordered_map>
+
+namespace picoscan {
+
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Triangle = Kernel::Triangle_3;
+using TriangleIterator = std::vector<Triangle>::const_iterator;
+using Primitive = CGAL::AABB_triangle_primitive<Kernel, TriangleIterator>;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
+
+cv::Vec3d to_vec(const Kernel::Point_3& p) { return {p.x(), p.y(), p.z()}; }
+
+// The reference with vertices welded (a tessellated B-rep repeats the vertices of shared edges
+// in every face) and the pseudo-normals of its faces, edges and vertices.
+struct Reference {
+    std::vector<cv::Vec3d> vertices;
+    std::vector<std::array<int, 3>> faces;       // non-degenerate faces only, welded indices
+    std::vector<Triangle> triangles;             // one per face
+    std::vector<cv::Vec3d> face_normals;         // unit
+    std::vector<std::array<cv::Vec3d, 3>> edge_normals;  // per face: edge (v0 v1), (v1 v2), (v2 v0)
+    std::vector<cv::Vec3d> vertex_normals;       // angle-weighted
+};
+
+struct PositionHash {
+    size_t operator()(const cv::Vec3f& p) const {
+        uint32_t bits[3];
+        std::memcpy(bits, p.val, sizeof bits);
+        return (size_t(bits[0]) * 73856093u) ^ (size_t(bits[1]) * 19349663u) ^ (size_t(bits[2]) * 83492791u);
+    }
+};
+
+Reference build_reference(const Mesh& mesh) {
+    if (mesh.faces.empty()) throw Error("reference", "has no triangles");
+    Reference ref;
+    std::unordered_map<cv::Vec3f, int, PositionHash> index_of;
+    std::vector<int> welded(mesh.vertices.size());
+    for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+        const cv::Vec3f& p = mesh.vertices[i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+            throw Error("reference", "vertex " + std::to_string(i) + " is not finite");
+        const auto inserted = index_of.emplace(p, int(ref.vertices.size()));
+        if (inserted.second) ref.vertices.emplace_back(p[0], p[1], p[2]);
+        welded[i] = inserted.first->second;
+    }
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+        std::array<int, 3> face;
+        for (int k = 0; k < 3; ++k) {
+            const int v = mesh.faces[f][k];
+            if (v < 0 || size_t(v) >= mesh.vertices.size())
+                throw Error("reference", "triangle " + std::to_string(f) + " uses vertex " + std::to_string(v) +
+                                             " of " + std::to_string(mesh.vertices.size()));
+            face[k] = welded[v];
+        }
+        const cv::Vec3d normal =
+            (ref.vertices[face[1]] - ref.vertices[face[0]]).cross(ref.vertices[face[2]] - ref.vertices[face[0]]);
+        const double area2 = cv::norm(normal);
+        if (!(area2 > 0)) continue;  // degenerate: no side, and its edges belong to its neighbours
+        ref.faces.push_back(face);
+        ref.face_normals.push_back(normal / area2);
+    }
+    if (ref.faces.empty()) throw Error("reference", "every triangle is degenerate (zero area)");
+
+    ref.vertex_normals.assign(ref.vertices.size(), cv::Vec3d(0, 0, 0));
+    std::unordered_map<uint64_t, cv::Vec3d> edge_sums;
+    const auto edge_key = [](int a, int b) { return (uint64_t(std::min(a, b)) << 32) | uint64_t(std::max(a, b)); };
+    for (size_t f = 0; f < ref.faces.size(); ++f) {
+        const auto& face = ref.faces[f];
+        for (int k = 0; k < 3; ++k) {
+            const cv::Vec3d& p = ref.vertices[face[k]];
+            const cv::Vec3d a = ref.vertices[face[(k + 1) % 3]] - p, b = ref.vertices[face[(k + 2) % 3]] - p;
+            const double angle = std::acos(std::clamp(a.dot(b) / (cv::norm(a) * cv::norm(b)), -1.0, 1.0));
+            ref.vertex_normals[face[k]] += angle * ref.face_normals[f];
+            edge_sums[edge_key(face[k], face[(k + 1) % 3])] += ref.face_normals[f];
+        }
+    }
+    ref.edge_normals.resize(ref.faces.size());
+    ref.triangles.reserve(ref.faces.size());
+    for (size_t f = 0; f < ref.faces.size(); ++f) {
+        const auto& face = ref.faces[f];
+        for (int k = 0; k < 3; ++k) ref.edge_normals[f][k] = edge_sums[edge_key(face[k], face[(k + 1) % 3])];
+        const auto point = [&](int k) {
+            const cv::Vec3d& v = ref.vertices[face[k]];
+            return Kernel::Point_3(v[0], v[1], v[2]);
+        };
+        ref.triangles.emplace_back(point(0), point(1), point(2));
+    }
+    return ref;
+}
+
+// The pseudo-normal at `closest` on face f: the face's normal inside it, the edge's on an edge,
+// the vertex's at a corner (barycentric coordinates near zero say where the point is).
+cv::Vec3d pseudo_normal(const Reference& ref, size_t f, const cv::Vec3d& closest) {
+    const auto& face = ref.faces[f];
+    const cv::Vec3d a = ref.vertices[face[0]], b = ref.vertices[face[1]], c = ref.vertices[face[2]];
+    const cv::Vec3d n = (b - a).cross(c - a);
+    const double area2 = n.dot(n);
+    const double w0 = (c - b).cross(closest - b).dot(n) / area2;  // weight of a
+    const double w1 = (a - c).cross(closest - c).dot(n) / area2;  // weight of b
+    const double w2 = 1 - w0 - w1;                                // weight of c
+    constexpr double eps = 1e-7;
+    const bool on0 = w0 < eps, on1 = w1 < eps, on2 = w2 < eps;
+    if (on1 && on2) return ref.vertex_normals[face[0]];
+    if (on0 && on2) return ref.vertex_normals[face[1]];
+    if (on0 && on1) return ref.vertex_normals[face[2]];
+    if (on2) return ref.edge_normals[f][0];  // edge a-b
+    if (on0) return ref.edge_normals[f][1];  // edge b-c
+    if (on1) return ref.edge_normals[f][2];  // edge c-a
+    return ref.face_normals[f];
+}
+
+}  // namespace
+
+DeviationMap measure_deviation(const std::vector<cv::Vec3f>& points, const Mesh& reference,
+                               const DeviationOptions& options, const ProgressCallback& progress) {
+    if (!(options.tolerance_mm > 0)) throw Error("tolerance_mm", "must be positive");
+    if (options.histogram_bins < 2 || options.histogram_bins > 10000)
+        throw Error("histogram_bins", "must be between 2 and 10000");
+    if (!(options.max_distance_mm >= 0)) throw Error("max_distance_mm", "must be 0 (no limit) or positive");
+    if (!(options.range_mm >= 0)) throw Error("range_mm", "must be 0 (automatic) or positive");
+    if (points.empty()) throw Error("points", "none to measure");
+
+    const Reference ref = build_reference(reference);
+    Tree tree(ref.triangles.begin(), ref.triangles.end());
+    tree.accelerate_distance_queries();  // built here: the queries below only read the tree
+
+    DeviationMap map;
+    map.distances_mm.assign(points.size(), std::numeric_limits<float>::quiet_NaN());
+    constexpr int block = 8192;
+    const int blocks = int((points.size() + block - 1) / block);
+    detail::ProgressReporter reporter(progress, "deviation", blocks);
+    const double max_distance = options.max_distance_mm > 0 ? options.max_distance_mm : HUGE_VAL;
+    detail::parallel_rows(blocks, [&](int first, int last) {
+        for (int b = first; b < last && !reporter.cancelled(); ++b) {
+            const size_t end = std::min(points.size(), size_t(b + 1) * block);
+            for (size_t i = size_t(b) * block; i < end; ++i) {
+                const cv::Vec3f& p = points[i];
+                if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+                const Kernel::Point_3 query(p[0], p[1], p[2]);
+                const auto [closest_point, primitive] = tree.closest_point_and_primitive(query);
+                const cv::Vec3d closest = to_vec(closest_point), offset = cv::Vec3d(p[0], p[1], p[2]) - closest;
+                const double distance = cv::norm(offset);
+                if (distance > max_distance) continue;
+                const size_t face = size_t(primitive - ref.triangles.begin());
+                const double side = offset.dot(pseudo_normal(ref, face, closest));
+                map.distances_mm[i] = float(side < 0 ? -distance : distance);
+            }
+            reporter.advance();
+        }
+    });
+    if (reporter.cancelled()) throw Error("cancelled", "deviation measurement was stopped");
+    summarise_deviation(map, options);
+    return map;
+}
+
+}  // namespace picoscan
