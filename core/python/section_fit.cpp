@@ -52,6 +52,24 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("tolerance_mm", &SectionFit::tolerance_mm)
         .def_readonly("noise_mm", &SectionFit::noise_mm);
     m.def(
+        "cut_mesh",
+        [](const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis) {
+            std::vector<SectionPolyline> lines;
+            {
+                py::gil_scoped_release release;
+                lines = cut_mesh(mesh, origin, u_axis, v_axis);
+            }
+            py::list result;
+            for (const SectionPolyline& line : lines) {
+                py::array_t<double> points({py::ssize_t(line.points.size()), py::ssize_t(2)});
+                std::memcpy(points.mutable_data(), line.points.data(), line.points.size() * sizeof(cv::Vec2d));
+                result.append(py::make_tuple(points, line.closed));
+            }
+            return result;
+        },
+        py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
+        "[(N x 2 points in the plane's frame, closed)] where the plane through origin spanned by u and v cuts the mesh");
+    m.def(
         "fit_section",
         [](const py::array& polyline, bool closed, const SectionFitOptions& options) {
             const std::vector<cv::Vec2d> points = array_to_vector<cv::Vec2d>(polyline, "polyline");

@@ -5,6 +5,8 @@
 // A CAD host turns the result into an editable, constrained sketch.
 #pragma once
 
+#include "picoscan/cloud.h"
+
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -15,13 +17,16 @@ enum class SectionElementKind { Line, Arc, Circle };
 
 struct SectionFitOptions {
     // Largest distance of a point to its element. 0: 5 x the noise estimated from the polyline
-    // (the RMS of short local line fits), at least min_tolerance_mm.
+    // (the median RMS of line fits over noise_window_mm), at least min_tolerance_mm.
     double tolerance_mm = 0;
     double min_tolerance_mm = 0.005;
+    double noise_window_mm = 2.0;     // the noise is measured over runs this long (at least 9 points)
     int min_line_points = 4;
     int min_arc_points = 8;
     double max_arc_radius_mm = 2000;  // flatter arcs are lines
-    double tangent_angle_deg = 2.0;   // joints whose directions differ by less are tangent
+    // A joint is tangent when the two fits can touch within half the tolerance and run on in
+    // directions closer than this there (not a cusp).
+    double tangent_angle_deg = 2.0;
     double snap_angle_deg = 2.0;      // constraints are only tried for directions closer than this
 };
 
@@ -53,6 +58,18 @@ struct SectionFit {
     double tolerance_mm = 0;           // used
     double noise_mm = 0;               // estimated from the polyline
 };
+
+// Where a plane cuts a mesh: polylines in the plane's own 2D frame, x along u_axis and y along
+// v_axis from `origin` (the plane's normal is u x v). Triangles are joined across shared edges
+// (vertices are welded by position first), so a closed surface gives closed loops; an open scan
+// gives open chains too.
+struct SectionPolyline {
+    std::vector<cv::Vec2d> points;
+    bool closed = false;  // the last point joins the first (which is not repeated)
+};
+// Throws Error("u_axis"/"v_axis", ...) unless they are orthonormal.
+std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis,
+                                      const cv::Vec3d& v_axis);
 
 // Fits one polyline (closed: the last point joins the first; do not repeat the first point).
 // Throws Error("polyline", ...) for fewer than 4 distinct points or non-finite coordinates,

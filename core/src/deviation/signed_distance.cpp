@@ -129,6 +129,45 @@ cv::Vec3d pseudo_normal(const Reference& ref, size_t f, const cv::Vec3d& closest
     return ref.face_normals[f];
 }
 
+// Spreads the lowest 21 bits of v to every third bit.
+uint64_t spread_bits(uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+}
+
+// Indices of the finite points sorted along a Z-order curve over their bounding box.
+std::vector<size_t> morton_order(const std::vector<cv::Vec3f>& points) {
+    cv::Vec3f low(HUGE_VALF, HUGE_VALF, HUGE_VALF), high(-HUGE_VALF, -HUGE_VALF, -HUGE_VALF);
+    std::vector<size_t> finite;
+    finite.reserve(points.size());
+    for (size_t i = 0; i < points.size(); ++i) {
+        const cv::Vec3f& p = points[i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+        finite.push_back(i);
+        for (int k = 0; k < 3; ++k) low[k] = std::min(low[k], p[k]), high[k] = std::max(high[k], p[k]);
+    }
+    std::vector<std::pair<uint64_t, size_t>> keyed(finite.size());
+    const double cells = double(1 << 21) - 1;
+    for (size_t n = 0; n < finite.size(); ++n) {
+        const cv::Vec3f& p = points[finite[n]];
+        uint64_t key = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double t = high[k] > low[k] ? (p[k] - low[k]) / (high[k] - low[k]) : 0.0;
+            key |= spread_bits(uint64_t(t * cells)) << k;
+        }
+        keyed[n] = {key, finite[n]};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<size_t> order(keyed.size());
+    for (size_t n = 0; n < keyed.size(); ++n) order[n] = keyed[n].second;
+    return order;
+}
+
 }  // namespace
 
 DeviationMap measure_deviation(const std::vector<cv::Vec3f>& points, const Mesh& reference,
@@ -146,22 +185,28 @@ DeviationMap measure_deviation(const std::vector<cv::Vec3f>& points, const Mesh&
 
     DeviationMap map;
     map.distances_mm.assign(points.size(), std::numeric_limits<float>::quiet_NaN());
+    // Points in Morton (Z-curve) order: each query starts from the previous point's answer, a
+    // near one, which lets the tree discard most boxes at once.
+    const std::vector<size_t> order = morton_order(points);
     constexpr int block = 8192;
-    const int blocks = int((points.size() + block - 1) / block);
+    const int blocks = int((order.size() + block - 1) / block);
     detail::ProgressReporter reporter(progress, "deviation", blocks);
     const double max_distance = options.max_distance_mm > 0 ? options.max_distance_mm : HUGE_VAL;
     detail::parallel_rows(blocks, [&](int first, int last) {
+        bool have_hint = false;
+        Tree::Point_and_primitive_id hint;
         for (int b = first; b < last && !reporter.cancelled(); ++b) {
-            const size_t end = std::min(points.size(), size_t(b + 1) * block);
-            for (size_t i = size_t(b) * block; i < end; ++i) {
+            const size_t end = std::min(order.size(), size_t(b + 1) * block);
+            for (size_t k = size_t(b) * block; k < end; ++k) {
+                const size_t i = order[k];
                 const cv::Vec3f& p = points[i];
-                if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
                 const Kernel::Point_3 query(p[0], p[1], p[2]);
-                const auto [closest_point, primitive] = tree.closest_point_and_primitive(query);
-                const cv::Vec3d closest = to_vec(closest_point), offset = cv::Vec3d(p[0], p[1], p[2]) - closest;
+                hint = have_hint ? tree.closest_point_and_primitive(query, hint) : tree.closest_point_and_primitive(query);
+                have_hint = true;
+                const cv::Vec3d closest = to_vec(hint.first), offset = cv::Vec3d(p[0], p[1], p[2]) - closest;
                 const double distance = cv::norm(offset);
                 if (distance > max_distance) continue;
-                const size_t face = size_t(primitive - ref.triangles.begin());
+                const size_t face = size_t(hint.second - ref.triangles.begin());
                 const double side = offset.dot(pseudo_normal(ref, face, closest));
                 map.distances_mm[i] = float(side < 0 ? -distance : distance);
             }

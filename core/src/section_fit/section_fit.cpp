@@ -279,18 +279,27 @@ private:
 };
 
 // The noise of the polyline: the median RMS of line fits over short windows (corners and curves
-// only raise a few windows, so the median sees the straight, noisy runs).
-double estimate_noise(const Points& pts) {
-    const long window = 9;
+// only raise a few windows, so the median sees the straight, noisy runs). A window spans at least
+// window_mm and 9 points: a cut through a mesh has many points per facet, whose noise is shared by
+// neighbours, so a window of a few points would see too little of it.
+double estimate_noise(const Points& pts, double window_mm) {
     const long n = long(pts.size());
     std::vector<double> rms;
-    for (long i = 0; i + window <= n || (pts.closed && i < n); i += 2) {
-        if (!pts.closed && i + window > n) break;
-        const Shape line = fit_line(pts, i, window);
-        if (!line.ok) continue;
-        double sum = 0;
-        for (long k = i; k < i + window; ++k) sum += std::pow(line.distance(pts[k]), 2);
-        rms.push_back(std::sqrt(sum / (window - 2)));
+    for (long i = 0; i < n; ) {
+        long count = 1;
+        double length = 0;
+        while ((count < 9 || length < window_mm) && count < n && (pts.closed || i + count < n)) {
+            length += cv::norm(pts[i + count] - pts[i + count - 1]);
+            ++count;
+        }
+        if (count < 9 || (!pts.closed && i + count > n)) break;
+        const Shape line = fit_line(pts, i, count);
+        if (line.ok) {
+            double sum = 0;
+            for (long k = i; k < i + count; ++k) sum += std::pow(line.distance(pts[k]), 2);
+            rms.push_back(std::sqrt(sum / double(count - 2)));
+        }
+        i += std::max<long>(1, count / 3);
     }
     if (rms.empty()) return 0;
     std::nth_element(rms.begin(), rms.begin() + long(rms.size() / 2), rms.end());
@@ -301,9 +310,24 @@ cv::Vec2d perpendicular_foot(const Shape& line, const cv::Vec2d& p) {
     return line.point + line.direction * (p - line.point).dot(line.direction);
 }
 
-// The joint of two fitted elements near `near`: line-line intersection, the tangent point, or the
-// circle intersection nearest to `near`; the nearest point of `a` when they do not meet.
-cv::Vec2d joint(const Shape& a, const Shape& b, const cv::Vec2d& near) {
+// Whether two fitted neighbours can meet tangentially within the tolerance: a line and a circle
+// whose distance differs from the radius by at most half of it, two circles touching (inside or
+// outside) within half of it. The angle at an intersection is no test: a line cutting a circle
+// 5 um inside its tangent point already meets it at 3 degrees.
+bool can_be_tangent(const Shape& a, const Shape& b, double tolerance) {
+    if (!a.circle && !b.circle) return false;
+    if (a.circle != b.circle) {
+        const Shape& line = a.circle ? b : a;
+        const Shape& circle = a.circle ? a : b;
+        return std::abs(line.distance(circle.centre) - circle.radius) <= 0.5 * tolerance;
+    }
+    const double d = cv::norm(a.centre - b.centre);
+    return std::min(std::abs(d - (a.radius + b.radius)), std::abs(d - std::abs(a.radius - b.radius))) <= 0.5 * tolerance;
+}
+
+// The joint of two fitted elements near `near`: the tangent point of tangent neighbours, else the
+// line-line intersection or the circle intersection nearest to `near`.
+cv::Vec2d joint(const Shape& a, const Shape& b, const cv::Vec2d& near, bool tangent) {
     if (!a.circle && !b.circle) {
         const double cross = a.direction[0] * b.direction[1] - a.direction[1] * b.direction[0];
         if (std::abs(cross) < 1e-9) return perpendicular_foot(a, near);
@@ -316,7 +340,11 @@ cv::Vec2d joint(const Shape& a, const Shape& b, const cv::Vec2d& near) {
         const Shape& circle = a.circle ? a : b;
         const cv::Vec2d foot = perpendicular_foot(line, circle.centre);
         const double gap = cv::norm(foot - circle.centre);
-        if (gap >= circle.radius) return foot;  // tangent (or just missing): the tangent point
+        if (tangent || gap >= circle.radius) {
+            // Halfway between the line's and the circle's point nearest to each other.
+            const cv::Vec2d on_circle = circle.centre + circle.radius * (foot - circle.centre) / std::max(gap, 1e-12);
+            return 0.5 * (foot + on_circle);
+        }
         const double half = std::sqrt(circle.radius * circle.radius - gap * gap);
         const cv::Vec2d p1 = foot + half * line.direction, p2 = foot - half * line.direction;
         return cv::norm(p1 - near) < cv::norm(p2 - near) ? p1 : p2;
@@ -327,7 +355,11 @@ cv::Vec2d joint(const Shape& a, const Shape& b, const cv::Vec2d& near) {
     const cv::Vec2d u = d / distance;
     const double along = (distance * distance + a.radius * a.radius - b.radius * b.radius) / (2 * distance);
     const double h2 = a.radius * a.radius - along * along;
-    if (h2 <= 0) return a.centre + u * (along >= 0 ? a.radius : -a.radius);  // tangent
+    if (tangent || h2 <= 0) {
+        // On the line of the centres, on the side of the touching point.
+        const double sign = (near - a.centre).dot(u) >= 0 ? 1.0 : -1.0;
+        return a.centre + u * sign * a.radius;
+    }
     const cv::Vec2d base = a.centre + along * u, normal(-u[1], u[0]);
     const cv::Vec2d p1 = base + std::sqrt(h2) * normal, p2 = base - std::sqrt(h2) * normal;
     return cv::norm(p1 - near) < cv::norm(p2 - near) ? p1 : p2;
@@ -447,7 +479,7 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const S
     SectionFit result;
     result.closed = closed;
     const Points pts{polyline, closed};
-    result.noise_mm = estimate_noise(pts);
+    result.noise_mm = estimate_noise(pts, options.noise_window_mm);
     result.tolerance_mm =
         options.tolerance_mm > 0 ? options.tolerance_mm : std::max(options.min_tolerance_mm, 5 * result.noise_mm);
     SectionFitter fitter(polyline, closed, options, result.tolerance_mm);
@@ -508,17 +540,18 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const S
     const size_t joints = closed ? count : count - 1;
     for (size_t j = 0; j < joints && count > 1; ++j) {
         const size_t k = (j + 1) % count;
+        const Shape &a = spans[j].shape, &b = spans[k].shape;
         const cv::Vec2d near = 0.5 * (pts[spans[j].first + spans[j].count - 1] + pts[spans[k].first]);
-        const cv::Vec2d point = joint(spans[j].shape, spans[k].shape, near);
+        bool tangent = can_be_tangent(a, b, result.tolerance_mm);
+        const cv::Vec2d point = joint(a, b, near, tangent);
         // A joint far from the points (nearly parallel neighbours) is not trusted: keep the ends.
         if (cv::norm(point - near) > 10 * result.tolerance_mm + 2 * cv::norm(pts[spans[k].first] - near)) continue;
         result.elements[j].end = point;
         result.elements[k].start = point;
-    }
-    for (size_t j = 0; j < joints && count > 1; ++j) {
-        SectionElement &a = result.elements[j], &b = result.elements[(j + 1) % count];
-        if (a.kind == SectionElementKind::Line && b.kind == SectionElementKind::Line) continue;
-        a.tangent_to_next = angle_between_deg(travel_direction(a, a.end), travel_direction(b, b.start)) < options.tangent_angle_deg;
+        // Tangent, not a cusp: the two run on in about the same direction there.
+        tangent = tangent && angle_between_deg(travel_direction(result.elements[j], point),
+                                               travel_direction(result.elements[k], point)) < options.tangent_angle_deg;
+        result.elements[j].tangent_to_next = tangent;
     }
     find_constraints(result, pts, options);
     return result;

@@ -24,6 +24,14 @@ def freecad_mesh(mesh):
         return Mesh.Mesh(path)
 
 
+def core_mesh(mesh):
+    """picoscan.Mesh from a FreeCAD Mesh (placement applied), through a binary STL like freecad_mesh."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "mesh.stl")
+        mesh.write(path)
+        return picoscan.read_mesh(path)
+
+
 class ScanMesh(DocumentObjectProxy):
     TYPE = TYPE
 

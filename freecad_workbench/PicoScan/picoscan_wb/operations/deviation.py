@@ -14,11 +14,13 @@ def reference_mesh(obj, deflection_mm=0.01):
     if obj is None:
         raise picoscan.Error("Reference: no reference model chosen")
     if hasattr(obj, "Mesh") and obj.Mesh.CountFacets > 0:
+        from picoscan_wb.objects.scan_mesh import core_mesh
+
         mesh = obj.Mesh.copy()
         if hasattr(obj, "Placement") and not obj.Placement.isIdentity():
-            mesh.Placement = obj.Placement
-        vertices, facets = mesh.Topology
-    elif hasattr(obj, "Shape") and not obj.Shape.isNull() and obj.Shape.Faces:
+            mesh.transform(obj.Placement.toMatrix())
+        return core_mesh(mesh)
+    if hasattr(obj, "Shape") and not obj.Shape.isNull() and obj.Shape.Faces:
         if deflection_mm <= 0:
             raise picoscan.Error("%s: Deflection must be positive" % label)
         vertices, facets = obj.Shape.tessellate(deflection_mm)  # Shape carries the placement

@@ -27,22 +27,18 @@ def section_plane(mesh, axis, offset_mm=None):
 
 def section_polylines(mesh_object, axis, offset_mm=None):
     """(placement of the cutting plane, [(N x 2 array in the plane, closed)]) of the mesh's section."""
+    from picoscan_wb.objects.scan_mesh import core_mesh
+
     mesh = mesh_object.Mesh
     base, normal = section_plane(mesh, axis, offset_mm)
-    polylines = [line for line in mesh.crossSections([(base, normal)], 1e-6)[0] if len(line) > 1]
+    placement = Placement(base, Rotation(Vector(0, 0, 1), normal))
+    u_axis, v_axis = placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
+    polylines = picoscan.cut_mesh(core_mesh(mesh), tuple(base), tuple(u_axis), tuple(v_axis))
     if not polylines:
         raise picoscan.Error("%s: the %s plane at %.2f mm does not cut the mesh" % (
             mesh_object.Label, axis, getattr(base, axis.lower())))
-    placement = Placement(base, Rotation(Vector(0, 0, 1), normal))
-    to_plane = placement.inverse()
-    result = []
-    for line in polylines:
-        local = numpy.array([(p.x, p.y) for p in (to_plane.multVec(point) for point in line)])
-        closed = len(local) > 3 and numpy.linalg.norm(local[0] - local[-1]) < 1e-6
-        if closed:
-            local = local[:-1]
-        if len(local) >= 4:  # a shorter fragment (a grazing cut through a few facets) holds no shape
-            result.append((local, closed))
+    # A shorter fragment (a grazing cut through a few facets) holds no shape.
+    result = [(points, closed) for points, closed in polylines if len(points) >= 4]
     if not result:
         raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (
             mesh_object.Label, axis))
@@ -198,13 +194,15 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
             report += add_fitted_geometry(sketch, fit)
         sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
         sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
-        sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element", 1)
-        sketch.addProperty("App::PropertyLength", "FitNoise", "Section", "Noise of the section estimated from its points", 1)
-        sketch.addProperty("App::PropertyStringList", "FitReport", "Section", "Per element: kind, size, points, residuals", 1)
+        sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")
+        sketch.addProperty("App::PropertyLength", "FitNoise", "Section", "Noise of the section estimated from its points")
+        sketch.addProperty("App::PropertyStringList", "FitReport", "Section", "Per element: kind, size, points, residuals")
         sketch.SourceMesh = mesh_object
         sketch.FitTolerance = max(fit.tolerance_mm for fit in fits)
         sketch.FitNoise = max(fit.noise_mm for fit in fits)
         sketch.FitReport = report
+        for name in ("FitTolerance", "FitNoise", "FitReport"):
+            sketch.setEditorMode(name, 1)  # shown, not edited: they describe the fit
         doc.recompute()
         if not sketch.isValid():
             raise picoscan.Error("%s: the fitted sketch does not solve: %s" % (mesh_object.Label, sketch.getStatusString()))

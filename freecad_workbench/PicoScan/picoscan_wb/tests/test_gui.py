@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import time
 import unittest
 
 import numpy
@@ -257,6 +258,7 @@ class PicoScanGuiTest(unittest.TestCase):
         mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
         self.assertTrue(any("png" in w.windowTitle() or "vs" in w.windowTitle() for w in mdi.subWindowList()),
                         [w.windowTitle() for w in mdi.subWindowList()])
+        self.screenshot(result, "freecad-deviation.png", report=result.ReportFile + ".png")
         # One undo step removes the map.
         self.doc.undo()
         self.assertEqual([o for o in self.doc.Objects if o.Name == result.Name], [])
@@ -270,6 +272,81 @@ class PicoScanGuiTest(unittest.TestCase):
         process_events()
         self.assertEqual(len(self.messages), 1)
         self.assertIn("JustPoints: the reference has no faces or triangles", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+
+    def screenshot(self, shown, name, report=None):
+        """The 3D view on `shown`, saved beside PICOSCAN_SCREENSHOT as `name` (and the report picture)."""
+        path = os.environ.get("PICOSCAN_SCREENSHOT")
+        if not path:
+            return
+        folder = os.path.dirname(path)
+        os.makedirs(folder, exist_ok=True)
+        FreeCADGui.getMainWindow().showMaximized()
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(self.doc.Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(shown)
+        FreeCADGui.SendMsgToActiveView("ViewSelection")
+        FreeCADGui.Selection.clearSelection()
+        for _ in range(5):
+            process_events()
+        temporary = os.path.join(folder, name + ".tmp.png")
+        subprocess.run(["import", "-window", "root", temporary], check=True)
+        os.replace(temporary, os.path.join(folder, name))
+        if report:
+            shutil.copyfile(report, os.path.join(folder, "deviation-histogram.png"))
+
+    def cancel_after(self, seconds, record):
+        """Presses Cancel on the progress dialog `seconds` from now (the user's click)."""
+        from PySide2 import QtCore
+
+        def press():
+            dialog = QtWidgets.QApplication.activeModalWidget()
+            record["dialog"] = type(dialog).__name__
+            record["pressed"] = time.monotonic()
+            if isinstance(dialog, QtWidgets.QProgressDialog):
+                dialog.cancel()
+        QtCore.QTimer.singleShot(int(seconds * 1000), press)
+
+    def test_k_long_work_keeps_the_gui_responsive_and_cancels_within_a_second(self):
+        from PySide2 import QtCore
+
+        from picoscan_wb.progress import run_in_background
+
+        ticks = []
+        timer = QtCore.QTimer()
+        timer.timeout.connect(lambda: ticks.append(time.monotonic()))
+        timer.start(20)
+        record = {}
+        self.cancel_after(3.0, record)
+        # A real long core call: rendering a full-resolution capture set (about a minute on 2 cores).
+        calibration = picoscan.seed_rig_calibration()
+        sequence = picoscan.make_pattern_sequence(picoscan.PatternOptions())
+        scene = picoscan.demo_scene()
+        started = time.monotonic()
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            run_in_background("Simulating", lambda progress: picoscan.simulate_capture(
+                sequence, calibration, scene, picoscan.SimulationOptions(), progress))
+        ended = time.monotonic()
+        timer.stop()
+        during = [t for t in ticks if started <= t <= ended]
+        gaps = numpy.diff(during)
+        FreeCAD.Console.PrintMessage("GUI during the work: %d timer events in %.2f s, longest gap %.3f s; cancel took %.3f s\n" % (
+            len(during), ended - started, gaps.max(), ended - record["pressed"]))
+        self.assertEqual(record["dialog"], "QProgressDialog")
+        self.assertGreater(len(during), 50)
+        self.assertLess(gaps.max(), 0.25)
+        self.assertLess(ended - record["pressed"], 1.0)
+        # Cancelling a reconstruction leaves the document as it was, with no message box for a cancel.
+        before = self.object_names()
+        self.cancel_after(0.2, record)
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            scan_view.create(self.doc, self.captures, self.calibration)
         self.assertEqual(self.object_names(), before)
 
     def test_z_scan_mesh_and_screenshot(self):
