@@ -510,7 +510,26 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const S
     fitter.refine(spans);
     fitter.merge(spans);
     fitter.refine(spans);
-
+    // The final fits leave out a tenth of the points at each end that is a corner or an open end:
+    // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
+    // a point off. Tangent ends keep their points: a fillet needs all of its short arc.
+    {
+        const size_t count = spans.size();
+        std::vector<bool> smooth_after(count, false);
+        for (size_t j = 0; j + 1 < count || (closed && count > 1 && j < count); ++j)
+            smooth_after[j] = can_be_tangent(spans[j].shape, spans[(j + 1) % count].shape, result.tolerance_mm);
+        std::vector<Span> trimmed = spans;
+        for (size_t j = 0; j < count; ++j) {
+            const bool smooth_before = closed || j > 0 ? smooth_after[(j + count - 1) % count] : false;
+            const long trim = spans[j].count / 10;
+            const long head = smooth_before ? 0 : trim, tail = smooth_after[j] ? 0 : trim;
+            const long minimum = spans[j].shape.circle ? options.min_arc_points : options.min_line_points;
+            if (spans[j].count - head - tail < minimum || head + tail == 0) continue;
+            const Shape shape = fitter.fit(spans[j].shape.circle, spans[j].first + head, spans[j].count - head - tail);
+            if (shape.ok) trimmed[j].shape = shape;
+        }
+        spans = trimmed;
+    }
     for (const Span& span : spans) {
         SectionElement e;
         e.kind = span.shape.circle ? SectionElementKind::Arc : SectionElementKind::Line;

@@ -68,3 +68,8 @@ def add_or_remove(doc, type_name, name, setup):
         doc.removeObject(obj.Name)
         raise
     return obj
+
+
+def millimetres(value):
+    """A length property's value in mm (documents saved before lengths had units hold plain floats)."""
+    return float(getattr(value, "Value", value))

@@ -4,7 +4,6 @@ the model, cyan to blue inside) and the figures are properties. Parametric: chan
 the scan, recompute, and the map follows."""
 import os
 
-import numpy
 import FreeCAD
 import Points
 

@@ -5,7 +5,7 @@ import numpy
 import FreeCAD
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, is_scan_view
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, is_scan_view, millimetres
 from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
 from picoscan_wb.progress import run_in_background
 
@@ -27,7 +27,7 @@ class Stitch(DocumentObjectProxy):
     def __init__(self, obj):
         super().__init__(obj)
         obj.addProperty("App::PropertyLinkList", "Views", "Stitch", "ScanViews to register; the first defines the model frame")
-        obj.addProperty("App::PropertyFloat", "IcpMaxDistance", "Registration", "Point pairs farther apart than this (mm) are never used")
+        obj.addProperty("App::PropertyLength", "IcpMaxDistance", "Registration", "Point pairs farther apart than this are never used")
         obj.addProperty("App::PropertyFloat", "MinOverlap", "Registration", "Share of a view's points that must have a partner")
         obj.addProperty("App::PropertyInteger", "AlignedCount", "Result", "Views registered and merged", 1)
         obj.addProperty("App::PropertyPlacementList", "ViewPoses", "Result", "View -> model pose of each view", 1)
@@ -43,7 +43,7 @@ class Stitch(DocumentObjectProxy):
             raise picoscan.Error("%s: Views must hold two or more ScanViews" % obj.Label)
         views = [source.Proxy.scan_view(source)[0] for source in sources]
         options = picoscan.RegistrationOptions()
-        options.icp_max_distance_mm = obj.IcpMaxDistance
+        options.icp_max_distance_mm = millimetres(obj.IcpMaxDistance)
         options.min_overlap = obj.MinOverlap
         names = [v.Label for v in sources]
         alignment = run_in_background("Stitching " + obj.Label,

@@ -1,7 +1,6 @@
 """Deviation of a scan from a model: the scan's points and the reference's triangles go to the
 core's measure_deviation (AABB tree, signed by pseudo-normals); this module only gathers them."""
 import numpy
-import FreeCAD
 
 import picoscan
 from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch

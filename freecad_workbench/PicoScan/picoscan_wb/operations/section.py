@@ -3,7 +3,6 @@ and a profile plot comparing the hybrid (Gray + phase) scan with the binary (Gra
 import os
 
 import numpy
-import FreeCAD
 import Part
 from FreeCAD import Placement, Rotation, Vector
 

@@ -18,8 +18,6 @@ import picoscan
 from picoscan_wb.commands import COMMANDS
 from picoscan_wb.objects import scan_mesh, scan_view
 from picoscan_wb.operations import simulate
-from picoscan_wb.taskpanels.calibrate import CalibrateTaskPanel
-from picoscan_wb.taskpanels.scan import ScanTaskPanel
 
 ALWAYS_ACTIVE = {"PicoScan_Calibrate", "PicoScan_Scan", "PicoScan_ImportCaptures", "PicoScan_ShowRig"}
 FOR_SCAN_VIEWS = {"PicoScan_Clean", "PicoScan_Mesh", "PicoScan_FitPrimitives", "PicoScan_EncodingView"}
@@ -120,7 +118,7 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.runCommand("PicoScan_Calibrate")
         process_events()
         self.assertTrue(FreeCADGui.Control.activeDialog())
-        panel = CalibrateTaskPanel.current
+        panel = COMMANDS["PicoScan_Calibrate"].panel
         missing = os.path.join(self.folder, "no_such_pose")
         panel.poses.addItem(missing)
         panel.output.setText(os.path.join(self.folder, "rig.yml"))
@@ -178,7 +176,7 @@ class PicoScanGuiTest(unittest.TestCase):
         before = self.object_names()
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
-        panel = ScanTaskPanel.current
+        panel = COMMANDS["PicoScan_Scan"].panel
         panel.folder.setText(os.path.join(self.folder, "cancelled"))
         panel.should_cancel = lambda: True  # as if the user pressed Stop at once
         self.assertFalse(panel.accept())
@@ -215,7 +213,7 @@ class PicoScanGuiTest(unittest.TestCase):
         picoscan.write_calibration(picoscan.seed_rig_calibration(), calibration)
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
-        panel = ScanTaskPanel.current
+        panel = COMMANDS["PicoScan_Scan"].panel
         panel.source.setCurrentText("Camera + projector")
         panel.camera.setText("virtual")
         panel.projector_screen.setValue(-1)
@@ -230,6 +228,10 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(self.messages), 1)
         self.assertGreater(panel.created.PointCount, 400000)
         self.assertEqual(panel.created.CaptureFolder, os.path.join(self.folder, "captured"))
+        # The scan is one undo step.
+        name = panel.created.Name
+        self.doc.undo()
+        self.assertIsNone(self.doc.getObject(name))
 
     def test_j_deviation_map_command_colours_the_scan(self):
         view = scan_view.create(self.doc, self.captures, self.calibration)
@@ -352,7 +354,7 @@ class PicoScanGuiTest(unittest.TestCase):
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
-        panel = ScanTaskPanel.current
+        panel = COMMANDS["PicoScan_Scan"].panel
         panel.scene.setCurrentText("Demo part")
         panel.folder.setText(os.path.join(self.folder, "demo"))
         self.assertTrue(panel.accept(), self.messages)
@@ -360,10 +362,12 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(view.PointCount, 100000)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
-        # Dialogs take their first proposal: Grid for the mesh, "Y" at the mesh's centre for the section.
-        QtWidgets.QInputDialog.getItem = lambda parent, title, label, items, current, editable: (items[current], True)
-        QtWidgets.QInputDialog.getDouble = lambda parent, title, label, value, *limits: (value, True)
         FreeCADGui.runCommand("PicoScan_Mesh")
+        process_events()
+        panel = COMMANDS["PicoScan_Mesh"].panel
+        self.assertEqual(panel.method.currentText(), "Grid")
+        self.assertFalse(panel.sample_spacing.isEnabled())  # Poisson's parameters are not Grid's
+        self.assertTrue(panel.accept(), self.messages)
         process_events()
         meshes = [o for o in self.doc.Objects if o.TypeId == "Mesh::FeaturePython"]
         self.assertEqual(len(meshes), 1, self.messages)
@@ -371,6 +375,21 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(meshes[0])
         FreeCADGui.runCommand("PicoScan_CrossSection")
+        process_events()
+        panel = COMMANDS["PicoScan_CrossSection"].panel
+        centre = meshes[0].Mesh.BoundBox.Center
+        self.assertEqual(panel.axis.currentText(), "Y")
+        self.assertAlmostEqual(panel.position.value(), centre.y, delta=1e-3)
+        self.assertEqual(panel.position.suffix(), " mm")
+        before = self.object_names()
+        panel.position.setValue(centre.y + 500)  # misses the mesh: a message, the panel stays open
+        self.assertFalse(panel.accept())
+        self.assertIn("does not cut the mesh", self.messages[-1][2])
+        self.assertEqual(self.object_names(), before)
+        self.assertTrue(FreeCADGui.Control.activeDialog())
+        self.messages.clear()
+        panel.position.setValue(centre.y)
+        self.assertTrue(panel.accept(), self.messages)
         process_events()
         sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
         self.assertEqual(len(sections), 1, self.messages)
