@@ -51,6 +51,30 @@ void bind_deviation(py::module_& m) {
         },
         py::arg("points"), py::arg("reference"), py::arg("options") = DeviationOptions(), py::arg("progress") = py::none(),
         "Signed distance of every point (N x 3) to the reference mesh's triangles");
+    py::class_<BestFitOptions>(m, "BestFitOptions")
+        .def(py::init<>())
+        .def_readwrite("max_iterations", &BestFitOptions::max_iterations)
+        .def_readwrite("keep_fraction", &BestFitOptions::keep_fraction)
+        .def_readwrite("max_distance_mm", &BestFitOptions::max_distance_mm)
+        .def_readwrite("max_points", &BestFitOptions::max_points)
+        .def_readwrite("converged_deg", &BestFitOptions::converged_deg)
+        .def_readwrite("converged_mm", &BestFitOptions::converged_mm);
+    py::class_<BestFit>(m, "BestFit")
+        .def_readonly("transform", &BestFit::transform, "4 x 4: moves the points onto the reference")
+        .def_readonly("rms_mm", &BestFit::rms_mm)
+        .def_readonly("pairs", &BestFit::pairs)
+        .def_readonly("iterations", &BestFit::iterations)
+        .def_readonly("converged", &BestFit::converged);
+    m.def(
+        "best_fit_to_reference",
+        [](const py::array& points, const Mesh& reference, const BestFitOptions& options, const py::object& progress) {
+            const std::vector<cv::Vec3f> values = array_to_vector<cv::Vec3f>(points, "points");
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return best_fit_to_reference(values, reference, options, callback);
+        },
+        py::arg("points"), py::arg("reference"), py::arg("options") = BestFitOptions(), py::arg("progress") = py::none(),
+        "Trimmed point-to-plane ICP of the points (N x 3) onto the reference mesh");
     m.def(
         "write_deviation_ply",
         [](const py::array& points, const DeviationMap& map, const std::string& path) {

@@ -3,13 +3,17 @@
 // face alone is wrong; the figures and the histogram must agree with the distances.
 #include "picoscan/deviation.h"
 #include "picoscan/error.h"
+#include "picoscan/register.h"
 #include "picoscan/simulate.h"
 
 #include "support/test_support.h"
 
 #include <gtest/gtest.h>
 
+#include <opencv2/calib3d.hpp>
+
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <random>
 
@@ -204,4 +208,70 @@ TEST(Deviation, RefusesBadInputNamingIt) {
     EXPECT_NE(message(reference, points, bad).find("points: none lies within"), std::string::npos);
     const auto stop = [](double, const std::string&) { return false; };
     EXPECT_NE(message(reference, points, {}, stop).find("cancelled"), std::string::npos);
+}
+
+namespace {
+
+cv::Matx44d rigid(double degrees, const cv::Vec3d& axis, const cv::Vec3d& shift) {
+    cv::Matx33d rotation;
+    cv::Rodrigues(cv::normalize(axis) * (degrees * CV_PI / 180), rotation);
+    cv::Matx44d transform = cv::Matx44d::eye();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) transform(r, c) = rotation(r, c);
+        transform(r, 3) = shift[r];
+    }
+    return transform;
+}
+
+std::vector<cv::Vec3f> moved(const std::vector<cv::Vec3f>& points, const cv::Matx44d& transform) {
+    std::vector<cv::Vec3f> result;
+    for (const cv::Vec3f& p : points) {
+        const cv::Vec4d q = transform * cv::Vec4d(p[0], p[1], p[2], 1);
+        result.emplace_back(float(q[0]), float(q[1]), float(q[2]));
+    }
+    return result;
+}
+
+}  // namespace
+
+TEST(BestFit, PutsAMovedNoisyScanBackOnTheModelDespiteOutliers) {
+    const Mesh part = mechanical_part();
+    std::mt19937 random(4);
+    std::normal_distribution<float> noise(0, 0.02f);
+    std::uniform_real_distribution<float> stray(2, 6);
+    std::vector<cv::Vec3f> scan;
+    for (size_t i = 0; i < part.vertices.size(); i += 3) {
+        const cv::Vec3f& p = part.vertices[i];
+        if (std::hypot(p[0] - 12, p[1] + 2) < 7.05 && p[2] < 24.05) continue;  // inside the part: the boss's foot
+        scan.push_back(p + cv::Vec3f(noise(random), noise(random), noise(random)));
+    }
+    const size_t clean = scan.size();
+    for (size_t i = 0; i < clean / 20; ++i) scan.push_back(scan[i * 7] + cv::Vec3f(0, 0, stray(random)));  // 5 % stray
+    const cv::Matx44d misplaced = rigid(3.0, {0.3, -0.5, 1}, {1.5, -0.8, 0.6});
+    const BestFit fit = best_fit_to_reference(moved(scan, misplaced), part);
+    EXPECT_TRUE(fit.converged);
+    const cv::Matx44d residual = fit.transform * misplaced;  // the identity when the fit undid the move
+    const PoseDifference error = pose_difference(residual, cv::Matx44d::eye(), {0, 0, 12});
+    std::printf("best fit: %d iterations, rms %.4f mm over %zu pairs; left %.5f deg, %.5f mm\n", fit.iterations,
+                fit.rms_mm, fit.pairs, error.rotation_deg, error.translation_mm);
+    EXPECT_LT(error.rotation_deg, 0.005);
+    EXPECT_LT(error.translation_mm, 0.003);
+    EXPECT_LT(fit.rms_mm, 0.03);
+}
+
+TEST(BestFit, RefusesPointsThatCanSlide) {
+    const Mesh reference = box(10, true);
+    std::vector<cv::Vec3f> top;  // only the top face: it can slide in x and y and turn about z
+    for (int i = 1; i < 10; ++i)
+        for (int k = 1; k < 10; ++k) top.emplace_back(float(i), float(k), 10.05f);
+    try {
+        best_fit_to_reference(top, reference);
+        ADD_FAILURE() << "a single plane was fitted";
+    } catch (const Error& error) {
+        EXPECT_NE(std::string(error.what()).find("do not fix all six degrees of freedom"), std::string::npos) << error.what();
+    }
+    BestFitOptions bad;
+    bad.keep_fraction = 0;
+    EXPECT_THROW(best_fit_to_reference(top, reference, bad), Error);
+    EXPECT_THROW(best_fit_to_reference({{0, 0, 0}}, reference), Error);
 }

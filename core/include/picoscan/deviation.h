@@ -54,6 +54,28 @@ struct DeviationMap {
 DeviationMap measure_deviation(const std::vector<cv::Vec3f>& points, const Mesh& reference,
                                const DeviationOptions& options = {}, const ProgressCallback& progress = nullptr);
 
+// Best fit of a scan onto a model: trimmed point-to-plane ICP against the reference's triangles
+// (Chen & Medioni 1992; trimmed as in Chetverikov et al. 2002), from the points' current place.
+struct BestFitOptions {
+    int max_iterations = 60;
+    double keep_fraction = 0.9;        // each step uses the nearest 90 % of the pairs (the rest: outliers)
+    double max_distance_mm = 0;        // pairs farther apart are never used; 0: no limit
+    int max_points = 50000;            // evenly chosen subset used for the fit
+    double converged_deg = 1e-4, converged_mm = 1e-4;  // a step smaller than both ends the fit
+};
+struct BestFit {
+    cv::Matx44d transform = cv::Matx44d::eye();  // moves the points onto the reference
+    double rms_mm = 0;                 // of the kept pairs after the last step
+    size_t pairs = 0;                  // pairs kept in the last step
+    int iterations = 0;
+    bool converged = false;
+};
+// Throws Error("points", ...) when fewer than 6 pairs remain or the pairs do not fix all six
+// degrees of freedom (one plane, a sphere, a cylinder alone), Error("reference", ...) for a bad
+// mesh, Error("keep_fraction"/"max_iterations", ...) for bad options, Error("cancelled", ...).
+BestFit best_fit_to_reference(const std::vector<cv::Vec3f>& points, const Mesh& reference,
+                              const BestFitOptions& options = {}, const ProgressCallback& progress = nullptr);
+
 // The statistics and histogram of already-measured signed distances (NaN are ignored).
 void summarise_deviation(DeviationMap& map, const DeviationOptions& options);
 

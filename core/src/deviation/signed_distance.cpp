@@ -8,6 +8,8 @@
 #include "common/parallel.h"
 #include "common/progress_reporter.h"
 
+#include <opencv2/calib3d.hpp>
+
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
@@ -216,6 +218,91 @@ DeviationMap measure_deviation(const std::vector<cv::Vec3f>& points, const Mesh&
     if (reporter.cancelled()) throw Error("cancelled", "deviation measurement was stopped");
     summarise_deviation(map, options);
     return map;
+}
+
+BestFit best_fit_to_reference(const std::vector<cv::Vec3f>& points, const Mesh& reference,
+                              const BestFitOptions& options, const ProgressCallback& progress) {
+    if (!(options.keep_fraction > 0 && options.keep_fraction <= 1)) throw Error("keep_fraction", "must be in (0, 1]");
+    if (options.max_iterations < 1) throw Error("max_iterations", "must be at least 1");
+    if (!(options.max_distance_mm >= 0)) throw Error("max_distance_mm", "must be 0 (no limit) or positive");
+    // An even subset, in Morton order so that each query can start from its neighbour's answer.
+    const std::vector<size_t> order = morton_order(points);
+    const size_t stride = std::max<size_t>(1, order.size() / size_t(std::max(1, options.max_points)));
+    std::vector<cv::Vec3d> sample;
+    for (size_t k = 0; k < order.size(); k += stride) sample.emplace_back(points[order[k]]);
+    if (sample.size() < 6) throw Error("points", "fewer than 6 points to fit");
+    const Reference ref = build_reference(reference);
+    Tree tree(ref.triangles.begin(), ref.triangles.end());
+    tree.accelerate_distance_queries();
+
+    BestFit fit;
+    struct Pair {
+        cv::Vec3d point, normal;
+        double residual, distance;
+    };
+    std::vector<Pair> pairs(sample.size());
+    detail::ProgressReporter reporter(progress, "best fit", options.max_iterations);
+    const double max_distance = options.max_distance_mm > 0 ? options.max_distance_mm : HUGE_VAL;
+    for (fit.iterations = 1; fit.iterations <= options.max_iterations; ++fit.iterations) {
+        const cv::Matx33d rotation = fit.transform.get_minor<3, 3>(0, 0);
+        const cv::Vec3d translation(fit.transform(0, 3), fit.transform(1, 3), fit.transform(2, 3));
+        detail::parallel_rows(int(sample.size()), [&](int first, int last) {
+            Tree::Point_and_primitive_id found;
+            for (int i = first; i < last; ++i) {
+                const cv::Vec3d p = rotation * sample[size_t(i)] + translation;
+                const Kernel::Point_3 query(p[0], p[1], p[2]);
+                found = i > first ? tree.closest_point_and_primitive(query, found) : tree.closest_point_and_primitive(query);
+                const cv::Vec3d q = to_vec(found.first);
+                const cv::Vec3d n = ref.face_normals[size_t(found.second - ref.triangles.begin())];
+                pairs[size_t(i)] = {p, n, (p - q).dot(n), cv::norm(p - q)};
+            }
+        });
+        // Trimmed: the nearest keep_fraction of the pairs within max_distance.
+        std::vector<const Pair*> kept;
+        for (const Pair& pair : pairs)
+            if (pair.distance <= max_distance) kept.push_back(&pair);
+        const size_t keep = size_t(std::ceil(options.keep_fraction * double(kept.size())));
+        std::nth_element(kept.begin(), kept.begin() + long(std::min(keep, kept.size()) - (keep > 0)), kept.end(),
+                         [](const Pair* a, const Pair* b) { return a->distance < b->distance; });
+        kept.resize(std::min(keep, kept.size()));
+        if (kept.size() < 6) throw Error("points", "fewer than 6 points lie within max_distance_mm of the reference");
+        // Point-to-plane step, linearised in the small rotation w: r + (w x p + t) . n = 0.
+        cv::Matx66d normal = cv::Matx66d::zeros();
+        cv::Vec6d right(0, 0, 0, 0, 0, 0);
+        double sum_squares = 0;
+        for (const Pair* pair : kept) {
+            const cv::Vec3d c = pair->point.cross(pair->normal);
+            const cv::Vec6d row(c[0], c[1], c[2], pair->normal[0], pair->normal[1], pair->normal[2]);
+            normal += row * row.t();
+            right -= row * pair->residual;
+            sum_squares += pair->residual * pair->residual;
+        }
+        fit.rms_mm = std::sqrt(sum_squares / double(kept.size()));
+        fit.pairs = kept.size();
+        cv::Vec6d eigenvalues;
+        cv::eigen(cv::Mat(normal), eigenvalues);
+        if (!(eigenvalues[5] > 1e-9 * eigenvalues[0]))
+            throw Error("points", "they do not fix all six degrees of freedom against the reference (one plane, "
+                                  "a sphere or a cylinder alone can slide); include more of the part");
+        cv::Vec6d step;
+        cv::solve(normal, right, step, cv::DECOMP_CHOLESKY);
+        const cv::Vec3d w(step[0], step[1], step[2]), t(step[3], step[4], step[5]);
+        cv::Matx33d turn;
+        cv::Rodrigues(w, turn);
+        cv::Matx44d update = cv::Matx44d::eye();
+        for (int r = 0; r < 3; ++r) {
+            for (int k = 0; k < 3; ++k) update(r, k) = turn(r, k);
+            update(r, 3) = t[r];
+        }
+        fit.transform = update * fit.transform;
+        if (!reporter.advance()) throw Error("cancelled", "best fit was stopped");
+        if (cv::norm(w) * 180 / CV_PI < options.converged_deg && cv::norm(t) < options.converged_mm) {
+            fit.converged = true;
+            break;
+        }
+    }
+    fit.iterations = std::min(fit.iterations, options.max_iterations);
+    return fit;
 }
 
 }  // namespace picoscan

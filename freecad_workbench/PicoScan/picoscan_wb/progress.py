@@ -58,6 +58,7 @@ def run_in_background(title, work, should_cancel=None):
 
     dialog = QtWidgets.QProgressDialog(title, "Cancel", 0, 1000, FreeCADGui.getMainWindow())
     dialog.setWindowTitle("PicoScan")
+    dialog.setObjectName("PicoScanProgress")
     dialog.setWindowModality(QtCore.Qt.WindowModal)  # the GUI repaints and answers, but starts nothing else
     dialog.setMinimumDuration(300)
     state = {"fraction": 0.0, "stage": "", "result": None, "error": None}

@@ -150,6 +150,30 @@ class DeviationMapCommand(Command):
         return result
 
 
+class BestFitCommand(Command):
+    icon = "picoscan_bestfit"
+    menu = "Best fit to model"
+    tooltip = ("Move the scan (selected first) onto the model (selected second) by trimmed point-to-plane ICP "
+               "from where it is now; the scan's Placement takes the move")
+
+    def IsActive(self):
+        return DeviationMapCommand.IsActive(self)
+
+    def run(self):
+        from picoscan_wb.operations import alignment
+        from picoscan_wb.progress import run_in_background
+
+        selection = FreeCADGui.Selection.getSelection()
+        if len(selection) != 2:
+            raise picoscan.Error("Best fit: select the scan, then the model (%d selected)" % len(selection))
+        scan, reference = selection
+        result = run_in_background("Best fit", lambda progress: alignment.best_fit(scan, reference, progress=progress))
+        FreeCAD.Console.PrintMessage("%s: best fit in %d steps, rms %.4f mm over %d points\n" % (
+            scan.Label, result.iterations, result.rms_mm, result.pairs))
+        scan.Document.recompute()
+        return result
+
+
 class ShowRigCommand(Command):
     icon = "picoscan_rig"
     menu = "Show rig"

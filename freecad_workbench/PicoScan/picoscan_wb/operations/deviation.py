@@ -15,10 +15,7 @@ def reference_mesh(obj, deflection_mm=0.01):
     if hasattr(obj, "Mesh") and obj.Mesh.CountFacets > 0:
         from picoscan_wb.objects.scan_mesh import core_mesh
 
-        mesh = obj.Mesh.copy()
-        if hasattr(obj, "Placement") and not obj.Placement.isIdentity():
-            mesh.transform(obj.Placement.toMatrix())
-        return core_mesh(mesh)
+        return core_mesh(obj.Mesh)  # written with the object's placement applied
     if hasattr(obj, "Shape") and not obj.Shape.isNull() and obj.Shape.Faces:
         if deflection_mm <= 0:
             raise picoscan.Error("%s: Deflection must be positive" % label)
@@ -40,18 +37,18 @@ def scan_points(obj):
     if obj is None:
         raise picoscan.Error("Scan: no scan chosen")
     if is_scan_view(obj) or is_stitch(obj):
+        # The core's cloud is in the scan's own frame: the object's placement moves it.
         points = numpy.asarray(cloud_of(obj).points, dtype=numpy.float32)
-    elif hasattr(obj, "Points") and obj.Points.CountPoints > 0:
-        points = numpy.array([(p.x, p.y, p.z) for p in obj.Points.Points], dtype=numpy.float32)
-    elif hasattr(obj, "Mesh") and obj.Mesh.CountPoints > 0:
-        points = numpy.array([(p.x, p.y, p.z) for p in obj.Mesh.Topology[0]], dtype=numpy.float32)
-    else:
-        raise picoscan.Error("%s: the scan has no points" % label)
-    placement = getattr(obj, "Placement", None)
-    if placement is not None and not placement.isIdentity():
-        matrix = numpy.array(placement.toMatrix().A).reshape(4, 4)
-        points = (points @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
-    return points
+        if not obj.Placement.isIdentity():
+            matrix = numpy.array(obj.Placement.toMatrix().A).reshape(4, 4)
+            points = (points @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
+        return points
+    # FreeCAD's Points and Mesh data come with the object's placement applied.
+    if hasattr(obj, "Points") and obj.Points.CountPoints > 0:
+        return numpy.array([(p.x, p.y, p.z) for p in obj.Points.Points], dtype=numpy.float32)
+    if hasattr(obj, "Mesh") and obj.Mesh.CountPoints > 0:
+        return numpy.array([(p.x, p.y, p.z) for p in obj.Mesh.Topology[0]], dtype=numpy.float32)
+    raise picoscan.Error("%s: the scan has no points" % label)
 
 
 def options(tolerance_mm=0.05, max_distance_mm=0.0):

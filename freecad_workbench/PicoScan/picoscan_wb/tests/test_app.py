@@ -14,7 +14,7 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import cloud_of, deviation_map, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import encoding, primitives, rig, section, simulate, solid
+from picoscan_wb.operations import alignment, encoding, primitives, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -177,6 +177,10 @@ class PicoScanAppTest(unittest.TestCase):
         FreeCAD.Console.PrintMessage("after radius + 0.1 mm: %s\n" % result.Summary)
         self.assertAlmostEqual(result.MeanDeviation.Value, -0.1, delta=0.01)
         self.assertLess(result.WithinTolerance, 10)
+        # A shaft alone can slide along and turn about its axis: best fit refuses, the scan stays put.
+        with self.assertRaisesRegex(picoscan.Error, "do not fix all six degrees of freedom"):
+            alignment.best_fit(view, model)
+        self.assertTrue(view.Placement.isIdentity())
         # Bad input: nothing is added.
         names = [o.Name for o in self.doc.Objects]
         with self.assertRaisesRegex(picoscan.Error, "no faces or triangles"):
@@ -435,6 +439,14 @@ class PicoScanSectionFitTest(unittest.TestCase):
         hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
         seen = self.doc.addObject("Points::Feature", "ScanPoints")
         seen.Points = Points.Points([tuple(p) for p in vertices[~hidden]])
+        # Misplaced by 2 degrees and 1.4 mm, as a scan in its own frame would be: best fit puts it back.
+        seen.Placement = FreeCAD.Placement(FreeCAD.Vector(1.0, -0.8, 0.5), FreeCAD.Rotation(FreeCAD.Vector(0.2, 0.3, 1), 2.0))
+        fit = alignment.best_fit(seen, body)
+        left = seen.Placement
+        FreeCAD.Console.PrintMessage("best fit: %d steps, rms %.4f mm; left %.5f deg, %.5f mm\n" % (
+            fit.iterations, fit.rms_mm, math.degrees(left.Rotation.Angle), left.Base.Length))
+        self.assertLess(math.degrees(left.Rotation.Angle), 0.01)
+        self.assertLess(left.Base.Length, 0.01)
         result = deviation_map.create(self.doc, seen, body, tolerance_mm=0.05)
         FreeCAD.Console.PrintMessage("scan against the rebuilt body: %s\n" % result.Summary)
         self.assertLess(result.MeanAbsDeviation.Value, 0.02)  # the 20 um vertex noise, nothing more
