@@ -181,15 +181,22 @@ DeviationMap measure_deviation(const std::vector<cv::Vec3f>& points, const Mesh&
     if (!(options.range_mm >= 0)) throw Error("range_mm", "must be 0 (automatic) or positive");
     if (points.empty()) throw Error("points", "none to measure");
 
+    // The preparation reports too, so that a cancel is heard before the queries start.
+    const auto prepared = [&](double fraction) {
+        if (progress && !progress(fraction, "deviation: preparing")) throw Error("cancelled", "deviation measurement was stopped");
+    };
     const Reference ref = build_reference(reference);
+    prepared(0.3);
     Tree tree(ref.triangles.begin(), ref.triangles.end());
     tree.accelerate_distance_queries();  // built here: the queries below only read the tree
+    prepared(0.6);
 
     DeviationMap map;
     map.distances_mm.assign(points.size(), std::numeric_limits<float>::quiet_NaN());
     // Points in Morton (Z-curve) order: each query starts from the previous point's answer, a
     // near one, which lets the tree discard most boxes at once.
     const std::vector<size_t> order = morton_order(points);
+    prepared(1.0);
     constexpr int block = 8192;
     const int blocks = int((order.size() + block - 1) / block);
     detail::ProgressReporter reporter(progress, "deviation", blocks);

@@ -78,6 +78,8 @@ def run_in_background(title, work, should_cancel=None):
     worker = threading.Thread(target=run, name="PicoScan " + title, daemon=True)
     worker.start()
     while worker.is_alive():
+        if dialog.wasCanceled():  # also when cancelled by a call rather than the button
+            dialog_cancelled.set()
         dialog.setLabelText("%s: %s" % (title, state["stage"]) if state["stage"] else title)
         dialog.setValue(int(1000 * max(0.0, min(1.0, state["fraction"]))))
         QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
