@@ -159,7 +159,7 @@ MeshModel* add_scan_layer(MeshDocument& document, const QString& label, const Sc
     if (scan.output == GridMeshLayer) {
         GridMeshOptions options;
         options.pixel_step = scan.mesh_step;
-        const Mesh mesh = grid_mesh(scan.view, scan.focal_px, options);
+        const Mesh mesh = grid_mesh(scan.view, options);
         if (mesh.faces.empty()) throw Error(source, "the grid mesh has no triangles");
         return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, mesh); });
     }
@@ -567,7 +567,7 @@ void PicoScanFilterPlugin::clean(MeshDocument& document, const RichParameterList
     options.min_cluster_points = parameters.getInt(kMinCluster);
     if (options.window_px < 1 || options.window_px > 10) throw Error(kWindow, "must be 1..10");
     LayerView scan = layer_view(layer);
-    const CleanReport report = clean_view(scan.view, scan.focal_px, options);
+    const CleanReport report = clean_view(scan.view, options);
     const int deleted = remove_vertices_missing_from(layer, scan.view);
     Log("PicoScan cleaned %s: removed %d points (%d low quality, %d grazing, %d outliers, %d with too few neighbours, "
         "%d in small clusters), %d remain",

@@ -89,6 +89,8 @@ LayerView layer_view(MeshModel& layer) {
     LayerView result;
     result.focal_px = grid().focal_px;
     picoscan::ScanView& view = result.view;
+    // The grid keeps only the focal length; the principal point is taken at the image centre.
+    view.camera_matrix = cv::Matx33d(result.focal_px, 0, (width - 1) / 2.0, 0, result.focal_px, (height - 1) / 2.0, 0, 0, 1);
     view.points.create(height, width, CV_32FC3);
     view.points.setTo(cv::Scalar::all(nan));
     view.normals.create(height, width, CV_32FC3);

@@ -17,7 +17,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cstdlib>
-#include <deque>
 
 namespace picoscan {
 
@@ -96,8 +95,6 @@ std::vector<ScreenInfo> list_screens() {
 struct ProjectorWindow::Impl {
     PatternWidget widget;
     cv::Size size;
-    double latency_ms = 0.0;
-    std::deque<std::pair<QImage, cv::Mat>> pending;  // shown, waiting for the simulated latency
     cv::Mat painted;
 
     void paint(const QImage& image, const cv::Mat& pattern) {
@@ -108,12 +105,9 @@ struct ProjectorWindow::Impl {
     }
 };
 
-ProjectorWindow::ProjectorWindow(int screen_index, double simulated_latency_ms) : impl_(nullptr) {
+ProjectorWindow::ProjectorWindow(int screen_index) : impl_(nullptr) {
     QScreen* screen = screen_at(screen_index, "--projector-screen");
-    if (!(simulated_latency_ms >= 0 && simulated_latency_ms <= 10000))
-        throw Error("simulated latency", "must be 0..10000 ms");
     impl_ = std::make_unique<Impl>();
-    impl_->latency_ms = simulated_latency_ms;
     const QRect geometry = screen->geometry();
     impl_->size = cv::Size(geometry.width(), geometry.height());
     impl_->painted = cv::Mat::zeros(impl_->size, CV_8U);
@@ -145,18 +139,7 @@ void ProjectorWindow::show(const cv::Mat& pattern) {
     const cv::Mat copy = pattern.clone();
     QImage image(copy.data, copy.cols, copy.rows, int(copy.step), QImage::Format_Grayscale8);
     image = image.copy();  // owns its pixels
-    if (impl_->latency_ms <= 0) {
-        impl_->paint(image, copy);
-        return;
-    }
-    impl_->pending.emplace_back(image, copy);
-    Impl* impl = impl_.get();
-    QTimer::singleShot(int(std::lround(impl_->latency_ms)), Qt::PreciseTimer, &impl_->widget, [impl] {
-        if (impl->pending.empty()) return;
-        const auto next = impl->pending.front();
-        impl->pending.pop_front();
-        impl->paint(next.first, next.second);
-    });
+    impl_->paint(image, copy);
 }
 
 cv::Mat ProjectorWindow::visible() const { return impl_->painted; }

@@ -44,7 +44,7 @@ std::vector<Element> array_to_vector(const py::array& array, const char* name) {
     if (!values || values.ndim() != 2 || values.shape(1) != Element::channels)
         throw py::value_error(std::string(name) + ": expected an N x " + std::to_string(Element::channels) + " array");
     std::vector<Element> result(size_t(values.shape(0)));
-    std::memcpy(result.data(), values.data(), result.size() * sizeof(Element));
+    std::memcpy(static_cast<void*>(result.data()), values.data(), result.size() * sizeof(Element));
     return result;
 }
 
@@ -68,6 +68,7 @@ void bind_mesh(py::module_& m);
 void bind_shapes(py::module_& m);
 void bind_deviation(py::module_& m);
 void bind_section_fit(py::module_& m);
+void bind_pipeline(py::module_& m);
 
 }  // namespace picoscan::python
 

@@ -1,5 +1,8 @@
 #include "bindings.h"
 
+#include "picoscan/board.h"
+#include "picoscan/calibrate.h"
+#include "picoscan/calibration_report.h"
 #include "picoscan/calibration.h"
 
 namespace picoscan::python {

@@ -9,6 +9,10 @@ void bind_clean(py::module_& m) {
         .def(py::init<>())
         .def_readwrite("min_quality", &CleanOptions::min_quality)
         .def_readwrite("max_grazing_deg", &CleanOptions::max_grazing_deg)
+        .def_readwrite("use_working_volume", &CleanOptions::use_working_volume)
+        .def_readwrite("volume_min", &CleanOptions::volume_min)
+        .def_readwrite("volume_max", &CleanOptions::volume_max)
+        .def_readwrite("window_px", &CleanOptions::window_px)
         .def_readwrite("outlier_sigma", &CleanOptions::outlier_sigma)
         .def_readwrite("radius_footprints", &CleanOptions::radius_footprints)
         .def_readwrite("min_neighbours", &CleanOptions::min_neighbours)
@@ -22,7 +26,7 @@ void bind_clean(py::module_& m) {
         .def_readonly("by_cluster", &CleanReport::by_cluster)
         .def_readonly("remaining", &CleanReport::remaining)
         .def("removed", &CleanReport::removed);
-    m.def("clean_view", &clean_view, py::arg("view"), py::arg("camera_focal_px"), py::arg("options") = CleanOptions(),
+    m.def("clean_view", &clean_view, py::arg("view"), py::arg("options") = CleanOptions(),
           "Sets removed points to NaN in place.", py::call_guard<py::gil_scoped_release>());
 }
 

@@ -12,7 +12,10 @@ void bind_cloud(py::module_& m) {
         .def_readwrite("colours", &ScanView::colours, "rows x cols x 3 uint8, BGR")
         .def_readwrite("quality", &ScanView::quality)
         .def_readwrite("pose", &ScanView::pose, "4 x 4 view -> model transform")
+        .def_readwrite("camera_matrix", &ScanView::camera_matrix, "3 x 3 intrinsics of the camera that saw it")
+        .def_readwrite("camera_distortion", &ScanView::camera_distortion)
         .def("valid_count", &ScanView::valid_count)
+        .def("focal_px", &ScanView::focal_px)
         .def(
             "with_pose",
             [](const ScanView& view, const cv::Matx44d& pose) {
@@ -48,11 +51,14 @@ void bind_cloud(py::module_& m) {
             [](Mesh& mesh, const py::array& a) { mesh.normals = array_to_vector<cv::Vec3f>(a, "normals"); });
 
     m.def("to_point_cloud", &to_point_cloud, py::arg("view"), py::call_guard<py::gil_scoped_release>());
+    m.def("merge_views", &merge_views, py::arg("views"), "Views moved by their poses into one cloud",
+          py::call_guard<py::gil_scoped_release>());
+    m.def("transformed", &transformed, py::arg("mesh"), py::arg("transform"));
     py::class_<GridMeshOptions>(m, "GridMeshOptions")
         .def(py::init<>())
         .def_readwrite("max_edge_factor", &GridMeshOptions::max_edge_factor)
         .def_readwrite("pixel_step", &GridMeshOptions::pixel_step);
-    m.def("grid_mesh", &grid_mesh, py::arg("view"), py::arg("camera_focal_px"), py::arg("options") = GridMeshOptions(),
+    m.def("grid_mesh", &grid_mesh, py::arg("view"), py::arg("options") = GridMeshOptions(),
           py::call_guard<py::gil_scoped_release>());
 }
 

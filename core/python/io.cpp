@@ -1,6 +1,7 @@
 #include "bindings.h"
 
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 
 #include <opencv2/imgcodecs.hpp>

@@ -7,7 +7,8 @@ namespace picoscan::python {
 void bind_mesh(py::module_& m) {
     py::enum_<MeshMethod>(m, "MeshMethod")
         .value("Poisson", MeshMethod::Poisson)
-        .value("AdvancingFront", MeshMethod::AdvancingFront);
+        .value("AdvancingFront", MeshMethod::AdvancingFront)
+        .value("Grid", MeshMethod::Grid);
     py::class_<MeshOptions>(m, "MeshOptions")
         .def(py::init<>())
         .def_readwrite("method", &MeshOptions::method)
@@ -16,7 +17,8 @@ void bind_mesh(py::module_& m) {
         .def_readwrite("poisson_distance", &MeshOptions::poisson_distance)
         .def_readwrite("advancing_front_max_radius", &MeshOptions::advancing_front_max_radius)
         .def_readwrite("max_hole_diameter_mm", &MeshOptions::max_hole_diameter_mm)
-        .def_readwrite("target_faces", &MeshOptions::target_faces);
+        .def_readwrite("target_faces", &MeshOptions::target_faces)
+        .def_readwrite("grid", &MeshOptions::grid);
     py::class_<MeshCheck>(m, "MeshCheck")
         .def_readonly("vertices", &MeshCheck::vertices)
         .def_readonly("faces", &MeshCheck::faces)
@@ -38,8 +40,6 @@ void bind_mesh(py::module_& m) {
             return mesh_cloud(cloud, options, callback);
         },
         py::arg("cloud"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none());
-    m.def("merge_views", &merge_views, py::arg("views"), "Views moved by their poses into one cloud",
-          py::call_guard<py::gil_scoped_release>());
 }
 
 }  // namespace picoscan::python

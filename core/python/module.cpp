@@ -122,4 +122,5 @@ PYBIND11_MODULE(picoscan, m) {
     bind_shapes(m);
     bind_deviation(m);
     bind_section_fit(m);
+    bind_pipeline(m);
 }

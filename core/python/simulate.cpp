@@ -65,7 +65,6 @@ void bind_simulate(py::module_& m) {
         .def_readwrite("part_centre_mm", &TurntablePlan::part_centre_mm)
         .def_readwrite("seed", &TurntablePlan::seed);
     m.def("turntable_part_poses", &turntable_part_poses, py::arg("plan"), "Part -> camera transform of each view");
-    m.def("transformed", &transformed, py::arg("mesh"), py::arg("transform"));
     m.def("read_scene", &read_scene, py::arg("path"));
     m.def("seed_rig_calibration", &seed_rig_calibration);
 

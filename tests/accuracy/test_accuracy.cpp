@@ -2,6 +2,7 @@
 // baseline, 400 mm working distance, 24 shifts, camera noise sigma = 1 DN.
 #include "picoscan/decode.h"
 #include "picoscan/fit.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 #include "picoscan/patterns.h"
 #include "picoscan/simulate.h"

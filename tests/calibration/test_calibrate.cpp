@@ -1,4 +1,6 @@
 // Calibration of the simulated seed-like rig from simulated board poses, and its bad input.
+#include "picoscan/board.h"
+#include "picoscan/calibrate.h"
 #include "picoscan/calibration.h"
 #include "picoscan/decode.h"
 #include "picoscan/error.h"

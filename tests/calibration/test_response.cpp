@@ -1,4 +1,5 @@
 // Projector response (gamma) calibration on the simulated rig.
+#include "picoscan/response.h"
 #include "picoscan/calibration.h"
 #include "picoscan/decode.h"
 #include "picoscan/error.h"

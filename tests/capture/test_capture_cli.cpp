@@ -4,6 +4,7 @@
 #include "capture_test_util.h"
 
 #include "picoscan/capture.h"
+#include "picoscan/virtual_camera.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/decode.h"
 #include "picoscan/io.h"

@@ -3,6 +3,7 @@
 #include "capture_test_util.h"
 
 #include "picoscan/capture.h"
+#include "picoscan/virtual_camera.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "support/test_support.h"
@@ -45,7 +46,8 @@ size_t file_count(const std::string& directory) {
 TEST(Sequencer, MeasuredLatencyMakesEveryFrameShowItsOwnPattern) {
     const Calibration rig = small_rig(0.25);
     const PatternSequence sequence = short_sequence();
-    SimulatedDisplay display(rig.projector_size, 100.0);  // the projector shows a pattern 100 ms late
+    SimulatedDisplay projector(rig.projector_size);
+    DelayedDisplay display(projector, 100.0);  // the projector shows a pattern 100 ms late
     VirtualCamera camera(rig, demo_scene(), noiseless(), display);
 
     LatencyOptions latency_options;
@@ -74,7 +76,8 @@ TEST(Sequencer, WithoutTheWaitALateProjectorGivesWrongFrames) {
     // The failure the wait prevents: grabbing at once catches the previous pattern.
     const Calibration rig = small_rig(0.25);
     const PatternSequence sequence = short_sequence();
-    SimulatedDisplay display(rig.projector_size, 300.0);
+    SimulatedDisplay projector(rig.projector_size);
+    DelayedDisplay display(projector, 300.0);
     VirtualCamera camera(rig, demo_scene(), noiseless(), display);
     const std::string directory = make_temp_dir("sequencer-no-wait");
     PatternSequence first_frames = sequence;

@@ -2,6 +2,7 @@
 // Run by CTest under: xvfb-run -a -s "-screen 0 1024x768x24 -screen 1 854x480x24"
 // (two X screens; Qt 5 lists each as a QScreen. Xvfb's +xinerama shows Qt only one screen.)
 #include "picoscan/capture.h"
+#include "picoscan/virtual_camera.h"
 #include "picoscan/capture_qt.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/error.h"
@@ -68,7 +69,8 @@ TEST(ProjectorWindowOnXvfb, ShowsEveryPatternExactlyAndTheScreenCameraCapturesTh
     const std::string patterns = make_temp_dir("qt-patterns");
     write_pattern_images(sequence, patterns);
 
-    ProjectorWindow window(kProjectorScreen, 100.0);  // a projector 100 ms late
+    ProjectorWindow projector(kProjectorScreen);
+    DelayedDisplay window(projector, 100.0);  // a projector 100 ms late
     ScreenCamera camera(kProjectorScreen);
     LatencyOptions latency_options;
     latency_options.settle_ms = 200;
@@ -92,7 +94,7 @@ TEST(ProjectorWindowOnXvfb, CliCapturesWithTheScreenAndTheVirtualCameraTogether)
     const std::string work = make_temp_dir("qt-cli");
     std::string output;
     const std::string command = cli_path() + " capture --projector-screen 1 --camera virtual --camera screen --noise 0" +
-                                " --shifts 4 --no-rows --simulated-latency-ms 100 --out " + work + "/set";
+                                " --shifts 4 --no-rows --out " + work + "/set";
     ASSERT_EQ(run_command(command, &output), 0) << output;
     EXPECT_NE(output.find("latency of virtual camera"), std::string::npos) << output;
     PatternOptions options;

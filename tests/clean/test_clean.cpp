@@ -53,7 +53,7 @@ TEST(Clean, StrayLightOutliersGoAndGoodPointsStay) {
                 ++good;
             }
         }
-    const CleanReport report = clean_view(view, seed_rig_calibration().camera_matrix(0, 0));
+    const CleanReport report = clean_view(view);
     int outliers_left = 0, good_removed = 0;
     for (int y = 0; y < view.points.rows; ++y)
         for (int x = 0; x < view.points.cols; ++x) {
@@ -80,25 +80,29 @@ TEST(Clean, WorkingVolumeQualityAndClusters) {
     options.volume_min = {-1000, -1000, 0};
     options.volume_max = {1000, 1000, 440};  // drops the background plane at 460 mm
     options.min_quality = 1e9;               // then everything by quality
-    CleanReport report = clean_view(view, 2500, options);
+    CleanReport report = clean_view(view, options);
     EXPECT_EQ(report.remaining, 0);
     EXPECT_EQ(report.by_quality, demo_view().valid_count());
 
     view = demo_view();
     view.points = view.points.clone();
     options.min_quality = 0;
-    report = clean_view(view, 2500, options);
+    report = clean_view(view, options);
     EXPECT_GT(report.by_working_volume, 500000);
-    for (auto it = view.points.begin<cv::Vec3f>(); it != view.points.end<cv::Vec3f>(); ++it)
-        if (std::isfinite((*it)[2])) ASSERT_LE((*it)[2], 440);
+    for (auto it = view.points.begin<cv::Vec3f>(); it != view.points.end<cv::Vec3f>(); ++it) {
+        if (std::isfinite((*it)[2])) {
+            ASSERT_LE((*it)[2], 440);
+        }
+    }
 
     // A lone 5x5 patch far in front of everything is a small cluster.
     view = demo_view();
     view.points = view.points.clone();
     for (int y = 100; y < 105; ++y)
         for (int x = 100; x < 105; ++x) view.points.at<cv::Vec3f>(y, x) = cv::Vec3f(float(x - 800) * 0.05f, float(y - 600) * 0.05f, 300);
-    report = clean_view(view, 2500, CleanOptions{});
+    report = clean_view(view, CleanOptions{});
     for (int y = 100; y < 105; ++y)
         for (int x = 100; x < 105; ++x) EXPECT_FALSE(std::isfinite(view.points.at<cv::Vec3f>(y, x)[2]));
-    EXPECT_THROW(clean_view(view, 0, CleanOptions{}), Error);
+    view.camera_matrix(0, 0) = 0;  // a view that does not know its camera
+    EXPECT_THROW(clean_view(view, CleanOptions{}), Error);
 }

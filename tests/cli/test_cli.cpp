@@ -1,4 +1,5 @@
 // The `picoscan` command line, run as a user would, on good and bad input.
+#include "picoscan/response.h"
 #include "picoscan/calibration.h"
 #include "picoscan/simulate.h"
 #include "support/test_support.h"
@@ -188,7 +189,14 @@ TEST_F(Cli, OutputInsideTheCaptureDirectory) {
 }
 
 TEST_F(Cli, MissingCaptureDirectoryAndBadMeshName) {
-    expect_refused(scan_, "--captures /nonexistent/scan", "/nonexistent/scan: capture directory not found");
+    const fs::path out = fs::path(make_temp_dir("cli-missing")) / "cloud.ply";
+    const Result missing = run_picoscan("reconstruct --calibration " + scan_ + "/calibration.yml --captures "
+                                        "/nonexistent/scan --out " + out.string());
+    EXPECT_EQ(missing.exit_code, 1) << missing.output;
+    EXPECT_NE(missing.output.find("/nonexistent/scan: capture directory not found"), std::string::npos) << missing.output;
+    EXPECT_FALSE(fs::exists(out));
+    // An option given twice is a mistake, not "the last one wins".
+    expect_refused(scan_, "--captures /nonexistent/scan", "--captures: is given more than once");
     expect_refused(scan_, "--mesh /tmp/part.xyz", "/tmp/part.xyz: mesh file must end in");
 }
 

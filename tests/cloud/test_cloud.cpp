@@ -24,6 +24,7 @@ ScanView pinhole_view(int width, int height, const std::function<double(int, int
     view.colours.create(height, width, CV_8UC3);
     view.quality.create(height, width, CV_32F);
     const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
+    view.camera_matrix = cv::Matx33d(kFocal, 0, cx, 0, kFocal, cy, 0, 0, 1);
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
             const double z = depth(x, y);
@@ -98,7 +99,7 @@ TEST(ScanView, OptionalLayersMayBeAbsentButNotMismatched) {
 
     view.colours = cv::Mat(2, 3, CV_8UC3, cv::Scalar::all(0));
     EXPECT_THROW(to_point_cloud(view), Error);
-    EXPECT_THROW(grid_mesh(view, kFocal), Error);
+    EXPECT_THROW(grid_mesh(view), Error);
     view.colours.release();
     view.quality = cv::Mat(3, 3, CV_64F, cv::Scalar::all(0));
     EXPECT_THROW(to_point_cloud(view), Error);
@@ -109,7 +110,7 @@ TEST(GridMesh, SmoothPlaneIsJoinedFully) {
     const int width = 40, height = 30;
     // A plane tilted in x and y, well within the default edge factor.
     const ScanView view = pinhole_view(width, height, [](int x, int y) { return 400.0 + 0.3 * x - 0.2 * y; });
-    const Mesh mesh = grid_mesh(view, kFocal);
+    const Mesh mesh = grid_mesh(view);
     EXPECT_EQ(mesh.faces.size(), static_cast<size_t>((width - 1) * (height - 1) * 2));
     EXPECT_EQ(mesh.vertices.size(), static_cast<size_t>(width * height));
     EXPECT_EQ(mesh.normals.size(), mesh.vertices.size());
@@ -125,7 +126,7 @@ TEST(GridMesh, SmoothPlaneIsJoinedFully) {
 TEST(GridMesh, WindingFacesTheCameraWhateverTheTilt) {
     for (const auto& slope : {cv::Vec2d(3, 0), cv::Vec2d(-3, 0), cv::Vec2d(0, 3), cv::Vec2d(0, -3), cv::Vec2d(1, 1)}) {
         const ScanView view = pinhole_view(12, 10, [&](int x, int y) { return 200.0 + slope[0] * x * 0.1 + slope[1] * y * 0.1; });
-        const Mesh mesh = grid_mesh(view, kFocal);
+        const Mesh mesh = grid_mesh(view);
         EXPECT_EQ(mesh.faces.size(), 11u * 9u * 2u);
         expect_faces_towards_camera(mesh);
     }
@@ -134,7 +135,7 @@ TEST(GridMesh, WindingFacesTheCameraWhateverTheTilt) {
 TEST(GridMesh, DepthStepIsNotBridged) {
     const int width = 20, height = 12;
     const ScanView view = pinhole_view(width, height, [](int x, int) { return x < 10 ? 400.0 : 450.0; });
-    const Mesh mesh = grid_mesh(view, kFocal);
+    const Mesh mesh = grid_mesh(view);
     // The column of quads across the step is dropped, everything else is joined.
     EXPECT_EQ(mesh.faces.size(), static_cast<size_t>((width - 2) * (height - 1) * 2));
     for (const cv::Vec3i& face : mesh.faces) {
@@ -151,7 +152,7 @@ TEST(GridMesh, HolesAndIsolatedPixels) {
     const size_t full = (width - 1) * (height - 1) * 2;
     // One interior hole: its four quads keep one triangle each.
     view.points.at<cv::Vec3f>(3, 4) = cv::Vec3f(kNaN, kNaN, kNaN);
-    Mesh mesh = grid_mesh(view, kFocal);
+    Mesh mesh = grid_mesh(view);
     EXPECT_EQ(mesh.faces.size(), full - 4);
     EXPECT_EQ(mesh.vertices.size(), static_cast<size_t>(width * height - 1));
     expect_faces_towards_camera(mesh);
@@ -160,7 +161,7 @@ TEST(GridMesh, HolesAndIsolatedPixels) {
     ScanView sparse = pinhole_view(width, height, [](int, int) { return 300.0; });
     sparse.points.setTo(cv::Scalar::all(kNaN));
     sparse.points.at<cv::Vec3f>(3, 3) = cv::Vec3f(0, 0, 300);
-    mesh = grid_mesh(sparse, kFocal);
+    mesh = grid_mesh(sparse);
     EXPECT_TRUE(mesh.faces.empty());
     EXPECT_TRUE(mesh.vertices.empty());
 
@@ -168,7 +169,7 @@ TEST(GridMesh, HolesAndIsolatedPixels) {
     for (int missing = 0; missing < 4; ++missing) {
         ScanView quad = pinhole_view(2, 2, [](int, int) { return 300.0; });
         quad.points.at<cv::Vec3f>(missing / 2, missing % 2) = cv::Vec3f(kNaN, kNaN, kNaN);
-        mesh = grid_mesh(quad, kFocal);
+        mesh = grid_mesh(quad);
         ASSERT_EQ(mesh.faces.size(), 1u) << "missing corner " << missing;
         EXPECT_EQ(mesh.vertices.size(), 3u);
         expect_faces_towards_camera(mesh);
@@ -183,7 +184,7 @@ TEST(GridMesh, ChoosesTheShorterDiagonal) {
         cv::Vec3f& moved = view.points.at<cv::Vec3f>(0, variant);
         moved[0] *= 0.5f;
         moved[1] *= 0.5f;
-        const Mesh mesh = grid_mesh(view, kFocal);
+        const Mesh mesh = grid_mesh(view);
         ASSERT_EQ(mesh.faces.size(), 2u);
         // a=0 b=1 c=2 d=3: the diagonal is the pair present in both triangles.
         std::set<int> first(mesh.faces[0].val, mesh.faces[0].val + 3), shared;
@@ -201,13 +202,16 @@ TEST(GridMesh, EdgeFactorControlsJoining) {
     GridMeshOptions loose, tight;
     loose.max_edge_factor = 8.0;
     tight.max_edge_factor = 1.5;
-    EXPECT_EQ(grid_mesh(view, kFocal, loose).faces.size(), 50u);
-    EXPECT_TRUE(grid_mesh(view, kFocal, tight).faces.empty());
+    EXPECT_EQ(grid_mesh(view, loose).faces.size(), 50u);
+    EXPECT_TRUE(grid_mesh(view, tight).faces.empty());
     GridMeshOptions bad;
     bad.max_edge_factor = 0;
-    EXPECT_THROW(grid_mesh(view, kFocal, bad), Error);
-    EXPECT_THROW(grid_mesh(view, 0.0), Error);
-    EXPECT_THROW(grid_mesh(view, std::numeric_limits<double>::quiet_NaN()), Error);
+    EXPECT_THROW(grid_mesh(view, bad), Error);
+    ScanView without_camera = view;
+    without_camera.camera_matrix(0, 0) = 0;
+    EXPECT_THROW(grid_mesh(without_camera), Error);
+    without_camera.camera_matrix(0, 0) = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_THROW(grid_mesh(without_camera), Error);
 }
 
 TEST(GridMesh, PoseMatchesThePointCloud) {
@@ -216,7 +220,7 @@ TEST(GridMesh, PoseMatchesThePointCloud) {
                             0, 0, -1, 6,
                             0, 1, 0, 7,
                             0, 0, 0, 1);
-    const Mesh mesh = grid_mesh(view, kFocal);
+    const Mesh mesh = grid_mesh(view);
     const PointCloud cloud = to_point_cloud(view);
     ASSERT_EQ(mesh.vertices.size(), cloud.points.size());
     for (size_t i = 0; i < cloud.points.size(); ++i) {
@@ -231,9 +235,9 @@ TEST(GridMesh, PoseMatchesThePointCloud) {
 }
 
 TEST(GridMesh, TinyAndEmptyViews) {
-    EXPECT_TRUE(grid_mesh(ScanView{}, kFocal).faces.empty());
+    EXPECT_TRUE(grid_mesh(ScanView{}).faces.empty());
     const ScanView row = pinhole_view(5, 1, [](int, int) { return 10.0; });
-    EXPECT_TRUE(grid_mesh(row, kFocal).faces.empty());
+    EXPECT_TRUE(grid_mesh(row).faces.empty());
 }
 
 TEST(GridMesh, PixelStepMeshesEveryNthPixel) {
@@ -241,14 +245,14 @@ TEST(GridMesh, PixelStepMeshesEveryNthPixel) {
     const ScanView view = pinhole_view(width, height, [](int x, int y) { return 400.0 + 0.3 * x - 0.2 * y; });
     GridMeshOptions options;
     options.pixel_step = 2;
-    const Mesh mesh = grid_mesh(view, kFocal, options);
+    const Mesh mesh = grid_mesh(view, options);
     // 21 x 16 pixels kept, all joined.
     EXPECT_EQ(mesh.vertices.size(), size_t(21 * 16));
     EXPECT_EQ(mesh.faces.size(), size_t(20 * 15 * 2));
     EXPECT_EQ(mesh.vertices[1], view.points.at<cv::Vec3f>(0, 2));
     expect_faces_towards_camera(mesh);
     options.pixel_step = 0;
-    EXPECT_THROW(grid_mesh(view, kFocal, options), Error);
+    EXPECT_THROW(grid_mesh(view, options), Error);
 }
 
 }  // namespace

@@ -78,7 +78,7 @@ class ModuleTest(unittest.TestCase):
         self.assertAlmostEqual(sphere.radius_mm, 20.0, delta=0.05)
 
     def test_grid_mesh_and_stl_round_trip(self):
-        mesh = picoscan.grid_mesh(self.view, float(self.calibration.camera_matrix[0, 0]))
+        mesh = picoscan.grid_mesh(self.view)
         self.assertEqual(mesh.faces.shape[1], 3)
         self.assertGreater(len(mesh.faces), 100000)
         with tempfile.TemporaryDirectory() as folder:

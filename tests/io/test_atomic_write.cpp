@@ -1,6 +1,7 @@
 // write_file_atomically: the target is either the old file or the complete new one.
 #include "io_test_util.h"
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 #include "support/test_support.h"
 

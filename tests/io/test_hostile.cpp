@@ -170,8 +170,12 @@ void mutate_and_read(const std::string& valid, const std::string& path,
                     ASSERT_GE(face[k], 0);
                     ASSERT_LT(face[k], static_cast<int>(mesh.vertices.size()));
                 }
-            if (!mesh.normals.empty()) ASSERT_EQ(mesh.normals.size(), mesh.vertices.size());
-            if (!mesh.colours.empty()) ASSERT_EQ(mesh.colours.size(), mesh.vertices.size());
+            if (!mesh.normals.empty()) {
+                ASSERT_EQ(mesh.normals.size(), mesh.vertices.size());
+            }
+            if (!mesh.colours.empty()) {
+                ASSERT_EQ(mesh.colours.size(), mesh.vertices.size());
+            }
         } catch (const Error&) {
             ++errors;
         }

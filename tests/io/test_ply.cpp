@@ -178,7 +178,7 @@ TEST(Ply, WriterRefusesInconsistentData) {
     EXPECT_THROW(write_ply(cloud, dir + "/bad.ply"), Error);
     Mesh mesh;
     mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-    mesh.faces = {{0, 1, 3}};
+    mesh.faces.push_back(cv::Vec3i(0, 1, 3));
     try {
         write_ply(mesh, dir + "/bad_mesh.ply");
         FAIL() << "no error for a bad face index";

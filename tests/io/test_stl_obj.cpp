@@ -178,7 +178,7 @@ TEST(Obj, PlainMeshHasNoColoursOrNormals) {
     const std::string dir = test_support::make_temp_dir("obj");
     Mesh mesh;
     mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-    mesh.faces = {{0, 1, 2}};
+    mesh.faces.push_back(cv::Vec3i(0, 1, 2));
     write_obj(mesh, dir + "/tri.obj");
     const std::string text = read_bytes(dir + "/tri.obj");
     EXPECT_NE(text.find("\nv 1 0 0\n"), std::string::npos) << text;

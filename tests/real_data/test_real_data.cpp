@@ -1,5 +1,7 @@
 // Real capture sets from other scanners (../shared/datasets), reconstructed with their own
 // calibration. Skipped with a message when the datasets are absent.
+#include "picoscan/board.h"
+#include "picoscan/calibrate.h"
 #include "picoscan/calibration.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/decode.h"

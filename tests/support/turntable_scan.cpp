@@ -1,10 +1,7 @@
 #include "support/turntable_scan.h"
 
-#include "picoscan/clean.h"
-#include "picoscan/decode.h"
 #include "picoscan/io.h"
-#include "picoscan/patterns.h"
-#include "picoscan/triangulate.h"
+#include "picoscan/pipeline.h"
 
 #include <opencv2/core.hpp>
 #include <algorithm>
@@ -16,24 +13,20 @@ namespace picoscan::test_support {
 
 namespace {
 
+// One view as the turntable recipe (pipeline.h) makes it.
 ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t noise_seed) {
     const Calibration rig = seed_rig_calibration();
+    const TurntableScanOptions recipe;
     Scene scene;
-    scene.meshes.push_back({transformed(part, part_to_camera), 0.85});
-    PatternOptions patterns;
-    patterns.projector_size = rig.projector_size;
-    patterns.shifts = 16;
-    SimulationOptions camera;
-    camera.full_scale_dn = 250;
-    camera.noise_sigma_dn = 1.0;
-    camera.blur_sigma_px = 0.5;
-    camera.seed = noise_seed;  // independent camera noise in every view
-    const CaptureSet captures = simulate_capture(make_pattern_sequence(patterns), rig, scene, camera);
-    DecodeOptions decoding;
-    decoding.min_modulation = 15;
-    ScanView view = triangulate(decode(captures, decoding), rig, captures.white_colour);
-    clean_view(view, rig.camera_matrix(0, 0));
-    return view;
+    scene.meshes.push_back({transformed(part, part_to_camera), recipe.part_albedo});
+    SimulateOptions simulate;
+    simulate.patterns = recipe.patterns;
+    simulate.camera = recipe.camera;
+    simulate.camera.seed = noise_seed;  // independent camera noise in every view
+    ReconstructOptions reconstruct;
+    reconstruct.decode = recipe.decode;
+    reconstruct.clean = true;
+    return reconstruct_view(simulate_captures(scene, rig, simulate), rig, "seed rig", reconstruct).view;
 }
 
 TurntableScan make_scan(const std::string& name, double disturbance_deg, double disturbance_mm) {

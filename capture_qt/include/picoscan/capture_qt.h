@@ -22,11 +22,11 @@ struct ScreenInfo {
 std::vector<ScreenInfo> list_screens();
 
 // A borderless full-screen window on one screen that shows each pattern pixel for pixel: no
-// scaling, no smoothing, no colour management, no cursor. `simulated_latency_ms` delays each
-// pattern (a test stand-in for a slow projector). Throws Error when the screen does not exist.
+// scaling, no smoothing, no colour management, no cursor. Throws Error when the screen does
+// not exist.
 class ProjectorWindow : public PatternDisplay {
 public:
-    explicit ProjectorWindow(int screen_index, double simulated_latency_ms = 0.0);
+    explicit ProjectorWindow(int screen_index);
     ~ProjectorWindow() override;
     cv::Size size() const override;
     void show(const cv::Mat& pattern) override;

@@ -11,7 +11,6 @@
 #include "picoscan/calibration.h"
 #include "picoscan/patterns.h"
 #include "picoscan/progress.h"
-#include "picoscan/simulate.h"
 
 #include <opencv2/core.hpp>
 #include <chrono>
@@ -38,21 +37,35 @@ public:
     virtual void wait(double milliseconds);
 };
 
-// A display without a window, for the virtual camera: a pattern becomes visible
-// `latency_ms` after show(), like a real projector's processing delay.
+// A display without a window, for the virtual camera: a pattern is visible as soon as shown.
 class SimulatedDisplay : public PatternDisplay {
 public:
-    explicit SimulatedDisplay(cv::Size size, double latency_ms = 0.0);
+    explicit SimulatedDisplay(cv::Size size);
     cv::Size size() const override { return size_; }
     void show(const cv::Mat& pattern) override;
+    cv::Mat visible() const override { return visible_; }
+
+private:
+    cv::Size size_;
+    cv::Mat visible_;
+};
+
+// Passes each pattern on to `display` only `latency_ms` after show(): a projector with a
+// processing delay, for rehearsing the latency measurement and wait without one.
+class DelayedDisplay : public PatternDisplay {
+public:
+    DelayedDisplay(PatternDisplay& display, double latency_ms);
+    cv::Size size() const override { return display_.size(); }
+    void show(const cv::Mat& pattern) override;
     cv::Mat visible() const override;
+    void wait(double milliseconds) override;
 
 private:
     using Clock = std::chrono::steady_clock;
-    cv::Size size_;
+    void pass_on_due_patterns() const;
+    PatternDisplay& display_;
     double latency_ms_;
-    mutable std::deque<std::pair<Clock::time_point, cv::Mat>> pending_;  // shown, not yet visible
-    mutable cv::Mat visible_;
+    mutable std::deque<std::pair<Clock::time_point, cv::Mat>> pending_;  // shown, not yet passed on
 };
 
 // A camera that delivers single frames.
@@ -105,23 +118,6 @@ private:
     std::vector<std::string> warnings_;
 };
 
-// A simulated camera: renders the scene, lit by whatever pattern `display` shows at the
-// moment of the grab, with the simulator's rig (calibration) and noise. Each grab draws a
-// new noise realisation, as a real camera does.
-class VirtualCamera : public Camera {
-public:
-    VirtualCamera(const Calibration& calibration, const Scene& scene, const SimulationOptions& options,
-                  const PatternDisplay& display);
-    ~VirtualCamera() override;
-    std::string name() const override { return "virtual camera"; }
-    cv::Mat grab() override;
-
-private:
-    std::unique_ptr<Simulator> simulator_;
-    const PatternDisplay& display_;
-    cv::Size projector_size_;
-    int grabs_ = 0;
-};
 
 struct CaptureOptions {
     int frames_per_pattern = 1;     // grabs averaged per pattern (1..64)

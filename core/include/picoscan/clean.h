@@ -37,7 +37,7 @@ struct CleanReport {
 // is background and goes. Returns how many points were removed.
 int remove_background(ScanView& view, const ScanView& background, double tolerance_mm = 1.0);
 
-// Sets removed points (and their normals) to NaN. `camera_focal_px` gives a pixel's footprint.
-CleanReport clean_view(ScanView& view, double camera_focal_px, const CleanOptions& options = {});
+// Sets removed points (and their normals) to NaN. The view's camera gives a pixel's footprint.
+CleanReport clean_view(ScanView& view, const CleanOptions& options = {});
 
 }  // namespace picoscan

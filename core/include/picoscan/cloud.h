@@ -2,6 +2,8 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+
+#include <cmath>
 #include <vector>
 
 namespace picoscan {
@@ -13,8 +15,14 @@ struct ScanView {
     cv::Mat colours;  // CV_8UC3, BGR from the white frame
     cv::Mat quality;  // CV_32F
     cv::Matx44d pose = cv::Matx44d::eye();  // view -> model transform
+    // The camera that saw the view, so later stages (cleaning, grid meshing, registration)
+    // know a pixel's footprint and ray without asking for the calibration again.
+    cv::Matx33d camera_matrix = cv::Matx33d::zeros();  // zero when unknown
+    cv::Mat camera_distortion;                          // OpenCV coefficients, empty for none
 
     int valid_count() const;
+    // The camera's focal length in pixels; throws Error when the view does not know its camera.
+    double focal_px() const;
 };
 
 struct PointCloud {
@@ -31,8 +39,19 @@ struct Mesh {
     std::vector<cv::Vec3b> colours;  // empty or one per vertex, RGB
 };
 
+// A measured point: every coordinate finite (unmeasured pixels hold NaN).
+inline bool is_finite_point(const cv::Vec3f& p) {
+    return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
 // The valid points of a view, transformed by its pose.
 PointCloud to_point_cloud(const ScanView& view);
+
+// Merges views (each transformed by its pose) into one cloud with normals and colours.
+PointCloud merge_views(const std::vector<ScanView>& views);
+
+// The mesh with its vertices (and normals) moved by a rigid transform.
+Mesh transformed(const Mesh& mesh, const cv::Matx44d& transform);
 
 struct GridMeshOptions {
     // Neighbouring pixels are joined only when their 3D distance is below
@@ -43,8 +62,7 @@ struct GridMeshOptions {
     int pixel_step = 1;
 };
 
-// Triangulates the pixel grid of an organised view. Needs the camera focal length
-// (pixels) to know the footprint of a pixel.
-Mesh grid_mesh(const ScanView& view, double camera_focal_px, const GridMeshOptions& options = {});
+// Triangulates the pixel grid of an organised view; the view's camera gives a pixel's footprint.
+Mesh grid_mesh(const ScanView& view, const GridMeshOptions& options = {});
 
 }  // namespace picoscan

@@ -6,6 +6,7 @@
 #include "picoscan/cloud.h"
 
 #include <string>
+#include <vector>
 
 namespace picoscan {
 
@@ -30,7 +31,15 @@ void write_view_ply(const ScanView& view, const std::string& path, Encoding enco
 // Throws Error naming the file when it has no pixel grid (not written by write_view_ply).
 ScanView read_view_ply(const std::string& path);
 
-// Writes `bytes` to `path` through a temporary file and a rename.
-void write_file_atomically(const std::string& path, const std::string& bytes);
+// A poses file (docs/formats.md): per view a line with its name (followed by NOT-ALIGNED when
+// it was not aligned), then its view -> model pose as 4 rows of 4 numbers; '#' lines are comments.
+struct ViewPose {
+    std::string name;
+    cv::Matx44d pose = cv::Matx44d::eye();
+    bool aligned = true;
+};
+void write_poses(const std::vector<ViewPose>& poses, const std::string& path);
+// Throws Error naming the file and the line when it is malformed.
+std::vector<ViewPose> read_poses(const std::string& path);
 
 }  // namespace picoscan

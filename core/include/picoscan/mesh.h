@@ -11,7 +11,9 @@
 
 namespace picoscan {
 
-enum class MeshMethod { Poisson, AdvancingFront };
+// Poisson and AdvancingFront mesh points (mesh_cloud); Grid joins the pixels of one view
+// (grid_mesh, through mesh_view in pipeline.h).
+enum class MeshMethod { Poisson, AdvancingFront, Grid };
 
 struct MeshOptions {
     MeshMethod method = MeshMethod::Poisson;
@@ -24,6 +26,7 @@ struct MeshOptions {
     double advancing_front_max_radius = 4.0;
     double max_hole_diameter_mm = 10;   // holes up to this size are filled (triangulate, refine, fair)
     int target_faces = 0;               // simplify to about this many faces (0 keeps all)
+    GridMeshOptions grid;               // MeshMethod::Grid
 };
 
 // The mesh's topology, checked before export.
@@ -46,8 +49,5 @@ MeshCheck check_mesh(const Mesh& mesh);
 // over the neighbours and flipped to agree with the given ones. Throws Error for an empty or
 // degenerate cloud (too few points, all on a line or a plane for Poisson).
 Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
-
-// Merges views (each transformed by its pose) into one cloud with normals and colours.
-PointCloud merge_views(const std::vector<ScanView>& views);
 
 }  // namespace picoscan

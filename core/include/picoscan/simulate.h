@@ -134,8 +134,6 @@ struct TurntablePlan {
 // Part frame -> camera frame transform of each view.
 std::vector<cv::Matx44d> turntable_part_poses(const TurntablePlan& plan);
 
-// The mesh with its vertices (and normals) moved by a rigid transform.
-Mesh transformed(const Mesh& mesh, const cv::Matx44d& transform);
 
 // Scene description file (YAML/JSON via OpenCV FileStorage): lists of spheres, planes,
 // boxes, cylinders, meshes (file paths relative to the scene file) and calibration boards.

@@ -1,4 +1,5 @@
 // Calibration boards: specification, model points and detection.
+#include "picoscan/board.h"
 #include "picoscan/calibration.h"
 #include "picoscan/error.h"
 

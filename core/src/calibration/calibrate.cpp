@@ -1,5 +1,7 @@
 // Camera + projector calibration from board poses (Zhang's method for both devices, the
 // projector's board points found through local homographies, Moreno & Taubin 2012).
+#include "picoscan/board.h"
+#include "picoscan/calibrate.h"
 #include "picoscan/calibration.h"
 #include "picoscan/error.h"
 

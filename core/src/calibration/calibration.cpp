@@ -2,7 +2,7 @@
 #include "picoscan/calibration.h"
 
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 
 #include "common/storage_file.h"
 #include "common/storage_text.h"

@@ -1,7 +1,10 @@
 // The human-readable side of a calibration: plots and an HTML report.
+#include "picoscan/board.h"
+#include "picoscan/calibrate.h"
+#include "picoscan/calibration_report.h"
 #include "picoscan/calibration.h"
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -62,7 +65,7 @@ std::string base64(const std::vector<uint8_t>& bytes) {
 
 std::string png_data_uri(const cv::Mat& image) {
     std::vector<uint8_t> png;
-    cv::imencode(".png", image, png);
+    if (!cv::imencode(".png", image, png)) throw Error("calibration report", "cannot encode a picture");
     return "data:image/png;base64," + base64(png);
 }
 
@@ -128,7 +131,7 @@ cv::Mat draw_calibration_rig(const CalibrationReport& report, const BoardSpec& b
         float max_x = 0, max_y = 0;
         for (const auto& point : points) max_x = std::max(max_x, point.x), max_y = std::max(max_y, point.y);
         std::vector<cv::Vec3d> outline;
-        for (const cv::Vec3d corner : {cv::Vec3d(0, 0, 0), cv::Vec3d(max_x, 0, 0), cv::Vec3d(max_x, max_y, 0), cv::Vec3d(0, max_y, 0)}) {
+        for (const cv::Vec3d& corner : {cv::Vec3d(0, 0, 0), cv::Vec3d(max_x, 0, 0), cv::Vec3d(max_x, max_y, 0), cv::Vec3d(0, max_y, 0)}) {
             const cv::Vec4d world = pose * cv::Vec4d(corner[0], corner[1], corner[2], 1);
             outline.emplace_back(world[0], world[1], world[2]);
         }

@@ -1,10 +1,12 @@
 // Projector response (gamma) calibration from flat grey frames.
+#include "picoscan/response.h"
 #include "picoscan/calibration.h"
 #include "picoscan/error.h"
 
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstdio>
 
 namespace picoscan {
 
@@ -13,6 +15,13 @@ std::vector<int> response_levels(int count) {
     std::vector<int> levels;
     for (int index = 0; index < count; ++index) levels.push_back(int(std::lround(255.0 * index / (count - 1))));
     return levels;
+}
+
+std::string flat_level_file(int level) {
+    if (level < 0 || level > 255) throw Error("level", "must be 0..255");
+    char name[32];
+    std::snprintf(name, sizeof name, "level_%03d.png", level);
+    return name;
 }
 
 ProjectorResponse measure_projector_response(const std::vector<int>& levels, const std::vector<cv::Mat>& images,

@@ -80,26 +80,46 @@ void PatternDisplay::wait(double milliseconds) {
     if (milliseconds > 0) std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(milliseconds));
 }
 
-SimulatedDisplay::SimulatedDisplay(cv::Size size, double latency_ms)
-    : size_(size), latency_ms_(latency_ms), visible_(cv::Mat::zeros(size, CV_8U)) {
+SimulatedDisplay::SimulatedDisplay(cv::Size size) : size_(size), visible_(cv::Mat::zeros(size, CV_8U)) {
     if (size.width < 2 || size.height < 2) throw Error("simulated display", "size must be at least 2x2");
-    if (!(latency_ms >= 0)) throw Error("simulated display", "latency must be >= 0 ms");
 }
 
 void SimulatedDisplay::show(const cv::Mat& pattern) {
     if (pattern.size() != size_ || pattern.type() != CV_8U)
         throw Error("simulated display", "pattern must be 8-bit grey " + size_text(size_));
-    pending_.emplace_back(Clock::now(), pattern.clone());
+    visible_ = pattern.clone();
 }
 
-cv::Mat SimulatedDisplay::visible() const {
-    const auto now = Clock::now();
+DelayedDisplay::DelayedDisplay(PatternDisplay& display, double latency_ms) : display_(display), latency_ms_(latency_ms) {
+    if (!(latency_ms >= 0 && latency_ms <= 10000)) throw Error("delayed display", "latency must be 0..10000 ms");
+}
+
+void DelayedDisplay::show(const cv::Mat& pattern) {
+    pending_.emplace_back(Clock::now(), pattern.clone());
+    pass_on_due_patterns();
+}
+
+void DelayedDisplay::pass_on_due_patterns() const {
     const auto latency = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(latency_ms_));
-    while (!pending_.empty() && pending_.front().first + latency <= now) {
-        visible_ = pending_.front().second;
+    while (!pending_.empty() && pending_.front().first + latency <= Clock::now()) {
+        display_.show(pending_.front().second);
         pending_.pop_front();
     }
-    return visible_;
+}
+
+cv::Mat DelayedDisplay::visible() const {
+    pass_on_due_patterns();
+    return display_.visible();
+}
+
+void DelayedDisplay::wait(double milliseconds) {
+    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                        std::chrono::duration<double, std::milli>(std::max(0.0, milliseconds)));
+    do {
+        pass_on_due_patterns();
+        const double left_ms = std::chrono::duration<double, std::milli>(end - Clock::now()).count();
+        display_.wait(std::min(std::max(left_ms, 0.0), 1.0));  // short steps: a due pattern is passed on in time
+    } while (Clock::now() < end);
 }
 
 // ---- capture sets on disk ------------------------------------------------------------------

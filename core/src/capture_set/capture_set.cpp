@@ -2,7 +2,7 @@
 #include "picoscan/capture_set.h"
 
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 
 #include "common/parallel.h"
 #include "common/progress_reporter.h"
@@ -118,14 +118,7 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
 }
 
 void write_capture_frame(const Frame& frame, const cv::Mat& image, const std::string& directory) {
-    const std::string file = (fs::path(directory) / frame.file).string();
-    std::vector<uint8_t> bytes;
-    try {
-        if (!cv::imencode(fs::path(file).extension().string(), image, bytes)) throw Error(file, "cannot encode image");
-    } catch (const cv::Exception& failure) {
-        throw Error(file, std::string("cannot encode image: ") + failure.what());
-    }
-    write_file_atomically(file, std::string(bytes.begin(), bytes.end()));
+    write_image_file(image, (fs::path(directory) / frame.file).string());
 }
 
 void write_capture_set(const CaptureSet& captures, const std::string& directory) {

@@ -55,9 +55,9 @@ int apply(ScanView& view, Rule&& reject) {
 
 }  // namespace
 
-CleanReport clean_view(ScanView& view, double camera_focal_px, const CleanOptions& options) {
+CleanReport clean_view(ScanView& view, const CleanOptions& options) {
     if (view.points.empty() || view.points.type() != CV_32FC3) throw Error("clean", "the view has no organised points");
-    if (!(camera_focal_px > 0)) throw Error("clean", "camera focal length must be positive");
+    const double camera_focal_px = view.focal_px();
     if (options.window_px < 1 || options.window_px > 10) throw Error("clean", "window_px must be 1..10");
     CleanReport report;
     const cv::Mat& points = view.points;

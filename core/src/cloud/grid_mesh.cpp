@@ -40,10 +40,10 @@ struct GridJoiner {
 
 }  // namespace
 
-Mesh grid_mesh(const ScanView& view, double camera_focal_px, const GridMeshOptions& options) {
+Mesh grid_mesh(const ScanView& view, const GridMeshOptions& options) {
     const detail::ViewLayers layers = detail::check_view(view);
-    if (!(camera_focal_px > 0) || !std::isfinite(camera_focal_px))
-        throw Error("grid_mesh", "camera focal length must be a positive number of pixels");
+    if (view.points.empty()) return {};
+    const double camera_focal_px = view.focal_px();
     if (!(options.max_edge_factor > 0) || !std::isfinite(options.max_edge_factor))
         throw Error("grid_mesh", "max_edge_factor must be positive");
 
@@ -53,6 +53,9 @@ Mesh grid_mesh(const ScanView& view, double camera_focal_px, const GridMeshOptio
         const int step = options.pixel_step;
         ScanView sparse;
         sparse.pose = view.pose;
+        // The same camera with n times larger pixels.
+        sparse.camera_matrix = view.camera_matrix;
+        for (int c = 0; c < 3; ++c) sparse.camera_matrix(0, c) /= step, sparse.camera_matrix(1, c) /= step;
         auto every_nth = [step](const cv::Mat& layer) {
             if (layer.empty()) return cv::Mat();
             cv::Mat result((layer.rows + step - 1) / step, (layer.cols + step - 1) / step, layer.type());
@@ -67,7 +70,7 @@ Mesh grid_mesh(const ScanView& view, double camera_focal_px, const GridMeshOptio
         sparse.quality = every_nth(view.quality);
         GridMeshOptions dense = options;
         dense.pixel_step = 1;
-        return grid_mesh(sparse, camera_focal_px / step, dense);
+        return grid_mesh(sparse, dense);
     }
 
     Mesh mesh;
@@ -89,8 +92,8 @@ Mesh grid_mesh(const ScanView& view, double camera_focal_px, const GridMeshOptio
             const cv::Vec3f* top = view.points.ptr<cv::Vec3f>(y);
             const cv::Vec3f* bottom = view.points.ptr<cv::Vec3f>(y + 1);
             for (int x = 0; x + 1 < cols; ++x) {
-                const bool va = detail::finite_point(top[x]), vb = detail::finite_point(top[x + 1]);
-                const bool vc = detail::finite_point(bottom[x]), vd = detail::finite_point(bottom[x + 1]);
+                const bool va = is_finite_point(top[x]), vb = is_finite_point(top[x + 1]);
+                const bool vc = is_finite_point(bottom[x]), vd = is_finite_point(bottom[x + 1]);
                 const int valid = va + vb + vc + vd;
                 if (valid < 3) continue;
                 const int a = y * cols + x, b = a + 1, c = a + cols, d = c + 1;

@@ -39,9 +39,16 @@ int ScanView::valid_count() const {
     int count = 0;
     for (int y = 0; y < points.rows; ++y) {
         const cv::Vec3f* row = points.ptr<cv::Vec3f>(y);
-        for (int x = 0; x < points.cols; ++x) count += detail::finite_point(row[x]) ? 1 : 0;
+        for (int x = 0; x < points.cols; ++x) count += is_finite_point(row[x]) ? 1 : 0;
     }
     return count;
+}
+
+double ScanView::focal_px() const {
+    const double focal = camera_matrix(0, 0);
+    if (!(focal > 0) || !std::isfinite(focal))
+        throw Error("scan view", "does not know its camera (made before views stored it: reconstruct it again)");
+    return focal;
 }
 
 PointCloud to_point_cloud(const ScanView& view) {
@@ -57,7 +64,7 @@ PointCloud to_point_cloud(const ScanView& view) {
         for (int y = begin; y < end; ++y) {
             const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
             size_t count = 0;
-            for (int x = 0; x < cols; ++x) count += detail::finite_point(row[x]) ? 1 : 0;
+            for (int x = 0; x < cols; ++x) count += is_finite_point(row[x]) ? 1 : 0;
             offsets[static_cast<size_t>(y) + 1] = count;
         }
     });
@@ -75,7 +82,7 @@ PointCloud to_point_cloud(const ScanView& view) {
             const cv::Vec3f* points = view.points.ptr<cv::Vec3f>(y);
             size_t out = offsets[static_cast<size_t>(y)];
             for (int x = 0; x < cols; ++x) {
-                if (!detail::finite_point(points[x])) continue;
+                if (!is_finite_point(points[x])) continue;
                 const cv::Vec3d p = rotation * cv::Vec3d(points[x]) + translation;
                 cloud.points[out] = cv::Vec3f(p);
                 if (layers.normals) cloud.normals[out] = cv::Vec3f(rotation * cv::Vec3d(view.normals.at<cv::Vec3f>(y, x)));

@@ -16,8 +16,4 @@ struct ViewLayers {
 };
 ViewLayers check_view(const ScanView& view);
 
-inline bool finite_point(const cv::Vec3f& p) {
-    return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
-}
-
 }  // namespace picoscan::detail

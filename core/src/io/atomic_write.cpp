@@ -1,7 +1,7 @@
 // write_file_atomically: temporary file beside the target, then rename over it, so a
 // reader never sees a half-written file and a failure never touches the old target.
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 
 #include <atomic>
 #include <cerrno>

@@ -1,5 +1,6 @@
 // Wavefront OBJ writing (vertices, optional vertex colours and normals, triangles).
 #include "io/io_detail.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 
 #include <string>

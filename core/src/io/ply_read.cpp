@@ -451,6 +451,8 @@ ScanView read_view_ply(const std::string& path) {
     const Mesh mesh = read_ply_with_extras(path, extras);
     int width = 0, height = 0;
     cv::Matx44d pose = cv::Matx44d::eye();
+    cv::Matx33d camera_matrix = cv::Matx33d::zeros();
+    cv::Mat distortion;
     bool have_grid = false;
     for (const std::string& comment : extras.comments) {
         const std::vector<std::string_view> words = split_words(comment);
@@ -462,6 +464,20 @@ ScanView read_view_ply(const std::string& path) {
             width = static_cast<int>(w);
             height = static_cast<int>(h);
             have_grid = true;
+        } else if (words.size() == 6 && words[0] == "picoscan_camera") {
+            double value[5];
+            for (int i = 0; i < 5; ++i)
+                if (!detail::parse_double(words[static_cast<size_t>(i) + 1], value[i]) || !std::isfinite(value[i]))
+                    throw Error(path, "picoscan_camera comment has a malformed number");
+            if (!(value[0] > 0 && value[1] > 0)) throw Error(path, "picoscan_camera comment has a non-positive focal length");
+            camera_matrix = cv::Matx33d(value[0], value[4], value[2], 0, value[1], value[3], 0, 0, 1);
+        } else if (!words.empty() && words[0] == "picoscan_distortion") {
+            if (words.size() > 15) throw Error(path, "picoscan_distortion comment has more than 14 coefficients");
+            distortion = cv::Mat::zeros(1, static_cast<int>(words.size()) - 1, CV_64F);
+            for (size_t i = 1; i < words.size(); ++i)
+                if (!detail::parse_double(words[i], distortion.at<double>(static_cast<int>(i) - 1)) ||
+                    !std::isfinite(distortion.at<double>(static_cast<int>(i) - 1)))
+                    throw Error(path, "picoscan_distortion comment has a malformed number");
         } else if (!words.empty() && words[0] == "picoscan_pose") {
             if (words.size() != 17) throw Error(path, "picoscan_pose comment needs 16 numbers");
             for (int i = 0; i < 16; ++i)
@@ -474,6 +490,8 @@ ScanView read_view_ply(const std::string& path) {
 
     ScanView view;
     view.pose = pose;
+    view.camera_matrix = camera_matrix;
+    view.camera_distortion = distortion;
     view.points = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
     if (!mesh.normals.empty()) view.normals = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(0));
     if (!mesh.colours.empty()) view.colours = cv::Mat(height, width, CV_8UC3, cv::Scalar::all(0));

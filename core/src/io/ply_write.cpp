@@ -1,6 +1,7 @@
 // PLY writing (binary little-endian or ASCII) for point clouds and meshes.
 #include "io/io_detail.h"
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 
 #include <cmath>
@@ -152,8 +153,24 @@ void write_view_ply(const ScanView& view, const std::string& path, Encoding enco
             pose += ' ';
             detail::append_number(pose, view.pose(r, c));
         }
-    const std::vector<std::string> comments = {
+    std::vector<std::string> comments = {
         "picoscan_grid " + std::to_string(view.points.cols) + " " + std::to_string(view.points.rows), pose};
+    if (view.camera_matrix(0, 0) > 0) {
+        // The camera that made the view: fx fy cx cy skew, then its distortion coefficients.
+        const cv::Matx33d& k = view.camera_matrix;
+        std::string camera = "picoscan_camera";
+        for (double value : {k(0, 0), k(1, 1), k(0, 2), k(1, 2), k(0, 1)}) {
+            camera += ' ';
+            detail::append_number(camera, value);
+        }
+        comments.push_back(camera);
+        std::string distortion = "picoscan_distortion";
+        for (size_t i = 0; i < view.camera_distortion.total(); ++i) {
+            distortion += ' ';
+            detail::append_number(distortion, view.camera_distortion.at<double>(static_cast<int>(i)));
+        }
+        comments.push_back(distortion);
+    }
     static const std::vector<cv::Vec3i> no_faces;
     write_file_atomically(path, build_ply({cloud.points, cloud.normals, cloud.colours, cloud.quality, no_faces,
                                            pixels, comments},

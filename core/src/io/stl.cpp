@@ -2,6 +2,7 @@
 // reading merges corners that are exactly equal back into shared vertices.
 #include "io/io_detail.h"
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 
 #include <cstring>

@@ -8,27 +8,12 @@
 
 namespace picoscan {
 
-PointCloud merge_views(const std::vector<ScanView>& views) {
-    PointCloud merged;
-    for (const ScanView& view : views) {
-        const PointCloud cloud = to_point_cloud(view);
-        merged.points.insert(merged.points.end(), cloud.points.begin(), cloud.points.end());
-        merged.normals.insert(merged.normals.end(), cloud.normals.begin(), cloud.normals.end());
-        merged.colours.insert(merged.colours.end(), cloud.colours.begin(), cloud.colours.end());
-        merged.quality.insert(merged.quality.end(), cloud.quality.begin(), cloud.quality.end());
-    }
-    // A layer some views lack is dropped for all, so every layer stays one per point.
-    auto keep = [&](auto& layer) { if (layer.size() != merged.points.size()) layer.clear(); };
-    keep(merged.normals);
-    keep(merged.colours);
-    keep(merged.quality);
-    return merged;
-}
-
 Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const ProgressCallback& progress) {
     auto report = [&](double fraction, const char* stage) {
         if (progress && !progress(fraction, stage)) throw Error("cancelled", "meshing cancelled");
     };
+    if (options.method == MeshMethod::Grid)
+        throw Error("method", "grid meshing joins the pixels of one view: use mesh_view or grid_mesh");
     if (cloud.points.empty()) throw Error("point cloud", "is empty: nothing to mesh");
     if (cloud.normals.size() != cloud.points.size())
         throw Error("point cloud", "has no normals; mesh a cloud written by picoscan (reconstruct or stitch)");

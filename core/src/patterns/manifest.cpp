@@ -1,6 +1,6 @@
 // sequence.json: the manifest that describes every frame of a capture set.
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 #include "picoscan/patterns.h"
 
 #include "common/storage_file.h"
@@ -175,12 +175,9 @@ void write_pattern_images(const PatternSequence& sequence, const std::string& di
     std::error_code error;
     std::filesystem::create_directories(directory, error);
     if (!std::filesystem::is_directory(directory)) throw Error(directory, "cannot create the output directory");
-    for (const Frame& frame : sequence.frames) {
-        std::vector<uint8_t> png;
-        cv::imencode(".png", render_pattern(sequence, frame, response_lut), png);
-        write_file_atomically((std::filesystem::path(directory) / frame.file).string(),
-                              std::string(png.begin(), png.end()));
-    }
+    for (const Frame& frame : sequence.frames)
+        write_image_file(render_pattern(sequence, frame, response_lut),
+                         (std::filesystem::path(directory) / frame.file).string());
     write_manifest(sequence, (std::filesystem::path(directory) / "sequence.json").string());
 }
 

@@ -21,7 +21,7 @@ std::string frame_name(int index, const std::string& description) {
 }
 
 std::string two_digits(int value) {
-    char text[8];
+    char text[16];
     std::snprintf(text, sizeof text, "%02d", value);
     return text;
 }

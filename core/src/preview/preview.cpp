@@ -1,7 +1,7 @@
 #include "picoscan/preview.h"
 
 #include "picoscan/error.h"
-#include "picoscan/io.h"
+#include "picoscan/file_output.h"
 #include "picoscan/simulate.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -52,9 +52,7 @@ cv::Mat render_preview(const ScanView& view) {
 }
 
 void write_preview_png(const ScanView& view, const std::string& path) {
-    std::vector<uint8_t> png;
-    if (!cv::imencode(".png", render_preview(view), png)) throw Error(path, "cannot encode the preview");
-    write_file_atomically(path, std::string(png.begin(), png.end()));
+    write_image_file(render_preview(view), path);
 }
 
 void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const std::string& path) {
@@ -72,9 +70,7 @@ void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const s
     const int margin = 40;
     box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
           cv::Rect(0, 0, view.points.cols, view.points.rows);
-    std::vector<uint8_t> png;
-    if (!cv::imencode(".png", render_preview(view)(box), png)) throw Error(path, "cannot encode the preview");
-    write_file_atomically(path, std::string(png.begin(), png.end()));
+    write_image_file(render_preview(view)(box), path);
 }
 
 }  // namespace picoscan

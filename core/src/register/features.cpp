@@ -1,6 +1,5 @@
 // Coarse alignment: ORB on the white frames, lifted to 3D through the organised grid,
 // matched with a ratio test, and a rigid fit by RANSAC (the seed's plan).
-#include "cloud/view_check.h"
 #include "register/registration_steps.h"
 
 #include <opencv2/features2d.hpp>
@@ -20,7 +19,7 @@ ViewFeatures view_features(const ScanView& view, int max_features) {
     for (int y = 0; y < view.points.rows; ++y) {
         const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
         uchar* out = measured.ptr<uchar>(y);
-        for (int x = 0; x < view.points.cols; ++x) out[x] = finite_point(row[x]) ? 255 : 0;
+        for (int x = 0; x < view.points.cols; ++x) out[x] = is_finite_point(row[x]) ? 255 : 0;
     }
     // Keypoints near the edge of the measured area sit on depth jumps or on unmeasured
     // background texture: keep away from it.
@@ -43,7 +42,7 @@ ViewFeatures view_features(const ScanView& view, int max_features) {
             const int x = cvRound(keypoints[i].pt.x / sx), y = cvRound(keypoints[i].pt.y / sy);
             if (x < 0 || y < 0 || x >= view.points.cols || y >= view.points.rows) continue;
             const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
-            if (!finite_point(p)) continue;
+            if (!is_finite_point(p)) continue;
             features.points.emplace_back(p);
             features.descriptors.push_back(descriptors.row(static_cast<int>(i)));
         }

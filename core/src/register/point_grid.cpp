@@ -1,6 +1,5 @@
 #include "register/point_grid.h"
 
-#include "cloud/view_check.h"
 
 #include <opencv2/imgproc.hpp>
 #include <cmath>
@@ -21,7 +20,7 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
         grey.convertTo(grey, CV_32F);
         for (int y = 0; y < measured.rows; ++y)
             for (int x = 0; x < measured.cols; ++x)
-                measured.at<float>(y, x) = finite_point(view.points.at<cv::Vec3f>(y, x)) ? 1.f : 0.f;
+                measured.at<float>(y, x) = is_finite_point(view.points.at<cv::Vec3f>(y, x)) ? 1.f : 0.f;
         cv::Mat local_sum, local_count;
         cv::GaussianBlur(grey.mul(measured), local_sum, cv::Size(), 8);
         cv::GaussianBlur(measured, local_count, cv::Size(), 8);
@@ -32,11 +31,11 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
     for (int y = 0; y < view.points.rows; ++y) {
         const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
         for (int x = 0; x < view.points.cols; ++x) {
-            if (!finite_point(row[x])) continue;
+            if (!is_finite_point(row[x])) continue;
             cv::Vec3d normal(0, 0, -1);
             if (has_normals) {
                 const cv::Vec3f n = view.normals.at<cv::Vec3f>(y, x);
-                if (!finite_point(n) || cv::norm(n) < 0.5) continue;
+                if (!is_finite_point(n) || cv::norm(n) < 0.5) continue;
                 normal = cv::normalize(cv::Vec3d(n));
             }
             const long long key = (cell(row[x][0]) * 73856093LL) ^ (cell(row[x][1]) * 19349663LL) ^

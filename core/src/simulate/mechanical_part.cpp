@@ -198,13 +198,4 @@ std::vector<cv::Matx44d> turntable_part_poses(const TurntablePlan& plan) {
     return poses;
 }
 
-Mesh transformed(const Mesh& mesh, const cv::Matx44d& transform) {
-    const cv::Matx33d rotation = transform.get_minor<3, 3>(0, 0);
-    const cv::Vec3d translation(transform(0, 3), transform(1, 3), transform(2, 3));
-    Mesh out = mesh;
-    for (cv::Vec3f& v : out.vertices) v = cv::Vec3f(rotation * cv::Vec3d(v) + translation);
-    for (cv::Vec3f& n : out.normals) n = cv::Vec3f(rotation * cv::Vec3d(n));
-    return out;
-}
-
 }  // namespace picoscan

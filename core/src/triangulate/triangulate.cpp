@@ -142,6 +142,8 @@ void Triangulator::triangulate_into(const CorrespondenceMap& correspondences, co
                                        std::to_string(size.width) + "x" + std::to_string(size.height));
     if (!colour.empty() && (colour.size() != size || colour.type() != CV_8UC3))
         throw Error("colour", "colour image must be CV_8UC3 of the camera size");
+    view.camera_matrix = calibration_.camera_matrix;
+    view.camera_distortion = calibration_.camera_distortion.clone();
 
     const detail::LensDistortion projector_lens(calibration_.projector_distortion);
     const cv::Matx33d& R = calibration_.R;

@@ -9,7 +9,6 @@ import Mesh
 
 import picoscan
 from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, cloud_of, is_scan_view, is_stitch, millimetres
-from picoscan_wb.operations.reconstruct import camera_focal_px
 from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanMesh"
@@ -70,7 +69,7 @@ class ScanMesh(DocumentObjectProxy):
         options = picoscan.GridMeshOptions()
         options.pixel_step = obj.PixelStep
         options.max_edge_factor = obj.MaxEdgeFactor
-        result = freecad_mesh(picoscan.grid_mesh(view, camera_focal_px(calibration), options))
+        result = freecad_mesh(picoscan.grid_mesh(view, options))
         return result, "%d facets, %d points, %s" % (result.CountFacets, result.CountPoints,
                                                       "closed" if result.isSolid() else "open (a single view is a surface)")
 

@@ -1,11 +1,7 @@
-"""Capture set + calibration -> organised ScanView: the core's decode, triangulate and clean."""
+"""Capture set + calibration -> organised ScanView, through the core's reconstruct recipe."""
 import os
 
 import picoscan
-
-
-def camera_focal_px(calibration):
-    return float(calibration.camera_matrix[0, 0])
 
 
 def reconstruct(capture_folder, calibration_file, manifest_file="", min_contrast=15.0, min_modulation=4.0,
@@ -16,19 +12,12 @@ def reconstruct(capture_folder, calibration_file, manifest_file="", min_contrast
     if not calibration_file or not os.path.isfile(calibration_file):
         raise picoscan.Error("%s: calibration file does not exist" % (calibration_file or "(no calibration file)"))
     calibration = picoscan.read_calibration(calibration_file)
-    captures = picoscan.load_capture_set(capture_folder, manifest_file or "", progress)
-    picoscan.check_camera_size(calibration, captures, calibration_file)
-    options = picoscan.DecodeOptions()
-    options.min_contrast = min_contrast
-    options.min_modulation = min_modulation
-    options.binary_only = binary_only
-    correspondences = picoscan.decode(captures, options, progress)
-    view = picoscan.triangulate(correspondences, calibration, captures.white_colour, progress=progress)
-    report = None
-    if clean:
-        clean_options = picoscan.CleanOptions()
-        clean_options.max_grazing_deg = max_grazing_deg
-        report = picoscan.clean_view(view, camera_focal_px(calibration), clean_options)
-    if view.valid_count() == 0:
-        raise picoscan.Error("%s: no pixel could be decoded and triangulated" % capture_folder)
-    return view, calibration, report
+    options = picoscan.ReconstructOptions()
+    options.manifest_path = manifest_file or ""
+    options.decode.min_contrast = min_contrast
+    options.decode.min_modulation = min_modulation
+    options.decode.binary_only = binary_only
+    options.clean = clean
+    options.cleaning.max_grazing_deg = max_grazing_deg
+    result = picoscan.reconstruct_view(capture_folder, calibration, calibration_file, options, progress)
+    return result.view, calibration, result.cleaning

@@ -247,14 +247,14 @@ def plot_profiles(profiles, axis, position_mm, path):
 def hybrid_vs_binary_plot(scan_view_object, axis, position_mm, path):
     """The seed's comparison: the same capture set decoded with Gray code + phase (hybrid) and with
     Gray code only (binary), both profiles across the plane in one plot. Returns the PNG path."""
-    from picoscan_wb.operations.reconstruct import camera_focal_px, reconstruct
+    from picoscan_wb.operations.reconstruct import reconstruct
 
     hybrid, calibration = scan_view_object.Proxy.scan_view(scan_view_object)
     binary, _, _ = reconstruct(scan_view_object.CaptureFolder, scan_view_object.CalibrationFile,
                                scan_view_object.ManifestFile, binary_only=True)
     depths = hybrid.points[..., 2]
     # Half a pixel footprint at the typical depth: one row (or column) of pixels per profile.
-    half_width = 0.5 * float(numpy.nanmedian(depths)) / camera_focal_px(calibration)
+    half_width = 0.5 * float(numpy.nanmedian(depths)) / hybrid.focal_px()
     profiles = [("hybrid (Gray + phase)", profile_points(hybrid, axis, position_mm, half_width)),
                 ("binary (Gray only)", profile_points(binary, axis, position_mm, half_width))]
     return plot_profiles(profiles, axis, position_mm, path)

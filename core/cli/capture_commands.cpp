@@ -1,7 +1,25 @@
-// The capture commands of picoscan: screens, capture, scan.
-// Included by main.cpp inside its anonymous namespace, after Arguments, simulation_options and
-// reconstruct(), so that these commands share the option parser and 'scan' reconstructs
-// exactly as 'reconstruct' does. Headers are included by main.cpp.
+// picoscan screens, capture and scan: projecting the patterns and capturing them ('scan'
+// then reconstructs exactly as 'reconstruct' does).
+#include "cli_support.h"
+#include "commands.h"
+
+#include "picoscan/calibration.h"
+#include "picoscan/capture.h"
+#include "picoscan/virtual_camera.h"
+#include "picoscan/capture_qt.h"
+#include "picoscan/error.h"
+
+#include <algorithm>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+namespace fs = std::filesystem;
+
+namespace picoscan::cli {
+
+namespace {
 
 const char* kScreensHelp = R"(picoscan screens
 
@@ -48,7 +66,6 @@ camera K writes DIR/camera_K (K from 1).
                         a setting the driver refuses is reported and left automatic
   --scene FILE, --noise SIGMA, --gamma G, --blur SIGMA, --seed N
                         the virtual camera's scene and camera (as for 'simulate')
-  --simulated-latency-ms MS   delay every pattern on the projector (tests the latency wait)
 
 Example, a pico projector as screen 1 and two webcams:
   picoscan screens
@@ -71,7 +88,7 @@ capture'), then decodes and triangulates them into DIR/cloud.ply with DIR/previe
   --resume               complete an interrupted scan's captures, then reconstruct
   Capture options as for 'picoscan capture': --projector-screen, --shifts, --period-bits,
   --rows/--no-rows, --average, --latency-ms, --flush, --resolution, --exposure, --gain,
-  --focus, --white-balance, --scene, --noise, --gamma, --blur, --seed, --simulated-latency-ms
+  --focus, --white-balance, --scene, --noise, --gamma, --blur, --seed
 
 Example without hardware:
   picoscan scan --camera virtual --latency-ms 0 --out scan/
@@ -121,7 +138,6 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     const bool has_virtual = std::count(sources.begin(), sources.end(), "virtual") > 0;
     const bool has_screen_index = arguments.has("--projector-screen");
     const int screen_index = arguments.integer("--projector-screen", -1);
-    const double simulated_latency_ms = arguments.number("--simulated-latency-ms", 0.0);
     if (!has_screen_index && !all_virtual)
         throw Error("--projector-screen", "is required with a real camera (see 'picoscan screens')");
     if (!calibration_path.empty()) {
@@ -132,7 +148,7 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
         rig.has_calibration = true;
     }
     const Scene scene = arguments.has("--scene") ? read_scene(arguments.text("--scene")) : demo_scene();
-    const SimulationOptions simulation = simulation_options(arguments);
+    const SimulationOptions simulation = camera_options(arguments);
     const CameraSettings settings = camera_settings(arguments);
     rig.options.frames_per_pattern = arguments.integer("--average", 1);
     if (rig.options.frames_per_pattern < 1 || rig.options.frames_per_pattern > 64) throw Error("--average", "must be 1..64");
@@ -140,7 +156,6 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     rig.options.wait_ms = arguments.number("--latency-ms", 0.0);
     if (rig.options.wait_ms < 0 || rig.options.wait_ms > 60000) throw Error("--latency-ms", "must be 0..60000");
     rig.options.resume = arguments.flag("--resume");
-    if (simulated_latency_ms < 0 || simulated_latency_ms > 10000) throw Error("--simulated-latency-ms", "must be 0..10000");
     // The patterns are parsed before the display opens, with a stand-in size, to catch errors early.
     (void)pattern_options(arguments, {854, 480});
     arguments.reject_unknown();
@@ -155,8 +170,8 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     }
 
     // The display: the projector window, or for the virtual camera alone a display without window.
-    if (has_screen_index) rig.display = std::make_unique<ProjectorWindow>(screen_index, simulated_latency_ms);
-    else rig.display = std::make_unique<SimulatedDisplay>(rig.calibration.projector_size, simulated_latency_ms);
+    if (has_screen_index) rig.display = std::make_unique<ProjectorWindow>(screen_index);
+    else rig.display = std::make_unique<SimulatedDisplay>(rig.calibration.projector_size);
     const cv::Size projector = rig.display->size();
     if (rig.has_calibration && rig.calibration.projector_size != projector)
         throw Error(calibration_path.empty() ? "--projector-screen" : calibration_path,
@@ -240,7 +255,7 @@ int run_scan(const Arguments& arguments) {
     request.mesh = arguments.text("--mesh");
     check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
     request.mesh_step = 1;
-    request.clean = arguments.flag("--clean");
+    request.options.clean = arguments.flag("--clean");
     request.calibration = arguments.text("--calibration");
     const bool write_seed_rig = request.calibration.empty();
     if (write_seed_rig) {
@@ -256,5 +271,19 @@ int run_scan(const Arguments& arguments) {
         write_calibration(rig.calibration, request.calibration);
     }
     run_capture_rig(rig);
-    return reconstruct(request);
+    return reconstruct_and_write(request);
 }
+
+}  // namespace
+
+std::vector<Command> capture_commands() {
+    return {
+        {"screens", "list the screens (find the projector's index)", kScreensHelp, run_screens, {}},
+        {"capture", "project the patterns and capture them with webcams (or the virtual camera)", kCaptureHelp,
+         run_capture, {{"--rows", "--no-rows", "--resume"}, {"--camera"}, false}},
+        {"scan", "capture + reconstruct in one step", kScanHelp, run_scan,
+         {{"--rows", "--no-rows", "--resume", "--clean"}, {"--camera"}, false}},
+    };
+}
+
+}  // namespace picoscan::cli

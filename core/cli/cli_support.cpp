@@ -1,0 +1,72 @@
+#include "cli_support.h"
+
+#include "picoscan/error.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace fs = std::filesystem;
+
+namespace picoscan::cli {
+
+ProgressCallback terminal_progress() {
+    if (!isatty(STDERR_FILENO)) return nullptr;
+    return [](double fraction, const std::string& stage) {
+        const int width = 30, filled = static_cast<int>(fraction * width + 0.5);
+        std::fprintf(stderr, "\r%-12s [%s%s] %3d%%", stage.c_str(), std::string(filled, '#').c_str(),
+                     std::string(width - filled, ' ').c_str(), static_cast<int>(fraction * 100 + 0.5));
+        if (fraction >= 1.0) std::fprintf(stderr, "\n");
+        std::fflush(stderr);
+        return true;
+    };
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+fs::path absolute_path(const std::string& path) { return fs::weakly_canonical(fs::absolute(path)); }
+
+bool is_inside(const fs::path& path, const fs::path& directory) {
+    const fs::path relative = path.lexically_relative(directory);
+    return !relative.empty() && *relative.begin() != "..";
+}
+
+std::string lowercase_extension(const std::string& path) {
+    std::string extension = fs::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), ::tolower);
+    return extension;
+}
+
+void check_extension(const std::string& path, const std::set<std::string>& allowed, const std::string& what) {
+    if (path.empty() || allowed.count(lowercase_extension(path))) return;
+    std::string list;
+    for (const auto& extension : allowed) list += (list.empty() ? "" : " or ") + extension;
+    throw Error(path, what + " must end in " + list);
+}
+
+void refuse_overwriting(const std::string& output, const std::vector<std::string>& input_files,
+                        const std::vector<std::string>& input_folders) {
+    if (output.empty()) return;
+    const fs::path target = absolute_path(output);
+    for (const std::string& input : input_files)
+        if (!input.empty() && target == absolute_path(input)) throw Error(output, "output would overwrite an input file");
+    for (const std::string& folder : input_folders) {
+        if (folder.empty()) continue;
+        const fs::path directory = absolute_path(folder);
+        if (target == directory || is_inside(target, directory))
+            throw Error(output, "output must not be written into the capture directory " + folder);
+    }
+}
+
+void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encoding) {
+    const std::string extension = lowercase_extension(path);
+    if (extension == ".stl") write_stl(mesh, path, encoding);
+    else if (extension == ".ply") write_ply(mesh, path, encoding);
+    else if (extension == ".obj") write_obj(mesh, path);
+    else throw Error(path, "mesh file must end in .stl, .ply or .obj");
+}
+
+}  // namespace picoscan::cli

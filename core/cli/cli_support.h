@@ -1,0 +1,32 @@
+// What every picoscan command shares besides its arguments: the progress bar, timing, and
+// the checks of output file names made before any work.
+#pragma once
+
+#include "picoscan/cloud.h"
+#include "picoscan/io.h"
+#include "picoscan/progress.h"
+
+#include <chrono>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace picoscan::cli {
+
+// A one-line progress bar on a terminal; nullptr (silent) when stderr is not one.
+ProgressCallback terminal_progress();
+double seconds_since(std::chrono::steady_clock::time_point start);
+
+std::filesystem::path absolute_path(const std::string& path);
+bool is_inside(const std::filesystem::path& path, const std::filesystem::path& directory);
+std::string lowercase_extension(const std::string& path);
+// Throws Error naming `path` when it is given and does not end in one of `allowed`.
+void check_extension(const std::string& path, const std::set<std::string>& allowed, const std::string& what);
+// Throws Error naming `output` when it is one of the input files or inside one of the capture folders.
+void refuse_overwriting(const std::string& output, const std::vector<std::string>& input_files,
+                        const std::vector<std::string>& input_folders = {});
+// A mesh written by its extension: .stl, .ply or .obj.
+void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
+
+}  // namespace picoscan::cli

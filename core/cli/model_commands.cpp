@@ -1,0 +1,372 @@
+// picoscan clean, stitch, mesh and demo: from views to a printable model.
+#include "cli_support.h"
+#include "commands.h"
+
+#include "picoscan/calibration.h"
+#include "picoscan/error.h"
+#include "picoscan/file_output.h"
+#include "picoscan/io.h"
+#include "picoscan/preview.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+namespace fs = std::filesystem;
+
+namespace picoscan::cli {
+
+namespace {
+
+const char* kCleanHelp = R"(picoscan clean VIEW.ply --out CLEAN.ply [options]
+
+Removes stray-light noise and unreliable points from one view written by 'picoscan
+reconstruct' (its PLY keeps the camera pixel of every point and the camera, which the
+filters use).
+Each filter prints how many points it removed. The input is never modified.
+
+Options:
+  --background EMPTY.ply     a view of the empty scene (same rig and camera pose): points on
+                             or behind it are removed
+  --background-tolerance-mm  how close to the background counts as background (default 1)
+  --box X0,Y0,Z0,X1,Y1,Z1    keep only points inside this camera-frame box (mm)
+  --min-quality Q            drop points whose fringe modulation is below Q
+  --max-grazing-deg A        drop points seen more obliquely than A degrees (default 80)
+  --outlier-sigma S          statistical outliers: beyond S robust sigmas (default 4)
+  --min-cluster N            drop disconnected clusters smaller than N points (default 100)
+  --calibration rig.yml      the rig's calibration, only for views written before PicoScan
+                             stored the camera in the view
+)";
+
+const char* kStitchHelp = R"(picoscan stitch VIEW.ply VIEW.ply ... --out MERGED.ply [options]
+
+Aligns several views of one part (each written by 'picoscan reconstruct', ideally cleaned)
+into one model, in the first view's camera frame, and writes the merged cloud with normals.
+  1. ORB features on each view's white frame, lifted to 3D, matched and fitted by RANSAC;
+     where too few match (large turns, plain parts), shape histograms (FPFH) instead;
+  2. point-to-plane ICP with trimmed correspondences for every overlapping pair; a pair is
+     accepted only when it overlaps, converges, fits tightly and its paint lines up;
+  3. all views refined together (multi-view ICP), so no error piles up around a full turn.
+Views that cannot be aligned are named with the reason and their overlap, are left out of
+the merge and are written beside it as MERGED.unmerged-NAME.ply; the exit code is then 3.
+The poses go to MERGED.poses.txt (one 4x4 view->model matrix per view).
+
+Options:
+  --turntable X,Y,Z,DX,DY,DZ  a calibrated turntable axis (point and direction, camera frame,
+                             mm): the views were taken in equal steps around it, in order;
+                             its steps replace the feature search as the initial guess. When
+                             the views of a turntable are stitched by features, stitch prints
+                             the axis it found, ready to paste here.
+  --step-deg A               turntable step between consecutive views (default 360/views)
+  --initial-poses P.txt      start ICP from these view->model poses (the format stitch writes
+                             to MERGED.poses.txt, views in the same order) instead of features
+  --spacing-mm S             points are thinned to about S mm for ICP (default 0.7)
+)";
+
+const char* kMeshHelp = R"(picoscan mesh CLOUD.ply --out PART.stl [--method poisson|advancing-front|grid] [options]
+
+Turns a cloud with normals (from 'picoscan stitch' or 'reconstruct') into a triangle mesh:
+  poisson          watertight surface (Poisson reconstruction), for printing; unseen areas
+                   (the face the part stood on) are closed smoothly; default
+  advancing-front  interpolates the points and leaves unmeasured areas open; holes smaller
+                   than --max-hole-mm are filled (triangulated, refined and faired)
+  grid             joins neighbouring camera pixels of ONE view written by 'reconstruct'
+The mesh is checked before it is written (watertight, manifold, self-intersections, volume)
+and the result is printed. Output by extension: .stl, .ply or .obj.
+
+Options:
+  --spacing-mm S       thin the cloud to about S mm first (default 0.4; 0 keeps every point)
+  --target-faces N     simplify to about N triangles (default: no simplification)
+  --max-hole-mm D      advancing front: fill holes up to D mm across (default 10)
+  --mesh-step N        grid: join every N-th pixel only (default 1)
+  --calibration C      the rig calibration, for --preview
+  --preview P.png      a shaded picture of the mesh seen by the rig's camera (needs --calibration)
+)";
+
+const char* kDemo360Help = R"(picoscan demo [--out DIR] [--single-view]
+
+A full 360-degree scan of the built-in mechanical part (a block with a through hole, a boss
+and a chamfer, speckle-painted) on a simulated turntable: 8 views around it and one from
+above, each knocked by a few degrees and millimetres as if placed by hand. Each view is
+simulated, reconstructed and cleaned; the views are stitched and meshed into a watertight STL.
+Writes DIR/captures/view_K/ (capture sets), DIR/calibration.yml, DIR/views/view_K.ply,
+DIR/merged.ply (+ merged.poses.txt), DIR/part.stl and DIR/part.png (preview), and the
+simulation's true poses in DIR/true_poses.txt. Default DIR: demo-output.
+--single-view: the older one-view demo of a bracket (DIR/cloud.ply, part.stl, preview.png).
+)";
+
+std::string single_input(const Arguments& arguments) {
+    const std::vector<std::string>& inputs = arguments.inputs();
+    if (inputs.empty()) throw Error("input", "give one input file first (see --help)");
+    if (inputs.size() > 1) throw Error(inputs[1], "unexpected second input file");
+    if (!fs::is_regular_file(inputs[0])) throw Error(inputs[0], "no such file");
+    return inputs[0];
+}
+
+int run_clean(const Arguments& arguments) {
+    const std::string input = single_input(arguments);
+    const std::string out = arguments.required("--out");
+    const std::string calibration_path = arguments.text("--calibration");
+    const std::string background_path = arguments.text("--background");
+    check_extension(out, {".ply"}, "cleaned view (PLY)");
+    refuse_overwriting(out, {input, background_path, calibration_path});
+    CleanOptions options;
+    options.min_quality = arguments.number("--min-quality", options.min_quality);
+    options.max_grazing_deg = arguments.number("--max-grazing-deg", options.max_grazing_deg);
+    options.outlier_sigma = arguments.number("--outlier-sigma", options.outlier_sigma);
+    options.min_cluster_points = arguments.integer("--min-cluster", options.min_cluster_points);
+    if (arguments.has("--box")) {
+        const std::vector<double> box = arguments.numbers("--box", 6);
+        options.use_working_volume = true;
+        options.volume_min = {box[0], box[1], box[2]};
+        options.volume_max = {box[3], box[4], box[5]};
+    }
+    const double tolerance = arguments.number("--background-tolerance-mm", 1.0);
+    if (!(tolerance > 0)) throw Error("--background-tolerance-mm", "must be positive");
+    arguments.reject_unknown();
+    validate(options);
+    ScanView view = read_view_ply(input);
+    if (!(view.camera_matrix(0, 0) > 0)) {
+        if (calibration_path.empty())
+            throw Error(input, "does not store its camera (an older view): give --calibration, or reconstruct it again");
+        const Calibration calibration = read_calibration(calibration_path);
+        view.camera_matrix = calibration.camera_matrix;
+        view.camera_distortion = calibration.camera_distortion;
+    }
+    const int before = view.valid_count();
+    if (!background_path.empty()) {
+        const int removed = remove_background(view, read_view_ply(background_path), tolerance);
+        std::printf("background: %d points removed\n", removed);
+    }
+    const CleanReport report = clean_view(view, options);
+    std::printf("quality: %d, grazing: %d, working volume: %d, statistical outliers: %d, too few neighbours: %d, "
+                "small clusters: %d removed\n",
+                report.by_quality, report.by_grazing, report.by_working_volume, report.by_statistics, report.by_radius,
+                report.by_cluster);
+    if (report.remaining == 0) throw Error(input, "no point survived the cleaning; loosen the options");
+    write_view_ply(view, out);
+    std::printf("%d of %d points kept -> %s\n", report.remaining, before, out.c_str());
+    return 0;
+}
+
+std::vector<ViewPose> view_poses(const Alignment& alignment) {
+    std::vector<ViewPose> poses;
+    for (const ViewAlignment& view : alignment.views) poses.push_back({view.name, view.pose, view.aligned});
+    return poses;
+}
+
+// Aligns the views and writes the merged cloud and its poses; returns how many views were left out.
+int stitch_and_write(const std::vector<std::string>& paths, const std::string& out, const StitchOptions& options) {
+    std::vector<ScanView> views;
+    std::vector<std::string> names;
+    for (const std::string& path : paths) {
+        views.push_back(read_view_ply(path));
+        names.push_back(fs::path(path).filename().string());
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const StitchResult result = stitch_views(views, names, options, terminal_progress());
+    int left_out = 0;
+    for (size_t i = 0; i < views.size(); ++i) {
+        const ViewAlignment& view = result.alignment.views[i];
+        if (view.aligned) {
+            std::printf("%-24s aligned: residual %.4f mm, overlap %.0f %%\n", names[i].c_str(), view.rms_mm,
+                        100 * std::min(1.0, view.overlap));
+            continue;
+        }
+        ++left_out;
+        std::fprintf(stderr, "%-24s NOT aligned: %s; best overlap %.0f %%\n", names[i].c_str(), view.problem.c_str(),
+                     100 * std::min(1.0, view.overlap));
+        const fs::path unmerged = fs::path(out).replace_extension("").string() + ".unmerged-" + names[i];
+        write_view_ply(views[i], unmerged.string());
+        std::fprintf(stderr, "%-24s written unmerged -> %s\n", "", unmerged.string().c_str());
+    }
+    write_ply(result.merged, out);
+    write_poses(view_poses(result.alignment), fs::path(out).replace_extension(".poses.txt").string());
+    std::printf("%d of %zu views merged, %zu points -> %s (%.1f s)\n", result.alignment.aligned_count(), views.size(),
+                result.merged.points.size(), out.c_str(), seconds_since(start));
+    if (result.axis)
+        std::printf("these views turn about one axis; next time: --turntable %.4f,%.4f,%.4f,%.6f,%.6f,%.6f --step-deg %.3f\n",
+                    result.axis->point_mm[0], result.axis->point_mm[1], result.axis->point_mm[2],
+                    result.axis->direction[0], result.axis->direction[1], result.axis->direction[2],
+                    result.axis->step_deg);
+    return left_out;
+}
+
+int run_stitch(const Arguments& arguments) {
+    const std::vector<std::string>& inputs = arguments.inputs();
+    for (const std::string& input : inputs)
+        if (!fs::is_regular_file(input)) throw Error(input, "no such file");
+    const std::string out = arguments.required("--out");
+    check_extension(out, {".ply"}, "merged cloud (PLY)");
+    refuse_overwriting(out, inputs);
+    if (inputs.size() < 2) throw Error("stitch", "needs at least two views (got " + std::to_string(inputs.size()) + ")");
+    StitchOptions options;
+    options.registration.sample_spacing_mm = arguments.number("--spacing-mm", options.registration.sample_spacing_mm);
+    if (arguments.has("--turntable")) {
+        const std::vector<double> axis = arguments.numbers("--turntable", 6);
+        options.turntable = TurntableAxis{{axis[0], axis[1], axis[2]}, {axis[3], axis[4], axis[5]}, 360.0 / inputs.size()};
+        if (cv::norm(options.turntable->direction) < 1e-9) throw Error("--turntable", "the axis direction must not be zero");
+        options.turntable->step_deg = arguments.number("--step-deg", options.turntable->step_deg);
+    }
+    if (arguments.has("--initial-poses")) {
+        if (options.turntable) throw Error("--initial-poses", "give either --turntable or --initial-poses");
+        const std::string path = arguments.text("--initial-poses");
+        const std::vector<ViewPose> poses = read_poses(path);
+        if (poses.size() != inputs.size())
+            throw Error(path, "has " + std::to_string(poses.size()) + " poses for " + std::to_string(inputs.size()) + " views");
+        for (const ViewPose& pose : poses) options.registration.initial_poses.push_back(pose.pose);
+    }
+    arguments.reject_unknown();
+    validate(options.registration);
+    return stitch_and_write(inputs, out, options) > 0 ? 3 : 0;
+}
+
+void report_mesh(const Mesh& mesh, const std::string& path) {
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("%s\n", check.summary().c_str());
+    if (!check.watertight() || !check.closed_volume)
+        std::printf("warning: %s is not a closed volume; a slicer may refuse it or guess\n", path.c_str());
+}
+
+int run_mesh(const Arguments& arguments) {
+    const std::string input = single_input(arguments);
+    const std::string out = arguments.required("--out");
+    const std::string method = arguments.text("--method", "poisson");
+    const std::string preview = arguments.text("--preview");
+    const std::string calibration_path = arguments.text("--calibration");
+    check_extension(out, {".stl", ".ply", ".obj"}, "mesh file");
+    check_extension(preview, {".png"}, "preview file");
+    refuse_overwriting(out, {input, calibration_path});
+    refuse_overwriting(preview, {input, calibration_path, out});
+    MeshOptions options;
+    if (method == "poisson") options.method = MeshMethod::Poisson;
+    else if (method == "advancing-front") options.method = MeshMethod::AdvancingFront;
+    else if (method == "grid") options.method = MeshMethod::Grid;
+    else throw Error("--method", "must be poisson, advancing-front or grid, got '" + method + "'");
+    options.sample_spacing_mm = arguments.number("--spacing-mm", options.sample_spacing_mm);
+    options.target_faces = arguments.integer("--target-faces", options.target_faces);
+    options.max_hole_diameter_mm = arguments.number("--max-hole-mm", options.max_hole_diameter_mm);
+    options.grid.pixel_step = arguments.integer("--mesh-step", options.grid.pixel_step);
+    if (!preview.empty() && calibration_path.empty()) throw Error("--calibration", "is required by --preview");
+    arguments.reject_unknown();
+    validate(options);
+    const auto start = std::chrono::steady_clock::now();
+    Mesh mesh;
+    if (options.method == MeshMethod::Grid) {
+        mesh = mesh_view(read_view_ply(input), options);
+    } else {
+        const Mesh points = read_ply(input);
+        PointCloud cloud;
+        cloud.points = points.vertices;
+        cloud.normals = points.normals;
+        mesh = mesh_cloud(cloud, options, terminal_progress());
+    }
+    report_mesh(mesh, out);
+    write_mesh_file(mesh, out);
+    std::printf("%zu triangles -> %s (%.1f s)\n", mesh.faces.size(), out.c_str(), seconds_since(start));
+    if (!preview.empty()) {
+        write_mesh_preview_png(mesh, read_calibration(calibration_path), preview);
+        std::printf("preview -> %s\n", preview.c_str());
+    }
+    return 0;
+}
+
+// Replaces the demo's own previous capture folder (it carries a marker), never anything else.
+void clear_demo_captures(const fs::path& captures) {
+    if (!fs::exists(captures)) return;
+    if (!fs::is_regular_file(captures / ".picoscan-demo"))
+        throw Error(captures.string(), "exists and was not made by 'picoscan demo'; choose another --out");
+    fs::remove_all(captures);
+}
+
+void mark_demo_captures(const fs::path& captures) {
+    write_file_atomically((captures / ".picoscan-demo").string(),
+                          "made by picoscan demo; the next demo run replaces this folder\n");
+}
+
+// The older demo: one view of a bracket, reconstructed as 'picoscan reconstruct' does.
+int run_demo_single_view(const fs::path& directory) {
+    const fs::path captures = directory / "captures";
+    clear_demo_captures(captures);
+    const Calibration calibration = seed_rig_calibration();
+    std::printf("simulating a scan of the built-in part (1600x1200 camera, 854x480 projector)...\n");
+    write_capture_set(simulate_captures(demo_scene(), calibration, SimulateOptions{}, terminal_progress()),
+                      captures.string());
+    mark_demo_captures(captures);
+    write_calibration(calibration, (directory / "calibration.yml").string());
+    ReconstructRequest request;
+    request.calibration = (directory / "calibration.yml").string();
+    request.captures = captures.string();
+    request.cloud = (directory / "cloud.ply").string();
+    request.mesh = (directory / "part.stl").string();
+    request.preview = (directory / "preview.png").string();
+    request.mesh_step = 2;  // a 1-million-triangle STL rather than 4 million
+    return reconstruct_and_write(request);
+}
+
+// The 360-degree demo: scan, clean, stitch, mesh.
+int run_demo_360(const fs::path& directory) {
+    const fs::path captures = directory / "captures";
+    clear_demo_captures(captures);
+    fs::create_directories(directory / "views");
+    const Calibration calibration = seed_rig_calibration();
+    write_calibration(calibration, (directory / "calibration.yml").string());
+    TurntableScanOptions scan;
+    scan.plan.max_disturbance_deg = 3;  // as if placed by hand
+    scan.plan.max_disturbance_mm = 5;
+    std::vector<std::string> view_files;
+    std::vector<ViewPose> truth;
+    const std::vector<cv::Matx44d> poses = simulate_turntable_scan(
+        mechanical_part(), calibration, scan,
+        [&](const SimulatedView& simulated) {
+            write_capture_set(simulated.captures, (captures / simulated.name).string());
+            if (view_files.empty()) mark_demo_captures(captures);
+            view_files.push_back((directory / "views" / (simulated.name + ".ply")).string());
+            write_view_ply(simulated.view, view_files.back());
+            truth.push_back({simulated.name + ".ply", cv::Matx44d::eye(), true});
+            std::printf("view %zu: %d points after cleaning (%d removed) -> %s\n", view_files.size(),
+                        simulated.cleaning.remaining, simulated.cleaning.removed(), view_files.back().c_str());
+        },
+        terminal_progress());
+    // The simulation's ground truth, in the format stitch writes, to judge the stitching by.
+    for (size_t i = 0; i < poses.size(); ++i) truth[i].pose = poses[0] * poses[i].inv();
+    write_poses(truth, (directory / "true_poses.txt").string());
+    const std::string merged = (directory / "merged.ply").string();
+    if (stitch_and_write(view_files, merged, StitchOptions{}) > 0)
+        throw Error(merged, "not every view could be aligned (see above)");
+    const Mesh points = read_ply(merged);
+    PointCloud cloud;
+    cloud.points = points.vertices;
+    cloud.normals = points.normals;
+    const Mesh mesh = mesh_cloud(cloud, MeshOptions{}, terminal_progress());
+    const std::string stl = (directory / "part.stl").string();
+    report_mesh(mesh, stl);
+    write_stl(mesh, stl);
+    write_mesh_preview_png(mesh, calibration, (directory / "part.png").string());
+    std::printf("%zu triangles -> %s, preview -> %s\n", mesh.faces.size(), stl.c_str(), (directory / "part.png").c_str());
+    return 0;
+}
+
+int run_demo(const Arguments& arguments) {
+    const fs::path directory = arguments.text("--out", "demo-output");
+    const bool single_view = arguments.flag("--single-view");
+    arguments.reject_unknown();
+    return single_view ? run_demo_single_view(directory) : run_demo_360(directory);
+}
+
+}  // namespace
+
+std::vector<Command> model_commands() {
+    return {
+        {"clean", "remove stray-light noise, background and outliers from a view", kCleanHelp, run_clean,
+         {{}, {}, true}},
+        {"stitch", "align several views of a part into one model (features, RANSAC, ICP)", kStitchHelp, run_stitch,
+         {{}, {}, true}},
+        {"mesh", "mesh a cloud: watertight Poisson, advancing front or pixel grid -> STL", kMeshHelp, run_mesh,
+         {{}, {}, true}},
+        {"demo", "simulated 360-degree turntable scan of the built-in part -> watertight STL", kDemo360Help, run_demo,
+         {{"--single-view"}, {}, false}},
+    };
+}
+
+}  // namespace picoscan::cli

@@ -1,0 +1,170 @@
+// picoscan simulate and reconstruct: a capture set, and a capture set into a view.
+#include "cli_support.h"
+#include "commands.h"
+
+#include "picoscan/error.h"
+#include "picoscan/io.h"
+#include "picoscan/preview.h"
+
+#include <cstdio>
+#include <filesystem>
+
+namespace fs = std::filesystem;
+
+namespace picoscan::cli {
+
+namespace {
+
+const char* kSimulateHelp = R"(picoscan simulate --out DIR [options]
+
+Renders the capture set a real rig would record, with the seed-like rig (1600x1200 camera,
+854x480 projector, 150 mm baseline, 400 mm working distance) unless --calibration is given.
+Writes the images, DIR/sequence.json and the exact rig as DIR/calibration.yml.
+
+  --out DIR            output folder (must be empty or not exist)
+  --scene FILE         scene description (YAML/JSON, see docs/formats.md); default: built-in part
+  --calibration FILE   rig to simulate (default: the seed-like rig)
+  --shifts K, --period-bits N, --rows | --no-rows    pattern options as for 'patterns'
+  --noise SIGMA        camera noise in grey levels (default 1)
+  --gamma G            projector response exponent (default 1)
+  --blur SIGMA         defocus blur in camera pixels (default 0.7)
+  --seed N             noise seed (default 1)
+)";
+
+const char* kReconstructHelp = R"(picoscan reconstruct --calibration FILE --captures DIR --out CLOUD.ply [options]
+
+Decodes the Gray code and phase-shift frames of a capture set (hybrid unwrapping) and
+triangulates every camera pixel. Writes an organised point cloud with colour, normals and
+quality, and optionally a grid mesh that does not bridge depth jumps.
+
+  --calibration FILE   camera-projector calibration (PicoScan YAML, SLMaster caliInfo.yml or
+                       SLStudio calibration.xml)
+  --captures DIR       capture set folder
+  --manifest FILE      sequence.json to use instead of DIR/sequence.json (for foreign sets)
+  --out FILE           point cloud (.ply, binary unless --ascii)
+  --mesh FILE          grid mesh too (.stl, .ply or .obj)
+  --mesh-step N        join every N-th pixel only: N*N times fewer triangles (default 1)
+  --preview FILE       shaded PNG preview of the scan
+  --binary-only        Gray code only, ignore the phase frames (for comparison)
+  --ascii              write ASCII PLY/STL instead of binary
+  --min-contrast DN    white-black contrast below this is shadow (default 15)
+  --min-modulation DN  fringe amplitude below this is rejected (default 4)
+  --clean              remove unreliable points before writing: stray-light outliers, points seen
+                       at grazing angles (> 80 deg), small disconnected clusters; prints what
+                       each filter removed
+  --second-calibration FILE, --second-captures DIR
+                       a second camera's calibration (with the same projector) and its captures
+                       of the same scan: points the second camera does not confirm (stray light,
+                       interreflections, points only the first camera sees) are removed
+)";
+
+int run_reconstruct(const Arguments& arguments) {
+    ReconstructRequest request;
+    request.calibration = arguments.required("--calibration");
+    request.captures = arguments.required("--captures");
+    request.options.manifest_path = arguments.text("--manifest");
+    request.cloud = arguments.required("--out");
+    request.mesh = arguments.text("--mesh");
+    request.preview = arguments.text("--preview");
+    request.mesh_step = arguments.integer("--mesh-step", request.mesh_step);
+    request.options.clean = arguments.flag("--clean");
+    request.second_calibration = arguments.text("--second-calibration");
+    request.second_captures = arguments.text("--second-captures");
+    if (request.second_calibration.empty() != request.second_captures.empty())
+        throw Error("--second-captures", "--second-calibration and --second-captures go together");
+    DecodeOptions& decode = request.options.decode;
+    decode.binary_only = arguments.flag("--binary-only");
+    decode.min_contrast = arguments.number("--min-contrast", decode.min_contrast);
+    decode.min_modulation = arguments.number("--min-modulation", decode.min_modulation);
+    request.encoding = arguments.flag("--ascii") ? Encoding::Ascii : Encoding::Binary;
+    arguments.reject_unknown();
+    return reconstruct_and_write(request);
+}
+
+int run_simulate(const Arguments& arguments) {
+    const std::string directory = arguments.required("--out");
+    const Calibration calibration =
+        arguments.has("--calibration") ? read_calibration(arguments.text("--calibration")) : seed_rig_calibration();
+    const Scene scene = arguments.has("--scene") ? read_scene(arguments.text("--scene")) : demo_scene();
+    SimulateOptions options;
+    options.patterns = pattern_options(arguments, calibration.projector_size);
+    options.camera = camera_options(arguments);
+    arguments.reject_unknown();
+    require_empty_directory(directory);
+    const CaptureSet captures = simulate_captures(scene, calibration, options, terminal_progress());
+    write_capture_set(captures, directory);
+    write_calibration(calibration, (fs::path(directory) / "calibration.yml").string());
+    std::printf("wrote %zu simulated frames, sequence.json and calibration.yml to %s\n", captures.images.size(),
+                directory.c_str());
+    return 0;
+}
+
+}  // namespace
+
+SimulationOptions camera_options(const Arguments& arguments) {
+    SimulationOptions options = SimulateOptions{}.camera;
+    options.noise_sigma_dn = arguments.number("--noise", options.noise_sigma_dn);
+    options.projector_gamma = arguments.number("--gamma", options.projector_gamma);
+    options.blur_sigma_px = arguments.number("--blur", options.blur_sigma_px);
+    options.seed = static_cast<uint64_t>(arguments.integer("--seed", static_cast<int>(options.seed)));
+    validate(options);
+    return options;
+}
+
+int reconstruct_and_write(const ReconstructRequest& request) {
+    const auto start = std::chrono::steady_clock::now();
+    // Refuse bad output names before any work, so nothing is half done.
+    check_extension(request.cloud, {".ply"}, "point cloud file");
+    check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
+    check_extension(request.preview, {".png"}, "preview file");
+    const std::vector<std::string> inputs{request.calibration, request.options.manifest_path, request.second_calibration};
+    for (const std::string& output : {request.cloud, request.mesh, request.preview})
+        refuse_overwriting(output, inputs, {request.captures, request.second_captures});
+    MeshOptions mesh_options;
+    mesh_options.method = MeshMethod::Grid;
+    mesh_options.grid.pixel_step = request.mesh_step;
+    validate(mesh_options);
+    validate(request.options);
+
+    const Calibration calibration = read_calibration(request.calibration);
+    ReconstructOptions options = request.options;
+    if (!request.second_calibration.empty())
+        options.second_camera = SecondCamera{read_calibration(request.second_calibration), request.second_calibration,
+                                             request.second_captures};
+    const ReconstructResult result =
+        reconstruct_view(request.captures, calibration, request.calibration, options, terminal_progress());
+    if (options.second_camera)
+        std::printf("%d points not confirmed by the second camera removed\n", result.unconfirmed_removed);
+    if (result.cleaning) {
+        const CleanReport& cleaned = *result.cleaning;
+        std::printf("cleaning removed %d points: %d grazing, %d outliers, %d with too few neighbours, %d in small "
+                    "clusters\n",
+                    cleaned.removed(), cleaned.by_grazing, cleaned.by_statistics, cleaned.by_radius, cleaned.by_cluster);
+    }
+    write_view_ply(result.view, request.cloud, request.encoding);  // keeps the pixel grid for clean and stitch
+    std::printf("%d points (%.1f %% of the camera pixels), %d fringe orders corrected -> %s\n", result.point_count,
+                100.0 * result.point_count / static_cast<double>(result.view.points.total()), result.order_corrections,
+                request.cloud.c_str());
+    if (!request.mesh.empty()) {
+        const Mesh mesh = mesh_view(result.view, mesh_options);
+        write_mesh_file(mesh, request.mesh, request.encoding);
+        std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
+    }
+    if (!request.preview.empty()) {
+        write_preview_png(result.view, request.preview);
+        std::printf("preview -> %s\n", request.preview.c_str());
+    }
+    std::printf("done in %.2f s\n", seconds_since(start));
+    return 0;
+}
+
+std::vector<Command> scan_commands() {
+    return {
+        {"simulate", "render a capture set of a virtual scene with the simulated rig", kSimulateHelp, run_simulate,
+         {{"--rows", "--no-rows"}, {}, false}},
+        {"reconstruct", "decode a capture set and triangulate it into a point cloud (and mesh)", kReconstructHelp,
+         run_reconstruct, {{"--binary-only", "--ascii", "--clean"}, {}, false}},
+    };
+}
+
+}  // namespace picoscan::cli

@@ -1,0 +1,177 @@
+// The recipes: the ordered uses of the stages that every front end runs. The CLI, the Python
+// module (FreeCAD) and the MeshLab plugin translate their parameters into these options and
+// present the results; none of them calls decode, triangulate, clean, register or mesh itself.
+// Defaults live in the options structs below, ranges are checked once by validate(), and the
+// errors name the option field (hosts map field names to their own parameter names).
+#pragma once
+
+#include "picoscan/calibration.h"
+#include "picoscan/capture_set.h"
+#include "picoscan/clean.h"
+#include "picoscan/cloud.h"
+#include "picoscan/decode.h"
+#include "picoscan/mesh.h"
+#include "picoscan/patterns.h"
+#include "picoscan/progress.h"
+#include "picoscan/register.h"
+#include "picoscan/simulate.h"
+#include "picoscan/triangulate.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+// ---- Reconstruct one view from a capture folder ----------------------------------------
+
+// A second camera on the same projector, calibrated with it: it confirms the first camera's
+// points, and points it does not confirm (stray light, interreflections) are removed.
+struct SecondCamera {
+    Calibration calibration;
+    std::string calibration_name;  // the file it came from, for messages
+    std::string captures_folder;
+};
+
+struct ReconstructOptions {
+    std::string manifest_path;  // sequence.json to read instead of the capture folder's own
+    DecodeOptions decode;
+    TriangulateOptions triangulate;
+    std::optional<SecondCamera> second_camera;
+    bool clean = false;  // run clean_view on the result
+    CleanOptions cleaning;
+};
+
+struct ReconstructResult {
+    ScanView view;                        // organised, knows its camera
+    int order_corrections = 0;            // fringe orders the Gray code corrected
+    int unconfirmed_removed = 0;          // by the second camera
+    std::optional<CleanReport> cleaning;  // when options.clean
+    int point_count = 0;                  // valid points in the view
+};
+
+// Inputs: a capture folder (frames + sequence.json, or options.manifest_path) and the rig's
+// calibration (calibration_name names it in errors). Checks the frames' size against the
+// calibration, decodes, triangulates, confirms with a second camera and cleans.
+// Throws Error naming the folder when no pixel could be reconstructed.
+ReconstructResult reconstruct_view(const std::string& captures_folder, const Calibration& calibration,
+                                   const std::string& calibration_name, const ReconstructOptions& options = {},
+                                   const ProgressCallback& progress = nullptr);
+// The same from captures already in memory (a simulated or captured set).
+ReconstructResult reconstruct_view(const CaptureSet& captures, const Calibration& calibration,
+                                   const std::string& calibration_name, const ReconstructOptions& options = {},
+                                   const ProgressCallback& progress = nullptr);
+
+// ---- Simulate -----------------------------------------------------------------------------
+
+// A capture set of a virtual scene, as 'picoscan simulate' and the hosts' Simulate commands
+// render it: the default patterns and a camera slightly out of focus, like a real webcam.
+struct SimulateOptions {
+    PatternOptions patterns;  // projector_size is taken from the calibration
+    SimulationOptions camera = realistic_camera();
+    static SimulationOptions realistic_camera() {
+        SimulationOptions camera;
+        camera.blur_sigma_px = 0.7;
+        return camera;
+    }
+};
+CaptureSet simulate_captures(const Scene& scene, const Calibration& calibration, const SimulateOptions& options = {},
+                             const ProgressCallback& progress = nullptr);
+
+// The turntable session of the demo, the multi-view tests and the hosts: the part, light grey,
+// turned on a table in front of the rig; each view simulated, reconstructed and cleaned.
+struct TurntableScanOptions {
+    TurntablePlan plan;
+    PatternOptions patterns = fewer_shifts();
+    SimulationOptions camera = bright_camera();
+    DecodeOptions decode = modulated_only();
+    double part_albedo = 0.85;
+    static PatternOptions fewer_shifts() {
+        PatternOptions patterns;
+        patterns.shifts = 16;
+        return patterns;
+    }
+    static SimulationOptions bright_camera() {
+        SimulationOptions camera;
+        camera.full_scale_dn = 250;
+        camera.blur_sigma_px = 0.5;
+        return camera;
+    }
+    static DecodeOptions modulated_only() {
+        DecodeOptions decode;
+        decode.min_modulation = 15;
+        return decode;
+    }
+};
+
+// One simulated view: its captures (for writing), the cleaned view and the truth.
+struct SimulatedView {
+    std::string name;             // view_K
+    CaptureSet captures;
+    ScanView view;                // cleaned, camera frame, pose identity
+    CleanReport cleaning;
+    cv::Matx44d part_to_camera;   // ground truth
+};
+
+// Simulates every view of options.plan in turn (camera noise seeded per view, so views are
+// independent) and hands each to on_view as soon as it is made, so the caller can write it
+// without holding every capture set in memory. Returns the part->camera pose of every view.
+std::vector<cv::Matx44d> simulate_turntable_scan(const Mesh& part, const Calibration& calibration,
+                                                 const TurntableScanOptions& options,
+                                                 const std::function<void(const SimulatedView&)>& on_view,
+                                                 const ProgressCallback& progress = nullptr);
+
+// ---- Sequences of other systems ------------------------------------------------------------
+
+struct ForeignPresetOptions {
+    std::string preset;             // one of foreign_preset_names()
+    cv::Size projector_size;
+    std::string file_prefix;        // opencv-graycode: files PREFIX<K>SUFFIX
+    std::string file_suffix = ".png";
+    int first_index = 1;
+    int gray_bits = 0;              // slstudio-gray: projected bits (0: all)
+    int periods = 0;                // slstudio-phase-cue (0: 16), slmaster-cgc (0: 32)
+    int shifts = 0;                 // slmaster-cgc (0: 12)
+};
+std::vector<std::string> foreign_preset_names();
+PatternSequence foreign_preset_sequence(const ForeignPresetOptions& options);
+
+// ---- Align and fuse views -----------------------------------------------------------------
+
+struct StitchOptions {
+    RegistrationOptions registration;
+    std::optional<TurntableAxis> turntable;  // known turntable motion (views in order)
+};
+
+struct StitchResult {
+    Alignment alignment;                   // every view: aligned or not, with the reason
+    PointCloud merged;                     // the aligned views in the model frame
+    std::vector<size_t> merged_views;      // indices of the views in `merged`
+    std::optional<TurntableAxis> axis;     // the turntable the aligned views turn about, if any
+};
+
+// Aligns the views (features -> RANSAC -> ICP -> multi-view refinement) and merges those that
+// aligned. Views that did not are left out, never forced in; their reason is in alignment.
+StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<std::string>& names,
+                          const StitchOptions& options = {}, const ProgressCallback& progress = nullptr);
+
+// ---- Mesh ---------------------------------------------------------------------------------
+
+// A view or a cloud into a mesh: MeshMethod::Grid joins the pixels of one view (with its
+// camera); the others mesh the view's points (see mesh_cloud).
+Mesh mesh_view(const ScanView& view, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
+
+// ---- Validation ---------------------------------------------------------------------------
+// Each throws Error naming the offending field (e.g. "decode.min_modulation") when a value is
+// out of range or NaN.
+void validate(const PatternOptions& options);
+void validate(const DecodeOptions& options);
+void validate(const SimulationOptions& options);
+void validate(const CleanOptions& options);
+void validate(const RegistrationOptions& options);
+void validate(const MeshOptions& options);
+void validate(const ReconstructOptions& options);
+void validate(const SimulateOptions& options);
+
+}  // namespace picoscan

@@ -1,0 +1,128 @@
+#include "bindings.h"
+
+#include "picoscan/pipeline.h"
+
+#include <pybind11/functional.h>
+
+namespace picoscan::python {
+
+void bind_pipeline(py::module_& m) {
+    py::class_<SecondCamera>(m, "SecondCamera", "A second camera on the same projector, calibrated with it.")
+        .def(py::init<>())
+        .def_readwrite("calibration", &SecondCamera::calibration)
+        .def_readwrite("calibration_name", &SecondCamera::calibration_name)
+        .def_readwrite("captures_folder", &SecondCamera::captures_folder);
+    py::class_<ReconstructOptions>(m, "ReconstructOptions")
+        .def(py::init<>())
+        .def_readwrite("manifest_path", &ReconstructOptions::manifest_path)
+        .def_readwrite("decode", &ReconstructOptions::decode)
+        .def_readwrite("triangulate", &ReconstructOptions::triangulate)
+        .def_readwrite("second_camera", &ReconstructOptions::second_camera)
+        .def_readwrite("clean", &ReconstructOptions::clean)
+        .def_readwrite("cleaning", &ReconstructOptions::cleaning);
+    py::class_<ReconstructResult>(m, "ReconstructResult")
+        .def_readonly("view", &ReconstructResult::view)
+        .def_readonly("order_corrections", &ReconstructResult::order_corrections)
+        .def_readonly("unconfirmed_removed", &ReconstructResult::unconfirmed_removed)
+        .def_readonly("cleaning", &ReconstructResult::cleaning)
+        .def_readonly("point_count", &ReconstructResult::point_count);
+    m.def(
+        "reconstruct_view",
+        [](const std::string& captures_folder, const Calibration& calibration, const std::string& calibration_name,
+           const ReconstructOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return reconstruct_view(captures_folder, calibration, calibration_name, options, callback);
+        },
+        py::arg("captures_folder"), py::arg("calibration"), py::arg("calibration_name"),
+        py::arg("options") = ReconstructOptions(), py::arg("progress") = py::none(),
+        "Size check, decode, triangulate, second camera, clean: one view from a capture folder.");
+
+    py::class_<SimulateOptions>(m, "SimulateOptions")
+        .def(py::init<>())
+        .def_readwrite("patterns", &SimulateOptions::patterns)
+        .def_readwrite("camera", &SimulateOptions::camera);
+    m.def(
+        "simulate_captures",
+        [](const Scene& scene, const Calibration& calibration, const SimulateOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return simulate_captures(scene, calibration, options, callback);
+        },
+        py::arg("scene"), py::arg("calibration"), py::arg("options") = SimulateOptions(), py::arg("progress") = py::none());
+    py::class_<TurntableScanOptions>(m, "TurntableScanOptions")
+        .def(py::init<>())
+        .def_readwrite("plan", &TurntableScanOptions::plan)
+        .def_readwrite("patterns", &TurntableScanOptions::patterns)
+        .def_readwrite("camera", &TurntableScanOptions::camera)
+        .def_readwrite("decode", &TurntableScanOptions::decode)
+        .def_readwrite("part_albedo", &TurntableScanOptions::part_albedo);
+    py::class_<SimulatedView>(m, "SimulatedView")
+        .def_readonly("name", &SimulatedView::name)
+        .def_readonly("captures", &SimulatedView::captures)
+        .def_readonly("view", &SimulatedView::view)
+        .def_readonly("cleaning", &SimulatedView::cleaning)
+        .def_readonly("part_to_camera", &SimulatedView::part_to_camera);
+    m.def(
+        "simulate_turntable_scan",
+        [](const Mesh& part, const Calibration& calibration, const TurntableScanOptions& options,
+           const std::function<void(const SimulatedView&)>& on_view, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return simulate_turntable_scan(part, calibration, options, on_view, callback);
+        },
+        py::arg("part"), py::arg("calibration"), py::arg("options"), py::arg("on_view"), py::arg("progress") = py::none(),
+        "Simulates each turntable view and hands it to on_view; returns the true part->camera poses.");
+
+    py::class_<ForeignPresetOptions>(m, "ForeignPresetOptions")
+        .def(py::init<>())
+        .def_readwrite("preset", &ForeignPresetOptions::preset)
+        .def_readwrite("projector_size", &ForeignPresetOptions::projector_size)
+        .def_readwrite("file_prefix", &ForeignPresetOptions::file_prefix)
+        .def_readwrite("file_suffix", &ForeignPresetOptions::file_suffix)
+        .def_readwrite("first_index", &ForeignPresetOptions::first_index)
+        .def_readwrite("gray_bits", &ForeignPresetOptions::gray_bits)
+        .def_readwrite("periods", &ForeignPresetOptions::periods)
+        .def_readwrite("shifts", &ForeignPresetOptions::shifts);
+    m.def("foreign_preset_names", &foreign_preset_names);
+    m.def("foreign_preset_sequence", &foreign_preset_sequence, py::arg("options"));
+
+    py::class_<StitchOptions>(m, "StitchOptions")
+        .def(py::init<>())
+        .def_readwrite("registration", &StitchOptions::registration)
+        .def_readwrite("turntable", &StitchOptions::turntable);
+    py::class_<StitchResult>(m, "StitchResult")
+        .def_readonly("alignment", &StitchResult::alignment)
+        .def_readonly("merged", &StitchResult::merged)
+        .def_readonly("merged_views", &StitchResult::merged_views)
+        .def_readonly("axis", &StitchResult::axis);
+    m.def(
+        "stitch_views",
+        [](const std::vector<ScanView>& views, const std::vector<std::string>& names, const StitchOptions& options,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return stitch_views(views, names, options, callback);
+        },
+        py::arg("views"), py::arg("names"), py::arg("options") = StitchOptions(), py::arg("progress") = py::none());
+    m.def(
+        "mesh_view",
+        [](const ScanView& view, const MeshOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return mesh_view(view, options, callback);
+        },
+        py::arg("view"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none());
+
+    // validate(options) for every options struct: raises picoscan.Error naming the field.
+    m.def("validate", py::overload_cast<const PatternOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const DecodeOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const SimulationOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const CleanOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const RegistrationOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const MeshOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const ReconstructOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const SimulateOptions&>(&validate), py::arg("options"));
+}
+
+}  // namespace picoscan::python

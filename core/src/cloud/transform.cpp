@@ -1,0 +1,32 @@
+// Clouds and meshes moved and merged: views into one model frame, meshes by a rigid transform.
+#include "picoscan/cloud.h"
+
+namespace picoscan {
+
+PointCloud merge_views(const std::vector<ScanView>& views) {
+    PointCloud merged;
+    for (const ScanView& view : views) {
+        const PointCloud cloud = to_point_cloud(view);
+        merged.points.insert(merged.points.end(), cloud.points.begin(), cloud.points.end());
+        merged.normals.insert(merged.normals.end(), cloud.normals.begin(), cloud.normals.end());
+        merged.colours.insert(merged.colours.end(), cloud.colours.begin(), cloud.colours.end());
+        merged.quality.insert(merged.quality.end(), cloud.quality.begin(), cloud.quality.end());
+    }
+    // A layer some views lack is dropped for all, so every layer stays one per point.
+    auto keep = [&](auto& layer) { if (layer.size() != merged.points.size()) layer.clear(); };
+    keep(merged.normals);
+    keep(merged.colours);
+    keep(merged.quality);
+    return merged;
+}
+
+Mesh transformed(const Mesh& mesh, const cv::Matx44d& transform) {
+    const cv::Matx33d rotation = transform.get_minor<3, 3>(0, 0);
+    const cv::Vec3d translation(transform(0, 3), transform(1, 3), transform(2, 3));
+    Mesh out = mesh;
+    for (cv::Vec3f& v : out.vertices) v = cv::Vec3f(rotation * cv::Vec3d(v) + translation);
+    for (cv::Vec3f& n : out.normals) n = cv::Vec3f(rotation * cv::Vec3d(n));
+    return out;
+}
+
+}  // namespace picoscan

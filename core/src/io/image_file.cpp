@@ -1,0 +1,23 @@
+#include "picoscan/error.h"
+#include "picoscan/file_output.h"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <filesystem>
+#include <vector>
+
+namespace picoscan {
+
+void write_image_file(const cv::Mat& image, const std::string& path) {
+    std::vector<uint8_t> bytes;
+    bool encoded = false;
+    try {
+        encoded = !image.empty() && cv::imencode(std::filesystem::path(path).extension().string(), image, bytes);
+    } catch (const cv::Exception& error) {
+        throw Error(path, "cannot encode the image: " + error.msg);
+    }
+    if (!encoded) throw Error(path, "cannot encode the image");
+    write_file_atomically(path, std::string(bytes.begin(), bytes.end()));
+}
+
+}  // namespace picoscan
