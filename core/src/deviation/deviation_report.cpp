@@ -1,9 +1,9 @@
 // Figures, histogram, colours, PLY and HTML report of a deviation map.
 #include "picoscan/deviation.h"
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/io.h"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -152,9 +152,7 @@ cv::Mat plot_deviation_histogram(const DeviationMap& map, const std::string& tit
 
 void write_deviation_report(const DeviationMap& map, const std::string& title, const std::string& html_path) {
     const std::string png_path = html_path + ".png";
-    std::vector<uchar> png;
-    cv::imencode(".png", plot_deviation_histogram(map, title), png);
-    write_file_atomically(png_path, std::string(png.begin(), png.end()));
+    write_image_file(plot_deviation_histogram(map, title), png_path);
     const DeviationStatistics& s = map.statistics;
     const std::string png_name = png_path.substr(png_path.find_last_of('/') + 1);
     std::ostringstream html;

@@ -1,6 +1,7 @@
-"""Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core registers
-the views (features on the white frames, RANSAC, trimmed point-to-plane ICP, then all views
-refined together) and merges them; views it cannot register are reported, not forced in."""
+"""Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core's recipe
+stitch_views registers the views (features on the white frames, RANSAC, trimmed point-to-plane
+ICP, then all views refined together) and merges them; views it cannot register are reported,
+not forced in."""
 import numpy
 import FreeCAD
 
@@ -42,20 +43,22 @@ class Stitch(DocumentObjectProxy):
         if len(sources) < 2 or not all(is_scan_view(v) for v in sources):
             raise picoscan.Error("%s: Views must hold two or more ScanViews" % obj.Label)
         views = [source.Proxy.scan_view(source)[0] for source in sources]
-        options = picoscan.RegistrationOptions()
-        options.icp_max_distance_mm = millimetres(obj.IcpMaxDistance)
-        options.min_overlap = obj.MinOverlap
+        options = picoscan.StitchOptions()
+        registration = options.registration
+        registration.icp_max_distance_mm = millimetres(obj.IcpMaxDistance)
+        registration.min_overlap = obj.MinOverlap
+        options.registration = registration
         names = [v.Label for v in sources]
-        alignment = run_in_background("Stitching " + obj.Label,
-                                      lambda progress: picoscan.align_views(views, names, options, progress=progress))
+        stitched = run_in_background("Stitching " + obj.Label,
+                                     lambda progress: picoscan.stitch_views(views, names, options, progress))
+        alignment = stitched.alignment
         report = []
         for source, result in zip(sources, alignment.views):
             report.append("%s: overlap %.2f, rms %.3f mm" % (source.Label, result.overlap, result.rms_mm) if result.aligned
                           else "%s: left out: %s" % (source.Label, result.problem))
         if alignment.aligned_count() < 2:
             raise picoscan.Error("%s: fewer than two views could be registered (%s)" % (obj.Label, "; ".join(report)))
-        aligned = [(view, result.pose) for view, result in zip(views, alignment.views) if result.aligned]
-        cloud = picoscan.merge_views([view.with_pose(pose) for view, pose in aligned])
+        cloud = stitched.merged
         self.cached = (_parameters(obj), cloud)  # on the proxy: goes with the object; not saved (see scan_view)
         obj.ViewPoses = [_placement(result.pose) for result in alignment.views]
         obj.Report = report
