@@ -86,6 +86,7 @@ def run_in_background(title, work, should_cancel=None):
         worker.join(0.02)
         time.sleep(0)
     dialog.reset()
+    dialog.setParent(None)  # gone from the main window at once, not at the next deferred delete
     dialog.deleteLater()
     if state["error"] is not None:
         raise state["error"]

@@ -182,13 +182,16 @@ class PicoScanAppTest(unittest.TestCase):
             alignment.best_fit(view, model)
         self.assertTrue(view.Placement.isIdentity())
         # Bad input: nothing is added.
+        far = self.doc.addObject("Part::Box", "FarAway")  # 1 m from the scan
+        far.Placement.Base = FreeCAD.Vector(1000, 0, 0)
+        self.doc.recompute()
         names = [o.Name for o in self.doc.Objects]
         with self.assertRaisesRegex(picoscan.Error, "no faces or triangles"):
             deviation_map.create(self.doc, view, view)
         with self.assertRaisesRegex(picoscan.Error, "Tolerance: must be positive"):
             deviation_map.create(self.doc, view, model, tolerance_mm=0)
         with self.assertRaisesRegex(picoscan.Error, "none lies within"):
-            deviation_map.create(self.doc, view, model, max_distance_mm=0.001)
+            deviation_map.create(self.doc, view, far, max_distance_mm=1.0)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
 
     def test_show_rig(self):
