@@ -55,6 +55,7 @@ std::string flag_for_field(const std::string& field) {
         {"cleaning.outlier_sigma", "--outlier-sigma"},
         {"cleaning.min_cluster_points", "--min-cluster"},
         {"cleaning.volume", "--box"},
+        {"background_tolerance_mm", "--background-tolerance-mm"},
         {"registration.sample_spacing_mm", "--spacing-mm"},
         {"mesh.sample_spacing_mm", "--spacing-mm"},
         {"mesh.max_hole_diameter_mm", "--max-hole-mm"},

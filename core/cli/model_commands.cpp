@@ -121,10 +121,11 @@ int run_clean(const Arguments& arguments) {
         options.volume_min = {box[0], box[1], box[2]};
         options.volume_max = {box[3], box[4], box[5]};
     }
-    const double tolerance = arguments.number("--background-tolerance-mm", 1.0);
-    if (!(tolerance > 0)) throw Error("--background-tolerance-mm", "must be positive");
+    CleanScanOptions clean;
+    clean.cleaning = options;
+    clean.background_tolerance_mm = arguments.number("--background-tolerance-mm", clean.background_tolerance_mm);
     arguments.reject_unknown();
-    validate(options);
+    validate(clean);
     ScanView view = read_view_ply(input);
     if (!(view.camera_matrix(0, 0) > 0)) {
         if (calibration_path.empty())
@@ -134,16 +135,15 @@ int run_clean(const Arguments& arguments) {
         view.camera_distortion = calibration.camera_distortion;
     }
     const int before = view.valid_count();
-    if (!background_path.empty()) {
-        const int removed = remove_background(view, read_view_ply(background_path), tolerance);
-        std::printf("background: %d points removed\n", removed);
-    }
-    const CleanReport report = clean_view(view, options);
+    std::optional<ScanView> background;
+    if (!background_path.empty()) background = read_view_ply(background_path);
+    const CleanScanResult result = clean_scan(view, input, clean, background ? &*background : nullptr);
+    const CleanReport& report = result.report;
+    if (background) std::printf("background: %d points removed\n", result.background_removed);
     std::printf("quality: %d, grazing: %d, working volume: %d, statistical outliers: %d, too few neighbours: %d, "
                 "small clusters: %d removed\n",
                 report.by_quality, report.by_grazing, report.by_working_volume, report.by_statistics, report.by_radius,
                 report.by_cluster);
-    if (report.remaining == 0) throw Error(input, "no point survived the cleaning; loosen the options");
     write_view_ply(view, out);
     std::printf("%d of %d points kept -> %s\n", report.remaining, before, out.c_str());
     return 0;
@@ -259,7 +259,7 @@ int run_mesh(const Arguments& arguments) {
         PointCloud cloud;
         cloud.points = points.vertices;
         cloud.normals = points.normals;
-        mesh = mesh_cloud(cloud, options, terminal_progress());
+        mesh = mesh_points(cloud, options, terminal_progress());
     }
     report_mesh(mesh, out);
     write_mesh_file(mesh, out);
@@ -338,7 +338,7 @@ int run_demo_360(const fs::path& directory) {
     PointCloud cloud;
     cloud.points = points.vertices;
     cloud.normals = points.normals;
-    const Mesh mesh = mesh_cloud(cloud, MeshOptions{}, terminal_progress());
+    const Mesh mesh = mesh_points(cloud, MeshOptions{}, terminal_progress());
     const std::string stl = (directory / "part.stl").string();
     report_mesh(mesh, stl);
     write_stl(mesh, stl);

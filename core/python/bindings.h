@@ -22,9 +22,6 @@ py::array mat_to_array(const cv::Mat& mat);
 // A Mat header over the array's buffer (copied only when the array is not C-contiguous).
 // The Mat does not own the pixels: use it during the call, or clone() it to keep it.
 cv::Mat array_to_mat(const py::array& array, const char* name);
-// Small fixed matrices and vectors, copied.
-py::array matx_to_array(const double* values, int rows, int cols);
-std::vector<double> array_to_values(const py::array& array, size_t count, const char* name);
 
 // An N x 3 array over a vector's elements; `owner` (the Python object holding the vector) is
 // kept alive by the array. The view is valid while the vector is not resized.
@@ -56,6 +53,10 @@ void bind_patterns(py::module_& m);
 void bind_capture_set(py::module_& m);
 void bind_decode(py::module_& m);
 void bind_calibration(py::module_& m);
+void bind_board(py::module_& m);
+void bind_calibrate(py::module_& m);
+void bind_calibration_report(py::module_& m);
+void bind_response(py::module_& m);
 void bind_triangulate(py::module_& m);
 void bind_cloud(py::module_& m);
 void bind_clean(py::module_& m);
@@ -68,6 +69,11 @@ void bind_mesh(py::module_& m);
 void bind_shapes(py::module_& m);
 void bind_deviation(py::module_& m);
 void bind_section_fit(py::module_& m);
+void bind_capture(py::module_& m);
+void bind_virtual_camera(py::module_& m);
+void bind_multi_camera(py::module_& m);
+void bind_file_output(py::module_& m);
+void bind_error(py::module_& m);
 void bind_pipeline(py::module_& m);
 
 }  // namespace picoscan::python
@@ -125,6 +131,37 @@ struct type_caster<cv::Matx<Scalar, Rows, Cols>> {
         array_t<double> result(shape);
         for (int i = 0; i < Rows * Cols; ++i) result.mutable_data()[i] = double(matrix.val[i]);
         return result.release();
+    }
+};
+
+// Points <-> tuples (x, y) and (x, y, z); lists of them come with pybind11/stl.h.
+template <typename Scalar>
+struct type_caster<cv::Point_<Scalar>> {
+    using Type = cv::Point_<Scalar>;
+    PYBIND11_TYPE_CASTER(Type, const_name("tuple[float, float]"));
+    bool load(handle source, bool) {
+        if (!isinstance<sequence>(source)) return false;
+        const auto items = reinterpret_borrow<sequence>(source);
+        if (items.size() != 2) return false;
+        value = Type(items[0].cast<Scalar>(), items[1].cast<Scalar>());
+        return true;
+    }
+    static handle cast(const Type& point, return_value_policy, handle) { return make_tuple(point.x, point.y).release(); }
+};
+
+template <typename Scalar>
+struct type_caster<cv::Point3_<Scalar>> {
+    using Type = cv::Point3_<Scalar>;
+    PYBIND11_TYPE_CASTER(Type, const_name("tuple[float, float, float]"));
+    bool load(handle source, bool) {
+        if (!isinstance<sequence>(source)) return false;
+        const auto items = reinterpret_borrow<sequence>(source);
+        if (items.size() != 3) return false;
+        value = Type(items[0].cast<Scalar>(), items[1].cast<Scalar>(), items[2].cast<Scalar>());
+        return true;
+    }
+    static handle cast(const Type& point, return_value_policy, handle) {
+        return make_tuple(point.x, point.y, point.z).release();
     }
 };
 

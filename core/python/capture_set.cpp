@@ -24,6 +24,9 @@ void bind_capture_set(py::module_& m) {
         py::arg("directory"), py::arg("manifest") = "", py::arg("progress") = py::none());
     m.def("write_capture_set", &write_capture_set, py::arg("captures"), py::arg("directory"),
           py::call_guard<py::gil_scoped_release>());
+    m.def("require_empty_directory", &require_empty_directory, py::arg("directory"));
+    m.def("write_capture_frame", &write_capture_frame, py::arg("frame"), py::arg("image"), py::arg("directory"),
+          py::call_guard<py::gil_scoped_release>());
 }
 
 }  // namespace picoscan::python

@@ -28,6 +28,9 @@ void bind_clean(py::module_& m) {
         .def("removed", &CleanReport::removed);
     m.def("clean_view", &clean_view, py::arg("view"), py::arg("options") = CleanOptions(),
           "Sets removed points to NaN in place.", py::call_guard<py::gil_scoped_release>());
+    m.def("remove_background", &remove_background, py::arg("view"), py::arg("background"),
+          py::arg("tolerance_mm") = 1.0, py::call_guard<py::gil_scoped_release>(),
+          "Removes in place the view's points within tolerance_mm of the background view's; returns how many");
 }
 
 }  // namespace picoscan::python

@@ -36,6 +36,7 @@ void bind_cloud(py::module_& m) {
         .def_property(
             "colours", [](py::object self) { return vector_view(self.cast<PointCloud&>().colours, self); },
             [](PointCloud& c, const py::array& a) { c.colours = array_to_vector<cv::Vec3b>(a, "colours"); })
+        .def_readwrite("quality", &PointCloud::quality, "empty or one per point (list of float)")
         .def("__len__", [](const PointCloud& c) { return c.points.size(); });
 
     py::class_<Mesh>(m, "Mesh", "Triangle mesh; the arrays are views into the mesh.")
@@ -48,7 +49,10 @@ void bind_cloud(py::module_& m) {
             [](Mesh& mesh, const py::array& a) { mesh.faces = array_to_vector<cv::Vec3i>(a, "faces"); })
         .def_property(
             "normals", [](py::object self) { return vector_view(self.cast<Mesh&>().normals, self); },
-            [](Mesh& mesh, const py::array& a) { mesh.normals = array_to_vector<cv::Vec3f>(a, "normals"); });
+            [](Mesh& mesh, const py::array& a) { mesh.normals = array_to_vector<cv::Vec3f>(a, "normals"); })
+        .def_property(
+            "colours", [](py::object self) { return vector_view(self.cast<Mesh&>().colours, self); },
+            [](Mesh& mesh, const py::array& a) { mesh.colours = array_to_vector<cv::Vec3b>(a, "colours"); });
 
     m.def("to_point_cloud", &to_point_cloud, py::arg("view"), py::call_guard<py::gil_scoped_release>());
     m.def("merge_views", &merge_views, py::arg("views"), "Views moved by their poses into one cloud",

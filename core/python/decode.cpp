@@ -5,12 +5,13 @@
 namespace picoscan::python {
 
 void bind_decode(py::module_& m) {
-    py::enum_<PixelStatus>(m, "PixelStatus", "Why a pixel has no correspondence (CorrespondenceMap.status)")
-        .value("Valid", kValid)
-        .value("Dark", kDark)
-        .value("Saturated", kSaturated)
-        .value("UndecidedBit", kUndecidedBit)
-        .value("LowModulation", kLowModulation);
+    // The numbers CorrespondenceMap.status holds per pixel.
+    py::enum_<PixelStatus>(m, "PixelStatus", py::arithmetic())
+        .value("kValid", kValid)
+        .value("kDark", kDark)
+        .value("kSaturated", kSaturated)
+        .value("kUndecidedBit", kUndecidedBit)
+        .value("kLowModulation", kLowModulation);
     py::class_<DecodeOptions>(m, "DecodeOptions")
         .def(py::init<>())
         .def_readwrite("min_contrast", &DecodeOptions::min_contrast)

@@ -1,10 +1,6 @@
 #include "bindings.h"
 
-#include "picoscan/error.h"
-#include "picoscan/file_output.h"
 #include "picoscan/io.h"
-
-#include <opencv2/imgcodecs.hpp>
 
 namespace picoscan::python {
 
@@ -26,18 +22,17 @@ void bind_io(py::module_& m) {
         [=](const ScanView& view, const std::string& path, bool ascii) { write_view_ply(view, path, encoding(ascii)); },
         py::arg("view"), py::arg("path"), py::arg("ascii") = false, py::call_guard<py::gil_scoped_release>());
     m.def("read_view_ply", &read_view_ply, py::arg("path"), py::call_guard<py::gil_scoped_release>());
-    m.def("write_file_atomically", &write_file_atomically, py::arg("path"), py::arg("bytes"));
-    // An image (grey, BGR or BGRA array) encoded by its extension and written atomically.
-    m.def(
-        "write_image",
-        [](const std::string& path, const cv::Mat& image) {
-            const auto dot = path.rfind('.');
-            std::vector<uchar> bytes;
-            if (dot == std::string::npos || !cv::imencode(path.substr(dot), image, bytes))
-                throw Error(path, "cannot encode the image in this format (use .png or .jpg)");
-            write_file_atomically(path, std::string(bytes.begin(), bytes.end()));
-        },
-        py::arg("path"), py::arg("image"));
+    m.def("read_ply", &read_ply, py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    m.def("read_stl", &read_stl, py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    py::class_<ViewPose>(m, "ViewPose", "One entry of a poses file: a view's name and view -> model pose.")
+        .def(py::init<>())
+        .def(py::init([](const std::string& name, const cv::Matx44d& pose, bool aligned) { return ViewPose{name, pose, aligned}; }),
+             py::arg("name"), py::arg("pose"), py::arg("aligned") = true)
+        .def_readwrite("name", &ViewPose::name)
+        .def_readwrite("pose", &ViewPose::pose)
+        .def_readwrite("aligned", &ViewPose::aligned);
+    m.def("write_poses", &write_poses, py::arg("poses"), py::arg("path"));
+    m.def("read_poses", &read_poses, py::arg("path"));
 }
 
 }  // namespace picoscan::python

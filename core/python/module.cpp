@@ -1,10 +1,7 @@
-// The `picoscan` Python module: the core's stages for Python and FreeCAD.
+// The `picoscan` Python module: the core's stages for Python and FreeCAD. One binding file per
+// public header (core/include/picoscan/NAME.h -> core/python/NAME.cpp); this one holds the
+// cv::Mat <-> NumPy conversion and the module's table of contents.
 #include "bindings.h"
-
-#include "picoscan/error.h"
-
-#include <cstring>
-#include <memory>
 
 namespace picoscan::python {
 
@@ -63,53 +60,21 @@ cv::Mat array_to_mat(const py::array& input, const char* name) {
     return cv::Mat(int(array.shape(0)), int(array.shape(1)), type, const_cast<void*>(array.data()));
 }
 
-py::array matx_to_array(const double* values, int rows, int cols) {
-    py::array_t<double> array({rows, cols});
-    std::memcpy(array.mutable_data(), values, sizeof(double) * rows * cols);
-    return array;
-}
-
-std::vector<double> array_to_values(const py::array& array, size_t count, const char* name) {
-    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(array);
-    if (!values || size_t(values.size()) != count)
-        throw py::value_error(std::string(name) + ": expected " + std::to_string(count) + " numbers");
-    return std::vector<double>(values.data(), values.data() + count);
-}
-
-ProgressCallback progress_from(const py::object& callable) {
-    if (callable.is_none()) return nullptr;
-    // Copies of the core's std::function share this holder; it is released with the GIL held.
-    std::shared_ptr<py::object> holder(new py::object(callable), [](py::object* object) {
-        py::gil_scoped_acquire gil;
-        delete object;
-    });
-    return [holder](double fraction, const std::string& stage) {
-        py::gil_scoped_acquire gil;
-        const py::object answer = (*holder)(fraction, stage);
-        return answer.is_none() || answer.cast<bool>();
-    };
-}
-
 }  // namespace picoscan::python
 
 PYBIND11_MODULE(picoscan, m) {
     using namespace picoscan::python;
     m.doc() = "PicoScan structured-light scanning core: patterns, capture sets, decoding, calibration, "
               "triangulation, cleaning, meshing, shape detection. Images and clouds are NumPy arrays.";
-    static py::exception<picoscan::Error> error(m, "Error", PyExc_RuntimeError);
-    py::register_exception_translator([](std::exception_ptr pointer) {
-        try {
-            if (pointer) std::rethrow_exception(pointer);
-        } catch (const picoscan::Error& caught) {
-            error(caught.what());
-        } catch (const cv::Exception& caught) {
-            PyErr_SetString(error.ptr(), (std::string("OpenCV: ") + caught.err).c_str());
-        }
-    });
+    bind_error(m);
     bind_patterns(m);
     bind_capture_set(m);
     bind_decode(m);
     bind_calibration(m);
+    bind_board(m);
+    bind_calibrate(m);
+    bind_calibration_report(m);
+    bind_response(m);
     bind_triangulate(m);
     bind_cloud(m);
     bind_clean(m);
@@ -122,5 +87,9 @@ PYBIND11_MODULE(picoscan, m) {
     bind_shapes(m);
     bind_deviation(m);
     bind_section_fit(m);
+    bind_capture(m);
+    bind_virtual_camera(m);
+    bind_multi_camera(m);
+    bind_file_output(m);
     bind_pipeline(m);
 }

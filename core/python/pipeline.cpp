@@ -38,6 +38,22 @@ void bind_pipeline(py::module_& m) {
         py::arg("options") = ReconstructOptions(), py::arg("progress") = py::none(),
         "Size check, decode, triangulate, second camera, clean: one view from a capture folder.");
 
+    py::class_<CleanScanOptions>(m, "CleanScanOptions")
+        .def(py::init<>())
+        .def_readwrite("cleaning", &CleanScanOptions::cleaning)
+        .def_readwrite("background_tolerance_mm", &CleanScanOptions::background_tolerance_mm);
+    py::class_<CleanScanResult>(m, "CleanScanResult")
+        .def_readonly("background_removed", &CleanScanResult::background_removed)
+        .def_readonly("report", &CleanScanResult::report);
+    m.def(
+        "clean_scan",
+        [](ScanView& view, const std::string& view_name, const CleanScanOptions& options, const ScanView* background) {
+            py::gil_scoped_release release;
+            return clean_scan(view, view_name, options, background);
+        },
+        py::arg("view"), py::arg("view_name"), py::arg("options") = CleanScanOptions(), py::arg("background") = nullptr,
+        "Background removal (with a view of the empty scene), then clean_view, in place.");
+
     py::class_<SimulateOptions>(m, "SimulateOptions")
         .def(py::init<>())
         .def_readwrite("patterns", &SimulateOptions::patterns)
@@ -114,6 +130,15 @@ void bind_pipeline(py::module_& m) {
         },
         py::arg("view"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none());
 
+    m.def(
+        "mesh_points",
+        [](const PointCloud& cloud, const MeshOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return mesh_points(cloud, options, callback);
+        },
+        py::arg("cloud"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none());
+
     // validate(options) for every options struct: raises picoscan.Error naming the field.
     m.def("validate", py::overload_cast<const PatternOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const DecodeOptions&>(&validate), py::arg("options"));
@@ -123,6 +148,7 @@ void bind_pipeline(py::module_& m) {
     m.def("validate", py::overload_cast<const MeshOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const ReconstructOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const SimulateOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const CleanScanOptions&>(&validate), py::arg("options"));
 }
 
 }  // namespace picoscan::python

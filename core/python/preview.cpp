@@ -9,6 +9,8 @@ void bind_preview(py::module_& m) {
           py::call_guard<py::gil_scoped_release>());
     m.def("write_preview_png", &write_preview_png, py::arg("view"), py::arg("path"),
           py::call_guard<py::gil_scoped_release>());
+    m.def("write_mesh_preview_png", &write_mesh_preview_png, py::arg("mesh"), py::arg("camera"), py::arg("path"),
+          py::call_guard<py::gil_scoped_release>());
 }
 
 }  // namespace picoscan::python

@@ -16,13 +16,26 @@ void bind_register(py::module_& m) {
         .def_readwrite("icp_max_distance_mm", &RegistrationOptions::icp_max_distance_mm)
         .def_readwrite("sample_spacing_mm", &RegistrationOptions::sample_spacing_mm)
         .def_readwrite("min_overlap", &RegistrationOptions::min_overlap)
-        .def_readwrite("global_sweeps", &RegistrationOptions::global_sweeps);
+        .def_readwrite("global_sweeps", &RegistrationOptions::global_sweeps)
+        .def_readwrite("initial_poses", &RegistrationOptions::initial_poses);
+    py::class_<PairRegistration>(m, "PairRegistration")
+        .def_readonly("transform", &PairRegistration::transform)
+        .def_readonly("feature_matches", &PairRegistration::feature_matches)
+        .def_readonly("ransac_inliers", &PairRegistration::ransac_inliers)
+        .def_readonly("overlap", &PairRegistration::overlap)
+        .def_readonly("rms_mm", &PairRegistration::rms_mm)
+        .def_readonly("texture_agreement", &PairRegistration::texture_agreement)
+        .def_readonly("converged", &PairRegistration::converged)
+        .def_readonly("problem", &PairRegistration::problem);
+    m.def("register_pair", &register_pair, py::arg("fixed"), py::arg("moving"), py::arg("options") = RegistrationOptions(),
+          py::arg("initial_guess") = py::none(), py::call_guard<py::gil_scoped_release>());
     py::class_<TurntableAxis>(m, "TurntableAxis")
         .def(py::init<>())
         .def_readwrite("point_mm", &TurntableAxis::point_mm)
         .def_readwrite("direction", &TurntableAxis::direction)
         .def_readwrite("step_deg", &TurntableAxis::step_deg);
     m.def("turntable_pose", &turntable_pose, py::arg("axis"), py::arg("step"));
+    m.def("fit_turntable_axis", &fit_turntable_axis, py::arg("poses"), py::arg("max_axis_spread_deg") = 1.0);
     py::class_<ViewAlignment>(m, "ViewAlignment")
         .def_readonly("name", &ViewAlignment::name)
         .def_readonly("pose", &ViewAlignment::pose)

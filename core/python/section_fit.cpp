@@ -19,6 +19,7 @@ void bind_section_fit(py::module_& m) {
         .def(py::init<>())
         .def_readwrite("tolerance_mm", &SectionFitOptions::tolerance_mm)
         .def_readwrite("min_tolerance_mm", &SectionFitOptions::min_tolerance_mm)
+        .def_readwrite("noise_window_mm", &SectionFitOptions::noise_window_mm)
         .def_readwrite("min_line_points", &SectionFitOptions::min_line_points)
         .def_readwrite("min_arc_points", &SectionFitOptions::min_arc_points)
         .def_readwrite("max_arc_radius_mm", &SectionFitOptions::max_arc_radius_mm)
@@ -51,24 +52,13 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("closed", &SectionFit::closed)
         .def_readonly("tolerance_mm", &SectionFit::tolerance_mm)
         .def_readonly("noise_mm", &SectionFit::noise_mm);
-    m.def(
-        "cut_mesh",
-        [](const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis) {
-            std::vector<SectionPolyline> lines;
-            {
-                py::gil_scoped_release release;
-                lines = cut_mesh(mesh, origin, u_axis, v_axis);
-            }
-            py::list result;
-            for (const SectionPolyline& line : lines) {
-                py::array_t<double> points({py::ssize_t(line.points.size()), py::ssize_t(2)});
-                std::memcpy(points.mutable_data(), line.points.data(), line.points.size() * sizeof(cv::Vec2d));
-                result.append(py::make_tuple(points, line.closed));
-            }
-            return result;
-        },
-        py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
-        "[(N x 2 points in the plane's frame, closed)] where the plane through origin spanned by u and v cuts the mesh");
+    py::class_<SectionPolyline>(m, "SectionPolyline")
+        .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<SectionPolyline&>().points, self); },
+                               "N x 2 (mm) in the cutting plane's frame")
+        .def_readonly("closed", &SectionPolyline::closed);
+    m.def("cut_mesh", &cut_mesh, py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
+          py::call_guard<py::gil_scoped_release>(),
+          "The polylines where the plane through origin spanned by u and v cuts the mesh");
     m.def(
         "fit_section",
         [](const py::array& polyline, bool closed, const SectionFitOptions& options) {

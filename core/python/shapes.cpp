@@ -21,7 +21,8 @@ void bind_shapes(py::module_& m) {
         .def_readwrite("normal_threshold_deg", &ShapeDetectionOptions::normal_threshold_deg)
         .def_readwrite("min_points", &ShapeDetectionOptions::min_points)
         .def_readwrite("probability", &ShapeDetectionOptions::probability)
-        .def_readwrite("refine", &ShapeDetectionOptions::refine);
+        .def_readwrite("refine", &ShapeDetectionOptions::refine)
+        .def_readwrite("min_cone_half_angle_deg", &ShapeDetectionOptions::min_cone_half_angle_deg);
     py::class_<DetectedShape>(m, "DetectedShape")
         .def_readonly("kind", &DetectedShape::kind)
         .def_readonly("point", &DetectedShape::point)
@@ -47,6 +48,7 @@ void bind_shapes(py::module_& m) {
             return detect_shapes(cloud, options, callback);
         },
         py::arg("cloud"), py::arg("options") = ShapeDetectionOptions(), py::arg("progress") = py::none());
+    m.def("shape_distance", &shape_distance, py::arg("shape"), py::arg("point"));
 }
 
 }  // namespace picoscan::python

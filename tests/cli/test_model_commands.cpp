@@ -26,7 +26,7 @@ namespace {
 
 std::string view_file(size_t index) {
     test_support::disturbed_turntable_scan();  // makes the cached view files
-    return (fs::path(PICOSCAN_TEST_CACHE_DIR) / "turntable-v2-disturbed" / ("view_" + std::to_string(index) + ".ply")).string();
+    return (fs::path(PICOSCAN_TEST_CACHE_DIR) / "turntable-v3-disturbed" / ("view_" + std::to_string(index) + ".ply")).string();
 }
 
 std::string file_bytes(const std::string& path) {
@@ -140,4 +140,43 @@ TEST(CleanCli, FiltersReportTheirCountsAndTheInputStays) {
     EXPECT_FALSE(fs::exists(dir / "none.ply"));
     const Result overwrite = run_picoscan("clean " + input + " --calibration " + calibration + " --out " + input);
     EXPECT_NE(overwrite.output.find("would overwrite an input"), std::string::npos) << overwrite.output;
+}
+
+TEST(CleanCli, ViewsCarryTheirCameraSoNoCalibrationIsNeeded) {
+    const fs::path dir = make_temp_dir("clean_camera");
+    const std::string input = view_file(1);
+    const Calibration rig = seed_rig_calibration();
+    const ScanView view = read_view_ply(input);
+    EXPECT_EQ(view.camera_matrix, rig.camera_matrix);
+    EXPECT_EQ(cv::norm(view.camera_distortion, rig.camera_distortion), 0.0);
+
+    const std::string out = (dir / "clean.ply").string();
+    const Result cleaned = run_picoscan("clean " + input + " --out " + out);
+    ASSERT_EQ(cleaned.exit_code, 0) << cleaned.output;
+    EXPECT_EQ(read_view_ply(out).camera_matrix, rig.camera_matrix);
+    const Result grid = run_picoscan("mesh " + out + " --method grid --mesh-step 2 --out " + (dir / "grid.stl").string());
+    ASSERT_EQ(grid.exit_code, 0) << grid.output;
+    EXPECT_GT(read_stl((dir / "grid.stl").string()).faces.size(), 10000u);
+
+    // A view written before views stored their camera: clean asks for the calibration.
+    ScanView old = view;
+    old.camera_matrix = cv::Matx33d::zeros();
+    const std::string old_file = (dir / "old.ply").string();
+    write_view_ply(old, old_file);
+    const Result refused = run_picoscan("clean " + old_file + " --out " + (dir / "old-clean.ply").string());
+    EXPECT_EQ(refused.exit_code, 1);
+    EXPECT_NE(refused.output.find(old_file + ": does not store its camera"), std::string::npos) << refused.output;
+    EXPECT_FALSE(fs::exists(dir / "old-clean.ply"));
+}
+
+TEST(CleanCli, CoreRangeChecksNameTheFlag) {
+    const fs::path dir = make_temp_dir("clean_ranges");
+    const Result result = run_picoscan("clean " + view_file(0) + " --outlier-sigma 0.1 --out " + (dir / "c.ply").string());
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("error: --outlier-sigma: must be 0.5..1000"), std::string::npos) << result.output;
+    const Result mesh = run_picoscan("mesh " + view_file(0) + " --spacing-mm -1 --out " + (dir / "m.stl").string());
+    EXPECT_EQ(mesh.exit_code, 1);
+    EXPECT_NE(mesh.output.find("error: --spacing-mm: must be 0..100"), std::string::npos) << mesh.output;
+    EXPECT_FALSE(fs::exists(dir / "c.ply"));
+    EXPECT_FALSE(fs::exists(dir / "m.stl"));
 }

@@ -186,8 +186,8 @@ class CadBindingsTest(unittest.TestCase):
             picoscan.fit_section(numpy.zeros((3, 2)), True)
 
     def test_pixel_status_and_camera_size_check(self):
-        self.assertEqual(int(picoscan.PixelStatus.Valid), 0)
-        self.assertEqual(int(picoscan.PixelStatus.LowModulation), 4)
+        self.assertEqual(int(picoscan.PixelStatus.kValid), 0)
+        self.assertEqual(int(picoscan.PixelStatus.kLowModulation), 4)
         calibration = small_rig()
         scene = picoscan.Scene()
         scene.add_plane((0, 0, 450), (0, 0, -1))

@@ -647,7 +647,7 @@ TEST(SimulateSceneFile, ReadsEveryShapeFromYamlAndJson) {
     const std::string folder = test_support::make_temp_dir("scene");
     Mesh triangle;
     triangle.vertices = {{0, 0, 0}, {10, 0, 0}, {0, 10, 0}};
-    triangle.faces = {{0, 1, 2}};
+    triangle.faces.push_back(cv::Vec3i(0, 1, 2));
     write_stl(triangle, folder + "/part.stl");
 
     {
@@ -747,7 +747,7 @@ TEST(SimulateSceneFile, InvalidSceneObjectsAreRejectedBySimulator) {
     scene.spheres.clear();
     Mesh mesh;
     mesh.vertices = {{0, 0, 400}, {1, 0, 400}};
-    mesh.faces = {{0, 1, 2}};
+    mesh.faces.push_back(cv::Vec3i(0, 1, 2));
     scene.meshes.push_back({mesh, 0.5});
     EXPECT_THROW(Simulator(small_rig(), scene), Error);
 }

@@ -63,12 +63,12 @@ cv::Vec3d TurntableScan::centroid(size_t view) const {
 
 // The cache key names everything that shapes the scan; change it when any of that changes.
 const TurntableScan& disturbed_turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v2-disturbed", 10, 20);
+    static const TurntableScan scan = make_scan("turntable-v3-disturbed", 10, 20);
     return scan;
 }
 
 const TurntableScan& turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v2-exact", 0, 0);
+    static const TurntableScan scan = make_scan("turntable-v3-exact", 0, 0);
     return scan;
 }
 

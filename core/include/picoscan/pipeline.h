@@ -63,6 +63,24 @@ ReconstructResult reconstruct_view(const CaptureSet& captures, const Calibration
                                    const std::string& calibration_name, const ReconstructOptions& options = {},
                                    const ProgressCallback& progress = nullptr);
 
+// ---- Clean one view -----------------------------------------------------------------------
+
+struct CleanScanOptions {
+    CleanOptions cleaning;
+    double background_tolerance_mm = 1.0;  // how close to the background counts as background
+};
+
+struct CleanScanResult {
+    int background_removed = 0;
+    CleanReport report;  // the filters of clean_view, in order
+};
+
+// Removes the background (when `background`, a view of the empty scene with the same rig and
+// pose, is given), then stray-light noise and unreliable points, in place. Throws Error naming
+// `view_name` when no point survives.
+CleanScanResult clean_scan(ScanView& view, const std::string& view_name, const CleanScanOptions& options = {},
+                           const ScanView* background = nullptr);
+
 // ---- Simulate -----------------------------------------------------------------------------
 
 // A capture set of a virtual scene, as 'picoscan simulate' and the hosts' Simulate commands
@@ -158,9 +176,11 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
 
 // ---- Mesh ---------------------------------------------------------------------------------
 
-// A view or a cloud into a mesh: MeshMethod::Grid joins the pixels of one view (with its
-// camera); the others mesh the view's points (see mesh_cloud).
+// A view into a mesh: MeshMethod::Grid joins the pixels of the view (with its camera); the
+// others mesh its points as mesh_points does.
 Mesh mesh_view(const ScanView& view, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
+// A cloud with normals (a merged model) into a mesh: Poisson or advancing front (mesh_cloud).
+Mesh mesh_points(const PointCloud& cloud, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
 
 // ---- Validation ---------------------------------------------------------------------------
 // Each throws Error naming the offending field (e.g. "decode.min_modulation") when a value is
@@ -173,5 +193,6 @@ void validate(const RegistrationOptions& options);
 void validate(const MeshOptions& options);
 void validate(const ReconstructOptions& options);
 void validate(const SimulateOptions& options);
+void validate(const CleanScanOptions& options);
 
 }  // namespace picoscan

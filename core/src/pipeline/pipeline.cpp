@@ -54,6 +54,16 @@ ReconstructResult reconstruct_view(const std::string& captures_folder, const Cal
     return finish_view(std::move(view), map.order_corrections, calibration, options, progress, captures_folder);
 }
 
+CleanScanResult clean_scan(ScanView& view, const std::string& view_name, const CleanScanOptions& options,
+                           const ScanView* background) {
+    validate(options);
+    CleanScanResult result;
+    if (background) result.background_removed = remove_background(view, *background, options.background_tolerance_mm);
+    result.report = clean_view(view, options.cleaning);
+    if (result.report.remaining == 0) throw Error(view_name, "no point survived the cleaning; loosen the options");
+    return result;
+}
+
 CaptureSet simulate_captures(const Scene& scene, const Calibration& calibration, const SimulateOptions& options,
                              const ProgressCallback& progress) {
     validate(options);
@@ -149,6 +159,11 @@ Mesh mesh_view(const ScanView& view, const MeshOptions& options, const ProgressC
     return mesh_cloud(to_point_cloud(view), options, progress);
 }
 
+Mesh mesh_points(const PointCloud& cloud, const MeshOptions& options, const ProgressCallback& progress) {
+    validate(options);
+    return mesh_cloud(cloud, options, progress);
+}
+
 // ---- Validation --------------------------------------------------------------------------
 
 namespace {
@@ -237,6 +252,12 @@ void validate(const ReconstructOptions& options) {
     require(options.triangulate.max_depth_mm > options.triangulate.min_depth_mm, "triangulate.max_depth_mm",
             "must exceed min_depth_mm");
     in_range(options.triangulate.distortion_iterations, 0, 100, "triangulate.distortion_iterations");
+}
+
+void validate(const CleanScanOptions& options) {
+    validate(options.cleaning);
+    require(options.background_tolerance_mm > 0 && options.background_tolerance_mm <= 1000, "background_tolerance_mm",
+            "must be in (0, 1000] mm");
 }
 
 void validate(const SimulateOptions& options) {

@@ -8,11 +8,11 @@ import picoscan
 
 # Colours (BGR) of the pixel status values of picoscan.decode.
 STATUS_COLOURS = {
-    picoscan.PixelStatus.Valid: (80, 200, 60),
-    picoscan.PixelStatus.Dark: (40, 40, 40),
-    picoscan.PixelStatus.Saturated: (255, 255, 255),
-    picoscan.PixelStatus.UndecidedBit: (40, 40, 220),
-    picoscan.PixelStatus.LowModulation: (220, 120, 40),
+    picoscan.PixelStatus.kValid: (80, 200, 60),
+    picoscan.PixelStatus.kDark: (40, 40, 40),
+    picoscan.PixelStatus.kSaturated: (255, 255, 255),
+    picoscan.PixelStatus.kUndecidedBit: (40, 40, 220),
+    picoscan.PixelStatus.kLowModulation: (220, 120, 40),
 }
 
 

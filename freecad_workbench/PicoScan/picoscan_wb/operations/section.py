@@ -37,7 +37,7 @@ def section_polylines(mesh_object, axis, offset_mm=None):
         raise picoscan.Error("%s: the %s plane at %.2f mm does not cut the mesh" % (
             mesh_object.Label, axis, getattr(base, axis.lower())))
     # A shorter fragment (a grazing cut through a few facets) holds no shape.
-    result = [(points, closed) for points, closed in polylines if len(points) >= 4]
+    result = [(line.points, line.closed) for line in polylines if len(line.points) >= 4]
     if not result:
         raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (
             mesh_object.Label, axis))
