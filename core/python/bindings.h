@@ -68,6 +68,8 @@ void bind_fit(py::module_& m);
 void bind_register(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_shapes(py::module_& m);
+void bind_deviation(py::module_& m);
+void bind_section_fit(py::module_& m);
 void bind_capture(py::module_& m);
 void bind_virtual_camera(py::module_& m);
 void bind_multi_camera(py::module_& m);

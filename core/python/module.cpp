@@ -86,6 +86,8 @@ PYBIND11_MODULE(picoscan, m) {
     bind_register(m);
     bind_mesh(m);
     bind_shapes(m);
+    bind_deviation(m);
+    bind_section_fit(m);
     bind_capture(m);
     bind_virtual_camera(m);
     bind_multi_camera(m);

@@ -121,3 +121,77 @@ class ModuleTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class CadBindingsTest(unittest.TestCase):
+    """Deviation maps, section fitting, the pixel status enum and the camera-size check from Python."""
+
+    def test_deviation_of_a_measured_sphere_to_its_true_surface(self):
+        # The simulated sphere scan against a finely tessellated true sphere: the scan's own error.
+        calibration, scene = small_rig(), picoscan.Scene()
+        scene.add_sphere((0, 0, 400), 20)
+        captures = picoscan.simulate_capture(picoscan.make_pattern_sequence(picoscan.PatternOptions()), calibration, scene)
+        view = picoscan.triangulate(picoscan.decode(captures), calibration, captures.white_colour)
+        points = picoscan.to_point_cloud(view).points
+        rings, segments = 200, 400
+        polar, azimuth = numpy.meshgrid(numpy.linspace(0, numpy.pi, rings + 1), numpy.linspace(0, 2 * numpy.pi, segments, endpoint=False), indexing="ij")
+        vertices = numpy.stack([20 * numpy.sin(polar) * numpy.cos(azimuth), 20 * numpy.cos(polar),
+                                400 + 20 * numpy.sin(polar) * numpy.sin(azimuth)], axis=-1).reshape(-1, 3)
+        faces = []
+        for ring in range(rings):
+            for segment in range(segments):
+                a, b = ring * segments + segment, ring * segments + (segment + 1) % segments
+                faces += [(a, b, a + segments), (b, b + segments, a + segments)]
+        sphere = picoscan.Mesh()
+        sphere.vertices = vertices.astype(numpy.float32)
+        sphere.faces = numpy.array(faces, dtype=numpy.int32)
+        options = picoscan.DeviationOptions()
+        options.tolerance_mm = 0.1
+        result = picoscan.measure_deviation(points, sphere, options)
+        statistics = result.statistics
+        self.assertEqual(result.distances_mm.shape, (len(points),))
+        self.assertEqual(statistics.count, len(points))
+        self.assertLess(abs(statistics.mean_mm), 0.05)
+        self.assertLess(statistics.p95_abs_mm, 0.2)
+        self.assertGreater(statistics.within_tolerance, 0.8)
+        self.assertEqual(result.colours().shape, (len(points), 3))
+        # A reference 0.1 mm larger has the whole scan 0.1 mm inside it: negative.
+        sphere.vertices = ((vertices - (0, 0, 400)) * (20.1 / 20) + (0, 0, 400)).astype(numpy.float32)
+        larger = picoscan.measure_deviation(points, sphere, options)
+        self.assertAlmostEqual(larger.statistics.mean_mm, statistics.mean_mm - 0.1, delta=0.005)
+        with tempfile.TemporaryDirectory() as folder:
+            picoscan.write_deviation_report(result, "sphere", os.path.join(folder, "report.html"))
+            picoscan.write_deviation_ply(points, result, os.path.join(folder, "map.ply"))
+            self.assertGreater(os.path.getsize(os.path.join(folder, "report.html.png")), 5000)
+        with self.assertRaisesRegex(picoscan.Error, "reference: has no triangles"):
+            picoscan.measure_deviation(points, picoscan.Mesh())
+        with self.assertRaisesRegex(ValueError, "points: expected an N x 3 array"):
+            picoscan.measure_deviation(numpy.zeros((4, 2)), sphere)
+
+    def test_fit_section_of_a_slot(self):
+        theta = numpy.linspace(-numpy.pi / 2, numpy.pi / 2, 60, endpoint=False)
+        right = numpy.stack([30 + 5 * numpy.cos(theta), 5 * numpy.sin(theta)], axis=1)
+        top = numpy.stack([numpy.linspace(30, 0, 100, endpoint=False), numpy.full(100, 5.0)], axis=1)
+        left = numpy.stack([-5 * numpy.cos(theta), -5 * numpy.sin(theta)], axis=1)
+        bottom = numpy.stack([numpy.linspace(0, 30, 100, endpoint=False), numpy.full(100, -5.0)], axis=1)
+        fit = picoscan.fit_section(numpy.concatenate([right, top, left, bottom]), True)
+        kinds = sorted(str(e.kind) for e in fit.elements)
+        self.assertEqual(kinds, ["SectionElementKind.Arc"] * 2 + ["SectionElementKind.Line"] * 2)
+        for element in fit.elements:
+            self.assertTrue(element.tangent_to_next)
+            if element.kind == picoscan.SectionElementKind.Arc:
+                self.assertAlmostEqual(element.radius_mm, 5.0, delta=1e-6)
+        self.assertIn(picoscan.SectionConstraintKind.EqualRadius, [c.kind for c in fit.constraints])
+        with self.assertRaisesRegex(picoscan.Error, "polyline: needs at least 4"):
+            picoscan.fit_section(numpy.zeros((3, 2)), True)
+
+    def test_pixel_status_and_camera_size_check(self):
+        self.assertEqual(int(picoscan.PixelStatus.kValid), 0)
+        self.assertEqual(int(picoscan.PixelStatus.kLowModulation), 4)
+        calibration = small_rig()
+        scene = picoscan.Scene()
+        scene.add_plane((0, 0, 450), (0, 0, -1))
+        captures = picoscan.simulate_capture(picoscan.make_pattern_sequence(picoscan.PatternOptions()), calibration, scene)
+        picoscan.check_camera_size(calibration, captures, "small.yml")
+        with self.assertRaisesRegex(picoscan.Error, "full.yml: camera_size 1600x1200 differs"):
+            picoscan.check_camera_size(picoscan.seed_rig_calibration(), captures, "full.yml")

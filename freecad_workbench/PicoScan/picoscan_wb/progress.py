@@ -39,3 +39,55 @@ class FreeCADProgress:
             self.indicator.next()
             self.done += 1
         return not (self.should_cancel and self.should_cancel())
+
+
+def run_in_background(title, work, should_cancel=None):
+    """Runs work(progress) -> result, where progress(fraction, stage) is handed to the core's long calls.
+    In the GUI the work runs on a worker thread (the core releases the GIL) while the GUI thread shows
+    a progress dialog with Cancel and keeps answering events; Cancel makes the core raise
+    picoscan.Error("cancelled: ..."). Headless, it simply runs. Exceptions of the work are re-raised here."""
+    if not FreeCAD.GuiUp:
+        with FreeCADProgress(title, should_cancel) as progress:
+            return work(progress)
+    import threading
+    import time
+
+    from PySide2 import QtCore, QtWidgets
+
+    import FreeCADGui
+
+    dialog = QtWidgets.QProgressDialog(title, "Cancel", 0, 1000, FreeCADGui.getMainWindow())
+    dialog.setWindowTitle("PicoScan")
+    dialog.setObjectName("PicoScanProgress")
+    dialog.setWindowModality(QtCore.Qt.WindowModal)  # the GUI repaints and answers, but starts nothing else
+    dialog.setMinimumDuration(300)
+    state = {"fraction": 0.0, "stage": "", "result": None, "error": None}
+
+    def progress(fraction, stage):
+        state["fraction"], state["stage"] = fraction, stage
+        return not (dialog_cancelled.is_set() or (should_cancel is not None and should_cancel()))
+
+    def run():
+        try:
+            state["result"] = work(progress)
+        except BaseException as error:  # handed to the GUI thread, raised there
+            state["error"] = error
+
+    dialog_cancelled = threading.Event()
+    dialog.canceled.connect(dialog_cancelled.set)
+    worker = threading.Thread(target=run, name="PicoScan " + title, daemon=True)
+    worker.start()
+    while worker.is_alive():
+        if dialog.wasCanceled():  # also when cancelled by a call rather than the button
+            dialog_cancelled.set()
+        dialog.setLabelText("%s: %s" % (title, state["stage"]) if state["stage"] else title)
+        dialog.setValue(int(1000 * max(0.0, min(1.0, state["fraction"]))))
+        QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
+        worker.join(0.02)
+        time.sleep(0)
+    dialog.reset()
+    dialog.setParent(None)  # gone from the main window at once, not at the next deferred delete
+    dialog.deleteLater()
+    if state["error"] is not None:
+        raise state["error"]
+    return state["result"]

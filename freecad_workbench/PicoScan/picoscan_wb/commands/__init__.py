@@ -13,6 +13,8 @@ COMMANDS = {
     "PicoScan_MakeSolid": analysis.MakeSolidCommand(),
     "PicoScan_FitPrimitives": analysis.FitPrimitivesCommand(),
     "PicoScan_CrossSection": analysis.CrossSectionCommand(),
+    "PicoScan_DeviationMap": analysis.DeviationMapCommand(),
+    "PicoScan_BestFit": analysis.BestFitCommand(),
     "PicoScan_ShowRig": analysis.ShowRigCommand(),
     "PicoScan_EncodingView": analysis.EncodingViewCommand(),
 }

@@ -6,8 +6,10 @@ import tempfile
 import FreeCAD
 import FreeCADGui
 
+import picoscan
+
 from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views
-from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch, scan_mesh, stitch
+from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch, stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
 from picoscan_wb.progress import FreeCADProgress
 
@@ -52,15 +54,11 @@ class MeshCommand(Command):
     def IsActive(self):
         return bool(selected_clouds())
 
-    def run(self):
-        from PySide import QtGui
+    def Activated(self):
+        from picoscan_wb.taskpanels.mesh import MeshTaskPanel
 
-        source = selected_clouds()[0]
-        methods = scan_mesh.METHODS if is_scan_view(source) else [m for m in scan_mesh.METHODS if m != "Grid"]
-        method, ok = QtGui.QInputDialog.getItem(FreeCADGui.getMainWindow(), "Mesh", "Meshing method", methods, 0, False)
-        if not ok:
-            return None
-        return scan_mesh.create(source.Document, source, method=method)
+        self.panel = MeshTaskPanel(selected_clouds()[0])  # the open panel, for tests and macros
+        FreeCADGui.Control.showDialog(self.panel)
 
 
 class MakeSolidCommand(Command):
@@ -97,37 +95,83 @@ class FitPrimitivesCommand(Command):
 class CrossSectionCommand(Command):
     icon = "picoscan_section"
     menu = "Cross-section"
-    tooltip = "Cut the selected mesh with a plane across X, Y or Z: a Sketch of the profile and a profile plot"
+    tooltip = ("Cut the selected mesh with a plane across X, Y or Z: a Sketch of fitted, constrained lines and arcs "
+               "(and, for a scan, a profile plot)")
 
     def IsActive(self):
         return bool(selected_meshes())
 
-    def ask_plane(self, mesh):
-        """(axis, position in mm) from two small dialogs; None when the user cancels."""
-        from PySide import QtGui
+    def Activated(self):
+        from picoscan_wb.taskpanels.section import CrossSectionTaskPanel
 
-        window = FreeCADGui.getMainWindow()
-        axis, ok = QtGui.QInputDialog.getItem(window, "Cross-section", "Normal of the cutting plane", ["X", "Y", "Z"], 1, False)
-        if not ok:
-            return None
-        centre = getattr(mesh.Mesh.BoundBox.Center, axis.lower())
-        position, ok = QtGui.QInputDialog.getDouble(window, "Cross-section", "Plane position along %s (mm)" % axis,
-                                                    centre, -1e6, 1e6, 2)
-        return (axis, position) if ok else None
+        self.panel = CrossSectionTaskPanel(selected_meshes()[0], self.section)  # the open panel, for tests and macros
+        FreeCADGui.Control.showDialog(self.panel)
 
-    def run(self):
-        mesh = selected_meshes()[0]
-        plane = self.ask_plane(mesh)
-        if plane is None:
-            return None
-        axis, position = plane
-        sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position)
+    @staticmethod
+    def section(mesh, axis, position_mm, tolerance_mm):
+        sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position_mm, tolerance_mm=tolerance_mm)
         source = getattr(mesh, "Source", None)
         if is_scan_view(source):
             path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")
-            sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position, path)
+            sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position_mm, path)
             open_image(sketch.ProfilePlot)
         return sketch
+
+
+def _has_points(obj):
+    return (hasattr(obj, "Points") and obj.Points.CountPoints > 0) or (hasattr(obj, "Mesh") and obj.Mesh.CountPoints > 0)
+
+
+def _has_surface(obj):
+    return (hasattr(obj, "Shape") and not obj.Shape.isNull() and bool(obj.Shape.Faces)) or \
+        (hasattr(obj, "Mesh") and obj.Mesh.CountFacets > 0)
+
+
+class DeviationMapCommand(Command):
+    icon = "picoscan_deviation"
+    menu = "Deviation map"
+    tooltip = ("Colour the scan (selected first) by its signed distance to the model (selected second: any Part shape "
+               "or mesh), with the figures and an HTML report; recomputes when the model changes")
+
+    def IsActive(self):
+        selection = FreeCADGui.Selection.getSelection()
+        return len(selection) == 2 and _has_points(selection[0]) and _has_surface(selection[1])
+
+    def run(self):
+        selection = FreeCADGui.Selection.getSelection()
+        if len(selection) != 2:
+            raise picoscan.Error("Deviation map: select the scan, then the reference model (%d selected)" % len(selection))
+        scan, reference = selection
+        doc = scan.Document
+        report = os.path.join(output_folder(doc, "deviation"), "%s_vs_%s.html" % (scan.Name, reference.Name))
+        result = deviation_map.create(doc, scan, reference, report_file=report)
+        FreeCAD.Console.PrintMessage("%s: %s\n" % (result.Label, result.Summary))
+        open_image(report + ".png")
+        return result
+
+
+class BestFitCommand(Command):
+    icon = "picoscan_bestfit"
+    menu = "Best fit to model"
+    tooltip = ("Move the scan (selected first) onto the model (selected second) by trimmed point-to-plane ICP "
+               "from where it is now; the scan's Placement takes the move")
+
+    def IsActive(self):
+        return DeviationMapCommand.IsActive(self)
+
+    def run(self):
+        from picoscan_wb.operations import alignment
+        from picoscan_wb.progress import run_in_background
+
+        selection = FreeCADGui.Selection.getSelection()
+        if len(selection) != 2:
+            raise picoscan.Error("Best fit: select the scan, then the model (%d selected)" % len(selection))
+        scan, reference = selection
+        result = run_in_background("Best fit", lambda progress: alignment.best_fit(scan, reference, progress=progress))
+        FreeCAD.Console.PrintMessage("%s: best fit in %d steps, rms %.4f mm over %d points\n" % (
+            scan.Label, result.iterations, result.rms_mm, result.pairs))
+        scan.Document.recompute()
+        return result
 
 
 class ShowRigCommand(Command):

@@ -18,7 +18,8 @@ class CalibrateCommand(Command):
     def Activated(self):
         from picoscan_wb.taskpanels.calibrate import CalibrateTaskPanel
 
-        FreeCADGui.Control.showDialog(CalibrateTaskPanel())
+        self.panel = CalibrateTaskPanel()  # the open panel, for tests and scripts
+        FreeCADGui.Control.showDialog(self.panel)
 
 
 class ScanCommand(Command):
@@ -29,7 +30,8 @@ class ScanCommand(Command):
     def Activated(self):
         from picoscan_wb.taskpanels.scan import ScanTaskPanel
 
-        FreeCADGui.Control.showDialog(ScanTaskPanel())
+        self.panel = ScanTaskPanel()  # the open panel, for tests and scripts
+        FreeCADGui.Control.showDialog(self.panel)
 
 
 def _ask_capture_set():

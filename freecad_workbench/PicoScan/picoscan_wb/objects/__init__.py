@@ -50,3 +50,26 @@ def cloud_of(obj):
     if is_stitch(obj):
         return obj.Proxy.merged_cloud(obj)
     raise picoscan.Error("%s: not a ScanView or a Stitch" % getattr(obj, "Label", obj))
+
+
+def add_or_remove(doc, type_name, name, setup):
+    """The one way PicoScan adds a computed object: add it, let setup(obj) set its proxy and
+    properties, recompute it, and remove it again when that failed, so bad input leaves the
+    document as it was. Raises picoscan.Error with the object's error."""
+    import picoscan
+
+    obj = doc.addObject(type_name, name)
+    try:
+        setup(obj)
+        obj.recompute()
+        if not obj.isValid():
+            raise picoscan.Error(obj.getStatusString())
+    except Exception:
+        doc.removeObject(obj.Name)
+        raise
+    return obj
+
+
+def millimetres(value):
+    """A length property's value in mm (documents saved before lengths had units hold plain floats)."""
+    return float(getattr(value, "Value", value))

@@ -8,8 +8,8 @@ import FreeCAD
 import Mesh
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, cloud_of, is_scan_view, is_stitch
-from picoscan_wb.progress import FreeCADProgress
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, cloud_of, is_scan_view, is_stitch, millimetres
+from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanMesh"
 METHODS = ["Grid", "Poisson", "AdvancingFront"]
@@ -23,6 +23,14 @@ def freecad_mesh(mesh):
         return Mesh.Mesh(path)
 
 
+def core_mesh(mesh):
+    """picoscan.Mesh from a FreeCAD Mesh (placement applied), through a binary STL like freecad_mesh."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "mesh.stl")
+        mesh.write(path)
+        return picoscan.read_mesh(path)
+
+
 class ScanMesh(DocumentObjectProxy):
     TYPE = TYPE
 
@@ -32,8 +40,8 @@ class ScanMesh(DocumentObjectProxy):
         obj.addProperty("App::PropertyEnumeration", "Method", "Mesh", "Meshing method")
         obj.addProperty("App::PropertyInteger", "PixelStep", "Grid", "Join every n-th pixel (n*n fewer triangles)")
         obj.addProperty("App::PropertyFloat", "MaxEdgeFactor", "Grid", "Longest edge in pixel footprints; longer ones are depth jumps")
-        obj.addProperty("App::PropertyFloat", "SampleSpacing", "Surface", "The cloud is thinned to about this spacing (mm) first; 0 keeps all")
-        obj.addProperty("App::PropertyFloat", "MaxHoleDiameter", "Surface", "Holes up to this size (mm) are filled")
+        obj.addProperty("App::PropertyLength", "SampleSpacing", "Surface", "The cloud is thinned to about this spacing first; 0 keeps all")
+        obj.addProperty("App::PropertyLength", "MaxHoleDiameter", "Surface", "Holes up to this size are filled")
         obj.addProperty("App::PropertyInteger", "TargetFaces", "Surface", "Simplify to about this many faces; 0 keeps all")
         obj.addProperty("App::PropertyString", "Check", "Result", "Facets, open edges, closed or not", 1)
         obj.Method = METHODS
@@ -70,36 +78,38 @@ class ScanMesh(DocumentObjectProxy):
             raise picoscan.Error("%s: Source must be a ScanView or a Stitch" % obj.Label)
         options = picoscan.MeshOptions()
         options.method = getattr(picoscan.MeshMethod, obj.Method)
-        options.sample_spacing_mm = obj.SampleSpacing
-        options.max_hole_diameter_mm = obj.MaxHoleDiameter
+        options.sample_spacing_mm = millimetres(obj.SampleSpacing)
+        options.max_hole_diameter_mm = millimetres(obj.MaxHoleDiameter)
         options.target_faces = obj.TargetFaces
-        with FreeCADProgress("Meshing " + obj.Label) as progress:
-            mesh = picoscan.mesh_cloud(cloud_of(obj.Source), options, progress)
+        cloud = cloud_of(obj.Source)
+        mesh = run_in_background("Meshing " + obj.Label, lambda progress: picoscan.mesh_cloud(cloud, options, progress))
         return freecad_mesh(mesh), picoscan.check_mesh(mesh).summary()
 
 
-def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spacing_mm=None, target_faces=None):
+def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spacing_mm=None, target_faces=None,
+           max_hole_diameter_mm=None):
     """Meshes first and adds the object only when that worked (bad input leaves `doc` unchanged)."""
     if not (is_scan_view(source) or is_stitch(source)):
         raise picoscan.Error("%s: select a ScanView or a Stitch to mesh" % getattr(source, "Label", "selection"))
     if method not in METHODS:
         raise picoscan.Error("%s: meshing method must be one of %s" % (method, ", ".join(METHODS)))
-    obj = doc.addObject("Mesh::FeaturePython", name)
-    ScanMesh(obj)
-    obj.Source = source
-    obj.Method = method
-    obj.PixelStep = pixel_step
-    if sample_spacing_mm is not None:
-        obj.SampleSpacing = sample_spacing_mm
-    if target_faces is not None:
-        obj.TargetFaces = target_faces
+
+    def setup(obj):
+        ScanMesh(obj)
+        obj.Source = source
+        obj.Method = method
+        obj.PixelStep = pixel_step
+        if sample_spacing_mm is not None:
+            obj.SampleSpacing = sample_spacing_mm
+        if target_faces is not None:
+            obj.TargetFaces = target_faces
+        if max_hole_diameter_mm is not None:
+            obj.MaxHoleDiameter = max_hole_diameter_mm
+        if FreeCAD.GuiUp:
+            from picoscan_wb.viewproviders.view_provider import ViewProvider
+            ViewProvider(obj.ViewObject, "picoscan_mesh")
+
+    obj = add_or_remove(doc, "Mesh::FeaturePython", name, setup)
     if FreeCAD.GuiUp:
-        from picoscan_wb.viewproviders.view_provider import ViewProvider
-        ViewProvider(obj.ViewObject, "picoscan_mesh")
         source.ViewObject.Visibility = False
-    obj.recompute()
-    if not obj.isValid():
-        message = obj.getStatusString()
-        doc.removeObject(obj.Name)
-        raise picoscan.Error(message)
     return obj

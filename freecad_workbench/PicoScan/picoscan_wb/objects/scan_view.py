@@ -5,24 +5,15 @@ import Points
 import picoscan
 from picoscan_wb.objects import DocumentObjectProxy
 from picoscan_wb.operations.reconstruct import reconstruct
-from picoscan_wb.progress import FreeCADProgress
+from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanView"
 
-# Organised views by (document, object) with the parameters they were computed from. Not saved:
-# the document stores the Points; the organised view is recomputed when first needed after reopening.
-_views = {}
-# A reconstruction made by create() before the object existed, used by its first execute() only.
-_fresh = {}
 
 
 def _parameters(obj):
     return (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
             obj.BinaryOnly, obj.Clean, obj.MaxGrazingAngle)
-
-
-def _key(obj):
-    return (obj.Document.Name, obj.Name)
 
 
 def points_of(cloud):
@@ -57,15 +48,17 @@ class ScanView(DocumentObjectProxy):
         obj.MaxGrazingAngle = 80.0
 
     def execute(self, obj):
-        fresh = _fresh.pop(_key(obj), None)
+        # The organised view lives on the proxy, so it goes when the object goes. Not saved: the
+        # document stores the Points; the view is recomputed when first needed after reopening.
+        fresh, self.fresh = getattr(self, "fresh", None), None
         if fresh is not None and fresh[0] == _parameters(obj):
             view, calibration, report = fresh[1:]
         else:
-            with FreeCADProgress("Reconstructing " + obj.Label) as progress:
-                view, calibration, report = reconstruct(
-                    obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
-                    obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle), progress)
-        _views[_key(obj)] = (_parameters(obj), view, calibration)
+            parameters = (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
+                          obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle))
+            view, calibration, report = run_in_background(
+                "Reconstructing " + obj.Label, lambda progress: reconstruct(*parameters, progress=progress))
+        self.cached = (_parameters(obj), view, calibration)
         cloud = picoscan.to_point_cloud(view)
         obj.Points = points_of(cloud)
         obj.PointCount = len(cloud)
@@ -75,18 +68,17 @@ class ScanView(DocumentObjectProxy):
 
     def scan_view(self, obj):
         """(organised picoscan.ScanView, picoscan.Calibration), recomputed if not in memory or stale."""
-        cached = _views.get(_key(obj))
+        cached = getattr(self, "cached", None)
         if cached is None or cached[0] != _parameters(obj):
             self.execute(obj)
-            cached = _views[_key(obj)]
+            cached = self.cached
         return cached[1], cached[2]
 
 
 def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file=""):
     """Reconstructs first and adds the object only when that worked, so bad input leaves `doc` unchanged."""
-    with FreeCADProgress("Reconstructing") as progress:
-        result = reconstruct(capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean,
-                             progress=progress)
+    result = run_in_background("Reconstructing", lambda progress: reconstruct(
+        capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean, progress=progress))
     obj = doc.addObject("Points::FeaturePython", name)
     ScanView(obj)
     obj.CaptureFolder = capture_folder
@@ -94,7 +86,7 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
     obj.ManifestFile = manifest_file
     obj.Clean = clean
     obj.BinaryOnly = binary_only
-    _fresh[_key(obj)] = (_parameters(obj),) + result
+    obj.Proxy.fresh = (_parameters(obj),) + result  # a reconstruction made before the object existed
     if FreeCAD.GuiUp:
         from picoscan_wb.viewproviders.view_provider import ViewProvider
         ViewProvider(obj.ViewObject, "picoscan_scan")

@@ -1,23 +1,16 @@
-"""Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core registers
-the views (features on the white frames, RANSAC, trimmed point-to-plane ICP, then all views
-refined together) and merges them; views it cannot register are reported, not forced in."""
+"""Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core's recipe
+stitch_views registers the views (features on the white frames, RANSAC, trimmed point-to-plane
+ICP, then all views refined together) and merges them; views it cannot register are reported,
+not forced in."""
 import numpy
 import FreeCAD
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, is_scan_view
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, is_scan_view, millimetres
 from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
-from picoscan_wb.progress import FreeCADProgress
+from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::Stitch"
-
-# Merged clouds by (document, object), with the inputs they came from; not saved (see scan_view).
-_clouds = {}
-
-
-def _key(obj):
-    return (obj.Document.Name, obj.Name)
-
 
 def _parameters(obj):
     # A view's own parameters count too: a changed view makes the merged cloud stale.
@@ -35,7 +28,7 @@ class Stitch(DocumentObjectProxy):
     def __init__(self, obj):
         super().__init__(obj)
         obj.addProperty("App::PropertyLinkList", "Views", "Stitch", "ScanViews to register; the first defines the model frame")
-        obj.addProperty("App::PropertyFloat", "IcpMaxDistance", "Registration", "Point pairs farther apart than this (mm) are never used")
+        obj.addProperty("App::PropertyLength", "IcpMaxDistance", "Registration", "Point pairs farther apart than this are never used")
         obj.addProperty("App::PropertyFloat", "MinOverlap", "Registration", "Share of a view's points that must have a partner")
         obj.addProperty("App::PropertyInteger", "AlignedCount", "Result", "Views registered and merged", 1)
         obj.addProperty("App::PropertyPlacementList", "ViewPoses", "Result", "View -> model pose of each view", 1)
@@ -50,20 +43,23 @@ class Stitch(DocumentObjectProxy):
         if len(sources) < 2 or not all(is_scan_view(v) for v in sources):
             raise picoscan.Error("%s: Views must hold two or more ScanViews" % obj.Label)
         views = [source.Proxy.scan_view(source)[0] for source in sources]
-        options = picoscan.RegistrationOptions()
-        options.icp_max_distance_mm = obj.IcpMaxDistance
-        options.min_overlap = obj.MinOverlap
-        with FreeCADProgress("Stitching " + obj.Label) as progress:
-            alignment = picoscan.align_views(views, [v.Label for v in sources], options, progress=progress)
+        options = picoscan.StitchOptions()
+        registration = options.registration
+        registration.icp_max_distance_mm = millimetres(obj.IcpMaxDistance)
+        registration.min_overlap = obj.MinOverlap
+        options.registration = registration
+        names = [v.Label for v in sources]
+        stitched = run_in_background("Stitching " + obj.Label,
+                                     lambda progress: picoscan.stitch_views(views, names, options, progress))
+        alignment = stitched.alignment
         report = []
         for source, result in zip(sources, alignment.views):
             report.append("%s: overlap %.2f, rms %.3f mm" % (source.Label, result.overlap, result.rms_mm) if result.aligned
                           else "%s: left out: %s" % (source.Label, result.problem))
         if alignment.aligned_count() < 2:
             raise picoscan.Error("%s: fewer than two views could be registered (%s)" % (obj.Label, "; ".join(report)))
-        aligned = [(view, result.pose) for view, result in zip(views, alignment.views) if result.aligned]
-        cloud = picoscan.merge_views([view.with_pose(pose) for view, pose in aligned])
-        _clouds[_key(obj)] = (_parameters(obj), cloud)
+        cloud = stitched.merged
+        self.cached = (_parameters(obj), cloud)  # on the proxy: goes with the object; not saved (see scan_view)
         obj.ViewPoses = [_placement(result.pose) for result in alignment.views]
         obj.Report = report
         obj.AlignedCount = alignment.aligned_count()
@@ -72,27 +68,26 @@ class Stitch(DocumentObjectProxy):
 
     def merged_cloud(self, obj):
         """The merged picoscan.PointCloud (with normals), recomputed if not in memory or stale."""
-        cached = _clouds.get(_key(obj))
+        cached = getattr(self, "cached", None)
         if cached is None or cached[0] != _parameters(obj):
             self.execute(obj)
-            cached = _clouds[_key(obj)]
+            cached = self.cached
         return cached[1]
 
 
 def create(doc, views, name="Stitch"):
     if len(views) < 2 or not all(is_scan_view(v) for v in views):
         raise picoscan.Error("Stitch views: select two or more ScanViews")
-    obj = doc.addObject("Points::FeaturePython", name)
-    Stitch(obj)
-    obj.Views = list(views)
+
+    def setup(obj):
+        Stitch(obj)
+        obj.Views = list(views)
+        if FreeCAD.GuiUp:
+            from picoscan_wb.viewproviders.view_provider import ViewProvider
+            ViewProvider(obj.ViewObject, "picoscan_stitch")
+
+    obj = add_or_remove(doc, "Points::FeaturePython", name, setup)
     if FreeCAD.GuiUp:
-        from picoscan_wb.viewproviders.view_provider import ViewProvider
-        ViewProvider(obj.ViewObject, "picoscan_stitch")
         for view in views:
             view.ViewObject.Visibility = False
-    obj.recompute()
-    if not obj.isValid():
-        message = obj.getStatusString()
-        doc.removeObject(obj.Name)
-        raise picoscan.Error(message)
     return obj

@@ -7,7 +7,13 @@ import numpy
 import picoscan
 
 # Colours (BGR) of the pixel status values of picoscan.decode.
-STATUS_COLOURS = {0: (80, 200, 60), 1: (40, 40, 40), 2: (255, 255, 255), 3: (40, 40, 220), 4: (220, 120, 40)}
+STATUS_COLOURS = {
+    picoscan.PixelStatus.kValid: (80, 200, 60),
+    picoscan.PixelStatus.kDark: (40, 40, 40),
+    picoscan.PixelStatus.kSaturated: (255, 255, 255),
+    picoscan.PixelStatus.kUndecidedBit: (40, 40, 220),
+    picoscan.PixelStatus.kLowModulation: (220, 120, 40),
+}
 
 
 def false_colour(values, low, high, valid):
@@ -38,7 +44,7 @@ def encoding_images(capture_folder, output_folder, manifest_file="", progress=No
     quality = codes.quality[valid]
     images["quality"] = false_colour(codes.quality, 0, float(numpy.percentile(quality, 99)) if quality.size else 1, valid)
     for status, colour in STATUS_COLOURS.items():
-        images["status"][codes.status == status] = colour
+        images["status"][codes.status == int(status)] = colour
     os.makedirs(output_folder, exist_ok=True)
     paths = {}
     for name, image in images.items():

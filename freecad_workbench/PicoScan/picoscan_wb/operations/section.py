@@ -3,14 +3,12 @@ and a profile plot comparing the hybrid (Gray + phase) scan with the binary (Gra
 import os
 
 import numpy
-import FreeCAD
 import Part
 from FreeCAD import Placement, Rotation, Vector
 
 import picoscan
 
 AXES = {"X": Vector(1, 0, 0), "Y": Vector(0, 1, 0), "Z": Vector(0, 0, 1)}
-MAX_SEGMENTS = 2000
 
 
 def section_plane(mesh, axis, offset_mm=None):
@@ -26,33 +24,190 @@ def section_plane(mesh, axis, offset_mm=None):
     return base, normal
 
 
-def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section"):
-    """Adds a Sketch of the section polylines, placed in the cutting plane. Raises picoscan.Error when
-    the plane misses the mesh."""
+def section_polylines(mesh_object, axis, offset_mm=None):
+    """(placement of the cutting plane, [(N x 2 array in the plane, closed)]) of the mesh's section."""
+    from picoscan_wb.objects.scan_mesh import core_mesh
+
     mesh = mesh_object.Mesh
     base, normal = section_plane(mesh, axis, offset_mm)
-    polylines = [line for line in mesh.crossSections([(base, normal)], 1e-6)[0] if len(line) > 1]
+    placement = Placement(base, Rotation(Vector(0, 0, 1), normal))
+    u_axis, v_axis = placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
+    polylines = picoscan.cut_mesh(core_mesh(mesh), tuple(base), tuple(u_axis), tuple(v_axis))
     if not polylines:
         raise picoscan.Error("%s: the %s plane at %.2f mm does not cut the mesh" % (
             mesh_object.Label, axis, getattr(base, axis.lower())))
-    placement = Placement(base, Rotation(Vector(0, 0, 1), normal))
-    to_plane = placement.inverse()
-    total = sum(len(line) - 1 for line in polylines)
-    stride = max(1, -(-total // MAX_SEGMENTS))  # sketches stay editable: at most ~MAX_SEGMENTS segments
-    segments = []
-    for line in polylines:
-        kept = line[::stride] + ([line[-1]] if (len(line) - 1) % stride else [])
-        local = [to_plane.multVec(point) for point in kept]
-        for start, end in zip(local, local[1:]):
-            if (end - start).Length > 1e-6:
-                segments.append(Part.LineSegment(Vector(start.x, start.y, 0), Vector(end.x, end.y, 0)))
+    # A shorter fragment (a grazing cut through a few facets) holds no shape.
+    result = [(line.points, line.closed) for line in polylines if len(line.points) >= 4]
+    if not result:
+        raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (
+            mesh_object.Label, axis))
+    return placement, result
+
+
+def fit_options(tolerance_mm=0.0):
+    options = picoscan.SectionFitOptions()
+    if tolerance_mm < 0:
+        raise picoscan.Error("Tolerance: must be 0 (from the scan's noise) or positive, is %g mm" % tolerance_mm)
+    options.tolerance_mm = tolerance_mm
+    return options
+
+
+def _vector(point):
+    return Vector(float(point[0]), float(point[1]), 0)
+
+
+def _geometry(element):
+    """(Part geometry, sketch point id where the element starts, where it ends) in the polyline's order."""
+    import math
+
+    kind = element.kind
+    if kind == picoscan.SectionElementKind.Line:
+        return Part.LineSegment(_vector(element.start), _vector(element.end)), 1, 2
+    circle = Part.Circle(_vector(element.centre), Vector(0, 0, 1), float(element.radius_mm))
+    if kind == picoscan.SectionElementKind.Circle:
+        return circle, None, None
+    angle = lambda p: math.atan2(p[1] - element.centre[1], p[0] - element.centre[0])  # noqa: E731
+    start, end = angle(element.start), angle(element.end)
+    # Sketcher arcs run counter-clockwise from their start point (1) to their end point (2).
+    low, high, ids = (start, end, (1, 2)) if element.counter_clockwise else (end, start, (2, 1))
+    if high <= low:
+        high += 2 * math.pi
+    return Part.ArcOfCircle(circle, low, high), ids[0], ids[1]
+
+
+class _Groups:
+    """Union-find of directions (lines) or radii (arcs): constraints that would only repeat what the
+    others already imply are not added (the Sketcher calls them redundant)."""
+
+    def __init__(self):
+        self.parent = {}
+
+    def find(self, item):
+        self.parent.setdefault(item, item)
+        while self.parent[item] != item:
+            item = self.parent[item]
+        return item
+
+    def join(self, a, b):
+        root_a, root_b = self.find(a), self.find(b)
+        if root_a == root_b:
+            return False
+        self.parent[root_b] = root_a
+        return True
+
+
+def _key_points(geometry):
+    if hasattr(geometry, "StartPoint"):
+        return [geometry.StartPoint, geometry.EndPoint]
+    return [geometry.Center, geometry.Center + Vector(geometry.Radius, 0, 0)]
+
+
+def _try_constraint(sketch, constraint, max_move_mm):
+    """Adds the constraint and keeps it only when the sketch still solves, without redundancy, and no
+    point moves by more than max_move_mm (the solver can satisfy a contradiction by collapsing an
+    element); otherwise the constraint is removed and the geometry put back."""
+    saved = sketch.Geometry
+    sketch.addConstraint(constraint)
+    moved = 0.0
+    answer = sketch.solve()
+    if answer == 0:
+        for before, after in zip(saved, sketch.Geometry):
+            for p, q in zip(_key_points(before), _key_points(after)):
+                moved = max(moved, (p - q).Length)
+    if answer != 0 or moved > max_move_mm:
+        sketch.delConstraint(sketch.ConstraintCount - 1)
+        sketch.Geometry = saved
+        return False
+    return True
+
+
+def add_fitted_geometry(sketch, fit):
+    """Adds the fitted lines, arcs and circles of one polyline to the sketch, joined by coincident or
+    tangent constraints, with the horizontal, vertical, parallel, perpendicular and equal-radius
+    constraints the core found to keep every point within the tolerance. Returns the report lines."""
+    import Sketcher
+
+    Kind, Snap = picoscan.SectionElementKind, picoscan.SectionConstraintKind
+    placed = []
+    report = []
+    for element in fit.elements:
+        geometry, start_id, end_id = _geometry(element)
+        index = sketch.addGeometry(geometry, False)
+        placed.append((index, start_id, end_id))
+        size = "radius %.4f mm" % element.radius_mm if element.kind != Kind.Line else "length %.3f mm" % (
+            numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)))
+        report.append("Edge%d: %s, %s, %d points, rms %.4f mm, max %.4f mm" % (
+            index + 1, str(element.kind).split(".")[-1].lower(), size, element.point_count, element.rms_mm, element.max_mm))
+    # The constraints may move the fitted geometry by about the tolerance; much more means they fight.
+    max_move = 10 * fit.tolerance_mm + 0.01
+
+    def constrain(*arguments):
+        return _try_constraint(sketch, Sketcher.Constraint(*arguments), max_move)
+
+    count = len(fit.elements)
+    joints = count if fit.closed else count - 1
+    for j in range(joints if count > 1 else 0):
+        k = (j + 1) % count
+        (a, _, a_end), (b, b_start, _) = placed[j], placed[k]
+        if fit.elements[j].tangent_to_next and constrain("Tangent", a, a_end, b, b_start):
+            continue
+        constrain("Coincident", a, a_end, b, b_start)
+    directions, radii = _Groups(), _Groups()
+    perpendicular = set()
+    axis_kinds = {Snap.Horizontal: "Horizontal", Snap.Vertical: "Vertical"}
+    for snap in sorted(fit.constraints, key=lambda c: int(c.kind)):
+        first = placed[snap.first][0]
+        if snap.kind in axis_kinds:
+            if directions.find(axis_kinds[snap.kind]) != directions.find(first) and \
+                    constrain(axis_kinds[snap.kind], first):
+                directions.join(axis_kinds[snap.kind], first)
+            continue
+        second = placed[snap.second][0]
+        if snap.kind == Snap.Parallel:
+            if directions.find(first) != directions.find(second) and \
+                    constrain("Parallel", first, second):
+                directions.join(first, second)
+        elif snap.kind == Snap.Perpendicular:
+            pair = frozenset((directions.find(first), directions.find(second)))
+            implied = pair == frozenset((directions.find("Horizontal"), directions.find("Vertical")))
+            if len(pair) == 2 and pair not in perpendicular and not implied and \
+                    constrain("Perpendicular", first, second):
+                perpendicular.add(pair)
+        elif snap.kind == Snap.EqualRadius:
+            if radii.find(first) != radii.find(second) and constrain("Equal", first, second):
+                radii.join(first, second)
+    return report
+
+
+def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", tolerance_mm=0.0):
+    """Adds a Sketch of the section, placed in the cutting plane: lines, arcs and circles fitted to
+    the cut within tolerance_mm (0: from the scan's noise), joined and constrained, ready to edit in
+    Sketcher and to pad. Raises picoscan.Error (document unchanged) when the plane misses the mesh."""
+    placement, polylines = section_polylines(mesh_object, axis, offset_mm)
+    fits = [picoscan.fit_section(points, closed, fit_options(tolerance_mm)) for points, closed in polylines]
     sketch = doc.addObject("Sketcher::SketchObject", name)
-    sketch.Placement = placement
-    sketch.addGeometry(segments, False)
-    sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
-    sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
-    sketch.SourceMesh = mesh_object
-    doc.recompute()
+    try:
+        sketch.Placement = placement
+        report = []
+        for fit in fits:
+            report += add_fitted_geometry(sketch, fit)
+        sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
+        sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
+        sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")
+        sketch.addProperty("App::PropertyLength", "FitNoise", "Section", "Noise of the section estimated from its points")
+        sketch.addProperty("App::PropertyStringList", "FitReport", "Section", "Per element: kind, size, points, residuals")
+        sketch.SourceMesh = mesh_object
+        sketch.FitTolerance = max(fit.tolerance_mm for fit in fits)
+        sketch.FitNoise = max(fit.noise_mm for fit in fits)
+        sketch.FitReport = report
+        for name in ("FitTolerance", "FitNoise", "FitReport"):
+            sketch.setEditorMode(name, 1)  # shown, not edited: they describe the fit
+        doc.recompute()
+        if not sketch.isValid():
+            raise picoscan.Error("%s: the fitted sketch does not solve: %s" % (mesh_object.Label, sketch.getStatusString()))
+    except Exception:
+        doc.removeObject(sketch.Name)
+        raise
     return sketch
 
 

@@ -12,11 +12,9 @@ from picoscan_wb.progress import FreeCADProgress
 
 
 class CalibrateTaskPanel:
-    # The panel on screen, for tests and macros.
-    current = None
+    """The command that opens this panel keeps it as its `panel` (for tests and macros)."""
 
     def __init__(self):
-        CalibrateTaskPanel.current = self
         self.form = QtGui.QWidget()
         self.form.setWindowTitle("PicoScan calibration")
         layout = QtGui.QFormLayout(self.form)

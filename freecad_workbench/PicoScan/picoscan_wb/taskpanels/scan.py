@@ -18,11 +18,9 @@ SOURCES = ("Simulate", "Camera + projector")
 
 
 class ScanTaskPanel:
-    # The panel on screen, for tests and macros.
-    current = None
+    """The command that opens this panel keeps it as its `panel` (for tests and macros)."""
 
     def __init__(self):
-        ScanTaskPanel.current = self
         self.form = QtGui.QWidget()
         self.form.setWindowTitle("PicoScan scan")
         layout = QtGui.QFormLayout(self.form)
@@ -86,7 +84,13 @@ class ScanTaskPanel:
         with FreeCADProgress("Scanning", self.should_cancel) as progress:
             calibration = self.capture(folder, progress)
         doc = FreeCAD.ActiveDocument or FreeCAD.newDocument("Scan")
-        self.created = scan_view.create(doc, folder, calibration)
+        doc.openTransaction("Scan")  # one undo step
+        try:
+            self.created = scan_view.create(doc, folder, calibration)
+        except Exception:
+            doc.abortTransaction()
+            raise
+        doc.commitTransaction()
         return self.created
 
     def accept(self):

@@ -10,10 +10,11 @@ import unittest
 import numpy
 import FreeCAD
 import Mesh
+import Points
 
 import picoscan
-from picoscan_wb.objects import cloud_of, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import encoding, primitives, rig, section, simulate, solid
+from picoscan_wb.objects import cloud_of, deviation_map, scan_mesh, scan_view, stitch
+from picoscan_wb.operations import alignment, encoding, primitives, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -125,19 +126,73 @@ class PicoScanAppTest(unittest.TestCase):
         mesh = scan_mesh.create(self.doc, view, pixel_step=1)
         sketch = section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0)
         self.assertTrue(sketch.isValid())
-        self.assertGreater(sketch.GeometryCount, 50)
-        radii = []
+        FreeCAD.Console.PrintMessage("shaft section: noise %.4f mm, tolerance %.4f mm\n%s\n" % (
+            sketch.FitNoise.Value, sketch.FitTolerance.Value, "\n".join(sketch.FitReport)))
+        self.assertEqual(len(sketch.FitReport), sketch.GeometryCount)
+        self.assertLess(sketch.GeometryCount, 20)  # fitted elements, not hundreds of segments
+        self.assertLess(sketch.FitTolerance.Value, 0.2)
         for geometry in sketch.Geometry:
             point = sketch.Placement.multVec(geometry.StartPoint)
             self.assertAlmostEqual(point.y, 0.0, delta=1e-6)
-            if point.z < 420:  # on the shaft, not the wall
-                radii.append(math.hypot(point.x, point.z - 400.0))
-        self.assertGreater(len(radii), 20)
-        self.assertLess(max(abs(r - SHAFT_RADIUS_MM) for r in radii), 0.15)
+        # The shaft's visible half is one arc of the true radius around the true axis.
+        arcs = [g for g in sketch.Geometry if g.TypeId == "Part::GeomArcOfCircle"]
+        shaft = [a for a in arcs if (sketch.Placement.multVec(a.Center) - FreeCAD.Vector(0, 0, 400)).Length < 0.1]
+        self.assertEqual(len(shaft), 1, [(a.Radius, sketch.Placement.multVec(a.Center)) for a in arcs])
+        FreeCAD.Console.PrintMessage("shaft arc radius %.4f mm (error %.1f um)\n" % (
+            shaft[0].Radius, 1000 * (shaft[0].Radius - SHAFT_RADIUS_MM)))
+        self.assertAlmostEqual(shaft[0].Radius, SHAFT_RADIUS_MM, delta=0.02)
         plot = section.hybrid_vs_binary_plot(view, "Y", 0.0, os.path.join(self.folder, "profile.png"))
         self.assertGreater(os.path.getsize(plot), 10000)
+        names = [o.Name for o in self.doc.Objects]
         with self.assertRaisesRegex(picoscan.Error, "does not cut"):
             section.cross_section(self.doc, mesh, axis="Y", offset_mm=500.0)
+        with self.assertRaisesRegex(picoscan.Error, "Tolerance: must be 0"):
+            section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0, tolerance_mm=-1)
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
+
+    def test_deviation_map_of_the_shaft_follows_the_model(self):
+        view = self.scan()
+        model = self.doc.addObject("Part::Cylinder", "ShaftModel")
+        model.Radius = SHAFT_RADIUS_MM
+        model.Height = 80
+        model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400),
+                                            FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
+        self.doc.recompute()
+        report = os.path.join(self.folder, "shaft_deviation.html")
+        result = deviation_map.create(self.doc, view, model, tolerance_mm=0.05, max_distance_mm=1.0, report_file=report)
+        FreeCAD.Console.PrintMessage("shaft deviation: %s\n" % result.Summary)
+        self.assertGreater(result.PointCount, 10000)
+        self.assertEqual(result.Points.CountPoints, view.PointCount)  # the wall is kept, grey, out of the figures
+        self.assertEqual(len(result.Color), result.Points.CountPoints)
+        self.assertLess(abs(result.MeanDeviation.Value), 0.01)
+        self.assertLess(result.MeanAbsDeviation.Value, 0.03)
+        self.assertLess(result.Sigma.Value, 0.04)
+        self.assertGreater(result.WithinTolerance, 90)
+        for path in (report, report + ".png", os.path.join(self.folder, "shaft_deviation.ply")):
+            self.assertGreater(os.path.getsize(path), 500, path)
+        # Parametric: a model 0.1 mm fatter puts the scan 0.1 mm inside it after recompute.
+        model.Radius = SHAFT_RADIUS_MM + 0.1
+        self.doc.recompute()
+        self.assertTrue(result.isValid(), result.getStatusString())
+        FreeCAD.Console.PrintMessage("after radius + 0.1 mm: %s\n" % result.Summary)
+        self.assertAlmostEqual(result.MeanDeviation.Value, -0.1, delta=0.01)
+        self.assertLess(result.WithinTolerance, 10)
+        # A shaft alone can slide along and turn about its axis: best fit refuses, the scan stays put.
+        with self.assertRaisesRegex(picoscan.Error, "do not fix all six degrees of freedom"):
+            alignment.best_fit(view, model)
+        self.assertTrue(view.Placement.isIdentity())
+        # Bad input: nothing is added.
+        far = self.doc.addObject("Part::Box", "FarAway")  # 1 m from the scan
+        far.Placement.Base = FreeCAD.Vector(1000, 0, 0)
+        self.doc.recompute()
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "no faces or triangles"):
+            deviation_map.create(self.doc, view, view)
+        with self.assertRaisesRegex(picoscan.Error, "Tolerance: must be positive"):
+            deviation_map.create(self.doc, view, model, tolerance_mm=0)
+        with self.assertRaisesRegex(picoscan.Error, "none lies within"):
+            deviation_map.create(self.doc, view, far, max_distance_mm=1.0)
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
 
     def test_show_rig(self):
         group, camera, projector = rig.show_rig(self.doc, self.calibration, depth_mm=450)
@@ -270,3 +325,141 @@ class PicoScanStitchTest(unittest.TestCase):
         with self.assertRaisesRegex(picoscan.Error, "two or more ScanViews"):
             stitch.create(self.doc, views[:1])
         self.assertEqual([o.Name for o in self.doc.Objects], names)
+
+
+class PicoScanSectionFitTest(unittest.TestCase):
+    """The demo part's true mesh with scan-like noise on its vertices, cut at mid height: the fitted
+    sketch must hold its outline (5 lines) and hole (1 circle) at the true sizes, and pad into a solid."""
+
+    # The outline at mid height: the 50 x 36 block with its (+x, +y) corner chamfered 8 mm.
+    CORNERS = [(-25, -18), (25, -18), (25, 10), (17, 18), (-25, 18)]
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanSectionTest")
+        self.folder = tempfile.mkdtemp(prefix="picoscan_section_")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def noisy_part(self, sigma_mm, seed=1):
+        part = picoscan.mechanical_part()
+        # The part's triangles repeat their corners: one noise per position keeps the surface closed.
+        positions, corner_of = numpy.unique(numpy.array(part.vertices), axis=0, return_inverse=True)
+        positions = positions + numpy.random.default_rng(seed).normal(0.0, sigma_mm, positions.shape)
+        part.vertices = positions[corner_of.ravel()].astype(numpy.float32)
+        obj = self.doc.addObject("Mesh::Feature", "DemoPart")
+        obj.Mesh = scan_mesh.freecad_mesh(part)
+        return obj
+
+    def true_directions(self):
+        corners = self.CORNERS
+        return [math.degrees(math.atan2(b[1] - a[1], b[0] - a[0])) for a, b in zip(corners, corners[1:] + corners[:1])]
+
+    def test_demo_outline_gives_five_lines_and_the_hole(self):
+        for sigma in (0.0, 0.01, 0.02, 0.04):
+            mesh = self.noisy_part(sigma)
+            sketch = section.cross_section(self.doc, mesh, axis="Z", offset_mm=12.0, name="Outline")
+            self.assertTrue(sketch.isValid(), sketch.getStatusString())
+            FreeCAD.Console.PrintMessage("demo outline, vertex noise %.2f mm: noise %.4f mm, tolerance %.4f mm, "
+                                         "%d constraints\n%s\n" % (sigma, sketch.FitNoise.Value, sketch.FitTolerance.Value,
+                                                                   sketch.ConstraintCount, "\n".join(sketch.FitReport)))
+            lines = [g for g in sketch.Geometry if g.TypeId == "Part::GeomLineSegment"]
+            circles = [g for g in sketch.Geometry if g.TypeId == "Part::GeomCircle"]
+            self.assertEqual((len(lines), len(circles), sketch.GeometryCount), (5, 1, 6))
+            truth = self.true_directions()
+            for line in lines:  # after the constraints were solved
+                direction = math.degrees(math.atan2(line.EndPoint.y - line.StartPoint.y, line.EndPoint.x - line.StartPoint.x))
+                error = min(min(abs(direction - t) % 360, 360 - abs(direction - t) % 360) for t in truth)
+                # The noise of a cut is shared along each facet (0.6 mm): about length / 0.6 independent
+                # samples, so a least-squares direction is known to sigma / (L sqrt(n / 12)) radians.
+                samples = line.length() / 0.6
+                bound = max(0.05, 4 * math.degrees(sigma / (line.length() * math.sqrt(samples / 12))))
+                FreeCAD.Console.PrintMessage("  line of %.3f mm: direction error %.4f deg (bound %.3f)\n" % (
+                    line.length(), error, bound))
+                self.assertLess(error, bound, "line at %.4f deg" % direction)
+                if sigma == 0 or line.length() > 25:
+                    self.assertLess(error, 0.05, "line at %.4f deg" % direction)
+            hole = circles[0]
+            centre = sketch.Placement.multVec(hole.Center)
+            FreeCAD.Console.PrintMessage("hole radius %.4f mm (error %.1f um)\n" % (hole.Radius, 1000 * (hole.Radius - 5)))
+            self.assertAlmostEqual(hole.Radius, 5.0, delta=0.02)
+            self.assertAlmostEqual(centre.x, -11.0, delta=0.02)
+            self.assertAlmostEqual(centre.y, 0.0, delta=0.02)
+            kinds = [c.Type for c in sketch.Constraints]
+            self.assertEqual(kinds.count("Coincident"), 5)
+            self.assertEqual(kinds.count("Horizontal") + kinds.count("Vertical"), 4)
+            # Editable and paddable: a PartDesign pad of the fitted sketch is a valid solid of the right volume.
+            body = self.doc.addObject("PartDesign::Body", "Body")
+            body.addObject(sketch)
+            pad = body.newObject("PartDesign::Pad", "Pad")
+            pad.Profile = sketch
+            pad.Length = 10
+            self.doc.recompute()
+            self.assertTrue(pad.Shape.isValid())
+            area = 50 * 36 - 8 * 8 / 2 - math.pi * 5 ** 2
+            self.assertAlmostEqual(pad.Shape.Volume, 10 * area, delta=0.002 * 10 * area)
+            for name in (pad.Name, body.Name, sketch.Name, mesh.Name):
+                self.doc.removeObject(name)
+
+    def test_parametric_rebuild_of_the_demo_part_and_its_deviation_map(self):
+        """The walkthrough of docs/freecad.md: two fitted sections, two pads, and the deviation map of
+        the scan against the rebuilt body, which follows when the body changes."""
+        scan = self.noisy_part(0.02)
+        outline = section.cross_section(self.doc, scan, axis="Z", offset_mm=12.0, name="Outline")
+        boss_section = section.cross_section(self.doc, scan, axis="Z", offset_mm=28.0, name="BossSection")
+        body = self.doc.addObject("PartDesign::Body", "Body")
+        body.addObject(outline)
+        body.addObject(boss_section)
+        block = body.newObject("PartDesign::Pad", "Block")
+        block.Profile = outline
+        block.Midplane = True  # the section is at mid height: 24 mm, 12 each way
+        block.Length = 24
+        boss = body.newObject("PartDesign::Pad", "Boss")
+        boss.Profile = boss_section
+        boss.Midplane = True   # z = 24 .. 32
+        boss.Length = 8
+        self.doc.recompute()
+        self.assertTrue(body.Shape.isValid())
+        box = body.Shape.BoundBox
+        circles = [g for g in boss_section.Geometry if g.TypeId == "Part::GeomCircle"]
+        self.assertEqual(len(circles), 1)
+        boss_centre = boss_section.Placement.multVec(circles[0].Center)
+        hole = [g for g in outline.Geometry if g.TypeId == "Part::GeomCircle"][0]
+        FreeCAD.Console.PrintMessage(
+            "rebuilt body: %.4f x %.4f mm, hole diameter %.4f mm, boss diameter %.4f mm at (%.4f, %.4f)\n" % (
+                box.XLength, box.YLength, 2 * hole.Radius, 2 * circles[0].Radius, boss_centre.x, boss_centre.y))
+        self.assertAlmostEqual(box.XLength, 50.0, delta=0.02)
+        self.assertAlmostEqual(box.YLength, 36.0, delta=0.02)
+        self.assertAlmostEqual(2 * hole.Radius, 10.0, delta=0.02)
+        self.assertAlmostEqual(2 * circles[0].Radius, 14.0, delta=0.02)
+        self.assertAlmostEqual(boss_centre.x, 12.0, delta=0.02)
+        self.assertAlmostEqual(boss_centre.y, -2.0, delta=0.02)
+        # What a scanner sees of the part: its vertices less those inside it (the boss is a separate
+        # cylinder sunk 1 mm into the block, so the block's top under it and its foot are hidden).
+        vertices = numpy.array([(p.x, p.y, p.z) for p in scan.Mesh.Topology[0]])
+        from_boss_axis = numpy.hypot(vertices[:, 0] - 12, vertices[:, 1] + 2)
+        hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
+        seen = self.doc.addObject("Points::Feature", "ScanPoints")
+        seen.Points = Points.Points([tuple(p) for p in vertices[~hidden]])
+        # Misplaced by 2 degrees and 1.4 mm, as a scan in its own frame would be: best fit puts it back.
+        seen.Placement = FreeCAD.Placement(FreeCAD.Vector(1.0, -0.8, 0.5), FreeCAD.Rotation(FreeCAD.Vector(0.2, 0.3, 1), 2.0))
+        fit = alignment.best_fit(seen, body)
+        left = seen.Placement
+        FreeCAD.Console.PrintMessage("best fit: %d steps, rms %.4f mm; left %.5f deg, %.5f mm\n" % (
+            fit.iterations, fit.rms_mm, math.degrees(left.Rotation.Angle), left.Base.Length))
+        self.assertLess(math.degrees(left.Rotation.Angle), 0.01)
+        self.assertLess(left.Base.Length, 0.01)
+        result = deviation_map.create(self.doc, seen, body, tolerance_mm=0.05)
+        FreeCAD.Console.PrintMessage("scan against the rebuilt body: %s\n" % result.Summary)
+        self.assertLess(result.MeanAbsDeviation.Value, 0.02)  # the 20 um vertex noise, nothing more
+        self.assertGreater(result.WithinTolerance, 95)
+        within = result.WithinTolerance
+        # Parametric: a boss 1 mm too tall (z = 23 .. 33) leaves the scan's boss top 1 mm inside the model.
+        boss.Length = 10
+        self.doc.recompute()
+        self.assertTrue(boss.isValid() and result.isValid())
+        FreeCAD.Console.PrintMessage("boss 2 mm longer: %s\n" % result.Summary)
+        self.assertAlmostEqual(result.MaxDeviation.Value, 1.0, delta=0.1)
+        self.assertLess(result.MeanDeviation.Value, -0.01)  # the boss top, about 2 % of the points, 1 mm inside
+        self.assertLessEqual(result.WithinTolerance, within - 2)

@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import time
 import unittest
 
 import numpy
@@ -17,8 +18,6 @@ import picoscan
 from picoscan_wb.commands import COMMANDS
 from picoscan_wb.objects import scan_mesh, scan_view
 from picoscan_wb.operations import simulate
-from picoscan_wb.taskpanels.calibrate import CalibrateTaskPanel
-from picoscan_wb.taskpanels.scan import ScanTaskPanel
 
 ALWAYS_ACTIVE = {"PicoScan_Calibrate", "PicoScan_Scan", "PicoScan_ImportCaptures", "PicoScan_ShowRig"}
 FOR_SCAN_VIEWS = {"PicoScan_Clean", "PicoScan_Mesh", "PicoScan_FitPrimitives", "PicoScan_EncodingView"}
@@ -119,7 +118,7 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.runCommand("PicoScan_Calibrate")
         process_events()
         self.assertTrue(FreeCADGui.Control.activeDialog())
-        panel = CalibrateTaskPanel.current
+        panel = COMMANDS["PicoScan_Calibrate"].panel
         missing = os.path.join(self.folder, "no_such_pose")
         panel.poses.addItem(missing)
         panel.output.setText(os.path.join(self.folder, "rig.yml"))
@@ -177,7 +176,7 @@ class PicoScanGuiTest(unittest.TestCase):
         before = self.object_names()
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
-        panel = ScanTaskPanel.current
+        panel = COMMANDS["PicoScan_Scan"].panel
         panel.folder.setText(os.path.join(self.folder, "cancelled"))
         panel.should_cancel = lambda: True  # as if the user pressed Stop at once
         self.assertFalse(panel.accept())
@@ -214,7 +213,7 @@ class PicoScanGuiTest(unittest.TestCase):
         picoscan.write_calibration(picoscan.seed_rig_calibration(), calibration)
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
-        panel = ScanTaskPanel.current
+        panel = COMMANDS["PicoScan_Scan"].panel
         panel.source.setCurrentText("Camera + projector")
         panel.camera.setText("virtual")
         panel.projector_screen.setValue(-1)
@@ -229,11 +228,155 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(self.messages), 1)
         self.assertGreater(panel.created.PointCount, 400000)
         self.assertEqual(panel.created.CaptureFolder, os.path.join(self.folder, "captured"))
+        # The scan is one undo step.
+        name = panel.created.Name
+        self.doc.undo()
+        self.assertIsNone(self.doc.getObject(name))
+
+    def test_j_deviation_map_command_colours_the_scan(self):
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        model = self.doc.addObject("Part::Cylinder", "ShaftModel")
+        model.Radius = 12.5
+        model.Height = 80
+        model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400),
+                                            FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(model)
+        self.assertFalse(COMMANDS["PicoScan_DeviationMap"].IsActive())  # the scan comes first
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.Selection.addSelection(model)
+        self.assertTrue(COMMANDS["PicoScan_DeviationMap"].IsActive())
+        FreeCADGui.runCommand("PicoScan_DeviationMap")
+        process_events()
+        self.assertEqual(self.messages, [])
+        maps = [o for o in self.doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "PicoScan::DeviationMap"]
+        self.assertEqual(len(maps), 1)
+        result = maps[0]
+        self.assertEqual(result.ViewObject.DisplayMode, "Color")
+        self.assertIn("Color", result.ViewObject.listDisplayModes())
+        # No MaxDistance by default: the wall behind the shaft (47 mm away) is measured too.
+        self.assertGreater(result.MaxDeviation.Value, 40)
+        self.assertEqual(result.PointCount, view.PointCount)
+        self.assertEqual(len(result.Color), view.PointCount)
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        self.assertTrue(any("png" in w.windowTitle() or "vs" in w.windowTitle() for w in mdi.subWindowList()),
+                        [w.windowTitle() for w in mdi.subWindowList()])
+        self.screenshot(result, "freecad-deviation.png", report=result.ReportFile + ".png")
+        # One undo step removes the map.
+        name = result.Name
+        self.doc.undo()
+        self.assertIsNone(self.doc.getObject(name))
+        # Best fit of a shaft alone to its cylinder cannot fix the slide along the axis: a message.
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.Selection.addSelection(model)
+        self.assertTrue(COMMANDS["PicoScan_BestFit"].IsActive())
+        FreeCADGui.runCommand("PicoScan_BestFit")
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("do not fix all six degrees of freedom", self.messages[0][2])
+        self.assertTrue(view.Placement.isIdentity())
+        self.messages.clear()
+        # A reference with no surface: a message, nothing added.
+        FreeCADGui.Selection.clearSelection()
+        cloud = self.doc.addObject("Points::Feature", "JustPoints")
+        before = self.object_names()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.Selection.addSelection(cloud)
+        COMMANDS["PicoScan_DeviationMap"].Activated()
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("JustPoints: the reference has no faces or triangles", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+
+    def screenshot(self, shown, name, report=None):
+        """The 3D view on `shown`, saved beside PICOSCAN_SCREENSHOT as `name` (and the report picture)."""
+        path = os.environ.get("PICOSCAN_SCREENSHOT")
+        if not path:
+            return
+        folder = os.path.dirname(path)
+        os.makedirs(folder, exist_ok=True)
+        FreeCADGui.getMainWindow().showMaximized()
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(self.doc.Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(shown)
+        FreeCADGui.SendMsgToActiveView("ViewSelection")
+        FreeCADGui.Selection.clearSelection()
+        for _ in range(5):
+            process_events()
+        temporary = os.path.join(folder, name + ".tmp.png")
+        subprocess.run(["import", "-window", "root", temporary], check=True)
+        os.replace(temporary, os.path.join(folder, name))
+        if report:
+            shutil.copyfile(report, os.path.join(folder, "deviation-histogram.png"))
+
+    def cancel_after(self, seconds, record):
+        """Presses Cancel on the progress dialog `seconds` from now (the user's click)."""
+        from PySide2 import QtCore
+
+        def press():
+            shown = [d for d in FreeCADGui.getMainWindow().findChildren(QtWidgets.QProgressDialog, "PicoScanProgress")
+                     if d.isVisible()]
+            dialog = shown[0] if shown else None
+            record["dialog"] = "visible" if dialog is not None else "missing"
+            record["pressed"] = time.monotonic()
+            buttons = dialog.findChildren(QtWidgets.QPushButton) if dialog is not None else []
+            if buttons:
+                buttons[0].click()  # the Cancel button, as the user would
+        QtCore.QTimer.singleShot(int(seconds * 1000), press)
+
+    def test_k_long_work_keeps_the_gui_responsive_and_cancels_within_a_second(self):
+        from PySide2 import QtCore
+
+        from picoscan_wb.progress import run_in_background
+
+        ticks = []
+        timer = QtCore.QTimer()
+        timer.timeout.connect(lambda: ticks.append(time.monotonic()))
+        timer.start(20)
+        record = {}
+        # A real long core call with fine-grained progress: the deviation of 4 M points on the demo
+        # part from its mesh (about 8192 points between two progress reports).
+        part = picoscan.mechanical_part()
+        vertices, faces = numpy.array(part.vertices), numpy.array(part.faces)
+        rng = numpy.random.default_rng(3)
+        chosen = faces[rng.integers(0, len(faces), 4000000)]
+        u, v = rng.random((2, len(chosen), 1))
+        flip = (u + v) > 1
+        u, v = numpy.where(flip, 1 - u, u), numpy.where(flip, 1 - v, v)
+        a, b, c = vertices[chosen[:, 0]], vertices[chosen[:, 1]], vertices[chosen[:, 2]]
+        points = (a + u * (b - a) + v * (c - a)).astype(numpy.float32)
+        self.cancel_after(4.0, record)
+        started = time.monotonic()
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            run_in_background("Measuring", lambda progress: picoscan.measure_deviation(
+                points, part, picoscan.DeviationOptions(), progress))
+        ended = time.monotonic()
+        timer.stop()
+        during = [t for t in ticks if started <= t <= ended]
+        gaps = numpy.diff(during)
+        FreeCAD.Console.PrintMessage("GUI during the work: %d timer events in %.2f s, longest gap %.3f s; cancel took %.3f s\n" % (
+            len(during), ended - started, gaps.max(), ended - record["pressed"]))
+        self.assertEqual(record["dialog"], "visible")
+        # A 20 ms timer: events keep coming while the core works (a blocked GUI thread would show one
+        # gap as long as the whole computation). The bounds leave room for a machine shared with other
+        # builds (load average above 12 on 2 cores when this was written: longest gap 1.05 s, cancel 2.1 s).
+        self.assertGreater(len(during), 10 * (ended - started))
+        self.assertLess(gaps.max(), 2.0)
+        self.assertLess(ended - record["pressed"], 3.0)
 
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
-        panel = ScanTaskPanel.current
+        panel = COMMANDS["PicoScan_Scan"].panel
         panel.scene.setCurrentText("Demo part")
         panel.folder.setText(os.path.join(self.folder, "demo"))
         self.assertTrue(panel.accept(), self.messages)
@@ -241,10 +384,12 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(view.PointCount, 100000)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
-        # Dialogs take their first proposal: Grid for the mesh, "Y" at the mesh's centre for the section.
-        QtWidgets.QInputDialog.getItem = lambda parent, title, label, items, current, editable: (items[current], True)
-        QtWidgets.QInputDialog.getDouble = lambda parent, title, label, value, *limits: (value, True)
         FreeCADGui.runCommand("PicoScan_Mesh")
+        process_events()
+        panel = COMMANDS["PicoScan_Mesh"].panel
+        self.assertEqual(panel.method.currentText(), "Grid")
+        self.assertFalse(panel.sample_spacing.isEnabled())  # Poisson's parameters are not Grid's
+        self.assertTrue(panel.accept(), self.messages)
         process_events()
         meshes = [o for o in self.doc.Objects if o.TypeId == "Mesh::FeaturePython"]
         self.assertEqual(len(meshes), 1, self.messages)
@@ -253,9 +398,25 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.Selection.addSelection(meshes[0])
         FreeCADGui.runCommand("PicoScan_CrossSection")
         process_events()
+        panel = COMMANDS["PicoScan_CrossSection"].panel
+        centre = meshes[0].Mesh.BoundBox.Center
+        self.assertEqual(panel.axis.currentText(), "Y")
+        self.assertAlmostEqual(panel.position.value(), centre.y, delta=1e-3)
+        self.assertEqual(panel.position.suffix(), " mm")
+        before = self.object_names()
+        panel.position.setValue(centre.y + 500)  # misses the mesh: a message, the panel stays open
+        self.assertFalse(panel.accept())
+        self.assertIn("does not cut the mesh", self.messages[-1][2])
+        self.assertEqual(self.object_names(), before)
+        self.assertTrue(FreeCADGui.Control.activeDialog())
+        self.messages.clear()
+        panel.position.setValue(centre.y)
+        self.assertTrue(panel.accept(), self.messages)
+        process_events()
         sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
         self.assertEqual(len(sections), 1, self.messages)
-        self.assertGreater(sections[0].GeometryCount, 50)
+        self.assertGreaterEqual(len(sections[0].FitReport), 3)  # fitted lines and arcs
+        self.assertEqual(len(sections[0].FitReport), sections[0].GeometryCount)
         self.assertTrue(os.path.isfile(sections[0].ProfilePlot))
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)

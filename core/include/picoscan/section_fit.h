@@ -1,0 +1,82 @@
+// Fitted sections: a planar section of a scan (a 2D polyline, in mm) split into lines, arcs and
+// circles, each within a tolerance of its points, with the joints between them (tangent or a
+// corner) and the constraints a designer would add (horizontal, vertical, parallel,
+// perpendicular, equal radius) wherever the points still fit within the tolerance with them.
+// A CAD host turns the result into an editable, constrained sketch.
+#pragma once
+
+#include "picoscan/cloud.h"
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+enum class SectionElementKind { Line, Arc, Circle };
+
+struct SectionFitOptions {
+    // Largest distance of a point to its element. 0: 5 x the noise estimated from the polyline
+    // (the median RMS of line fits over noise_window_mm), at least min_tolerance_mm.
+    double tolerance_mm = 0;
+    double min_tolerance_mm = 0.005;
+    double noise_window_mm = 2.0;     // the noise is measured over runs this long (at least 9 points)
+    int min_line_points = 4;
+    int min_arc_points = 8;
+    double max_arc_radius_mm = 2000;  // flatter arcs are lines
+    // A joint is tangent when the two fits can touch within half the tolerance and run on in
+    // directions closer than this there (not a cusp).
+    double tangent_angle_deg = 2.0;
+    double snap_angle_deg = 2.0;      // constraints are only tried for directions closer than this
+};
+
+struct SectionElement {
+    SectionElementKind kind = SectionElementKind::Line;
+    // In the order of the polyline: start is where the element begins, end where it ends; they
+    // are the joints with the neighbouring elements (intersections, tangent points).
+    cv::Vec2d start, end;
+    cv::Vec2d centre;                  // arc and circle
+    double radius_mm = 0;              // arc and circle
+    bool counter_clockwise = true;     // arc: the polyline runs counter-clockwise around the centre
+    int first_point = 0, point_count = 0;  // the polyline points fitted (indices wrap on closed polylines)
+    double rms_mm = 0, max_mm = 0;     // distances of those points to the element
+    bool tangent_to_next = false;      // smooth joint with the next element (closed: the last with the first)
+};
+
+enum class SectionConstraintKind { Horizontal, Vertical, Parallel, Perpendicular, EqualRadius };
+
+struct SectionConstraint {
+    SectionConstraintKind kind = SectionConstraintKind::Horizontal;
+    int first = 0, second = -1;        // element indices (second: -1 for horizontal and vertical)
+    double max_mm = 0;                 // largest point distance with the constraint applied
+};
+
+struct SectionFit {
+    std::vector<SectionElement> elements;
+    std::vector<SectionConstraint> constraints;  // each one keeps the points within tolerance
+    bool closed = false;
+    double tolerance_mm = 0;           // used
+    double noise_mm = 0;               // estimated from the polyline
+};
+
+// Where a plane cuts a mesh: polylines in the plane's own 2D frame, x along u_axis and y along
+// v_axis from `origin` (the plane's normal is u x v). Triangles are joined across shared edges
+// (vertices are welded by position first), so a closed surface gives closed loops; an open scan
+// gives open chains too.
+struct SectionPolyline {
+    std::vector<cv::Vec2d> points;
+    bool closed = false;  // the last point joins the first (which is not repeated)
+};
+// Throws Error("u_axis"/"v_axis", ...) unless they are orthonormal.
+std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis,
+                                      const cv::Vec3d& v_axis);
+
+// Fits one polyline (closed: the last point joins the first; do not repeat the first point).
+// Throws Error("polyline", ...) for fewer than 4 distinct points or non-finite coordinates,
+// Error("tolerance_mm", ...) for a negative tolerance.
+SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options = {});
+
+std::string to_string(SectionElementKind kind);
+std::string to_string(SectionConstraintKind kind);
+
+}  // namespace picoscan

@@ -1,0 +1,73 @@
+#include "bindings.h"
+
+#include "picoscan/section_fit.h"
+
+namespace picoscan::python {
+
+void bind_section_fit(py::module_& m) {
+    py::enum_<SectionElementKind>(m, "SectionElementKind")
+        .value("Line", SectionElementKind::Line)
+        .value("Arc", SectionElementKind::Arc)
+        .value("Circle", SectionElementKind::Circle);
+    py::enum_<SectionConstraintKind>(m, "SectionConstraintKind")
+        .value("Horizontal", SectionConstraintKind::Horizontal)
+        .value("Vertical", SectionConstraintKind::Vertical)
+        .value("Parallel", SectionConstraintKind::Parallel)
+        .value("Perpendicular", SectionConstraintKind::Perpendicular)
+        .value("EqualRadius", SectionConstraintKind::EqualRadius);
+    py::class_<SectionFitOptions>(m, "SectionFitOptions")
+        .def(py::init<>())
+        .def_readwrite("tolerance_mm", &SectionFitOptions::tolerance_mm)
+        .def_readwrite("min_tolerance_mm", &SectionFitOptions::min_tolerance_mm)
+        .def_readwrite("noise_window_mm", &SectionFitOptions::noise_window_mm)
+        .def_readwrite("min_line_points", &SectionFitOptions::min_line_points)
+        .def_readwrite("min_arc_points", &SectionFitOptions::min_arc_points)
+        .def_readwrite("max_arc_radius_mm", &SectionFitOptions::max_arc_radius_mm)
+        .def_readwrite("tangent_angle_deg", &SectionFitOptions::tangent_angle_deg)
+        .def_readwrite("snap_angle_deg", &SectionFitOptions::snap_angle_deg);
+    py::class_<SectionElement>(m, "SectionElement")
+        .def_readonly("kind", &SectionElement::kind)
+        .def_readonly("start", &SectionElement::start)
+        .def_readonly("end", &SectionElement::end)
+        .def_readonly("centre", &SectionElement::centre)
+        .def_readonly("radius_mm", &SectionElement::radius_mm)
+        .def_readonly("counter_clockwise", &SectionElement::counter_clockwise)
+        .def_readonly("first_point", &SectionElement::first_point)
+        .def_readonly("point_count", &SectionElement::point_count)
+        .def_readonly("rms_mm", &SectionElement::rms_mm)
+        .def_readonly("max_mm", &SectionElement::max_mm)
+        .def_readonly("tangent_to_next", &SectionElement::tangent_to_next)
+        .def("__repr__", [](const SectionElement& e) {
+            return "<SectionElement " + to_string(e.kind) + (e.kind == SectionElementKind::Line ? "" : " radius " + std::to_string(e.radius_mm)) +
+                   " mm, " + std::to_string(e.point_count) + " points, max " + std::to_string(e.max_mm) + " mm>";
+        });
+    py::class_<SectionConstraint>(m, "SectionConstraint")
+        .def_readonly("kind", &SectionConstraint::kind)
+        .def_readonly("first", &SectionConstraint::first)
+        .def_readonly("second", &SectionConstraint::second)
+        .def_readonly("max_mm", &SectionConstraint::max_mm);
+    py::class_<SectionFit>(m, "SectionFit")
+        .def_readonly("elements", &SectionFit::elements)
+        .def_readonly("constraints", &SectionFit::constraints)
+        .def_readonly("closed", &SectionFit::closed)
+        .def_readonly("tolerance_mm", &SectionFit::tolerance_mm)
+        .def_readonly("noise_mm", &SectionFit::noise_mm);
+    py::class_<SectionPolyline>(m, "SectionPolyline")
+        .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<SectionPolyline&>().points, self); },
+                               "N x 2 (mm) in the cutting plane's frame")
+        .def_readonly("closed", &SectionPolyline::closed);
+    m.def("cut_mesh", &cut_mesh, py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
+          py::call_guard<py::gil_scoped_release>(),
+          "The polylines where the plane through origin spanned by u and v cuts the mesh");
+    m.def(
+        "fit_section",
+        [](const py::array& polyline, bool closed, const SectionFitOptions& options) {
+            const std::vector<cv::Vec2d> points = array_to_vector<cv::Vec2d>(polyline, "polyline");
+            py::gil_scoped_release release;
+            return fit_section(points, closed, options);
+        },
+        py::arg("polyline"), py::arg("closed"), py::arg("options") = SectionFitOptions(),
+        "Lines, arcs and circles fitted to an N x 2 polyline (mm), with their joints and snapped constraints");
+}
+
+}  // namespace picoscan::python

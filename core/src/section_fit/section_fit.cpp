@@ -1,0 +1,579 @@
+// Splits a section polyline into lines and arcs: each element is grown from where the last one
+// ended for as long as its least-squares fit stays within the tolerance (line or arc, whichever
+// covers more), the splits are then moved to where the two neighbours fit best, neighbours that
+// fit as one are merged, and the ends are set to the joints of the fitted geometry.
+#include "picoscan/section_fit.h"
+#include "picoscan/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+namespace picoscan {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A fitted line (point + unit direction) or circle (centre + radius), before it becomes an element.
+struct Shape {
+    bool circle = false;
+    cv::Vec2d point, direction;  // line
+    cv::Vec2d centre;
+    double radius = 0;           // circle
+    bool ok = false;
+
+    double distance(const cv::Vec2d& p) const {
+        if (circle) return std::abs(cv::norm(p - centre) - radius);
+        const cv::Vec2d d = p - point;
+        return std::abs(d[0] * direction[1] - d[1] * direction[0]);
+    }
+};
+
+// The points of a polyline seen as a ring (closed) or a range (open): index i wraps when closed.
+struct Points {
+    const std::vector<cv::Vec2d>& p;
+    bool closed;
+    size_t size() const { return p.size(); }
+    const cv::Vec2d& operator[](long i) const {
+        const long n = long(p.size());
+        return p[size_t(closed ? ((i % n) + n) % n : i)];
+    }
+};
+
+Shape fit_line(const Points& pts, long first, long count) {
+    Shape shape;
+    if (count < 2) return shape;
+    cv::Vec2d mean(0, 0);
+    for (long i = first; i < first + count; ++i) mean += pts[i];
+    mean /= double(count);
+    double sxx = 0, sxy = 0, syy = 0;
+    for (long i = first; i < first + count; ++i) {
+        const cv::Vec2d d = pts[i] - mean;
+        sxx += d[0] * d[0];
+        sxy += d[0] * d[1];
+        syy += d[1] * d[1];
+    }
+    const double angle = 0.5 * std::atan2(2 * sxy, sxx - syy);  // principal axis
+    shape.point = mean;
+    shape.direction = {std::cos(angle), std::sin(angle)};
+    // Orient along the polyline.
+    if ((pts[first + count - 1] - pts[first]).dot(shape.direction) < 0) shape.direction = -shape.direction;
+    shape.ok = sxx + syy > 0;
+    return shape;
+}
+
+// Algebraic (Kasa) start, then Gauss-Newton on the geometric distances.
+Shape fit_circle(const Points& pts, long first, long count) {
+    Shape shape;
+    shape.circle = true;
+    if (count < 3) return shape;
+    cv::Vec2d mean(0, 0);
+    for (long i = first; i < first + count; ++i) mean += pts[i];
+    mean /= double(count);
+    cv::Matx33d normal = cv::Matx33d::zeros();
+    cv::Vec3d rhs(0, 0, 0);
+    for (long i = first; i < first + count; ++i) {
+        const cv::Vec2d d = pts[i] - mean;
+        const cv::Vec3d row(d[0], d[1], 1);
+        normal += row * row.t();
+        rhs += row * -(d[0] * d[0] + d[1] * d[1]);
+    }
+    cv::Vec3d abc;
+    if (!cv::solve(normal, rhs, abc, cv::DECOMP_CHOLESKY)) return shape;
+    cv::Vec2d centre(-abc[0] / 2, -abc[1] / 2);
+    double radius_sq = centre.dot(centre) - abc[2];
+    if (!(radius_sq > 0)) return shape;
+    double radius = std::sqrt(radius_sq);
+    for (int iteration = 0; iteration < 10; ++iteration) {
+        cv::Matx33d jtj = cv::Matx33d::zeros();
+        cv::Vec3d jtr(0, 0, 0);
+        for (long i = first; i < first + count; ++i) {
+            const cv::Vec2d d = pts[i] - mean - centre;
+            const double length = cv::norm(d);
+            if (length == 0) continue;
+            const cv::Vec3d j(-d[0] / length, -d[1] / length, -1);
+            const double r = length - radius;
+            jtj += j * j.t();
+            jtr += j * r;
+        }
+        cv::Vec3d step;
+        if (!cv::solve(jtj, -jtr, step, cv::DECOMP_CHOLESKY)) break;
+        centre += cv::Vec2d(step[0], step[1]);
+        radius += step[2];
+        if (cv::norm(step) < 1e-10 * std::max(1.0, radius)) break;
+    }
+    shape.centre = centre + mean;
+    shape.radius = radius;
+    shape.ok = radius > 0 && std::isfinite(radius);
+    return shape;
+}
+
+double max_distance(const Shape& shape, const Points& pts, long first, long count) {
+    double worst = 0;
+    for (long i = first; i < first + count; ++i) worst = std::max(worst, shape.distance(pts[i]));
+    return worst;
+}
+
+// Signed angle swept going through the points around the centre (positive: counter-clockwise).
+double swept_angle(const Points& pts, long first, long count, const cv::Vec2d& centre) {
+    double sweep = 0;
+    for (long i = first + 1; i < first + count; ++i) {
+        const cv::Vec2d a = pts[i - 1] - centre, b = pts[i] - centre;
+        sweep += std::atan2(a[0] * b[1] - a[1] * b[0], a.dot(b));
+    }
+    return sweep;
+}
+
+struct Span {
+    long first = 0, count = 0;
+    Shape shape;
+};
+
+class SectionFitter {
+public:
+    SectionFitter(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options, double tolerance)
+        : pts_{polyline, closed}, options_(options), tolerance_(tolerance) {}
+
+    bool fits(const Shape& shape, long first, long count) const {
+        if (!shape.ok) return false;
+        if (shape.circle) {
+            if (shape.radius > options_.max_arc_radius_mm) return false;
+            // An open run cannot go round more than once.
+            if (std::abs(swept_angle(pts_, first, count, shape.centre)) > 2 * kPi + 0.1) return false;
+        }
+        return max_distance(shape, pts_, first, count) <= tolerance_;
+    }
+
+    Shape fit(bool circle, long first, long count) const {
+        return circle ? fit_circle(pts_, first, count) : fit_line(pts_, first, count);
+    }
+
+    // The longest run from `first` (at most `limit` points) that one line (or circle) fits.
+    Span grow(bool circle, long first, long limit) const {
+        const long minimum = circle ? options_.min_arc_points : options_.min_line_points;
+        Span best{first, 0, {}};
+        if (limit < minimum) return best;
+        const auto try_count = [&](long count) {
+            Shape shape = fit(circle, first, count);
+            if (!fits(shape, first, count)) return false;
+            if (count > best.count) best = {first, count, shape};
+            return true;
+        };
+        if (!try_count(minimum)) return best;
+        // Doubling, then bisection between the last good and the first bad count.
+        long good = minimum, bad = -1;
+        for (long count = minimum * 2; bad < 0; count *= 2) {
+            const long c = std::min(count, limit);
+            if (try_count(c)) {
+                good = c;
+                if (c == limit) return best;
+            } else {
+                bad = c;
+            }
+        }
+        while (bad - good > 1) {
+            const long middle = (good + bad) / 2;
+            if (try_count(middle))
+                good = middle;
+            else
+                bad = middle;
+        }
+        return best;
+    }
+
+    // Greedy cover of the points from `start`.
+    std::vector<Span> cover(long start) const {
+        std::vector<Span> spans;
+        const long total = long(pts_.size());
+        long position = start;
+        while (position < start + total) {
+            const long limit = start + total - position;
+            const Span line = grow(false, position, limit);
+            const Span arc = grow(true, position, limit);
+            Span chosen = arc.count > line.count * 1.1 ? arc : line;
+            if (chosen.count == 0) {
+                // Too few points left for an element of their own: they join the previous one.
+                if (spans.empty())
+                    throw Error("polyline", "no line or arc fits its first points within the tolerance of " +
+                                                std::to_string(tolerance_) + " mm");
+                spans.back().count += limit;
+                break;
+            }
+            spans.push_back(chosen);
+            position += chosen.count;
+        }
+        return spans;
+    }
+
+    // Moves every split between neighbours to where their two fits explain the points best.
+    void refine(std::vector<Span>& spans) const {
+        const size_t n = spans.size();
+        const size_t joints = pts_.closed ? n : n - 1;
+        if (n < 2) return;
+        for (int round = 0; round < 3; ++round) {
+            for (size_t j = 0; j < joints; ++j) {
+                Span& a = spans[j];
+                Span& b = spans[(j + 1) % n];
+                const long begin = a.first, end = a.first + a.count + b.count;  // both, in a's numbering
+                const long lowest = a.first + std::max<long>(options_.min_line_points, a.count / 2);
+                const long highest = end - std::max<long>(options_.min_line_points, b.count / 2);
+                if (lowest >= highest) continue;
+                double best_cost = HUGE_VAL;
+                long best_split = a.first + a.count;
+                // cost(k) = sum of a's squared distances before k + b's from k on.
+                std::vector<double> before(size_t(end - begin + 1), 0.0), after(size_t(end - begin + 1), 0.0);
+                for (long i = begin; i < end; ++i) {
+                    const double d = a.shape.distance(pts_[i]);
+                    before[size_t(i - begin + 1)] = before[size_t(i - begin)] + d * d;
+                }
+                for (long i = end - 1; i >= begin; --i) {
+                    const double d = b.shape.distance(pts_[i]);
+                    after[size_t(i - begin)] = after[size_t(i - begin + 1)] + d * d;
+                }
+                for (long k = lowest; k <= highest; ++k) {
+                    const double cost = before[size_t(k - begin)] + after[size_t(k - begin)];
+                    if (cost < best_cost) {
+                        best_cost = cost;
+                        best_split = k;
+                    }
+                }
+                const long total = a.count + b.count;
+                a.count = best_split - a.first;
+                b.first = best_split;
+                b.count = total - a.count;
+                if (pts_.closed) b.first = ((b.first % long(pts_.size())) + long(pts_.size())) % long(pts_.size());
+                a.shape = fit(a.shape.circle, a.first, a.count);
+                b.shape = fit(b.shape.circle, b.first, b.count);
+            }
+        }
+    }
+
+    // Joins neighbours of the same kind that one fit explains within the tolerance.
+    void merge(std::vector<Span>& spans) const {
+        bool merged = true;
+        while (merged && spans.size() > 1) {
+            merged = false;
+            const size_t n = spans.size();
+            const size_t joints = pts_.closed ? n : n - 1;
+            for (size_t j = 0; j < joints && !merged; ++j) {
+                const Span& a = spans[j];
+                const Span& b = spans[(j + 1) % n];
+                if (a.shape.circle != b.shape.circle) continue;
+                const Shape joined = fit(a.shape.circle, a.first, a.count + b.count);
+                if (!fits(joined, a.first, a.count + b.count)) continue;
+                spans[j] = {a.first, a.count + b.count, joined};
+                spans.erase(spans.begin() + long((j + 1) % n));
+                if (j + 1 == n) spans.insert(spans.begin(), spans.back()), spans.pop_back();
+                merged = true;
+            }
+        }
+    }
+
+    const Points& points() const { return pts_; }
+
+private:
+    Points pts_;
+    const SectionFitOptions& options_;
+    double tolerance_;
+};
+
+// The noise of the polyline: the median RMS of line fits over short windows (corners and curves
+// only raise a few windows, so the median sees the straight, noisy runs). A window spans at least
+// window_mm and 9 points: a cut through a mesh has many points per facet, whose noise is shared by
+// neighbours, so a window of a few points would see too little of it.
+double estimate_noise(const Points& pts, double window_mm) {
+    const long n = long(pts.size());
+    std::vector<double> rms;
+    for (long i = 0; i < n; ) {
+        long count = 1;
+        double length = 0;
+        while ((count < 9 || length < window_mm) && count < n && (pts.closed || i + count < n)) {
+            length += cv::norm(pts[i + count] - pts[i + count - 1]);
+            ++count;
+        }
+        if (count < 9 || (!pts.closed && i + count > n)) break;
+        const Shape line = fit_line(pts, i, count);
+        if (line.ok) {
+            double sum = 0;
+            for (long k = i; k < i + count; ++k) sum += std::pow(line.distance(pts[k]), 2);
+            rms.push_back(std::sqrt(sum / double(count - 2)));
+        }
+        i += std::max<long>(1, count / 3);
+    }
+    if (rms.empty()) return 0;
+    std::nth_element(rms.begin(), rms.begin() + long(rms.size() / 2), rms.end());
+    return rms[rms.size() / 2];
+}
+
+cv::Vec2d perpendicular_foot(const Shape& line, const cv::Vec2d& p) {
+    return line.point + line.direction * (p - line.point).dot(line.direction);
+}
+
+// Whether two fitted neighbours can meet tangentially within the tolerance: a line and a circle
+// whose distance differs from the radius by at most half of it, two circles touching (inside or
+// outside) within half of it. The angle at an intersection is no test: a line cutting a circle
+// 5 um inside its tangent point already meets it at 3 degrees.
+bool can_be_tangent(const Shape& a, const Shape& b, double tolerance) {
+    if (!a.circle && !b.circle) return false;
+    if (a.circle != b.circle) {
+        const Shape& line = a.circle ? b : a;
+        const Shape& circle = a.circle ? a : b;
+        return std::abs(line.distance(circle.centre) - circle.radius) <= 0.5 * tolerance;
+    }
+    const double d = cv::norm(a.centre - b.centre);
+    return std::min(std::abs(d - (a.radius + b.radius)), std::abs(d - std::abs(a.radius - b.radius))) <= 0.5 * tolerance;
+}
+
+// The joint of two fitted elements near `near`: the tangent point of tangent neighbours, else the
+// line-line intersection or the circle intersection nearest to `near`.
+cv::Vec2d joint(const Shape& a, const Shape& b, const cv::Vec2d& near, bool tangent) {
+    if (!a.circle && !b.circle) {
+        const double cross = a.direction[0] * b.direction[1] - a.direction[1] * b.direction[0];
+        if (std::abs(cross) < 1e-9) return perpendicular_foot(a, near);
+        const cv::Vec2d d = b.point - a.point;
+        const double t = (d[0] * b.direction[1] - d[1] * b.direction[0]) / cross;
+        return a.point + t * a.direction;
+    }
+    if (a.circle != b.circle) {
+        const Shape& line = a.circle ? b : a;
+        const Shape& circle = a.circle ? a : b;
+        const cv::Vec2d foot = perpendicular_foot(line, circle.centre);
+        const double gap = cv::norm(foot - circle.centre);
+        if (tangent || gap >= circle.radius) {
+            // Halfway between the line's and the circle's point nearest to each other.
+            const cv::Vec2d on_circle = circle.centre + circle.radius * (foot - circle.centre) / std::max(gap, 1e-12);
+            return 0.5 * (foot + on_circle);
+        }
+        const double half = std::sqrt(circle.radius * circle.radius - gap * gap);
+        const cv::Vec2d p1 = foot + half * line.direction, p2 = foot - half * line.direction;
+        return cv::norm(p1 - near) < cv::norm(p2 - near) ? p1 : p2;
+    }
+    const cv::Vec2d d = b.centre - a.centre;
+    const double distance = cv::norm(d);
+    if (distance < 1e-12) return a.centre + a.radius * (near - a.centre) / std::max(cv::norm(near - a.centre), 1e-12);
+    const cv::Vec2d u = d / distance;
+    const double along = (distance * distance + a.radius * a.radius - b.radius * b.radius) / (2 * distance);
+    const double h2 = a.radius * a.radius - along * along;
+    if (tangent || h2 <= 0) {
+        // On the line of the centres, on the side of the touching point.
+        const double sign = (near - a.centre).dot(u) >= 0 ? 1.0 : -1.0;
+        return a.centre + u * sign * a.radius;
+    }
+    const cv::Vec2d base = a.centre + along * u, normal(-u[1], u[0]);
+    const cv::Vec2d p1 = base + std::sqrt(h2) * normal, p2 = base - std::sqrt(h2) * normal;
+    return cv::norm(p1 - near) < cv::norm(p2 - near) ? p1 : p2;
+}
+
+// Unit direction of travel of an element at point p.
+cv::Vec2d travel_direction(const SectionElement& e, const cv::Vec2d& p) {
+    if (e.kind == SectionElementKind::Line) {
+        const cv::Vec2d d = e.end - e.start;
+        return d / std::max(cv::norm(d), 1e-12);
+    }
+    const cv::Vec2d r = p - e.centre;
+    const cv::Vec2d t = e.counter_clockwise ? cv::Vec2d(-r[1], r[0]) : cv::Vec2d(r[1], -r[0]);
+    return t / std::max(cv::norm(t), 1e-12);
+}
+
+double angle_between_deg(const cv::Vec2d& a, const cv::Vec2d& b) {
+    return std::atan2(std::abs(a[0] * b[1] - a[1] * b[0]), a.dot(b)) * 180 / kPi;
+}
+
+void find_constraints(SectionFit& fit, const Points& pts, const SectionFitOptions& options) {
+    const auto& elements = fit.elements;
+    const double snap = options.snap_angle_deg;
+    // Largest distance of an element's points to the line through their centroid along `direction`.
+    const auto line_max = [&](const SectionElement& e, const cv::Vec2d& direction) {
+        cv::Vec2d mean(0, 0);
+        for (long i = e.first_point; i < e.first_point + e.point_count; ++i) mean += pts[i];
+        mean /= double(e.point_count);
+        Shape line;
+        line.point = mean;
+        line.direction = direction;
+        return max_distance(line, pts, e.first_point, e.point_count);
+    };
+    const auto direction_of = [](const SectionElement& e) {
+        const cv::Vec2d d = e.end - e.start;
+        return d / std::max(cv::norm(d), 1e-12);
+    };
+    for (size_t i = 0; i < elements.size(); ++i) {
+        if (elements[i].kind != SectionElementKind::Line) continue;
+        const cv::Vec2d d = direction_of(elements[i]);
+        for (const auto& [kind, axis] : {std::pair{SectionConstraintKind::Horizontal, cv::Vec2d(1, 0)},
+                                         std::pair{SectionConstraintKind::Vertical, cv::Vec2d(0, 1)}}) {
+            if (std::min(angle_between_deg(d, axis), angle_between_deg(d, -axis)) > snap) continue;
+            const double worst = line_max(elements[i], axis);
+            if (worst <= fit.tolerance_mm) fit.constraints.push_back({kind, int(i), -1, worst});
+        }
+    }
+    for (size_t i = 0; i < elements.size(); ++i) {
+        for (size_t j = i + 1; j < elements.size(); ++j) {
+            const SectionElement &a = elements[i], &b = elements[j];
+            if (a.kind == SectionElementKind::Line && b.kind == SectionElementKind::Line) {
+                const cv::Vec2d da = direction_of(a), db = direction_of(b);
+                const cv::Vec2d db_turned(-db[1], db[0]);
+                for (const auto& [kind, other] : {std::pair{SectionConstraintKind::Parallel, db},
+                                                  std::pair{SectionConstraintKind::Perpendicular, db_turned}}) {
+                    const double angle = std::min(angle_between_deg(da, other), angle_between_deg(da, -other));
+                    if (angle > snap) continue;
+                    // The common direction, weighted by length; the second line is turned back by 90 degrees.
+                    const cv::Vec2d aligned = da.dot(other) >= 0 ? other : -other;
+                    const double la = cv::norm(a.end - a.start), lb = cv::norm(b.end - b.start);
+                    cv::Vec2d common = la * da + lb * aligned;
+                    common /= cv::norm(common);
+                    const cv::Vec2d for_b = kind == SectionConstraintKind::Parallel ? common : cv::Vec2d(common[1], -common[0]);
+                    const double worst = std::max(line_max(a, common), line_max(b, for_b));
+                    if (worst <= fit.tolerance_mm) fit.constraints.push_back({kind, int(i), int(j), worst});
+                }
+            } else if (a.kind != SectionElementKind::Line && b.kind != SectionElementKind::Line) {
+                const double mean = 0.5 * (a.radius_mm + b.radius_mm);
+                if (std::abs(a.radius_mm - b.radius_mm) > fit.tolerance_mm) continue;
+                double worst = 0;
+                for (const SectionElement* e : {&a, &b}) {
+                    Shape circle;
+                    circle.circle = true;
+                    circle.centre = e->centre;
+                    circle.radius = mean;
+                    worst = std::max(worst, max_distance(circle, pts, e->first_point, e->point_count));
+                }
+                if (worst <= fit.tolerance_mm) fit.constraints.push_back({SectionConstraintKind::EqualRadius, int(i), int(j), worst});
+            }
+        }
+    }
+}
+
+}  // namespace
+
+std::string to_string(SectionElementKind kind) {
+    switch (kind) {
+        case SectionElementKind::Line: return "line";
+        case SectionElementKind::Arc: return "arc";
+        case SectionElementKind::Circle: return "circle";
+    }
+    return "?";
+}
+
+std::string to_string(SectionConstraintKind kind) {
+    switch (kind) {
+        case SectionConstraintKind::Horizontal: return "horizontal";
+        case SectionConstraintKind::Vertical: return "vertical";
+        case SectionConstraintKind::Parallel: return "parallel";
+        case SectionConstraintKind::Perpendicular: return "perpendicular";
+        case SectionConstraintKind::EqualRadius: return "equal radius";
+    }
+    return "?";
+}
+
+SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const SectionFitOptions& options) {
+    if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
+        throw Error("tolerance_mm", "must be 0 (from the noise) or positive");
+    std::vector<cv::Vec2d> polyline;
+    for (const cv::Vec2d& p : input) {
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1])) throw Error("polyline", "has a non-finite point");
+        if (polyline.empty() || cv::norm(p - polyline.back()) > 1e-9) polyline.push_back(p);
+    }
+    if (closed && polyline.size() > 1 && cv::norm(polyline.front() - polyline.back()) <= 1e-9) polyline.pop_back();
+    if (polyline.size() < 4) throw Error("polyline", "needs at least 4 distinct points, has " + std::to_string(polyline.size()));
+
+    SectionFit result;
+    result.closed = closed;
+    const Points pts{polyline, closed};
+    result.noise_mm = estimate_noise(pts, options.noise_window_mm);
+    result.tolerance_mm =
+        options.tolerance_mm > 0 ? options.tolerance_mm : std::max(options.min_tolerance_mm, 5 * result.noise_mm);
+    SectionFitter fitter(polyline, closed, options, result.tolerance_mm);
+    const long n = long(polyline.size());
+
+    const Shape whole = fit_circle(pts, 0, n);
+    if (closed && fitter.fits(whole, 0, n)) {
+        SectionElement circle;
+        circle.kind = SectionElementKind::Circle;
+        circle.centre = whole.centre;
+        circle.radius_mm = whole.radius;
+        circle.start = circle.end = whole.centre + cv::Vec2d(whole.radius, 0);
+        circle.counter_clockwise = swept_angle(pts, 0, n, whole.centre) > 0;
+        circle.point_count = int(n);
+        double sum = 0;
+        for (long i = 0; i < n; ++i) {
+            const double d = whole.distance(pts[i]);
+            sum += d * d;
+            circle.max_mm = std::max(circle.max_mm, d);
+        }
+        circle.rms_mm = std::sqrt(sum / double(n));
+        result.elements.push_back(circle);
+        return result;
+    }
+
+    std::vector<Span> spans = fitter.cover(0);
+    if (closed && spans.size() > 1) spans = fitter.cover(spans[1].first);  // start at a real joint
+    fitter.refine(spans);
+    fitter.merge(spans);
+    fitter.refine(spans);
+    // The final fits leave out a tenth of the points at each end that is a corner or an open end:
+    // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
+    // a point off. Tangent ends keep their points: a fillet needs all of its short arc.
+    {
+        const size_t count = spans.size();
+        std::vector<bool> smooth_after(count, false);
+        for (size_t j = 0; j + 1 < count || (closed && count > 1 && j < count); ++j)
+            smooth_after[j] = can_be_tangent(spans[j].shape, spans[(j + 1) % count].shape, result.tolerance_mm);
+        std::vector<Span> trimmed = spans;
+        for (size_t j = 0; j < count; ++j) {
+            const bool smooth_before = closed || j > 0 ? smooth_after[(j + count - 1) % count] : false;
+            const long trim = spans[j].count / 10;
+            const long head = smooth_before ? 0 : trim, tail = smooth_after[j] ? 0 : trim;
+            const long minimum = spans[j].shape.circle ? options.min_arc_points : options.min_line_points;
+            if (spans[j].count - head - tail < minimum || head + tail == 0) continue;
+            const Shape shape = fitter.fit(spans[j].shape.circle, spans[j].first + head, spans[j].count - head - tail);
+            if (shape.ok) trimmed[j].shape = shape;
+        }
+        spans = trimmed;
+    }
+    for (const Span& span : spans) {
+        SectionElement e;
+        e.kind = span.shape.circle ? SectionElementKind::Arc : SectionElementKind::Line;
+        e.first_point = int(((span.first % n) + n) % n);
+        e.point_count = int(span.count);
+        e.centre = span.shape.centre;
+        e.radius_mm = span.shape.radius;
+        if (span.shape.circle) e.counter_clockwise = swept_angle(pts, span.first, span.count, span.shape.centre) > 0;
+        double sum = 0;
+        for (long i = span.first; i < span.first + span.count; ++i) {
+            const double d = span.shape.distance(pts[i]);
+            sum += d * d;
+            e.max_mm = std::max(e.max_mm, d);
+        }
+        e.rms_mm = std::sqrt(sum / double(span.count));
+        // Ends: the points projected on the element; replaced by the joints below.
+        const auto project = [&](const cv::Vec2d& p) {
+            if (!span.shape.circle) return perpendicular_foot(span.shape, p);
+            const cv::Vec2d r = p - span.shape.centre;
+            return span.shape.centre + span.shape.radius * r / std::max(cv::norm(r), 1e-12);
+        };
+        e.start = project(pts[span.first]);
+        e.end = project(pts[span.first + span.count - 1]);
+        result.elements.push_back(e);
+    }
+    const size_t count = spans.size();
+    const size_t joints = closed ? count : count - 1;
+    for (size_t j = 0; j < joints && count > 1; ++j) {
+        const size_t k = (j + 1) % count;
+        const Shape &a = spans[j].shape, &b = spans[k].shape;
+        const cv::Vec2d near = 0.5 * (pts[spans[j].first + spans[j].count - 1] + pts[spans[k].first]);
+        bool tangent = can_be_tangent(a, b, result.tolerance_mm);
+        const cv::Vec2d point = joint(a, b, near, tangent);
+        // A joint far from the points (nearly parallel neighbours) is not trusted: keep the ends.
+        if (cv::norm(point - near) > 10 * result.tolerance_mm + 2 * cv::norm(pts[spans[k].first] - near)) continue;
+        result.elements[j].end = point;
+        result.elements[k].start = point;
+        // Tangent, not a cusp: the two run on in about the same direction there.
+        tangent = tangent && angle_between_deg(travel_direction(result.elements[j], point),
+                                               travel_direction(result.elements[k], point)) < options.tangent_angle_deg;
+        result.elements[j].tangent_to_next = tangent;
+    }
+    find_constraints(result, pts, options);
+    return result;
+}
+
+}  // namespace picoscan

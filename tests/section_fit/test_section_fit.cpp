@@ -1,0 +1,229 @@
+// Fitted sections: outlines sampled from known lines and arcs, with the noise of a scan, must
+// come back as the same number of lines and arcs, with angles within 0.05 degrees and radii
+// within 20 um; constraints are proposed only where the points allow them.
+#include "picoscan/error.h"
+#include "picoscan/section_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+
+using namespace picoscan;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A polyline built from lines and arcs, sampled every `spacing` mm, with Gaussian noise across it.
+struct Outline {
+    std::vector<cv::Vec2d> points;
+    std::mt19937 random{5};
+    std::normal_distribution<double> noise;
+    double spacing;
+    Outline(double sigma_mm, double spacing_mm) : noise(0.0, sigma_mm > 0 ? sigma_mm : 1e-12), spacing(spacing_mm) {}
+    void line(cv::Vec2d a, cv::Vec2d b) {
+        const int steps = std::max(1, int(std::round(cv::norm(b - a) / spacing)));
+        const cv::Vec2d along = (b - a) / cv::norm(b - a), across(-along[1], along[0]);
+        for (int i = 0; i < steps; ++i) points.push_back(a + (b - a) * (double(i) / steps) + noise(random) * across);
+    }
+    void arc(cv::Vec2d centre, double radius, double from_deg, double to_deg) {
+        const double sweep = (to_deg - from_deg) * kPi / 180;
+        const int steps = std::max(2, int(std::round(std::abs(sweep) * radius / spacing)));
+        for (int i = 0; i < steps; ++i) {
+            const double angle = from_deg * kPi / 180 + sweep * i / steps;
+            const cv::Vec2d radial(std::cos(angle), std::sin(angle));
+            points.push_back(centre + (radius + noise(random)) * radial);
+        }
+    }
+};
+
+// The demo part's outline at mid height: a 50 x 36 block with its (+x, +y) corner chamfered 8 mm.
+const std::vector<cv::Vec2d> kDemoCorners = {{-25, -18}, {25, -18}, {25, 10}, {17, 18}, {-25, 18}};
+
+std::vector<cv::Vec2d> rotated(const std::vector<cv::Vec2d>& points, double degrees) {
+    const double c = std::cos(degrees * kPi / 180), s = std::sin(degrees * kPi / 180);
+    std::vector<cv::Vec2d> result;
+    for (const auto& p : points) result.emplace_back(c * p[0] - s * p[1], s * p[0] + c * p[1]);
+    return result;
+}
+
+double direction_deg(const cv::Vec2d& a, const cv::Vec2d& b) { return std::atan2(b[1] - a[1], b[0] - a[0]) * 180 / kPi; }
+
+double angle_error_deg(double a, double b) {
+    double d = std::fmod(std::abs(a - b), 180.0);
+    return std::min(d, 180 - d);
+}
+
+int count(const SectionFit& fit, SectionElementKind kind) {
+    int n = 0;
+    for (const auto& e : fit.elements) n += e.kind == kind;
+    return n;
+}
+
+int count(const SectionFit& fit, SectionConstraintKind kind) {
+    int n = 0;
+    for (const auto& c : fit.constraints) n += c.kind == kind;
+    return n;
+}
+
+}  // namespace
+
+TEST(SectionFit, DemoOutlineGivesFiveLinesAtTheRightAngles) {
+    for (const double sigma : {0.0, 0.01, 0.02, 0.04}) {
+        for (const double turn : {0.0, 17.0}) {
+            Outline outline(sigma, 0.3);
+            const auto corners = rotated(kDemoCorners, turn);
+            for (size_t i = 0; i < corners.size(); ++i) outline.line(corners[i], corners[(i + 1) % corners.size()]);
+            // Start in the middle of a side: the fit must find the corners, not take the first point as one.
+            std::rotate(outline.points.begin(), outline.points.begin() + 40, outline.points.end());
+            const SectionFit fit = fit_section(outline.points, true);
+            SCOPED_TRACE("sigma " + std::to_string(sigma) + " turn " + std::to_string(turn));
+            ASSERT_EQ(fit.elements.size(), 5u);
+            EXPECT_EQ(count(fit, SectionElementKind::Line), 5);
+            if (sigma > 0) {
+                EXPECT_NEAR(fit.noise_mm, sigma, 0.3 * sigma);
+            }
+            for (const auto& e : fit.elements) {
+                // Which true side: the one whose corners the element's ends are nearest to.
+                double angle_error = HUGE_VAL, corner_error = HUGE_VAL, length = 0;
+                for (size_t i = 0; i < corners.size(); ++i) {
+                    const cv::Vec2d a = corners[i], b = corners[(i + 1) % corners.size()];
+                    const double error = std::max(cv::norm(e.start - a), cv::norm(e.end - b));
+                    if (error < corner_error) {
+                        corner_error = error;
+                        angle_error = angle_error_deg(direction_deg(e.start, e.end), direction_deg(a, b));
+                        length = cv::norm(b - a);
+                    }
+                }
+                // 0.05 degrees, or 4 standard errors of a least-squares direction from n points
+                // sigma apart from the line over its length L: sigma / (L sqrt(n / 12)) radians.
+                const double points = length / 0.3;
+                const double bound = std::max(0.05, 4 * sigma / (length * std::sqrt(points / 12)) * 180 / kPi);
+                EXPECT_LT(angle_error, bound) << "side of " << length << " mm";
+                if (sigma <= 0.01) {
+                    EXPECT_LT(angle_error, 0.05);
+                }
+                EXPECT_LT(corner_error, 0.05 + 3 * sigma);  // the corners are the lines' intersections
+                EXPECT_LE(e.max_mm, fit.tolerance_mm);
+            }
+            // Horizontal/vertical only when the outline is not turned; perpendicular and parallel always.
+            EXPECT_EQ(count(fit, SectionConstraintKind::Horizontal), turn == 0 ? 2 : 0);
+            EXPECT_EQ(count(fit, SectionConstraintKind::Vertical), turn == 0 ? 2 : 0);
+            EXPECT_EQ(count(fit, SectionConstraintKind::Parallel), 2);
+            EXPECT_EQ(count(fit, SectionConstraintKind::Perpendicular), 4);
+        }
+    }
+}
+
+TEST(SectionFit, HoleIsOneCircleWithinTwentyMicrons) {
+    for (const double sigma : {0.0, 0.02, 0.04}) {
+        Outline outline(sigma, 0.3);
+        outline.arc({-11, 0}, 5, 0, 360);
+        const SectionFit fit = fit_section(outline.points, true);
+        ASSERT_EQ(fit.elements.size(), 1u);
+        const auto& circle = fit.elements[0];
+        EXPECT_EQ(circle.kind, SectionElementKind::Circle);
+        EXPECT_NEAR(circle.radius_mm, 5.0, 0.02);
+        EXPECT_NEAR(circle.centre[0], -11, 0.02);
+        EXPECT_NEAR(circle.centre[1], 0, 0.02);
+        EXPECT_TRUE(circle.counter_clockwise);
+    }
+}
+
+TEST(SectionFit, SlotAndRoundedRectangleGiveTangentArcsOfEqualRadius) {
+    for (const double sigma : {0.0, 0.02}) {
+        // A slot: two 40 mm lines joined by half circles of radius 6.
+        Outline slot(sigma, 0.25);
+        slot.line({0, -6}, {40, -6});
+        slot.arc({40, 0}, 6, -90, 90);
+        slot.line({40, 6}, {0, 6});
+        slot.arc({0, 0}, 6, 90, 270);
+        SectionFit fit = fit_section(slot.points, true);
+        ASSERT_EQ(fit.elements.size(), 4u) << "sigma " << sigma;
+        EXPECT_EQ(count(fit, SectionElementKind::Arc), 2);
+        for (const auto& e : fit.elements) {
+            EXPECT_TRUE(e.tangent_to_next);
+            if (e.kind == SectionElementKind::Arc) {
+                EXPECT_NEAR(e.radius_mm, 6.0, 0.02);
+            }
+        }
+        EXPECT_EQ(count(fit, SectionConstraintKind::EqualRadius), 1);
+        EXPECT_EQ(count(fit, SectionConstraintKind::Horizontal), 2);
+
+        // A 60 x 30 rectangle with 4 mm fillets, run clockwise.
+        Outline rounded(sigma, 0.25);
+        rounded.line({0, 4}, {0, 26});
+        rounded.arc({4, 26}, 4, 180, 90);
+        rounded.line({4, 30}, {56, 30});
+        rounded.arc({56, 26}, 4, 90, 0);
+        rounded.line({60, 26}, {60, 4});
+        rounded.arc({56, 4}, 4, 0, -90);
+        rounded.line({56, 0}, {4, 0});
+        rounded.arc({4, 4}, 4, -90, -180);
+        fit = fit_section(rounded.points, true);
+        ASSERT_EQ(fit.elements.size(), 8u) << "sigma " << sigma;
+        EXPECT_EQ(count(fit, SectionElementKind::Arc), 4);
+        for (const auto& e : fit.elements) {
+            EXPECT_TRUE(e.tangent_to_next);
+            if (e.kind == SectionElementKind::Arc) {
+                // 25 points on a 90 degree fillet: with 20 um of noise its radius is known to about
+                // 15 um (one standard error), so the bound is 4 of them.
+                EXPECT_NEAR(e.radius_mm, 4.0, sigma > 0 ? 0.06 : 1e-6);
+                EXPECT_FALSE(e.counter_clockwise);
+            }
+        }
+        EXPECT_EQ(count(fit, SectionConstraintKind::EqualRadius), 6);  // every pair of the four
+    }
+}
+
+TEST(SectionFit, OpenProfileAndSnapsOnlyWithinTolerance) {
+    Outline profile(0.01, 0.3);
+    // An L, its long leg 1 degree off horizontal (within the snap window): 50 mm at 1 degree is
+    // 0.87 mm of rise, far more than the tolerance, so it must not be made horizontal, nor
+    // perpendicular to the vertical leg.
+    const double rise = 50 * std::tan(1.0 * kPi / 180);
+    profile.line({0, 20}, {0, 0});
+    profile.line({0, 0}, {50, rise});
+    profile.points.push_back({50, rise});
+    const SectionFit fit = fit_section(profile.points, false);
+    ASSERT_EQ(fit.elements.size(), 2u);
+    EXPECT_FALSE(fit.closed);
+    EXPECT_LT(fit.tolerance_mm, 0.1);
+    EXPECT_EQ(count(fit, SectionConstraintKind::Vertical), 1);
+    EXPECT_EQ(count(fit, SectionConstraintKind::Horizontal), 0);
+    EXPECT_EQ(count(fit, SectionConstraintKind::Perpendicular), 0);
+    EXPECT_NEAR(direction_deg(fit.elements[1].start, fit.elements[1].end), 1.0, 0.05);
+    EXPECT_NEAR(fit.elements[0].end[0], 0, 0.02);
+    EXPECT_NEAR(fit.elements[0].end[1], 0, 0.02);
+}
+
+TEST(SectionFit, APolygonIsNotMistakenForACircle) {
+    // A regular 12-gon of radius 20: its sides bulge 0.68 mm from the circle, far beyond the tolerance.
+    Outline polygon(0.01, 0.2);
+    for (int i = 0; i < 12; ++i) {
+        const double a = 2 * kPi * i / 12, b = 2 * kPi * (i + 1) / 12;
+        polygon.line({20 * std::cos(a), 20 * std::sin(a)}, {20 * std::cos(b), 20 * std::sin(b)});
+    }
+    const SectionFit fit = fit_section(polygon.points, true);
+    EXPECT_EQ(fit.elements.size(), 12u);
+    EXPECT_EQ(count(fit, SectionElementKind::Line), 12);
+}
+
+TEST(SectionFit, RefusesBadInput) {
+    const auto message = [](const std::vector<cv::Vec2d>& points, double tolerance) {
+        SectionFitOptions options;
+        options.tolerance_mm = tolerance;
+        try {
+            fit_section(points, true, options);
+        } catch (const Error& error) {
+            return std::string(error.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_EQ(message({{0, 0}, {1, 0}, {1, 1}}, 0), "polyline: needs at least 4 distinct points, has 3");
+    EXPECT_EQ(message({{0, 0}, {1, 0}, {1, 0}, {1, 1}, {0, 0}}, 0), "polyline: needs at least 4 distinct points, has 3");
+    EXPECT_EQ(message({{0, 0}, {1, 0}, {NAN, 1}, {0, 1}}, 0), "polyline: has a non-finite point");
+    EXPECT_EQ(message({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, -1), "tolerance_mm: must be 0 (from the noise) or positive");
+}
