@@ -66,10 +66,11 @@ class ScanMesh(DocumentObjectProxy):
         if obj.PixelStep < 1:
             raise picoscan.Error("%s: PixelStep must be at least 1" % obj.Label)
         view, calibration = obj.Source.Proxy.scan_view(obj.Source)
-        options = picoscan.GridMeshOptions()
-        options.pixel_step = obj.PixelStep
-        options.max_edge_factor = obj.MaxEdgeFactor
-        result = freecad_mesh(picoscan.grid_mesh(view, options))
+        options = picoscan.MeshOptions()
+        options.method = picoscan.MeshMethod.Grid
+        options.grid.pixel_step = obj.PixelStep
+        options.grid.max_edge_factor = obj.MaxEdgeFactor
+        result = freecad_mesh(picoscan.mesh_view(view, options))
         return result, "%d facets, %d points, %s" % (result.CountFacets, result.CountPoints,
                                                       "closed" if result.isSolid() else "open (a single view is a surface)")
 
@@ -82,7 +83,7 @@ class ScanMesh(DocumentObjectProxy):
         options.max_hole_diameter_mm = millimetres(obj.MaxHoleDiameter)
         options.target_faces = obj.TargetFaces
         cloud = cloud_of(obj.Source)
-        mesh = run_in_background("Meshing " + obj.Label, lambda progress: picoscan.mesh_cloud(cloud, options, progress))
+        mesh = run_in_background("Meshing " + obj.Label, lambda progress: picoscan.mesh_points(cloud, options, progress))
         return freecad_mesh(mesh), picoscan.check_mesh(mesh).summary()
 
 
