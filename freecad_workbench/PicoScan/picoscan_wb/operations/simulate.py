@@ -98,9 +98,8 @@ def simulate_board_poses(folder, inner_corners=(9, 6), square_mm=18.0, camera_sc
         rotation = _rotation_deg(*tilts)
         scene = picoscan.Scene()
         scene.add_board(rotation, numpy.asarray(centre, float) - rotation @ middle, inner_corners, square_mm, 12.0)
-        options = picoscan.SimulationOptions()
+        options = picoscan.SimulateOptions().camera  # the core's realistic webcam (slightly defocused)
         options.seed = index + 1
-        options.blur_sigma_px = 0.7
         captures = picoscan.simulate_capture(sequence, calibration, scene, options, progress)
         folders.append(os.path.join(folder, "pose_%02d" % index))
         os.makedirs(folders[-1], exist_ok=True)
@@ -122,16 +121,14 @@ def simulate_turntable(folder, view_indices=(0, 1, 2), camera_scale=1.0, progres
     patterns = picoscan.PatternOptions()
     patterns.shifts = 8
     sequence = picoscan.make_pattern_sequence(patterns)
+    recipe = picoscan.TurntableScanOptions()  # the core's turntable session: part albedo, exposure, defocus
     scans, truth = [], []
     first = numpy.asarray(part_to_camera[view_indices[0]])
     for index in view_indices:
         scene = picoscan.Scene()
-        scene.add_mesh(picoscan.transformed(part, part_to_camera[index]), 0.85)
-        options = picoscan.SimulationOptions()
-        options.full_scale_dn = 250
-        options.blur_sigma_px = 0.5
-        # One noise seed for every view, as the core's registration tests do. With a different seed
-        # per view, align_views (main at a0dcffa) leaves views out ("surface textures do not agree").
+        scene.add_mesh(picoscan.transformed(part, part_to_camera[index]), recipe.part_albedo)
+        options = recipe.camera
+        # One noise seed for every view (the figures in docs/freecad.md were measured so).
         options.seed = 1
         captures = picoscan.simulate_capture(sequence, calibration, scene, options, progress)
         view_folder = os.path.join(folder, "view_%d" % index)
