@@ -3,6 +3,7 @@
 #include "picoscan/board.h"
 #include "picoscan/calibrate.h"
 #include "picoscan/calibration.h"
+#include "common/pose_spread.h"
 #include "picoscan/error.h"
 
 #include "common/board_image.h"
@@ -17,8 +18,6 @@
 namespace picoscan {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Corners of one usable pose, split into the sets each device is calibrated with.
 struct PoseCorners {
@@ -212,25 +211,7 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
     }
     reporter.advance();
 
-    // Degenerate sets: boards that are all (nearly) parallel do not constrain the focal length.
-    double spread_deg = 0;
-    for (size_t a = 0; a < camera_rotations.size(); ++a)
-        for (size_t b = a + 1; b < camera_rotations.size(); ++b) {
-            cv::Matx33d ra, rb;
-            cv::Rodrigues(camera_rotations[a], ra);
-            cv::Rodrigues(camera_rotations[b], rb);
-            const cv::Vec3d na(ra(0, 2), ra(1, 2), ra(2, 2)), nb(rb(0, 2), rb(1, 2), rb(2, 2));
-            // |cos|: a board seen from its back (corners found in the opposite order) is still parallel.
-            spread_deg = std::max(spread_deg, std::acos(std::clamp(std::abs(na.dot(nb)), 0.0, 1.0)) * 180 / kPi);
-        }
-    if (spread_deg < options.min_pose_spread_deg) {
-        char problem[200];
-        std::snprintf(problem, sizeof problem,
-                      "the board poses are degenerate: all nearly parallel (largest angle between them %.1f deg, need %.0f); "
-                      "tilt the board in different directions",
-                      spread_deg, options.min_pose_spread_deg);
-        throw Error("--captures", problem);
-    }
+    detail::require_pose_spread(camera_rotations, options.min_pose_spread_deg);
 
     // Both devices and their relative pose, refined together.
     {

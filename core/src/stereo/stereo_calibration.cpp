@@ -2,6 +2,7 @@
 // cameras from board poses.
 #include "picoscan/stereo.h"
 
+#include "common/pose_spread.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
@@ -345,24 +346,7 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
         require_enough(" after dropping poses with large errors");
     }
 
-    // Boards that are all (nearly) parallel do not constrain the focal lengths.
-    double spread_deg = 0;
-    for (size_t a = 0; a < left_rotations.size(); ++a)
-        for (size_t b = a + 1; b < left_rotations.size(); ++b) {
-            cv::Matx33d ra, rb;
-            cv::Rodrigues(left_rotations[a], ra);
-            cv::Rodrigues(left_rotations[b], rb);
-            const cv::Vec3d na(ra(0, 2), ra(1, 2), ra(2, 2)), nb(rb(0, 2), rb(1, 2), rb(2, 2));
-            spread_deg = std::max(spread_deg, std::acos(std::clamp(std::abs(na.dot(nb)), 0.0, 1.0)) * 180 / kPi);
-        }
-    if (spread_deg < options.min_pose_spread_deg) {
-        char problem[200];
-        std::snprintf(problem, sizeof problem,
-                      "the board poses are degenerate: all nearly parallel (largest angle between them %.1f deg, need %.0f); "
-                      "tilt the board in different directions",
-                      spread_deg, options.min_pose_spread_deg);
-        throw Error("--captures", problem);
-    }
+    detail::require_pose_spread(left_rotations, options.min_pose_spread_deg);
     advance();
 
     // Both cameras and their relative pose, refined together.
