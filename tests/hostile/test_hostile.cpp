@@ -224,13 +224,13 @@ void add_sphere(std::vector<cv::Vec3f>& points, std::vector<cv::Vec3f>& normals,
 struct Case {
     std::string name;
     // Makes the inputs (and any old outputs) in the case's folder; returns the arguments.
-    std::function<std::vector<std::string>(const fs::path& folder)> prepare;
+    std::function<std::vector<std::string>(const fs::path& folder)> prepare{};
     int exit_code = 1;
-    std::vector<std::string> message;  // each must appear in the output (the file or option named)
+    std::vector<std::string> message{};  // each must appear in the output (the file or option named)
     double timeout_s = 30;
     int interrupt = 0;                 // a signal to send after interrupt_after_s
     double interrupt_after_s = 0;
-    std::vector<std::string> may_change;  // files (relative) a successful run may replace
+    std::vector<std::string> may_change{};  // files (relative) a successful run may replace
 };
 
 std::vector<Case> hostile_cases() {
