@@ -50,6 +50,7 @@ void bind_cloud(py::module_& m) {
         .def_property(
             "normals", [](py::object self) { return vector_view(self.cast<Mesh&>().normals, self); },
             [](Mesh& mesh, const py::array& a) { mesh.normals = array_to_vector<cv::Vec3f>(a, "normals"); })
+        .def_readwrite("measured", &Mesh::measured, "per vertex: 1 measured, 0 filled (empty when unknown)")
         .def_property(
             "colours", [](py::object self) { return vector_view(self.cast<Mesh&>().colours, self); },
             [](Mesh& mesh, const py::array& a) { mesh.colours = array_to_vector<cv::Vec3b>(a, "colours"); });

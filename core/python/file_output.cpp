@@ -5,6 +5,10 @@
 namespace picoscan::python {
 
 void bind_file_output(py::module_& m) {
+    py::class_<OutputBatch>(m, "OutputBatch",
+                            "While alive, every atomic write waits in its temporary file; commit() renames them all.")
+        .def(py::init<>())
+        .def("commit", &OutputBatch::commit);
     m.def("write_file_atomically", &write_file_atomically, py::arg("path"), py::arg("bytes"),
           py::call_guard<py::gil_scoped_release>());
     m.def("write_image_file", &write_image_file, py::arg("image"), py::arg("path"),

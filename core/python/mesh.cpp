@@ -22,6 +22,7 @@ void bind_mesh(py::module_& m) {
     py::class_<MeshCheck>(m, "MeshCheck")
         .def_readonly("vertices", &MeshCheck::vertices)
         .def_readonly("faces", &MeshCheck::faces)
+        .def_readonly("filled_fraction", &MeshCheck::filled_fraction)
         .def_readonly("border_edges", &MeshCheck::border_edges)
         .def_readonly("non_manifold_edges", &MeshCheck::non_manifold_edges)
         .def_readonly("non_manifold_vertices", &MeshCheck::non_manifold_vertices)

@@ -38,6 +38,32 @@ void bind_pipeline(py::module_& m) {
         py::arg("options") = ReconstructOptions(), py::arg("progress") = py::none(),
         "Size check, decode, triangulate, second camera, clean: one view from a capture folder.");
 
+    py::class_<StereoReconstructOptions>(m, "StereoReconstructOptions")
+        .def(py::init<>())
+        .def_readwrite("manifest_path", &StereoReconstructOptions::manifest_path)
+        .def_readwrite("second_manifest_path", &StereoReconstructOptions::second_manifest_path)
+        .def_readwrite("decode", &StereoReconstructOptions::decode)
+        .def_readwrite("stereo", &StereoReconstructOptions::stereo)
+        .def_readwrite("refine_pose", &StereoReconstructOptions::refine_pose)
+        .def_readwrite("clean", &StereoReconstructOptions::clean)
+        .def_readwrite("cleaning", &StereoReconstructOptions::cleaning);
+    py::class_<StereoReconstructResult>(m, "StereoReconstructResult")
+        .def_readonly("view", &StereoReconstructResult::view)
+        .def_readonly("statistics", &StereoReconstructResult::statistics)
+        .def_readonly("refinement", &StereoReconstructResult::refinement)
+        .def_readonly("cleaning", &StereoReconstructResult::cleaning)
+        .def_readonly("point_count", &StereoReconstructResult::point_count);
+    m.def(
+        "reconstruct_stereo_view",
+        [](const std::string& first_folder, const std::string& second_folder, const StereoCalibration& calibration,
+           const std::string& calibration_name, const StereoReconstructOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return reconstruct_stereo_view(first_folder, second_folder, calibration, calibration_name, options, callback);
+        },
+        py::arg("first_folder"), py::arg("second_folder"), py::arg("calibration"), py::arg("calibration_name"),
+        py::arg("options") = StereoReconstructOptions(), py::arg("progress") = py::none());
+
     py::class_<CleanScanOptions>(m, "CleanScanOptions")
         .def(py::init<>())
         .def_readwrite("cleaning", &CleanScanOptions::cleaning)

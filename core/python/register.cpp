@@ -27,6 +27,9 @@ void bind_register(py::module_& m) {
         .def_readonly("rms_mm", &PairRegistration::rms_mm)
         .def_readonly("texture_agreement", &PairRegistration::texture_agreement)
         .def_readonly("converged", &PairRegistration::converged)
+        .def_readonly("free_space_conflict", &PairRegistration::free_space_conflict)
+        .def_readonly("stability", &PairRegistration::stability)
+        .def_readonly("alternatives", &PairRegistration::alternatives)
         .def_readonly("problem", &PairRegistration::problem);
     m.def("register_pair", &register_pair, py::arg("fixed"), py::arg("moving"), py::arg("options") = RegistrationOptions(),
           py::arg("initial_guess") = py::none(), py::call_guard<py::gil_scoped_release>());
@@ -46,6 +49,8 @@ void bind_register(py::module_& m) {
         .def_readonly("problem", &ViewAlignment::problem);
     py::class_<Alignment>(m, "Alignment")
         .def_readonly("views", &Alignment::views)
+        .def_readonly("turntable_step", &Alignment::turntable_step)
+        .def_readonly("turntable_supporting_pairs", &Alignment::turntable_supporting_pairs)
         .def("aligned_count", &Alignment::aligned_count);
     m.def(
         "align_views",

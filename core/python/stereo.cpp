@@ -82,6 +82,13 @@ void bind_stereo(py::module_& m) {
         .def_readonly("valid", &StereoStatistics::valid)
         .def_readonly("median_epipolar_error_px", &StereoStatistics::median_epipolar_error_px)
         .def("left_right_consistency", &StereoStatistics::left_right_consistency);
+    py::class_<ExtrinsicsRefinement>(m, "ExtrinsicsRefinement")
+        .def_readonly("calibration", &ExtrinsicsRefinement::calibration)
+        .def_readonly("pairs", &ExtrinsicsRefinement::pairs)
+        .def_readonly("inliers", &ExtrinsicsRefinement::inliers)
+        .def_readonly("median_epipolar_before_px", &ExtrinsicsRefinement::median_epipolar_before_px)
+        .def_readonly("median_epipolar_after_px", &ExtrinsicsRefinement::median_epipolar_after_px)
+        .def_readonly("rotation_change_deg", &ExtrinsicsRefinement::rotation_change_deg);
     py::class_<StereoReconstruction>(m, "StereoReconstruction")
         .def_readonly("view", &StereoReconstruction::view)
         .def_readonly("statistics", &StereoReconstruction::statistics);

@@ -216,7 +216,7 @@ class PicoScanAppTest(unittest.TestCase):
             scan_view.create(self.doc, missing, self.calibration)
         wrong = os.path.join(self.folder, "wrong.yml")
         picoscan.write_calibration(picoscan.seed_rig_calibration(), wrong)  # full-size camera, 1600 x 1200
-        with self.assertRaisesRegex(picoscan.Error, "wrong.yml: camera_size 1600x1200 differs"):
+        with self.assertRaisesRegex(picoscan.Error, "000_white.png: image is 800x600 but the calibration.s camera_size is 1600x1200"):
             scan_view.create(self.doc, self.captures, wrong)
         garbage = os.path.join(self.folder, "garbage.yml")
         with open(garbage, "w") as stream:

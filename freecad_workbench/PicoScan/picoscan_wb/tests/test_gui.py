@@ -168,7 +168,7 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.runCommand("PicoScan_ImportCaptures")
         process_events()
         self.assertEqual(len(self.messages), 1)
-        self.assertIn("full_size.yml: camera_size 1600x1200 differs", self.messages[0][2])
+        self.assertIn("000_white.png: image is 800x600 but the calibration's camera_size is 1600x1200", self.messages[0][2])
         self.assertEqual(self.object_names(), before)
         self.assertTrue(all(o.isValid() for o in self.doc.Objects))
 
