@@ -5,6 +5,7 @@
 #include "picoscan/calibrate.h"
 #include "picoscan/calibration.h"
 #include "picoscan/calibration_report.h"
+#include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/response.h"
 #include "picoscan/stereo.h"
@@ -73,8 +74,7 @@ int run_response(const Arguments& arguments) {
     for (int level = 0; level < 256; ++level) {
         const fs::path file = fs::path(directory) / flat_level_file(level);
         if (!fs::exists(file)) continue;
-        cv::Mat image = cv::imread(file.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
-        if (image.empty()) throw Error(file.string(), "unreadable or corrupt image");
+        cv::Mat image = read_image_file(file.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
         levels.push_back(level);
         images.push_back(image);
     }

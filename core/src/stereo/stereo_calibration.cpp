@@ -3,6 +3,7 @@
 #include "picoscan/stereo.h"
 
 #include "common/pose_spread.h"
+#include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
@@ -224,13 +225,7 @@ cv::Mat load_board_image(const std::string& directory, const std::string& manife
     if (images.size() != 1)
         throw Error(directory, "holds " + std::to_string(images.size()) +
                                    " images and no sequence.json; a pose folder needs one board image or a capture set");
-    cv::Mat image;
-    try {
-        image = cv::imread(images.front().string(), cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception&) {
-    }
-    if (image.empty()) throw Error(images.front().string(), "cannot be read as an image");
-    return image;
+    return read_image_file(images.front().string(), cv::IMREAD_UNCHANGED);
 }
 
 StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& views, const BoardSpec& board,
