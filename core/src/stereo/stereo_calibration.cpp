@@ -179,8 +179,10 @@ StereoCalibration read_stereo_calibration(const std::string& path) {
 
 void write_stereo_calibration(const StereoCalibration& c, const std::string& path) {
     validate_stereo_calibration(c, "stereo calibration");
-    cv::FileStorage storage("stereo.yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-    storage.writeComment("PicoScan stereo calibration, millimetres. X_camera2 = R * X_camera1 + T.");
+    const int format = detail::storage_format_for(path);
+    cv::FileStorage storage("stereo", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | format);
+    if (format != cv::FileStorage::FORMAT_JSON)  // JSON has no comments
+        storage.writeComment("PicoScan stereo calibration, millimetres. X_camera2 = R * X_camera1 + T.");
     storage << "camera1_size" << std::vector<int>{c.left_size.width, c.left_size.height};
     storage << "camera1_matrix" << cv::Mat(c.left_matrix);
     storage << "camera1_distortion" << c.left_distortion;
