@@ -1,5 +1,7 @@
 #include "arguments.h"
 
+#include "cli_support.h"
+
 #include "picoscan/error.h"
 
 #include <cmath>
@@ -11,6 +13,12 @@ namespace picoscan::cli {
 namespace {
 
 bool looks_like_option(const std::string& word) { return word.rfind("--", 0) == 0 || word == "-h"; }
+
+// Options whose empty value means something (no file-name prefix or suffix); for every other
+// option an empty value is a mistake, such as an unset shell variable.
+const std::set<std::string> kMayBeEmpty{"--prefix", "--suffix"};
+// Options that name files or folders PicoScan writes: checked here, before any work.
+const std::set<std::string> kOutputOptions{"--out", "--mesh", "--preview", "--report"};
 
 }  // namespace
 
@@ -28,12 +36,17 @@ Arguments::Arguments(int argc, char** argv, int first, const ArgumentRules& rule
         if (key == "--help" || rules.flags.count(key)) continue;
         if (index + 1 >= argc || looks_like_option(argv[index + 1])) throw Error(key, "needs a value");
         values.push_back(argv[++index]);
+        if (values.back().empty() && !kMayBeEmpty.count(key)) throw Error(key, "must not be empty");
+        if (kOutputOptions.count(key)) check_output_name(values.back(), key);
         // Further values up to the next option belong to the same key (--captures A B C).
         while (index + 1 < argc && !looks_like_option(argv[index + 1])) {
             if (!is_list) throw Error(argv[index + 1], "unexpected argument after " + key + " (it takes one value)");
             values.push_back(argv[++index]);
+            if (values.back().empty()) throw Error(key, "must not be empty");
         }
     }
+    for (const std::string& input : inputs_)
+        if (input.empty()) throw Error("input file", "an empty name was given");
 }
 
 bool Arguments::flag(const std::string& key) const {
