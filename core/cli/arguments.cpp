@@ -5,6 +5,7 @@
 #include "picoscan/error.h"
 
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <sstream>
 
@@ -47,6 +48,28 @@ Arguments::Arguments(int argc, char** argv, int first, const ArgumentRules& rule
     }
     for (const std::string& input : inputs_)
         if (input.empty()) throw Error("input file", "an empty name was given");
+    require_output_folders();
+}
+
+// A file output's folder must exist (or be --out, which the command creates): otherwise the
+// write would fail only after all the work.
+void Arguments::require_output_folders() const {
+    static const std::set<std::string> file_extensions{".ply", ".stl", ".obj", ".png", ".yml", ".yaml",
+                                                       ".xml", ".json", ".html", ".htm", ".txt"};
+    const auto out = values_.find("--out");
+    const std::string made_folder = out != values_.end() && !out->second.empty() ? out->second.back() : "";
+    for (const std::string& key : kOutputOptions) {
+        const auto found = values_.find(key);
+        if (found == values_.end() || found->second.empty()) continue;
+        const std::filesystem::path path = found->second.back(), folder = path.parent_path();
+        if (key == "--out" && !file_extensions.count(lowercase_extension(path.string()))) continue;  // a folder
+        if (folder.empty() || (key != "--out" && !made_folder.empty() &&
+                               is_inside(absolute_path(folder.string()), absolute_path(made_folder))) ||
+            (key != "--out" && absolute_path(folder.string()) == absolute_path(made_folder)))
+            continue;
+        if (std::error_code error; !std::filesystem::is_directory(folder, error))
+            throw Error(key, "the folder '" + folder.string() + "' does not exist");
+    }
 }
 
 bool Arguments::flag(const std::string& key) const {

@@ -63,6 +63,8 @@ std::string flag_for_field(const std::string& field) {
         {"mesh.target_faces", "--target-faces"},
         {"mesh.grid.pixel_step", "--mesh-step"},
         {"preset", "--preset"},
+        {"periods", "--periods"},  // manifest presets
+        {"bits", "--bits"},
     };
     const auto found = flags.find(field);
     return found == flags.end() ? field : found->second;
