@@ -5,8 +5,8 @@
 #include "picoscan/error.h"
 
 #include <cmath>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 namespace picoscan::cli {
@@ -63,10 +63,11 @@ void Arguments::require_output_folders() const {
         if (found == values_.end() || found->second.empty()) continue;
         const std::filesystem::path path = found->second.back(), folder = path.parent_path();
         if (key == "--out" && !file_extensions.count(lowercase_extension(path.string()))) continue;  // a folder
-        if (folder.empty() || (key != "--out" && !made_folder.empty() &&
-                               is_inside(absolute_path(folder.string()), absolute_path(made_folder))) ||
-            (key != "--out" && absolute_path(folder.string()) == absolute_path(made_folder)))
-            continue;
+        if (folder.empty()) continue;
+        if (key != "--out" && !made_folder.empty()) {
+            const std::filesystem::path inside = absolute_path(folder.string()), made = absolute_path(made_folder);
+            if (inside == made || is_inside(inside, made)) continue;
+        }
         if (std::error_code error; !std::filesystem::is_directory(folder, error))
             throw Error(key, "the folder '" + folder.string() + "' does not exist");
     }

@@ -229,7 +229,6 @@ Mesh parse_ascii_stl(const std::string& data, const std::string& path) {
         }
     }
     if (!seen_solid) tokens.fail("no 'solid'");
-    if (mesh.faces.empty()) tokens.fail("no facets");
     return mesh;
 }
 
