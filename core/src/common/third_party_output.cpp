@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <iostream>
 #include <mutex>
 
@@ -25,7 +26,7 @@ void flush_stderr() {
 
 }  // namespace
 
-ThirdPartyOutput::ThirdPartyOutput() {
+ThirdPartyOutput::ThirdPartyOutput() : exceptions_(std::uncaught_exceptions()) {
     const std::lock_guard<std::mutex> lock(capture_mutex);
     if (active_captures == 0) {
         flush_stderr();
@@ -46,7 +47,13 @@ ThirdPartyOutput::ThirdPartyOutput() {
 }
 
 ThirdPartyOutput::~ThirdPartyOutput() {
+    const bool unwinding = std::uncaught_exceptions() > exceptions_;
+    const std::string untaken = taken_ || unwinding ? "" : raw();
     const std::lock_guard<std::mutex> lock(capture_mutex);
+    if (!untaken.empty() && saved_stderr >= 0)
+        if (::write(saved_stderr, untaken.data(), untaken.size()) < 0) {
+            // nowhere left to report it
+        }
     if (--active_captures > 0 || capture_file < 0) return;
     flush_stderr();
     ::dup2(saved_stderr, STDERR_FILENO);
@@ -55,18 +62,25 @@ ThirdPartyOutput::~ThirdPartyOutput() {
     saved_stderr = capture_file = -1;
 }
 
-std::string ThirdPartyOutput::text() const {
+std::string ThirdPartyOutput::raw() const {
     const std::lock_guard<std::mutex> lock(capture_mutex);
     if (capture_file < 0) return "";
     flush_stderr();
-    std::string raw;
+    std::string bytes;
     char buffer[4096];
     for (off_t at = start_;;) {
         const ssize_t count = ::pread(capture_file, buffer, sizeof buffer, at);
-        if (count <= 0 || raw.size() > 4 * kLongestText) break;
-        raw.append(buffer, size_t(count));
+        if (count <= 0 || bytes.size() > (1u << 20)) break;
+        bytes.append(buffer, size_t(count));
         at += count;
     }
+    return bytes;
+}
+
+std::string ThirdPartyOutput::text() {
+    taken_ = true;
+    std::string raw = this->raw();
+    if (raw.size() > 4 * kLongestText) raw.resize(4 * kLongestText);
     std::string line;
     bool gap = false;
     for (const char c : raw) {

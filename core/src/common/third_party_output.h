@@ -18,11 +18,21 @@ public:
     ThirdPartyOutput& operator=(const ThirdPartyOutput&) = delete;
 
     // What was printed since this capture began, on one line ("a; b"), at most 400
-    // characters; empty when nothing was.
-    std::string text() const;
+    // characters; empty when nothing was. The text is then PicoScan's to report.
+    std::string text();
+    // Drops what was printed (warnings about an input that was read all the same).
+    void discard() { taken_ = true; }
+    // Otherwise, what was printed is passed on to stderr when the capture ends, so that
+    // nothing another part of the process printed meanwhile is lost; but not when the capture
+    // ends by an exception, whose message is reported instead (CGAL's exceptions carry what
+    // its error handler prints).
 
 private:
+    std::string raw() const;
+
     long start_ = 0;  // offset in the shared capture file when this capture began
+    bool taken_ = false;
+    int exceptions_ = 0;  // std::uncaught_exceptions() when the capture began
 };
 
 // " (the decoder said: TEXT)" or "" for an empty text: how a message carries it.

@@ -26,6 +26,7 @@ cv::Mat read_image_file(const std::string& path, int flags) {
         throw Error(path, "unreadable or corrupt image" +
                               detail::attached(printed.empty() ? problem : printed, "the decoder"));
     }
+    decoder.discard();  // warnings about an image that decoded (a colour profile, say)
     return image;
 }
 
