@@ -172,6 +172,40 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(self.object_names(), before)
         self.assertTrue(all(o.isValid() for o in self.doc.Objects))
 
+    def test_f_stereo_scan_panel_and_import_ask_for_the_second_folder(self):
+        # The Scan panel simulates two cameras (at a quarter of the seed resolution: 400 x 300).
+        FreeCADGui.runCommand("PicoScan_Scan")
+        process_events()
+        panel = COMMANDS["PicoScan_Scan"].panel
+        panel.scene.setCurrentText("Shaft")
+        panel.cameras.setCurrentText("Two cameras (stereo)")
+        panel.camera_scale.setValue(0.25)
+        first, second = os.path.join(self.folder, "stereo_1"), os.path.join(self.folder, "stereo_2")
+        panel.folder.setText(first)
+        panel.second_folder.setText(second)
+        self.assertTrue(panel.accept(), self.messages)
+        view = panel.created
+        self.assertEqual((view.CaptureFolder, view.SecondCaptureFolder), (first, second))
+        self.assertGreater(view.PointCount, 50000)  # the shaft and the wall, of 120 000 pixels
+        self.assertIn("left-right consistency", view.StereoReport)
+        # Import: the folder holds stereo.yml, so the command asks for the second camera's folder.
+        answers = [first, os.path.join(self.folder, "no_second_camera")]
+        QtWidgets.QFileDialog.getExistingDirectory = lambda *args, **kwargs: answers.pop(0)
+        before = self.object_names()
+        FreeCADGui.runCommand("PicoScan_ImportCaptures")
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("no_second_camera: second capture folder does not exist", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+        answers = [first, second]
+        FreeCADGui.runCommand("PicoScan_ImportCaptures")
+        process_events()
+        self.assertEqual(len(self.messages), 1, self.messages)
+        added = [self.doc.getObject(name) for name in self.object_names() if name not in before]
+        self.assertEqual(len(added), 1)
+        self.assertEqual(added[0].SecondCaptureFolder, second)
+        self.assertEqual(added[0].PointCount, view.PointCount)
+
     def test_g_cancelled_scan_shows_message(self):
         before = self.object_names()
         FreeCADGui.runCommand("PicoScan_Scan")
