@@ -205,6 +205,19 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(added), 1)
         self.assertEqual(added[0].SecondCaptureFolder, second)
         self.assertEqual(added[0].PointCount, view.PointCount)
+        # Both cameras of the stereo calibration with the scan, for docs/freecad.md.
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.runCommand("PicoScan_ShowRig")
+        process_events()
+        self.assertIsNotNone(self.doc.getObject("SecondCameraFrustum"), self.messages)
+        self.doc.removeObject(added[0].Name)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=1)  # shaded, so the shaft stands out from the wall
+        self.assertGreater(mesh.Mesh.CountFacets, 50000)
+        view.ViewObject.Visibility = False
+        # Seen from behind the cameras (their y points down), turned to show the depth.
+        behind_cameras = FreeCAD.Rotation(FreeCAD.Vector(0, 1, 0), 35).multiply(FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 160))
+        self.screenshot(self.doc.getObject("Rig"), "freecad-stereo.png", orientation=behind_cameras)
 
     def test_g_cancelled_scan_shows_message(self):
         before = self.object_names()
@@ -325,7 +338,7 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertIn("JustPoints: the reference has no faces or triangles", self.messages[0][2])
         self.assertEqual(self.object_names(), before)
 
-    def screenshot(self, shown, name, report=None):
+    def screenshot(self, shown, name, report=None, orientation=FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215)):
         """The 3D view on `shown`, saved beside PICOSCAN_SCREENSHOT as `name` (and the report picture)."""
         path = os.environ.get("PICOSCAN_SCREENSHOT")
         if not path:
@@ -339,7 +352,7 @@ class PicoScanGuiTest(unittest.TestCase):
                 mdi.setActiveSubWindow(window)
         process_events()
         view3d = FreeCADGui.ActiveDocument.ActiveView
-        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        view3d.setCameraOrientation(orientation)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(shown)
         FreeCADGui.SendMsgToActiveView("ViewSelection")
