@@ -626,12 +626,12 @@ const std::string& stereo_sphere_folder() {
 // the core recipe's view point for point, and the sphere is the scene's.
 TEST(MeshlabPlugin, StereoReconstructMeasuresTheSphere) {
     const std::string& root = stereo_sphere_folder();
-    const ServerRun run = run_meshlabserver(
-        root,
-        reconstruct({{"captureFolder", root + "/camera1"}, {"calibrationFile", root + "/stereo.yml"},
-                     {"secondCaptureFolder", root + "/camera2"}}) +
-            measure("sphere"),
-        "-o stereo.ply -m vc vn vq");
+    const std::map<std::string, std::string> stereo{{"captureFolder", root + "/camera1"},
+                                                    {"calibrationFile", root + "/stereo.yml"},
+                                                    {"secondCaptureFolder", root + "/camera2"}};
+    // A second layer of the same scan is cleaned: a stereo layer carries its pixel grid and camera.
+    const ServerRun run = run_meshlabserver(root, reconstruct(stereo) + measure("sphere") + reconstruct(stereo) + clean(),
+                                            "-o stereo.ply -l 0 -m vc vn vq -o cleaned.ply -l 1");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     EXPECT_NE(run.log.find("(stereo):"), std::string::npos) << run.log;
     EXPECT_NE(run.log.find("left-right consistency"), std::string::npos) << run.log;
@@ -653,6 +653,11 @@ TEST(MeshlabPlugin, StereoReconstructMeasuresTheSphere) {
     const std::vector<double> logged_radius = numbers_after(run.log, "radius", 1);
     ASSERT_EQ(logged_radius.size(), 1u) << run.log;
     EXPECT_NEAR(logged_radius[0], fit.radius_mm, 1e-3);
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    std::printf("stereo layer cleaned: %.0f of %zu points removed\n", removed[0], layer.vertices.size());
+    EXPECT_EQ(read_ply(root + "/cleaned.ply").vertices.size() + size_t(removed[0]), layer.vertices.size());
+    EXPECT_LT(removed[0], 0.05 * layer.vertices.size());
 }
 
 // Each wrong combination is refused with a message naming the parameter or the reason, and no
