@@ -312,6 +312,28 @@ class PicoScanStereoTest(unittest.TestCase):
         self.assertFalse(view.isValid())
         self.assertIn("SecondCaptureFolder", view.getStatusString())
 
+    def test_opencv_stereo_calibration_file_gives_the_same_scan(self):
+        # The keys OpenCV's stereoCalibrate sample writes (M1 D1 M2 D2 R T) plus image_size.
+        stereo = picoscan.read_stereo_calibration(self.calibration)
+
+        def matrix(name, values, rows, cols):
+            data = ", ".join("%.17g" % v for v in numpy.asarray(values, dtype=float).ravel())
+            return "%s: !!opencv-matrix\n   rows: %d\n   cols: %d\n   dt: d\n   data: [ %s ]\n" % (name, rows, cols, data)
+
+        text = "%YAML:1.0\n---\n" + "image_size: [ %d, %d ]\n" % tuple(stereo.left_size)
+        text += matrix("M1", stereo.left_matrix, 3, 3) + matrix("D1", stereo.left_distortion, 1, 5)
+        text += matrix("M2", stereo.right_matrix, 3, 3) + matrix("D2", stereo.right_distortion, 1, 5)
+        text += matrix("R", stereo.R, 3, 3) + matrix("T", stereo.T, 3, 1)
+        opencv_file = os.path.join(self.folder, "opencv_stereo.yml")
+        with open(opencv_file, "w") as stream:
+            stream.write(text)
+        ours = scan_view.create(self.doc, self.first, self.calibration, second_capture_folder=self.second)
+        theirs = scan_view.create(self.doc, self.first, opencv_file, second_capture_folder=self.second)
+        self.assertTrue(theirs.isValid(), theirs.getStatusString())
+        self.assertEqual(theirs.PointCount, ours.PointCount)
+        difference = numpy.abs(numpy.array(theirs.Points.Points) - numpy.array(ours.Points.Points)).max()
+        self.assertLess(difference, 1e-4)
+
     def test_wrong_calibration_or_folders_are_refused_and_leave_the_document_unchanged(self):
         names = [o.Name for o in self.doc.Objects]
         with self.assertRaisesRegex(picoscan.Error, "^SecondCaptureFolder: .*stereo.yml is a stereo calibration"):
