@@ -85,9 +85,6 @@ class ScanTaskPanel:
         """Writes a capture set into `folder` (and the second camera's into `second_folder` with two
         cameras); returns the calibration file to reconstruct it with."""
         if self.source.currentText() == "Camera + projector":
-            if second_folder:
-                raise picoscan.Error("Cameras: this panel captures with one camera; reconstruct a two-camera capture "
-                                     "with Import capture set and its stereo calibration")
             screen = self.projector_screen.value()
             return hardware.capture(folder, self.camera.text().strip(), self.calibration.text().strip(),
                                     None if screen < 0 else screen, self.should_cancel)
@@ -103,6 +100,9 @@ class ScanTaskPanel:
             raise picoscan.Error("Capture folder: choose where the scan is written")
         second_folder = ""
         if self.two_cameras():
+            if self.source.currentText() == "Camera + projector":
+                raise picoscan.Error("Cameras: this panel captures with one camera; reconstruct a two-camera capture "
+                                     "with Import capture set and its stereo calibration")
             second_folder = self.second_folder.text().strip() or tempfile.mkdtemp(prefix="picoscan_scan_camera2_")
         self.cancel_requested = False
         with FreeCADProgress("Scanning", self.should_cancel) as progress:

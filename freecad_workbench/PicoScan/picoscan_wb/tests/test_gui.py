@@ -183,6 +183,13 @@ class PicoScanGuiTest(unittest.TestCase):
         first, second = os.path.join(self.folder, "stereo_1"), os.path.join(self.folder, "stereo_2")
         panel.folder.setText(first)
         panel.second_folder.setText(second)
+        panel.source.setCurrentText("Camera + projector")  # two real cameras are `picoscan capture`'s
+        self.assertFalse(panel.accept())
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("Cameras: this panel captures with one camera", self.messages[0][2])
+        self.assertFalse(os.path.exists(second))
+        self.messages.clear()
+        panel.source.setCurrentText("Simulate")
         self.assertTrue(panel.accept(), self.messages)
         view = panel.created
         self.assertEqual((view.CaptureFolder, view.SecondCaptureFolder), (first, second))
