@@ -14,7 +14,7 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import cloud_of, deviation_map, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import alignment, encoding, primitives, rig, section, simulate, solid
+from picoscan_wb.operations import alignment, encoding, primitives, reconstruct, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -311,6 +311,16 @@ class PicoScanStereoTest(unittest.TestCase):
         self.doc.recompute()
         self.assertFalse(view.isValid())
         self.assertIn("SecondCaptureFolder", view.getStatusString())
+
+    def test_progress_reports_the_stereo_stages_and_cancel_stops_matching(self):
+        # The progress the GUI's dialog shows (and its Cancel answers) while the work runs off the GUI thread.
+        stages = set()
+        reconstruct.reconstruct(self.first, self.calibration, second_capture_folder=self.second,
+                                progress=lambda fraction, stage: stages.add(stage) or True)
+        self.assertTrue({"load", "decode", "stereo"} <= stages, stages)
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            reconstruct.reconstruct(self.first, self.calibration, second_capture_folder=self.second,
+                                    progress=lambda fraction, stage: stage != "stereo")
 
     def test_opencv_stereo_calibration_file_gives_the_same_scan(self):
         # The keys OpenCV's stereoCalibrate sample writes (M1 D1 M2 D2 R T) plus image_size.
