@@ -615,6 +615,7 @@ const std::string& stereo_sphere_folder() {
         write_capture_set(captures.second, root + "/camera2");
         write_stereo_calibration(rig.stereo, root + "/stereo.yml");
         write_calibration(rig.left, root + "/camera_projector.yml");
+        write_stereo_calibration(seed_stereo_rig().stereo, root + "/full_size.yml");  // 1600 x 1200 cameras
         return root;
     }();
     return folder;
@@ -675,6 +676,8 @@ TEST(MeshlabPlugin, StereoReconstructRefusesWrongCombinations) {
         {{{"captureFolder", first}, {"calibrationFile", root + "/stereo.yml"}, {"secondCaptureFolder", second},
           {"sequence", "1"}},
          "error: sequence: the presets take the projector's size from a camera-projector calibration"},
+        {{{"captureFolder", first}, {"calibrationFile", root + "/full_size.yml"}, {"secondCaptureFolder", second}},
+         "error: " + root + "/full_size.yml: camera1_size is 1600x1200 but the captures in " + first + " are 800x600"},
         // The cameras swapped: both decode, but the projector rows show that R, T do not fit.
         {{{"captureFolder", second}, {"calibrationFile", root + "/stereo.yml"}, {"secondCaptureFolder", first}},
          "does not fit these captures"},
