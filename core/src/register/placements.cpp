@@ -8,9 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <opencv2/calib3d.hpp>
 #include <unordered_map>
 
 namespace picoscan {
@@ -183,12 +180,6 @@ PlacementAlignment register_placement(const std::vector<ViewData>& data, const P
             if (fit.free_space_conflict > detail::kMaxFreeSpaceConflict)
                 fit.problem = "the surfaces fit where they overlap, but " + format("%.1f", 100 * fit.free_space_conflict) +
                               " % of one placement's points lie where a camera of the other saw through: a wrong fit";
-        }
-        if (std::getenv("PICOSCAN_DEBUG_PLACEMENTS")) {
-            cv::Vec3d rv; cv::Rodrigues(cv::Matx33d(fit.pose.get_minor<3, 3>(0, 0)), rv);
-            std::fprintf(stderr, "start inliers %d -> rot %.1f deg axis %.2f %.2f %.2f t %.1f %.1f %.1f: overlap %.2f rms %.3f stab %.3f conflict %.3f %s\n", static_cast<int>(next),
-                         cv::norm(rv) * 180 / CV_PI, rv[0] / cv::norm(rv), rv[1] / cv::norm(rv), rv[2] / cv::norm(rv), fit.pose(0, 3), fit.pose(1, 3), fit.pose(2, 3),
-                         fit.overlap, fit.rms_mm, fit.stability, fit.free_space_conflict, fit.problem.c_str());
         }
         if (!fit.problem.empty()) {
             if (best_refused.problem.empty() || fit.overlap > best_refused.overlap) best_refused = fit;
