@@ -77,28 +77,56 @@ double placement_conflict(const std::vector<ViewData>& data, const PlacementBody
     return worst;
 }
 
-// The 23 proper quarter and half turns (with the identity, the rotations of a cube) about the
-// cloud's principal axes through its centroid, as transforms of the cloud's frame.
-std::vector<cv::Matx44d> symmetric_twins(const detail::SurfaceSamples& cloud) {
-    cv::Vec3d centroid(0, 0, 0);
-    for (const cv::Vec3d& p : cloud.points) centroid += p;
-    centroid *= 1.0 / static_cast<double>(std::max<size_t>(1, cloud.points.size()));
+// A cloud's centroid and principal axes (the columns of `axes`).
+struct PrincipalAxes { cv::Vec3d centroid{0, 0, 0}; cv::Matx33d axes = cv::Matx33d::eye(); };
+PrincipalAxes principal_axes(const detail::SurfaceSamples& cloud) {
+    PrincipalAxes result;
+    for (const cv::Vec3d& p : cloud.points) result.centroid += p;
+    result.centroid *= 1.0 / static_cast<double>(std::max<size_t>(1, cloud.points.size()));
     cv::Matx33d covariance = cv::Matx33d::zeros();
-    for (const cv::Vec3d& p : cloud.points) covariance += (p - centroid) * (p - centroid).t();
+    for (const cv::Vec3d& p : cloud.points) covariance += (p - result.centroid) * (p - result.centroid).t();
     cv::Mat eigenvalues, eigenvectors;
     cv::eigen(cv::Mat(covariance), eigenvalues, eigenvectors);
-    const cv::Matx33d axes = cv::Matx33d(cv::Mat(eigenvectors.t()));  // columns: principal axes
-    std::vector<cv::Matx44d> twins;
+    result.axes = cv::Matx33d(cv::Mat(eigenvectors.t()));
+    return result;
+}
+
+// The 24 proper rotations of a cube (signed permutations with determinant 1).
+std::vector<cv::Matx33d> cube_turns() {
+    std::vector<cv::Matx33d> turns;
     const int permutations[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
     for (const auto& order : permutations)
         for (int signs = 0; signs < 8; ++signs) {
             cv::Matx33d turn = cv::Matx33d::zeros();
             for (int r = 0; r < 3; ++r) turn(r, order[r]) = (signs >> r) & 1 ? -1 : 1;
-            if (cv::determinant(turn) < 0 || turn == cv::Matx33d::eye()) continue;
-            const cv::Matx33d rotation = axes * turn * axes.t();
-            twins.push_back(detail::rigid_transform(rotation, centroid - rotation * centroid));
+            if (cv::determinant(turn) > 0) turns.push_back(turn);
         }
+    return turns;
+}
+
+// The 23 quarter and half turns (besides the identity) about the cloud's principal axes
+// through its centroid, as transforms of the cloud's frame.
+std::vector<cv::Matx44d> symmetric_twins(const detail::SurfaceSamples& cloud) {
+    const PrincipalAxes principal = principal_axes(cloud);
+    std::vector<cv::Matx44d> twins;
+    for (const cv::Matx33d& turn : cube_turns()) {
+        if (turn == cv::Matx33d::eye()) continue;
+        const cv::Matx33d rotation = principal.axes * turn * principal.axes.t();
+        twins.push_back(detail::rigid_transform(rotation, principal.centroid - rotation * principal.centroid));
+    }
     return twins;
+}
+
+// Starts that put the moving cloud's principal axes on the fixed cloud's, every way round
+// (24), centroid on centroid: for when the shape features found nothing that overlaps.
+std::vector<cv::Matx44d> principal_axis_starts(const detail::SurfaceSamples& fixed, const detail::SurfaceSamples& moving) {
+    const PrincipalAxes to = principal_axes(fixed), from = principal_axes(moving);
+    std::vector<cv::Matx44d> starts;
+    for (const cv::Matx33d& turn : cube_turns()) {
+        const cv::Matx33d rotation = to.axes * turn * from.axes.t();
+        starts.push_back(detail::rigid_transform(rotation, to.centroid - rotation * from.centroid));
+    }
+    return starts;
 }
 
 // Registers placement `moving` to `fixed` by shape alone. Every FPFH hypothesis is refined by
@@ -123,7 +151,6 @@ PlacementAlignment register_placement(const std::vector<ViewData>& data, const P
     const bool painted = fixed.textured && moving.textured;
     struct Candidate { PlacementAlignment fit; double texture; };
     std::vector<Candidate> accepted;
-    bool tried = false;
     auto same = [&](const cv::Matx44d& a, const cv::Matx44d& b, double deg, double mm) {
         const PoseDifference d = pose_difference(a, b, moving.centroid);
         return d.rotation_deg <= deg && d.translation_mm <= mm;
@@ -143,13 +170,16 @@ PlacementAlignment register_placement(const std::vector<ViewData>& data, const P
     cv::Matx44d widest = cv::Matx44d::eye();
     double widest_overlap = -1;
     for (size_t next = 0;; ++next) {
-        if (next == feature_starts && widest_overlap >= options.min_overlap)
-            for (const cv::Matx44d& twin : symmetric_twins(moving.cloud)) queue.push_back(widest * twin);
+        if (next == feature_starts) {
+            if (widest_overlap >= options.min_overlap)
+                for (const cv::Matx44d& twin : symmetric_twins(moving.cloud)) queue.push_back(widest * twin);
+            else
+                for (const cv::Matx44d& start : principal_axis_starts(fixed.cloud, moving.cloud)) queue.push_back(start);
+        }
         if (next >= queue.size()) break;
         const cv::Matx44d start = queue[next];
         if (std::any_of(results.begin(), results.end(), [&](const cv::Matx44d& r) { return same(r, start, 2.0, 2.0); }))
             continue;
-        tried = true;
         const detail::IcpResult rough = detail::icp_point_to_plane(fixed.cloud, moving.cloud, start, coarse);
         const detail::IcpResult icp = detail::icp_point_to_plane(fixed.cloud, moving.cloud, rough.transform, options);
         results.push_back(icp.transform);
@@ -189,8 +219,7 @@ PlacementAlignment register_placement(const std::vector<ViewData>& data, const P
             accepted.push_back({fit, icp.texture_agreement});
     }
     if (accepted.empty()) {
-        if (!tried) best_refused.problem = "no shape-feature alignment (fewer than " + std::to_string(options.min_ransac_inliers) +
-                                           " RANSAC inliers)";
+        if (best_refused.problem.empty()) best_refused.problem = "no fit of the shapes found";
         return best_refused;
     }
     // Paint, where both placements carry it, tells fits apart; otherwise the tightest first.
