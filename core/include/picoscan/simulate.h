@@ -151,10 +151,6 @@ enum class PartPlacement {
 // at `elevation_deg`, plus an optional view from nearly above; each pose may be disturbed
 // by a random rotation and shift (a part knocked or re-placed by hand).
 struct TurntablePlan {
-    // The part is turned about its middle (x = y = 0, z = part_middle_height_mm) into this
-    // placement, then by `placement_turn_deg` about the table's axis, before the first view.
-    PartPlacement placement = PartPlacement::Standing;
-    double placement_turn_deg = 0;
     int turntable_views = 8;
     double elevation_deg = 25;
     bool top_view = true;
@@ -163,6 +159,10 @@ struct TurntablePlan {
     cv::Vec3d part_centre_mm{0, 0, 400};  // where the part's middle sits, camera frame
     double part_middle_height_mm = 16;    // height (part z) of that middle
     uint64_t seed = 1;
+    // The part is turned about its middle (x = y = 0, z = part_middle_height_mm) into this
+    // placement, then by `placement_turn_deg` about the table's axis, before the first view.
+    PartPlacement placement = PartPlacement::Standing;
+    double placement_turn_deg = 0;
 };
 // Part frame -> camera frame transform of each view.
 std::vector<cv::Matx44d> turntable_part_poses(const TurntablePlan& plan);
