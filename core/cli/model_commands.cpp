@@ -107,11 +107,11 @@ Options:
 const char* kDemo360Help = R"(picoscan demo [--out DIR] [--single-view]
 
 A complete scan of the built-in mechanical part (a block with a through hole, a boss and a
-chamfer, speckle-painted) on a simulated turntable, in two placements: standing (8 views
-around it and one from above), then laid on its side so that the face it stood on is seen
-(8 views). Each view is knocked by a few degrees and millimetres as if placed by hand, then
+chamfer, speckle-painted) on a simulated turntable, in two placements: standing, then laid on
+its side so that the face it stood on is seen; one round of 8 views each. Each view is
 simulated, reconstructed and cleaned; the views of both placements are stitched into one
-model (each placement, then the placements by shape) and meshed into a watertight STL.
+model as 'stitch --turntable-round' does (each round's step estimated from its views, then
+the placements joined by shape) and meshed into a watertight STL.
 Writes DIR/captures/{standing,side}_view_K/ (capture sets), DIR/calibration.yml,
 DIR/views/{standing,side}_view_K.ply, DIR/merged.ply (+ merged.poses.txt), DIR/part.stl and
 DIR/part.png (preview), and the simulation's true poses in DIR/true_poses.txt. Default DIR:
@@ -411,17 +411,14 @@ int run_demo_360(const fs::path& directory) {
     placements[1].name = "side";
     placements[1].scan.plan.placement = PartPlacement::OnItsSide;  // the face it stood on turned to the camera
     placements[1].scan.plan.placement_turn_deg = 20;
-    placements[1].scan.plan.top_view = false;
-    placements[1].scan.plan.seed = 2;        // knocked differently
-    placements[1].scan.camera.seed = 101;    // independent camera noise
+    placements[1].scan.camera.seed = 101;  // independent camera noise
     std::vector<std::string> view_files;
     std::vector<int> placement_of_view;
     std::vector<ViewPose> truth;
     std::vector<cv::Matx44d> part_to_camera;
     for (size_t p = 0; p < placements.size(); ++p) {
         Placement& placement = placements[p];
-        placement.scan.plan.max_disturbance_deg = 3;  // as if placed by hand
-        placement.scan.plan.max_disturbance_mm = 5;
+        placement.scan.plan.top_view = false;  // each placement one turntable round
         std::printf("placement %zu (%s):\n", p + 1, placement.name.c_str());
         const std::vector<cv::Matx44d> poses = simulate_turntable_scan(
             mechanical_part(), calibration, placement.scan,
@@ -445,6 +442,7 @@ int run_demo_360(const fs::path& directory) {
     const std::string merged = (directory / "merged.ply").string();
     StitchOptions stitch;
     stitch.placement_of_view = placement_of_view;
+    stitch.registration.turntable_round = true;  // each placement: one round, its step estimated
     if (stitch_and_write(view_files, merged, stitch) > 0)
         throw Error(merged, "not every view could be aligned (see above)");
     const Mesh points = read_ply(merged);
