@@ -35,6 +35,7 @@ Arguments::Arguments(int argc, char** argv, int first, const ArgumentRules& rule
         if (values_.count(key) && !is_list) throw Error(key, "is given more than once");
         std::vector<std::string>& values = values_[key];
         if (key == "--help" || rules.flags.count(key)) continue;
+        occurrence_starts_[key].push_back(values.size());
         if (index + 1 >= argc || looks_like_option(argv[index + 1])) throw Error(key, "needs a value");
         values.push_back(argv[++index]);
         if (values.back().empty() && !kMayBeEmpty.count(key)) throw Error(key, "must not be empty");
@@ -95,6 +96,19 @@ std::vector<std::string> Arguments::list(const std::string& key) const {
     used_.insert(key);
     const auto found = values_.find(key);
     return found == values_.end() ? std::vector<std::string>{} : found->second;
+}
+
+std::vector<std::vector<std::string>> Arguments::occurrences(const std::string& key) const {
+    used_.insert(key);
+    std::vector<std::vector<std::string>> groups;
+    const auto found = values_.find(key);
+    if (found == values_.end()) return groups;
+    const std::vector<size_t>& starts = occurrence_starts_.at(key);
+    for (size_t k = 0; k < starts.size(); ++k) {
+        const size_t end = k + 1 < starts.size() ? starts[k + 1] : found->second.size();
+        groups.emplace_back(found->second.begin() + static_cast<long>(starts[k]), found->second.begin() + static_cast<long>(end));
+    }
+    return groups;
 }
 
 double Arguments::number(const std::string& key, double fallback) const {

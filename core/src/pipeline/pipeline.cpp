@@ -139,7 +139,27 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
     validate(options.registration);
     if (views.size() < 2) throw Error("views", "stitching needs at least two views (got " + std::to_string(views.size()) + ")");
     StitchResult result;
-    result.alignment = align_views(views, names, options.registration, options.turntable, progress);
+    if (options.placement_of_view.empty()) {
+        result.alignment = align_views(views, names, options.registration, options.turntable, progress);
+    } else {
+        if (options.placement_of_view.size() != views.size())
+            throw Error("placement_of_view", std::to_string(options.placement_of_view.size()) + " placements given for " +
+                                                 std::to_string(views.size()) + " views");
+        std::vector<PlacementPlan> placements;
+        for (size_t i = 0; i < views.size(); ++i) {
+            const int placement = options.placement_of_view[i];
+            if (placement < 0 || placement > static_cast<int>(placements.size()))
+                throw Error("placement_of_view", "view " + names[i] + " has placement " + std::to_string(placement) +
+                                                     "; placements are numbered 0, 1, ... in the order of the views");
+            if (placement == static_cast<int>(placements.size())) {
+                placements.emplace_back();
+                placements.back().turntable = options.turntable;
+                placements.back().turntable_round = options.registration.turntable_round;
+            }
+            placements[static_cast<size_t>(placement)].views.push_back(i);
+        }
+        result.alignment = align_placements(views, names, placements, options.registration, progress);
+    }
     std::vector<ScanView> aligned;
     for (size_t i = 0; i < views.size(); ++i) {
         if (!result.alignment.views[i].aligned) continue;
@@ -148,7 +168,8 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
         result.merged_views.push_back(i);
     }
     result.merged = merge_views(aligned);
-    if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3) {
+    if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3 &&
+        options.placement_of_view.empty()) {
         // Views of a turntable sequence calibrate its axis, for the next scan.
         std::vector<cv::Matx44d> poses;
         for (const ViewAlignment& view : result.alignment.views) poses.push_back(view.pose);
