@@ -27,6 +27,16 @@ std::string command_output(const std::string& command) {
     return out;
 }
 
+// Signed volume of the triangles (divergence theorem), whether or not the mesh is closed.
+double signed_volume_mm3(const Mesh& mesh) {
+    double volume = 0;
+    for (const cv::Vec3i& f : mesh.faces) {
+        const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
+        volume += a.dot(b.cross(c)) / 6.0;
+    }
+    return volume;
+}
+
 }  // namespace
 
 TEST(Export, ThreeMfRoundTripKeepsTrianglesVolumeAndMillimetres) {
@@ -35,12 +45,12 @@ TEST(Export, ThreeMfRoundTripKeepsTrianglesVolumeAndMillimetres) {
     const std::string path = folder + "/part.3mf";
     write_3mf(part, path);
     const Mesh back = read_3mf(path);
-    const MeshCheck written = check_mesh(part), read = check_mesh(back);
-    std::printf("3MF: %zu -> %zu triangles, volume %.3f -> %.3f mm^3\n", written.faces, read.faces, written.volume_mm3,
-                read.volume_mm3);
-    EXPECT_EQ(read.faces, written.faces);
+    const double written = signed_volume_mm3(part), read = signed_volume_mm3(back);
+    std::printf("3MF: %zu -> %zu triangles, volume %.3f -> %.3f mm^3\n", part.faces.size(), back.faces.size(), written, read);
+    EXPECT_EQ(back.faces.size(), part.faces.size());
     EXPECT_EQ(back.vertices.size(), part.vertices.size());
-    EXPECT_NEAR(read.volume_mm3, written.volume_mm3, 1e-3 * written.volume_mm3);
+    EXPECT_GT(written, 40000);
+    EXPECT_NEAR(read, written, 1e-6 * written);
     EXPECT_EQ(read_mesh(path).faces.size(), part.faces.size());
     // The unit in the model part of the package (a zip): millimetres.
     const std::string model = command_output("unzip -p '" + path + "' 3D/3dmodel.model");
@@ -118,7 +128,10 @@ TEST(Export, ContactSheetShowsSixSidesAndTheFilledBottom) {
         EXPECT_GT(pixels, tile * tile / 10) << k;
     }
     EXPECT_LT(orange_share(0).second, 0.01);  // top
-    EXPECT_GT(orange_share(1).second, 0.8);   // bottom
+    EXPECT_GT(orange_share(1).second, 0.6);   // bottom (the hole shows measured walls)
+    // The sides: only a strip near the bottom (this part's walls have vertices only at their
+    // top and bottom edges, so the strip is as wide as the colour lookup's reach).
+    for (int k = 2; k < 6; ++k) EXPECT_LT(orange_share(k).second, 0.35) << k;
     const std::string path = test_support::make_temp_dir("export-sheet") + "/sheet.png";
     write_contact_sheet_png(part, path, cv::Vec3d(0, 0, 1));
     EXPECT_TRUE(std::filesystem::is_regular_file(path));

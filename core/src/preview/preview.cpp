@@ -122,9 +122,10 @@ cv::Mat render_tile(const Mesh& mesh, const cv::Vec3d& centre, double radius, co
     const cv::Mat& normals = simulator.geometry().normals;
     const bool marks_filled = mesh.measured.size() == mesh.vertices.size() &&
                               std::count(mesh.measured.begin(), mesh.measured.end(), 0) > 0;
-    std::vector<cv::Vec3d> vertices(seen.vertices.begin(), seen.vertices.end());
+    std::vector<cv::Vec3d> vertices;  // the grid keeps a reference: it must outlive the grid
+    if (marks_filled) vertices.assign(seen.vertices.begin(), seen.vertices.end());
     const double reach_mm = std::max(3.0, radius / 50);
-    const detail::PointGrid grid(marks_filled ? vertices : std::vector<cv::Vec3d>{}, reach_mm);
+    const detail::PointGrid grid(vertices, reach_mm);
     const cv::Vec3f light = cv::normalize(cv::Vec3f(-0.4f, -0.5f, -1.0f));
     cv::Mat tile(size, size, CV_8UC3, cv::Scalar(250, 250, 250));
     for (int row = 0; row < size; ++row)
