@@ -3,8 +3,10 @@
 // mesh itself (chamfer angle, 90 degree edges, hole diameter); the meshing budget and
 // cancelling. One Poisson run per test (each test runs in its own process).
 #include "picoscan/error.h"
+#include "picoscan/io.h"
 #include "picoscan/mesh.h"
 #include "picoscan/pipeline.h"
+#include "picoscan/preview.h"
 #include "support/turntable_scan.h"
 
 #include <gtest/gtest.h>
@@ -12,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 using namespace picoscan;
 
@@ -116,6 +119,12 @@ TEST(MeshFill, TableCapClosesOnePlacementAtThePartsVolume) {
     std::printf("one placement, table cap: %s\n", check.summary().c_str());
     std::printf("volume %.1f mm^3, true %.1f mm^3 (%+.2f %%)\n", check.volume_mm3, truth,
                 100 * (check.volume_mm3 / truth - 1));
+    // The merged cloud and the mesh's contact sheet, for the docs and the CLI.
+    const std::string folder = std::string(PICOSCAN_TEST_CACHE_DIR) + "/one-placement";
+    std::filesystem::create_directories(folder);
+    write_ply(placement.merged, folder + "/merged.ply");
+    write_contact_sheet_png(mesh, folder + "/table_cap.png");
+    std::printf("merged cloud and contact sheet in %s\n", folder.c_str());
     ASSERT_TRUE(check.closed_volume);
     EXPECT_NEAR(check.volume_mm3, truth, 0.01 * truth);
     // The cap (50 x 36 mm less the hole and chamfer: about 19 % of the surface) and the hole's
