@@ -224,7 +224,9 @@ TEST(MeshFill, OpenLeavesTheUnseenSideOpen) {
     EXPECT_EQ(check.summary().find("WARNING"), std::string::npos);
     double lowest = 1e9;
     for (const cv::Vec3d& p : in_part_frame(mesh, placement.part_to_model)) lowest = std::min(lowest, p[2]);
-    EXPECT_GT(lowest, -0.5);
+    // A vertex counts as measured within twice the spacing of the points (1.6 mm here): the
+    // open edge may hang that far past the lowest points, no farther.
+    EXPECT_GT(lowest, -1.7);
 }
 
 namespace {
