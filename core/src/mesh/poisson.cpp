@@ -2,6 +2,7 @@
 // Delaunay-refinement implementation), then a projection of the surface back onto the points.
 #define CGAL_EIGEN3_ENABLED 1
 #include "mesh/cgal_types.h"
+#include "common/third_party_output.h"
 #include "picoscan/error.h"
 
 #include <CGAL/Orthogonal_k_neighbor_search.h>
@@ -86,12 +87,12 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
 
 namespace {
 
-// Called by CGAL before each point enters the Delaunay refinement: reports progress and stops
-// the reconstruction (by the exception report throws) when the caller cancels.
 // Evaluations of the implicit function per face of the result, allowed before an attempt is
 // given up (measured: about 165 on the demo part).
 constexpr double kEvaluationsPerFace = 250;
 
+// Called by CGAL before each point enters the Delaunay refinement: reports progress and stops
+// the reconstruction (by the exception report throws) when the caller cancels.
 struct ReportingVisitor {
     const StageReport* report;
     size_t total;
@@ -116,8 +117,10 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     report(0.0, "Poisson: triangulating the points");
     Function function(points.begin(), points.end(), PointMap(), NormalMap(), ReportingVisitor{&report, points.size()});
     report(0.05, "Poisson: solving the implicit function");
+    ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
     if (!function.compute_implicit_function(Solver(), ReportingVisitor{&report, points.size()}, 0, 5))
-        throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)");
+        throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
+                                                  attached(cgal.text(), "CGAL"));
     // The surface mesher's triangles: about the point spacing, but larger when the data's
     // area (points x spacing^2, doubled for the side Poisson closes) would exceed the face
     // budget. Each attempt is capped by its number of evaluations of the function (a single
