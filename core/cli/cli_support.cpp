@@ -85,7 +85,8 @@ void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encodin
     if (extension == ".stl") write_stl(mesh, path, encoding);
     else if (extension == ".ply") write_ply(mesh, path, encoding);
     else if (extension == ".obj") write_obj(mesh, path);
-    else throw Error(path, "mesh file must end in .stl, .ply or .obj");
+    else if (extension == ".3mf") write_3mf(mesh, path);
+    else throw Error(path, "mesh file must end in .stl, .ply, .obj or .3mf");
 }
 
 }  // namespace picoscan::cli

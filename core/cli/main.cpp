@@ -62,6 +62,10 @@ std::string flag_for_field(const std::string& field) {
         {"mesh.max_hole_diameter_mm", "--max-hole-mm"},
         {"mesh.target_faces", "--target-faces"},
         {"mesh.grid.pixel_step", "--mesh-step"},
+        {"mesh.max_points", "--max-points"},
+        {"mesh.max_faces", "--max-faces"},
+        {"mesh.fill", "--fill"},
+        {"mesh.table_axis", "--turntable"},
         {"preset", "--preset"},
         {"periods", "--periods"},  // manifest presets
         {"bits", "--bits"},

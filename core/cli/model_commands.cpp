@@ -84,24 +84,37 @@ Options:
   --spacing-mm S             points are thinned to about S mm for ICP (default 0.7)
 )";
 
-const char* kMeshHelp = R"(picoscan mesh CLOUD.ply --out PART.stl [--method poisson|advancing-front|grid] [options]
+const char* kMeshHelp = R"(picoscan mesh CLOUD.ply --out PART.stl|PART.3mf|PART.ply [--method poisson|advancing-front|grid]
+                    [--fill open|table|poisson] [options]
 
 Turns a cloud with normals (from 'picoscan stitch' or 'reconstruct') into a triangle mesh:
-  poisson          watertight surface (Poisson reconstruction), for printing; unseen areas
-                   (the face the part stood on) are closed smoothly; default
+  poisson          watertight surface (Poisson reconstruction); default
   advancing-front  interpolates the points and leaves unmeasured areas open; holes smaller
                    than --max-hole-mm are filled (triangulated, refined and faired)
   grid             joins neighbouring camera pixels of ONE view written by 'reconstruct'
-The mesh is checked before it is written (watertight, manifold, self-intersections, volume)
-and the result is printed. Output by extension: .stl, .ply or .obj.
+What closes the side the scan never saw (poisson only; the face the part stood on):
+  --fill poisson   Poisson's own smooth guess (default); the check below says how much of
+                   the surface was filled in, not measured, and warns when it is much
+  --fill table     a flat cap on the turntable's plane, for a part standing on the table;
+                   walls seen only in part (a deep hole) are continued down to it. The plane
+                   is across --turntable's axis when given, else fitted to the unseen side's rim
+  --fill open      nothing invented: the unseen side stays open (not printable as it is)
+The mesh is checked before it is written (watertight, manifold, self-intersections, volume,
+share of filled-in surface) and the result is printed. Output by extension: .stl, .3mf
+(units millimetres), .ply (vertex colours from the white frames; quality 1 = measured,
+0 = filled in) or .obj.
 
 Options:
   --spacing-mm S       thin the cloud to about S mm first (default 0.4; 0 keeps every point)
+  --max-points N       thin further until at most N points remain (default 200000): the budget
+                       that bounds meshing time
+  --max-faces N        Poisson's triangles grow until the surface has about N at most (default 400000)
+  --turntable X,Y,Z,DX,DY,DZ  the turntable axis (as 'picoscan stitch' prints it), for --fill table
   --target-faces N     simplify to about N triangles (default: no simplification)
   --max-hole-mm D      advancing front: fill holes up to D mm across (default 10)
   --mesh-step N        grid: join every N-th pixel only (default 1)
-  --calibration C      the rig calibration, for --preview
-  --preview P.png      a shaded picture of the mesh seen by the rig's camera (needs --calibration)
+  --preview P.png      a contact sheet: the mesh from top, bottom and four sides, filled-in
+                   surface in orange
 )";
 
 const char* kDemo360Help = R"(picoscan demo [--out DIR] [--single-view]
@@ -113,9 +126,11 @@ simulated, reconstructed and cleaned; the views of both placements are stitched 
 model as 'stitch --turntable-round' does (each round's step estimated from its views, then
 the placements joined by shape) and meshed into a watertight STL.
 Writes DIR/captures/{standing,side}_view_K/ (capture sets), DIR/calibration.yml,
-DIR/views/{standing,side}_view_K.ply, DIR/merged.ply (+ merged.poses.txt), DIR/part.stl and
-DIR/part.png (preview), and the simulation's true poses in DIR/true_poses.txt. Default DIR:
-demo-output.
+DIR/views/{standing,side}_view_K.ply, DIR/merged.ply (+ merged.poses.txt), the model as
+DIR/part.stl, DIR/part.3mf (millimetres) and DIR/part.ply (with the white frames' colours and
+a measured/filled flag per vertex), DIR/part.png (a contact sheet: top, bottom and four sides,
+filled-in surface in orange), and the simulation's true poses in DIR/true_poses.txt.
+Default DIR: demo-output.
 --single-view: the older one-view demo of a bracket (DIR/cloud.ply, part.stl, preview.png).
 
 An interrupted demo is restarted by running the same command again: the demo marks
@@ -329,21 +344,28 @@ int run_mesh(const Arguments& arguments) {
     const std::string out = arguments.required("--out");
     const std::string method = arguments.text("--method", "poisson");
     const std::string preview = arguments.text("--preview");
-    const std::string calibration_path = arguments.text("--calibration");
-    check_extension(out, {".stl", ".ply", ".obj"}, "mesh file");
+    check_extension(out, {".stl", ".ply", ".obj", ".3mf"}, "mesh file");
     check_extension(preview, {".png"}, "preview file");
-    refuse_overwriting(out, {input, calibration_path});
-    refuse_overwriting(preview, {input, calibration_path, out});
+    refuse_overwriting(out, {input});
+    refuse_overwriting(preview, {input, out});
     MeshOptions options;
     if (method == "poisson") options.method = MeshMethod::Poisson;
     else if (method == "advancing-front") options.method = MeshMethod::AdvancingFront;
     else if (method == "grid") options.method = MeshMethod::Grid;
     else throw Error("--method", "must be poisson, advancing-front or grid, got '" + method + "'");
+    if (arguments.has("--fill")) options.fill = mesh_fill_from_name(arguments.text("--fill"), "--fill");
+    if (arguments.has("--turntable")) {
+        if (options.fill != MeshFill::Table) throw Error("--turntable", "is used by --fill table only");
+        const std::vector<double> axis = arguments.numbers("--turntable", 6);
+        options.table_axis = cv::Vec3d(axis[3], axis[4], axis[5]);
+        if (cv::norm(options.table_axis) < 1e-9) throw Error("--turntable", "the axis direction must not be zero");
+    }
     options.sample_spacing_mm = arguments.number("--spacing-mm", options.sample_spacing_mm);
+    options.max_points = arguments.integer("--max-points", options.max_points);
+    options.max_faces = arguments.integer("--max-faces", options.max_faces);
     options.target_faces = arguments.integer("--target-faces", options.target_faces);
     options.max_hole_diameter_mm = arguments.number("--max-hole-mm", options.max_hole_diameter_mm);
     options.grid.pixel_step = arguments.integer("--mesh-step", options.grid.pixel_step);
-    if (!preview.empty() && calibration_path.empty()) throw Error("--calibration", "is required by --preview");
     arguments.reject_unknown();
     validate(options);
     const auto start = std::chrono::steady_clock::now();
@@ -355,16 +377,17 @@ int run_mesh(const Arguments& arguments) {
         PointCloud cloud;
         cloud.points = points.vertices;
         cloud.normals = points.normals;
+        cloud.colours = points.colours;
         mesh = mesh_points(cloud, options, terminal_progress());
     }
     if (mesh.faces.empty()) throw Error(input, "meshing produced no triangles: nothing to write");
     report_mesh(mesh, out);
     OutputBatch outputs;  // the mesh and its preview appear together
     write_mesh_file(mesh, out);
-    if (!preview.empty()) write_mesh_preview_png(mesh, read_calibration(calibration_path), preview);
+    if (!preview.empty()) write_contact_sheet_png(mesh, preview);
     outputs.commit();
     std::printf("%zu triangles -> %s (%.1f s)\n", mesh.faces.size(), out.c_str(), seconds_since(start));
-    if (!preview.empty()) std::printf("preview -> %s\n", preview.c_str());
+    if (!preview.empty()) std::printf("contact sheet -> %s\n", preview.c_str());
     return 0;
 }
 
@@ -455,12 +478,17 @@ int run_demo_360(const fs::path& directory) {
     PointCloud cloud;
     cloud.points = points.vertices;
     cloud.normals = points.normals;
+    cloud.colours = points.colours;  // the white frames' shade, carried to the mesh's vertices
     const Mesh mesh = mesh_points(cloud, MeshOptions{}, terminal_progress());
     const std::string stl = (directory / "part.stl").string();
     report_mesh(mesh, stl);
-    write_stl(mesh, stl);
-    write_mesh_preview_png(mesh, calibration, (directory / "part.png").string());
-    std::printf("%zu triangles -> %s, preview -> %s\n", mesh.faces.size(), stl.c_str(), (directory / "part.png").c_str());
+    OutputBatch outputs;  // the model in every format and its contact sheet appear together
+    for (const char* extension : {".stl", ".3mf", ".ply"})
+        write_mesh_file(mesh, (directory / (std::string("part") + extension)).string());
+    write_contact_sheet_png(mesh, (directory / "part.png").string());
+    outputs.commit();
+    std::printf("%zu triangles -> %s (also part.3mf, part.ply with colours), contact sheet -> %s\n",
+                mesh.faces.size(), stl.c_str(), (directory / "part.png").c_str());
     return 0;
 }
 
@@ -479,7 +507,7 @@ std::vector<Command> model_commands() {
          {{}, {}, true}},
         {"stitch", "align several views of a part, in one or more placements, into one model", kStitchHelp, run_stitch,
          {{"--turntable-round"}, {"--then"}, true}},
-        {"mesh", "mesh a cloud: watertight Poisson, advancing front or pixel grid -> STL", kMeshHelp, run_mesh,
+        {"mesh", "mesh a cloud: Poisson (open, table cap or closed), advancing front or pixel grid -> STL/3MF/PLY", kMeshHelp, run_mesh,
          {{}, {}, true}},
         {"demo", "simulated scan of the built-in part in two placements -> watertight STL", kDemo360Help, run_demo,
          {{"--single-view"}, {}, false}},

@@ -16,6 +16,8 @@ void bind_io(py::module_& m) {
         "write_stl", [=](const Mesh& mesh, const std::string& path, bool ascii) { write_stl(mesh, path, encoding(ascii)); },
         py::arg("mesh"), py::arg("path"), py::arg("ascii") = false, py::call_guard<py::gil_scoped_release>());
     m.def("write_obj", &write_obj, py::arg("mesh"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    m.def("write_3mf", &write_3mf, py::arg("mesh"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    m.def("read_3mf", &read_3mf, py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def("read_mesh", &read_mesh, py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def(
         "write_view_ply",

@@ -9,6 +9,10 @@ void bind_mesh(py::module_& m) {
         .value("Poisson", MeshMethod::Poisson)
         .value("AdvancingFront", MeshMethod::AdvancingFront)
         .value("Grid", MeshMethod::Grid);
+    py::enum_<MeshFill>(m, "MeshFill")
+        .value("Open", MeshFill::Open)
+        .value("Table", MeshFill::Table)
+        .value("Poisson", MeshFill::Poisson);
     py::class_<MeshOptions>(m, "MeshOptions")
         .def(py::init<>())
         .def_readwrite("method", &MeshOptions::method)
@@ -16,6 +20,10 @@ void bind_mesh(py::module_& m) {
         .def_readwrite("poisson_triangle_size", &MeshOptions::poisson_triangle_size)
         .def_readwrite("poisson_distance", &MeshOptions::poisson_distance)
         .def_readwrite("advancing_front_max_radius", &MeshOptions::advancing_front_max_radius)
+        .def_readwrite("fill", &MeshOptions::fill)
+        .def_readwrite("table_axis", &MeshOptions::table_axis)
+        .def_readwrite("max_points", &MeshOptions::max_points)
+        .def_readwrite("max_faces", &MeshOptions::max_faces)
         .def_readwrite("max_hole_diameter_mm", &MeshOptions::max_hole_diameter_mm)
         .def_readwrite("target_faces", &MeshOptions::target_faces)
         .def_readwrite("grid", &MeshOptions::grid);

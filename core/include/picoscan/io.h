@@ -16,12 +16,19 @@ void write_ply(const PointCloud& cloud, const std::string& path, Encoding encodi
 void write_ply(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
 void write_stl(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
 void write_obj(const Mesh& mesh, const std::string& path);
+// 3MF for printing: one mesh object, units millimetres (lib3mf).
+void write_3mf(const Mesh& mesh, const std::string& path);
+// Any writer by extension (.stl binary, .ply binary with colours and quality, .obj, .3mf);
+// throws Error naming the file for another extension.
+void write_mesh(const Mesh& mesh, const std::string& path);
 
 // PLY with or without faces (a point cloud reads as a Mesh with no faces).
 Mesh read_ply(const std::string& path);
 // STL, binary or ASCII (detected); vertices are merged where exactly equal.
 Mesh read_stl(const std::string& path);
-// Any of the above by extension (.ply, .stl).
+// 3MF: every mesh object's triangles, converted to millimetres from the file's unit.
+Mesh read_3mf(const std::string& path);
+// Any of the above by extension (.ply, .stl, .3mf).
 Mesh read_mesh(const std::string& path);
 
 // A view's valid points with their camera pixel kept (vertex property "pixel" = y * width + x,

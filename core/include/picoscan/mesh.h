@@ -15,6 +15,14 @@ namespace picoscan {
 // (grid_mesh, through mesh_view in pipeline.h).
 enum class MeshMethod { Poisson, AdvancingFront, Grid };
 
+// What becomes of the side a single placement never saw (the face the part stood on).
+// Poisson makes the closed surface first; the fill then decides what stays of it.
+enum class MeshFill {
+    Open,     // the unseen side is left open: nothing invented
+    Table,    // closed by a flat cap on the turntable's plane (a part standing on the table)
+    Poisson,  // Poisson's own smooth closure (invented; the mesh check says how much)
+};
+
 struct MeshOptions {
     MeshMethod method = MeshMethod::Poisson;
     double sample_spacing_mm = 0.4;     // the cloud is thinned to about this spacing first (0 keeps all)
@@ -24,6 +32,16 @@ struct MeshOptions {
     double poisson_distance = 0.1;
     // Advancing front: triangles whose circumradius exceeds this multiple of the spacing are not made.
     double advancing_front_max_radius = 4.0;
+    MeshFill fill = MeshFill::Poisson;  // Poisson: what closes the unseen side
+    // MeshFill::Table: the turntable's axis pointing either way (the table is on the side the
+    // scan did not see), in the cloud's frame; zero when unknown: the table's plane is then
+    // fitted to the lowest rim of the measured surface.
+    cv::Vec3d table_axis{0, 0, 0};
+    // The budget that bounds meshing time: the cloud is thinned coarser than sample_spacing_mm
+    // until at most max_points remain, and Poisson's surface triangles grow until a closed
+    // surface the size of the data's bounding sphere has at most max_faces.
+    int max_points = 200000;
+    int max_faces = 400000;
     double max_hole_diameter_mm = 10;   // holes up to this size are filled (triangulate, refine, fair)
     int target_faces = 0;               // simplify to about this many faces (0 keeps all)
     GridMeshOptions grid;               // MeshMethod::Grid
@@ -48,6 +66,9 @@ struct MeshCheck {
 };
 
 MeshCheck check_mesh(const Mesh& mesh);
+
+// Which fill a name means ("open", "table", "poisson"); throws Error naming `what` otherwise.
+MeshFill mesh_fill_from_name(const std::string& name, const std::string& what);
 
 // Points need normals (from a ScanView, pointing to its camera); they are re-estimated by PCA
 // over the neighbours and flipped to agree with the given ones. Throws Error for an empty or

@@ -20,4 +20,12 @@ void write_preview_png(const ScanView& view, const std::string& path);
 // mesh with a margin, written as PNG through a temporary file and a rename.
 void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const std::string& path);
 
+// A contact sheet of a mesh: six labelled tiles (top, bottom, front, right, back, left) along
+// the part's own axes, "up" being the axis nearest up_hint (zero: the camera frame's up, -y,
+// as in a turntable scan); surface filled in rather than measured (Mesh::measured) in orange.
+cv::Mat render_contact_sheet(const Mesh& mesh, const cv::Vec3d& up_hint = {0, 0, 0}, int tile_size = 320);
+
+// render_contact_sheet() written as PNG through a temporary file and a rename.
+void write_contact_sheet_png(const Mesh& mesh, const std::string& path, const cv::Vec3d& up_hint = {0, 0, 0});
+
 }  // namespace picoscan

@@ -11,7 +11,17 @@ Mesh read_mesh(const std::string& path) {
     const std::string extension = detail::lower_case(std::filesystem::path(path).extension().string());
     if (extension == ".ply") return read_ply(path);
     if (extension == ".stl") return read_stl(path);
-    throw Error(path, "unsupported mesh format '" + extension + "' (expected .ply or .stl)");
+    if (extension == ".3mf") return read_3mf(path);
+    throw Error(path, "unsupported mesh format '" + extension + "' (expected .ply, .stl or .3mf)");
+}
+
+void write_mesh(const Mesh& mesh, const std::string& path) {
+    const std::string extension = detail::lower_case(std::filesystem::path(path).extension().string());
+    if (extension == ".stl") return write_stl(mesh, path);
+    if (extension == ".ply") return write_ply(mesh, path);
+    if (extension == ".obj") return write_obj(mesh, path);
+    if (extension == ".3mf") return write_3mf(mesh, path);
+    throw Error(path, "unsupported mesh format '" + extension + "' (expected .stl, .ply, .obj or .3mf)");
 }
 
 }  // namespace picoscan

@@ -7,6 +7,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
 
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -47,12 +48,23 @@ inline Mesh to_mesh(const SurfaceMesh& mesh) {
     return out;
 }
 
+// Reports the fraction of a stage done; throws Error("cancelled") when the caller cancels.
+using StageReport = std::function<void(double fraction, const char* stage)>;
+
+struct PoissonSettings {
+    double spacing_mm = 0;      // average spacing of the points
+    double triangle_size = 1;   // multiples of the spacing
+    double distance = 0.1;      // multiples of the spacing
+    int max_faces = 0;          // the surface mesher's triangles grow until a closed surface fits
+};
+
 // Each stage of mesh_cloud, in its own translation unit.
-Mesh poisson_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double triangle_size,
-                  double distance);
+Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSettings& settings, const StageReport& report);
 Mesh advancing_front_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double max_radius);
-// Points thinned to the spacing, normals re-estimated by PCA and flipped to agree with the given ones.
-std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, double& average_spacing_mm);
+// Points thinned to the spacing (coarser when more than max_points would remain), normals
+// re-estimated by PCA and flipped to agree with the given ones.
+std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
+                                            double& average_spacing_mm);
 // Moves each vertex onto the plane fitted to its nearest input points (undoes Poisson's smoothing).
 void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
 // The fraction of the points within reach_mm of a mesh vertex (what the surface covers).
@@ -60,6 +72,11 @@ double fraction_of_points_near(const Mesh& mesh, const std::vector<PointWithNorm
 // Indices of the faces that intersect another face.
 std::vector<int> self_intersecting_faces(const Mesh& mesh);
 Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm);
+// The closed mesh cut by the plane {x : up . x = height}, the part above kept and the cut
+// closed by a flat cap, re-triangulated at about cap_edge_mm (so that the cap has vertices
+// of its own, away from the measured rim). Throws Error when the mesh is not closed or
+// intersects itself.
+Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double cap_edge_mm);
 Mesh simplify(const Mesh& mesh, int target_faces);
 
 }  // namespace picoscan::detail

@@ -5,7 +5,9 @@
 #include "register/point_grid.h"
 
 #include <opencv2/core.hpp>
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 namespace picoscan {
 
@@ -23,6 +25,193 @@ void mark_measured(Mesh& mesh, const std::vector<detail::PointWithNormal>& point
     for (size_t v = 0; v < mesh.vertices.size(); ++v) {
         grid.within(cv::Vec3d(mesh.vertices[v]), reach_mm, found);
         mesh.measured[v] = found.size() >= 3 ? 1 : 0;
+    }
+}
+
+// A face is filled (not measured) when fewer than two of its corners are measured.
+bool is_filled(const Mesh& mesh, const cv::Vec3i& face) {
+    return mesh.measured[face[0]] + mesh.measured[face[1]] + mesh.measured[face[2]] < 2;
+}
+
+// MeshFill::Open: the filled faces go, and the vertices only they used.
+Mesh without_filled_faces(const Mesh& mesh) {
+    Mesh out;
+    std::vector<int> index(mesh.vertices.size(), -1);
+    for (const cv::Vec3i& face : mesh.faces) {
+        if (is_filled(mesh, face)) continue;
+        cv::Vec3i kept;
+        for (int k = 0; k < 3; ++k) {
+            int& v = index[static_cast<size_t>(face[k])];
+            if (v < 0) {
+                v = static_cast<int>(out.vertices.size());
+                out.vertices.push_back(mesh.vertices[static_cast<size_t>(face[k])]);
+            }
+            kept[k] = v;
+        }
+        out.faces.push_back(kept);
+    }
+    return out;
+}
+
+// The plane of the table the part stood on: across the turntable axis when it is known,
+// otherwise the plane through most of the rim where the measured surface meets the filled
+// one; the table is on the side of the filled surface, at the lowest measured points.
+// Refuses when the unseen side does not end on a plane (the part did not stand on one).
+struct TablePlane {
+    cv::Vec3d up;   // unit, from the table into the part
+    double height;  // up . x on the table
+};
+
+TablePlane find_table(const Mesh& mesh, const std::vector<detail::PointWithNormal>& points, const cv::Vec3d& axis,
+                      double spacing) {
+    cv::Vec3d filled_centre(0, 0, 0), measured_centre(0, 0, 0);
+    size_t filled = 0, measured = 0;
+    std::vector<uint8_t> on_rim(mesh.vertices.size(), 0);
+    for (const cv::Vec3i& face : mesh.faces) {
+        if (!is_filled(mesh, face)) continue;
+        for (int k = 0; k < 3; ++k) {
+            filled_centre += cv::Vec3d(mesh.vertices[static_cast<size_t>(face[k])]);
+            ++filled;
+            if (mesh.measured[static_cast<size_t>(face[k])]) on_rim[static_cast<size_t>(face[k])] = 1;
+        }
+    }
+    std::vector<cv::Vec3d> rim;
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+        if (mesh.measured[v]) {
+            measured_centre += cv::Vec3d(mesh.vertices[v]);
+            ++measured;
+        }
+        if (on_rim[v]) rim.emplace_back(mesh.vertices[v]);
+    }
+    if (filled == 0 || rim.size() < 10)
+        throw Error("mesh.fill", "table: the scan leaves no unseen side to close (use fill poisson)");
+    filled_centre *= 1.0 / double(filled);
+    measured_centre *= 1.0 / double(measured);
+    const double tolerance = std::max(1.5 * spacing, 0.3);
+    auto inliers_of = [&](const cv::Vec3d& normal, double offset) {
+        std::vector<cv::Vec3d> near;
+        for (const cv::Vec3d& p : rim)
+            if (std::abs(normal.dot(p) - offset) < tolerance) near.push_back(p);
+        return near;
+    };
+    cv::Vec3d up;
+    if (cv::norm(axis) > 0) {
+        up = cv::normalize(axis);
+    } else {
+        // RANSAC over the rim, then a least-squares plane through the inliers.
+        std::mt19937 random(12345);
+        std::uniform_int_distribution<size_t> pick(0, rim.size() - 1);
+        size_t best = 0;
+        double offset = 0;
+        for (int attempt = 0; attempt < 400; ++attempt) {
+            const cv::Vec3d a = rim[pick(random)], b = rim[pick(random)], c = rim[pick(random)];
+            const cv::Vec3d normal = (b - a).cross(c - a);
+            if (cv::norm(normal) < 1e-9) continue;
+            const cv::Vec3d unit = cv::normalize(normal);
+            const size_t count = inliers_of(unit, unit.dot(a)).size();
+            if (count > best) {
+                best = count;
+                up = unit;
+                offset = unit.dot(a);
+            }
+        }
+        if (best < 3) throw Error("mesh.fill", "table: no plane fits the rim of the unseen side");
+        for (int round = 0; round < 3; ++round) {
+            const std::vector<cv::Vec3d> near = inliers_of(up, offset);
+            if (near.size() < 3) break;
+            cv::Vec3d centre(0, 0, 0);
+            for (const cv::Vec3d& p : near) centre += p;
+            centre *= 1.0 / double(near.size());
+            cv::Matx33d scatter = cv::Matx33d::zeros();
+            for (const cv::Vec3d& p : near) scatter += (p - centre) * (p - centre).t();
+            cv::Matx31d values;
+            cv::Matx33d vectors;
+            cv::eigen(scatter, values, vectors);
+            const cv::Vec3d normal(vectors(2, 0), vectors(2, 1), vectors(2, 2));
+            up = normal.dot(up) < 0 ? -normal : normal;
+            offset = up.dot(centre);
+        }
+    }
+    if ((filled_centre - measured_centre).dot(up) > 0) up = -up;  // the table is below the part
+    // The table's height: the lowest measured points along up (a low quantile, so a stray
+    // point does not lower it).
+    std::vector<double> heights;
+    heights.reserve(points.size());
+    for (const auto& p : points) heights.push_back(up.dot(cv::Vec3d(p.first.x(), p.first.y(), p.first.z())));
+    const size_t low = heights.size() / 2000;
+    std::nth_element(heights.begin(), heights.begin() + static_cast<long>(low), heights.end());
+    const double height = heights[low];
+    // The unseen side must end on that plane: most of its rim lies on it.
+    const double on_plane = double(inliers_of(up, height).size()) / double(rim.size());
+    if (on_plane < 0.3)
+        throw Error("mesh.fill", "table: the edge of the unseen side does not lie on one plane across " +
+                                     std::string(cv::norm(axis) > 0 ? "the given turntable axis" : "the part") + " (" +
+                                     std::to_string(int(100 * on_plane)) +
+                                     " % of it does): did the part stand on the table? Use fill open or poisson");
+    return {up, height};
+}
+
+// Walls the views saw only in part (the lower half of a through hole: no camera looks far
+// enough down into it) continued straight down to the table, as a part standing on the table
+// is in the turntable's direction: points copied downwards from the lowest seen points of
+// each wall, with the wall's normal. A line that meets measured surface before the table is
+// dropped (the wall stands on something else, e.g. a boss on the top face).
+std::vector<detail::PointWithNormal> walls_down_to_table(const std::vector<detail::PointWithNormal>& points,
+                                                         const TablePlane& table, double spacing) {
+    std::vector<cv::Vec3d> positions;
+    positions.reserve(points.size());
+    for (const auto& p : points) positions.emplace_back(p.first.x(), p.first.y(), p.first.z());
+    const double reach = 2 * spacing;
+    const detail::PointGrid grid(positions, reach);
+    std::vector<detail::PointWithNormal> added;
+    for (size_t i = 0; i < points.size(); ++i) {
+        const cv::Vec3d p = positions[i];
+        const cv::Vec3d n(points[i].second.x(), points[i].second.y(), points[i].second.z());
+        const double height = table.up.dot(p) - table.height;
+        if (std::abs(n.dot(table.up)) > 0.3 || height < 4 * spacing) continue;  // not a wall, or at the table
+        if (grid.nearest(p - 2.5 * spacing * table.up, reach) >= 0) continue;  // the wall goes on below
+        std::vector<detail::PointWithNormal> line;
+        bool blocked = false;
+        for (double t = spacing; t < height && !blocked; t += spacing) {
+            const cv::Vec3d c = p - t * table.up;
+            blocked = t > 2.5 * spacing && grid.nearest(c, reach) >= 0;
+            line.emplace_back(detail::Point3(c[0], c[1], c[2]), points[i].second);
+        }
+        if (!blocked) added.insert(added.end(), line.begin(), line.end());
+    }
+    return added;
+}
+
+// Poisson's surface moved onto the points (undoing its smoothing); where that folded
+// triangles through each other (at tight concave edges), those vertices go back.
+void onto_points(Mesh& mesh, const std::vector<detail::PointWithNormal>& points, double spacing) {
+    const Mesh smooth = mesh;
+    detail::project_onto_points(mesh, points, 2.0 * spacing);
+    for (int round = 0; round < 5; ++round) {
+        const std::vector<int> folded = detail::self_intersecting_faces(mesh);
+        if (folded.empty()) break;
+        for (int f : folded)
+            for (int k = 0; k < 3; ++k) mesh.vertices[mesh.faces[f][k]] = smooth.vertices[mesh.faces[f][k]];
+    }
+}
+
+// Each vertex takes the white-frame colour of the nearest input point; vertices far from
+// every point (filled surface) are grey.
+void colour_from_points(Mesh& mesh, const PointCloud& cloud, double reach_mm) {
+    if (cloud.colours.size() != cloud.points.size()) return;
+    std::vector<cv::Vec3d> points;
+    std::vector<size_t> source;
+    points.reserve(cloud.points.size());
+    for (size_t i = 0; i < cloud.points.size(); ++i)
+        if (is_finite_point(cloud.points[i])) {
+            points.emplace_back(cloud.points[i]);
+            source.push_back(i);
+        }
+    const detail::PointGrid grid(points, reach_mm);
+    mesh.colours.assign(mesh.vertices.size(), cv::Vec3b(150, 150, 150));
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+        const int nearest = grid.nearest(cv::Vec3d(mesh.vertices[v]), reach_mm);
+        if (nearest >= 0) mesh.colours[v] = cloud.colours[source[static_cast<size_t>(nearest)]];
     }
 }
 
@@ -44,7 +233,8 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         throw Error("point cloud", "has no normals; mesh a cloud written by picoscan (reconstruct or stitch)");
     report(0.0, "estimating normals");
     double spacing = 0;
-    const std::vector<detail::PointWithNormal> points = detail::prepare_points(cloud, options.sample_spacing_mm, spacing);
+    const std::vector<detail::PointWithNormal> points =
+        detail::prepare_points(cloud, options.sample_spacing_mm, options.max_points, spacing);
     if (points.size() < 100)
         throw Error("point cloud", "has only " + std::to_string(points.size()) + " usable points; at least 100 are needed");
     // Degenerate: all points on a line or (for a closed surface) a plane.
@@ -64,10 +254,15 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     if (options.method == MeshMethod::Poisson && thickness < 0.5 * spacing)
         throw Error("point cloud", "is flat (all points on one plane): Poisson needs a closed shape; use --method advancing-front or grid");
 
+    const double measured_reach = std::max(2.0 * spacing, 0.5);
     Mesh mesh;
     if (options.method == MeshMethod::Poisson) {
-        report(0.2, "Poisson reconstruction");
-        mesh = detail::poisson_mesh(points, spacing, options.poisson_triangle_size, options.poisson_distance);
+        report(0.1, "Poisson reconstruction");
+        const detail::PoissonSettings settings{spacing, options.poisson_triangle_size, options.poisson_distance,
+                                               options.max_faces};
+        mesh = detail::poisson_mesh(points, settings, [&](double fraction, const char* stage) {
+            report(0.1 + fraction * 0.6 / 0.7, stage);
+        });
         // CGAL's mesher grows the surface from one seed: a separate part of the cloud is left
         // out without a word. Refuse a surface that misses a share of the points.
         const double covered = detail::fraction_of_points_near(mesh, points, kCoverageReach * spacing);
@@ -76,15 +271,23 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
                                            "% of the points: a separate part was left out (mesh each part on its "
                                            "own, or use --method advancing-front)");
         report(0.7, "projecting onto the points");
-        const Mesh smooth = mesh;
-        detail::project_onto_points(mesh, points, 2.0 * spacing);
-        // Where moving vertices onto their faces folded triangles through each other (at
-        // tight concave edges), those vertices go back to the smooth surface.
-        for (int round = 0; round < 5; ++round) {
-            const std::vector<int> folded = detail::self_intersecting_faces(mesh);
-            if (folded.empty()) break;
-            for (int f : folded)
-                for (int k = 0; k < 3; ++k) mesh.vertices[mesh.faces[f][k]] = smooth.vertices[mesh.faces[f][k]];
+        onto_points(mesh, points, spacing);
+        mark_measured(mesh, points, measured_reach);
+        if (options.fill == MeshFill::Open) {
+            mesh = without_filled_faces(mesh);
+        } else if (options.fill == MeshFill::Table) {
+            report(0.75, "closing at the table");
+            const TablePlane table = find_table(mesh, points, options.table_axis, spacing);
+            const std::vector<detail::PointWithNormal> walls = walls_down_to_table(points, table, spacing);
+            if (!walls.empty()) {
+                std::vector<detail::PointWithNormal> extended = points;
+                extended.insert(extended.end(), walls.begin(), walls.end());
+                mesh = detail::poisson_mesh(extended, settings, [&](double fraction, const char* stage) {
+                    report(0.75 + fraction * 0.1 / 0.7, stage);
+                });
+                onto_points(mesh, extended, spacing);
+            }
+            mesh = detail::clip_at_plane(mesh, table.up, table.height, std::max(3 * spacing, 1.0));
         }
     } else {
         report(0.2, "advancing-front reconstruction");
@@ -99,9 +302,17 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         report(0.85, "simplifying");
         mesh = detail::simplify(mesh, options.target_faces);
     }
-    mark_measured(mesh, points, std::max(2.0 * spacing, 0.5));
+    mark_measured(mesh, points, measured_reach);
+    colour_from_points(mesh, cloud, std::max(2.0 * spacing, 1.0));
     report(1.0, "meshed");
     return mesh;
+}
+
+MeshFill mesh_fill_from_name(const std::string& name, const std::string& what) {
+    if (name == "open") return MeshFill::Open;
+    if (name == "table") return MeshFill::Table;
+    if (name == "poisson") return MeshFill::Poisson;
+    throw Error(what, "must be open, table or poisson, got '" + name + "'");
 }
 
 }  // namespace picoscan

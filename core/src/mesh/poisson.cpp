@@ -10,7 +10,11 @@
 #include <CGAL/compute_average_spacing.h>
 #include <CGAL/grid_simplify_point_set.h>
 #include <CGAL/pca_estimate_normals.h>
-#include <CGAL/poisson_surface_reconstruction.h>
+#include <CGAL/IO/facets_in_complex_2_to_triangle_mesh.h>
+#include <CGAL/Implicit_surface_3.h>
+#include <CGAL/Poisson_reconstruction_function.h>
+#include <CGAL/Surface_mesh_default_triangulation_3.h>
+#include <CGAL/make_surface_mesh.h>
 #include <CGAL/property_map.h>
 
 #include <opencv2/core.hpp>
@@ -25,7 +29,8 @@ using PointMap = CGAL::First_of_pair_property_map<PointWithNormal>;
 using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
 }  // namespace
 
-std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, double& average_spacing_mm) {
+std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
+                                            double& average_spacing_mm) {
     std::vector<PointWithNormal> points;
     points.reserve(cloud.points.size());
     const bool has_normals = cloud.normals.size() == cloud.points.size();
@@ -47,7 +52,15 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
                                        " points have no valid normal (NaN or zero): their outside is unknown");
     if (spacing_mm > 0) {
         points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
-    } else {
+    }
+    // The budget: a coarser grid until at most max_points remain (the count falls with the
+    // square of the spacing on a surface).
+    for (double coarser = spacing_mm; max_points > 0 && points.size() > size_t(max_points);) {
+        const double shrink = std::sqrt(double(points.size()) / double(max_points)) * 1.05;
+        coarser = coarser > 0 ? coarser * shrink : 0.1;
+        points.erase(CGAL::grid_simplify_point_set(points, coarser, CGAL::parameters::point_map(PointMap())), points.end());
+    }
+    if (spacing_mm <= 0) {
         // Coincident points have no spacing to mesh at (and crash the reconstruction).
         std::sort(points.begin(), points.end(), [](const PointWithNormal& a, const PointWithNormal& b) { return a.first < b.first; });
         points.erase(std::unique(points.begin(), points.end(),
@@ -72,14 +85,84 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     return points;
 }
 
-Mesh poisson_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double triangle_size, double distance) {
-    SurfaceMesh surface;
+namespace {
+
+// Evaluations of the implicit function per face of the result, allowed before an attempt is
+// given up (measured: about 165 on the demo part).
+constexpr double kEvaluationsPerFace = 250;
+
+// Called by CGAL before each point enters the Delaunay refinement: reports progress and stops
+// the reconstruction (by the exception report throws) when the caller cancels.
+struct ReportingVisitor {
+    const StageReport* report;
+    size_t total;
+    mutable size_t inserted = 0;
+    void before_insertion() const {
+        if (++inserted % 4096 == 0) (*report)(0.05 * std::min(1.0, double(inserted) / double(total)), "Poisson: triangulating the points");
+    }
+};
+
+}  // namespace
+
+Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSettings& settings, const StageReport& report) {
+    // Kazhdan's implicit function on CGAL's Delaunay refinement, then the surface mesher of
+    // Boissonnat & Oudot on its zero level, as CGAL's poisson_surface_reconstruction_delaunay,
+    // with the progress reported and the surface's triangle size bounded by the face budget.
+    using Function = CGAL::Poisson_reconstruction_function<Kernel>;
+    using Triangulation = CGAL::Surface_mesher::Surface_mesh_default_triangulation_3_generator<Kernel>::Type;
+    using Complex = CGAL::Surface_mesh_complex_2_in_triangulation_3<Triangulation>;
+    using Surface = CGAL::Implicit_surface_3<Kernel, std::function<Kernel::FT(Point3)>>;
+    using Solver = CGAL::Eigen_solver_traits<Eigen::ConjugateGradient<CGAL::Eigen_sparse_symmetric_matrix<double>::EigenType>>;
+
+    report(0.0, "Poisson: triangulating the points");
+    Function function(points.begin(), points.end(), PointMap(), NormalMap(), ReportingVisitor{&report, points.size()});
+    report(0.05, "Poisson: solving the implicit function");
     ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
-    if (!CGAL::poisson_surface_reconstruction_delaunay(points.begin(), points.end(), PointMap(), NormalMap(), surface,
-                                                       spacing_mm, 20.0, triangle_size, distance))
+    if (!function.compute_implicit_function(Solver(), ReportingVisitor{&report, points.size()}, 0, 5))
         throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
                                                   attached(cgal.text(), "CGAL"));
-    return to_mesh(surface);
+    // The surface mesher's triangles: about the point spacing, but larger when the data's
+    // area (points x spacing^2, doubled for the side Poisson closes) would exceed the face
+    // budget. Each attempt is capped by its number of evaluations of the function (a single
+    // open view closes into a bubble larger than the data); past the cap the triangles double.
+    const double data_area = 2.0 * double(points.size()) * settings.spacing_mm * settings.spacing_mm;
+    const double faces = std::max(1000.0, double(settings.max_faces));
+    double triangle_size = std::max(settings.triangle_size * settings.spacing_mm, std::sqrt(data_area / (0.5 * faces)));
+    const Kernel::Sphere_3 bounds = function.bounding_sphere();
+    const double sphere_radius = 5 * std::sqrt(bounds.squared_radius());
+    const size_t evaluation_cap = static_cast<size_t>(kEvaluationsPerFace * faces);
+    struct OverBudget {};
+    for (int attempt = 0;; ++attempt) {
+        report(0.3, "Poisson: meshing the surface");
+        size_t evaluations = 0;
+        const std::function<Kernel::FT(Point3)> level = [&](const Point3& p) {
+            if (++evaluations % 20000 == 0) {
+                report(0.3 + 0.4 * double(evaluations) / double(evaluation_cap), "Poisson: meshing the surface");
+                if (evaluations > evaluation_cap) throw OverBudget{};
+            }
+            return function(p);
+        };
+        const double distance = settings.distance * std::max(settings.spacing_mm, triangle_size / settings.triangle_size);
+        const Surface surface(level, Kernel::Sphere_3(function.get_inner_point(), sphere_radius * sphere_radius),
+                              distance / 1000.0 / sphere_radius);
+        const CGAL::Surface_mesh_default_criteria_3<Triangulation> criteria(20.0, triangle_size, distance);
+        Triangulation triangulation;
+        Complex complex(triangulation);
+        try {
+            CGAL::make_surface_mesh(complex, surface, criteria, CGAL::Manifold_with_boundary_tag());
+        } catch (const OverBudget&) {
+            if (attempt == 3)
+                throw Error("Poisson reconstruction", "the surface exceeds the face budget (mesh.max_faces) even with "
+                                                      "triangles of " + std::to_string(triangle_size) + " mm");
+            triangle_size *= 2;
+            continue;
+        }
+        if (triangulation.number_of_vertices() == 0)
+            throw Error("Poisson reconstruction", "the implicit function has no surface (are the normals consistent?)");
+        SurfaceMesh out;
+        CGAL::facets_in_complex_2_to_triangle_mesh(complex, out);
+        return to_mesh(out);
+    }
 }
 
 double fraction_of_points_near(const Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm) {

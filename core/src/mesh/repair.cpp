@@ -2,9 +2,12 @@
 // edge-collapse simplification (Lindstrom-Turk), and the topology check before export.
 #define CGAL_EIGEN3_ENABLED 1
 #include "mesh/cgal_types.h"
+#include "picoscan/error.h"
 #include "picoscan/mesh.h"
 
 #include <CGAL/Polygon_mesh_processing/border.h>
+#include <CGAL/Polygon_mesh_processing/clip.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
@@ -52,6 +55,46 @@ Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm) {
         CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole(surface, border, std::back_inserter(faces),
                                                                         std::back_inserter(vertices));
     }
+    return to_mesh(surface);
+}
+
+Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double cap_edge_mm) {
+    namespace PMP = CGAL::Polygon_mesh_processing;
+    SurfaceMesh surface = to_surface_mesh(mesh);
+    if (!CGAL::is_closed(surface)) throw Error("mesh", "is not closed: it cannot be cut and capped at the table");
+    // CGAL keeps the negative side of the plane: -up . x + height < 0, above the table.
+    const Kernel::Plane_3 plane(-up[0], -up[1], -up[2], height);
+    try {
+        if (!PMP::clip(surface, plane, CGAL::parameters::clip_volume(true).throw_on_self_intersection(true)))
+            throw Error("mesh", "cutting it at the table left a non-manifold surface");
+    } catch (const PMP::Corefinement::Self_intersection_exception&) {
+        throw Error("mesh", "intersects itself near the table: it cannot be capped there");
+    }
+    // The cap: faces with every corner on the plane. Re-triangulated with vertices of its
+    // own, its edge to the sides kept as it is.
+    auto on_plane = [&](SurfaceMesh::Vertex_index v) {
+        const Point3& p = surface.point(v);
+        return std::abs(up[0] * p.x() + up[1] * p.y() + up[2] * p.z() - height) < 1e-6 * (1 + std::abs(height));
+    };
+    std::vector<SurfaceMesh::Face_index> cap;
+    std::set<SurfaceMesh::Face_index> in_cap;
+    for (SurfaceMesh::Face_index f : surface.faces()) {
+        bool flat = true;
+        for (SurfaceMesh::Vertex_index v : CGAL::vertices_around_face(surface.halfedge(f), surface)) flat = flat && on_plane(v);
+        if (flat) {
+            cap.push_back(f);
+            in_cap.insert(f);
+        }
+    }
+    if (cap.empty()) throw Error("mesh", "does not reach the table: nothing to cap");
+    auto rim = surface.add_property_map<SurfaceMesh::Edge_index, bool>("e:rim", false).first;
+    for (SurfaceMesh::Edge_index e : surface.edges()) {
+        const SurfaceMesh::Face_index a = surface.face(surface.halfedge(e, 0)), b = surface.face(surface.halfedge(e, 1));
+        rim[e] = in_cap.count(a) != in_cap.count(b);
+    }
+    PMP::isotropic_remeshing(cap, cap_edge_mm, surface,
+                             CGAL::parameters::number_of_iterations(3).protect_constraints(true).edge_is_constrained_map(rim));
+    surface.collect_garbage();
     return to_mesh(surface);
 }
 

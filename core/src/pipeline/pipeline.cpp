@@ -284,6 +284,12 @@ void validate(const MeshOptions& options) {
     in_range(options.target_faces, 0, 1e9, "mesh.target_faces");
     in_range(options.grid.pixel_step, 1, 64, "mesh.grid.pixel_step");
     in_range(options.grid.max_edge_factor, 0.01, 1e4, "mesh.grid.max_edge_factor");
+    in_range(options.max_points, 1000, 1e8, "mesh.max_points");
+    in_range(options.max_faces, 1000, 1e9, "mesh.max_faces");
+    for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(options.table_axis[k])) throw Error("mesh.table_axis", "must be finite");
+    if (options.fill == MeshFill::Table && options.method != MeshMethod::Poisson)
+        throw Error("mesh.fill", "table closes the Poisson surface: it needs method poisson");
 }
 
 void validate(const ReconstructOptions& options) {

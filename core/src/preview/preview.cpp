@@ -92,4 +92,110 @@ void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const s
     write_image_file(image(box), path);
 }
 
+namespace {
+
+// One tile of the contact sheet: the mesh seen along `look` with `image_up` up, orthographic-like
+// (a far camera), fitted to the mesh's bounding sphere; grey shading, filled surface orange.
+cv::Mat render_tile(const Mesh& mesh, const cv::Vec3d& centre, double radius, const cv::Vec3d& look,
+                    const cv::Vec3d& image_up, int size) {
+    const cv::Vec3d z = cv::normalize(look), y = -cv::normalize(image_up - z * z.dot(image_up)), x = y.cross(z);
+    const double distance = 20 * radius;
+    cv::Matx44d to_camera = cv::Matx44d::eye();
+    for (int c = 0; c < 3; ++c) {
+        to_camera(0, c) = x[c];
+        to_camera(1, c) = y[c];
+        to_camera(2, c) = z[c];
+    }
+    const cv::Vec3d shift = -(cv::Matx33d(x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]) * centre) + cv::Vec3d(0, 0, distance);
+    for (int r = 0; r < 3; ++r) to_camera(r, 3) = shift[r];
+    const Mesh seen = transformed(mesh, to_camera);
+    Calibration camera;
+    camera.camera_size = cv::Size(size, size);
+    const double focal = 0.5 * size * distance / (1.1 * radius);
+    camera.camera_matrix = cv::Matx33d(focal, 0, size / 2.0, 0, focal, size / 2.0, 0, 0, 1);
+    camera.projector_size = camera.camera_size;
+    camera.projector_matrix = camera.camera_matrix;
+    Scene scene;
+    scene.meshes.push_back({seen, 0.8});
+    const Simulator simulator(camera, scene);
+    const cv::Mat& points = simulator.geometry().points;
+    const cv::Mat& normals = simulator.geometry().normals;
+    const bool marks_filled = mesh.measured.size() == mesh.vertices.size() &&
+                              std::count(mesh.measured.begin(), mesh.measured.end(), 0) > 0;
+    std::vector<cv::Vec3d> vertices;  // the grid keeps a reference: it must outlive the grid
+    if (marks_filled) vertices.assign(seen.vertices.begin(), seen.vertices.end());
+    const double reach_mm = std::max(3.0, radius / 50);
+    const detail::PointGrid grid(vertices, reach_mm);
+    const cv::Vec3f light = cv::normalize(cv::Vec3f(-0.4f, -0.5f, -1.0f));
+    cv::Mat tile(size, size, CV_8UC3, cv::Scalar(250, 250, 250));
+    for (int row = 0; row < size; ++row)
+        for (int col = 0; col < size; ++col) {
+            const cv::Vec3f p = points.at<cv::Vec3f>(row, col);
+            if (!std::isfinite(p[2])) continue;
+            const cv::Vec3f n = normals.at<cv::Vec3f>(row, col);
+            const float level = 0.2f + 0.8f * (std::isfinite(n[0]) ? std::abs(n.dot(light)) : 0.5f);
+            bool filled = false;
+            if (marks_filled) {
+                const int nearest = grid.nearest(cv::Vec3d(p), reach_mm);
+                filled = nearest >= 0 && !mesh.measured[static_cast<size_t>(nearest)];
+            }
+            const cv::Vec3f colour = filled ? cv::Vec3f(40, 150, 255) : cv::Vec3f(200, 200, 200);  // BGR
+            tile.at<cv::Vec3b>(row, col) = cv::Vec3b(cv::saturate_cast<uint8_t>(colour[0] * level),
+                                                     cv::saturate_cast<uint8_t>(colour[1] * level),
+                                                     cv::saturate_cast<uint8_t>(colour[2] * level));
+        }
+    return tile;
+}
+
+}  // namespace
+
+cv::Mat render_contact_sheet(const Mesh& mesh, const cv::Vec3d& up_hint, int tile_size) {
+    if (mesh.vertices.empty() || mesh.faces.empty()) throw Error("mesh", "has no triangles to show");
+    cv::Vec3d centre(0, 0, 0);
+    for (const cv::Vec3f& v : mesh.vertices) centre += cv::Vec3d(v);
+    centre *= 1.0 / static_cast<double>(mesh.vertices.size());
+    double radius = 0;
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    for (const cv::Vec3f& v : mesh.vertices) {
+        const cv::Vec3d d = cv::Vec3d(v) - centre;
+        radius = std::max(radius, cv::norm(d));
+        scatter += d * d.t();
+    }
+    // The part's own axes; "up" is the one nearest the hint (by default the camera's up, -y:
+    // a turntable scan is in the first view's camera frame, looking down on the table).
+    cv::Matx31d extents;
+    cv::Matx33d axes;
+    cv::eigen(scatter, extents, axes);
+    const cv::Vec3d hint = cv::norm(up_hint) > 0 ? cv::normalize(up_hint) : cv::Vec3d(0, -1, 0);
+    int up_row = 0;
+    for (int r = 1; r < 3; ++r)
+        if (std::abs(hint.dot(cv::Vec3d(axes(r, 0), axes(r, 1), axes(r, 2)))) >
+            std::abs(hint.dot(cv::Vec3d(axes(up_row, 0), axes(up_row, 1), axes(up_row, 2)))))
+            up_row = r;
+    cv::Vec3d up(axes(up_row, 0), axes(up_row, 1), axes(up_row, 2));
+    if (up.dot(hint) < 0) up = -up;
+    const int front_row = up_row == 0 ? 1 : 0;  // the longest other axis
+    const cv::Vec3d front(axes(front_row, 0), axes(front_row, 1), axes(front_row, 2));
+    const cv::Vec3d side = up.cross(front);
+    struct Tile { const char* name; cv::Vec3d look, image_up; };
+    const Tile tiles[] = {{"top", -up, front},     {"bottom", up, -front}, {"front", -front, up},
+                          {"right", -side, up},    {"back", front, up},    {"left", side, up}};
+    const int label_height = 28;
+    cv::Mat sheet(2 * (tile_size + label_height), 3 * tile_size, CV_8UC3, cv::Scalar(255, 255, 255));
+    for (int k = 0; k < 6; ++k) {
+        const cv::Rect area((k % 3) * tile_size, (k / 3) * (tile_size + label_height) + label_height, tile_size, tile_size);
+        render_tile(mesh, centre, radius, tiles[k].look, tiles[k].image_up, tile_size).copyTo(sheet(area));
+        cv::putText(sheet, tiles[k].name, cv::Point(area.x + 8, area.y - 8), cv::FONT_HERSHEY_SIMPLEX, 0.7,
+                    cv::Scalar(30, 30, 30), 2, cv::LINE_AA);
+        cv::rectangle(sheet, area, cv::Scalar(180, 180, 180), 1);
+    }
+    cv::putText(sheet, "orange: filled in, not measured", cv::Point(3 * tile_size - 330, 2 * (tile_size + label_height) - 10),
+                cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(40, 120, 230), 1, cv::LINE_AA);
+    return sheet;
+}
+
+void write_contact_sheet_png(const Mesh& mesh, const std::string& path, const cv::Vec3d& up_hint) {
+    write_image_file(render_contact_sheet(mesh, up_hint), path);
+}
+
 }  // namespace picoscan

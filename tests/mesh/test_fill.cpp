@@ -1,0 +1,298 @@
+// One placement of the mechanical part (the turntable views merged with their true poses; the
+// bottom never seen), closed at the table, left open, or refused; the shape of the capped
+// mesh itself (chamfer angle, 90 degree edges, hole diameter); the meshing budget and
+// cancelling. One Poisson run per test (each test runs in its own process).
+#include "picoscan/error.h"
+#include "picoscan/io.h"
+#include "picoscan/mesh.h"
+#include "picoscan/pipeline.h"
+#include "picoscan/preview.h"
+#include "support/turntable_scan.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+using namespace picoscan;
+
+namespace {
+
+// The views of the disturbed turntable scan merged with their true poses, in view 0's frame.
+struct OnePlacement {
+    PointCloud merged;
+    cv::Matx44d part_to_model;
+};
+
+const OnePlacement& one_placement() {
+    static const OnePlacement placement = [] {
+        const test_support::TurntableScan& scan = test_support::disturbed_turntable_scan();
+        std::vector<ScanView> views = scan.views;
+        for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.true_view_to_model[i];
+        return OnePlacement{merge_views(views), scan.part_to_camera[0]};
+    }();
+    return placement;
+}
+
+double true_volume_mm3(const MechanicalPartShape& shape) {
+    const double block = shape.length_mm * shape.width_mm * shape.height_mm;
+    const double chamfer = shape.chamfer_mm * shape.chamfer_mm / 2 * shape.height_mm;
+    const double hole = CV_PI * std::pow(shape.hole_diameter_mm / 2, 2) * shape.height_mm;
+    const double boss = CV_PI * std::pow(shape.boss_diameter_mm / 2, 2) * shape.boss_height_mm;
+    return block - chamfer - hole + boss;
+}
+
+// The mesh's vertices in the part frame.
+std::vector<cv::Vec3d> in_part_frame(const Mesh& mesh, const cv::Matx44d& part_to_model) {
+    const cv::Matx44d model_to_part = part_to_model.inv();
+    std::vector<cv::Vec3d> out;
+    for (const cv::Vec3f& v : mesh.vertices) {
+        const cv::Vec4d p = model_to_part * cv::Vec4d(v[0], v[1], v[2], 1);
+        out.emplace_back(p[0], p[1], p[2]);
+    }
+    return out;
+}
+
+// Unit normal of the least-squares plane through the points.
+cv::Vec3d plane_normal(const std::vector<cv::Vec3d>& points) {
+    cv::Vec3d centre(0, 0, 0);
+    for (const cv::Vec3d& p : points) centre += p;
+    centre *= 1.0 / static_cast<double>(points.size());
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    for (const cv::Vec3d& p : points) scatter += (p - centre) * (p - centre).t();
+    cv::Matx31d values;
+    cv::Matx33d vectors;
+    cv::eigen(scatter, values, vectors);
+    return {vectors(2, 0), vectors(2, 1), vectors(2, 2)};
+}
+
+double angle_deg(const cv::Vec3d& a, const cv::Vec3d& b) {
+    return std::acos(std::min(1.0, std::abs(a.dot(b)))) * 180 / CV_PI;
+}
+
+// Least-squares circle (algebraic fit, then Gauss-Newton on the distances).
+double circle_diameter(const std::vector<cv::Vec2d>& points) {
+    cv::Mat a(static_cast<int>(points.size()), 3, CV_64F), b(a.rows, 1, CV_64F);
+    for (int i = 0; i < a.rows; ++i) {
+        const cv::Vec2d& p = points[static_cast<size_t>(i)];
+        a.at<double>(i, 0) = p[0];
+        a.at<double>(i, 1) = p[1];
+        a.at<double>(i, 2) = 1;
+        b.at<double>(i) = p.dot(p);
+    }
+    cv::Mat x;
+    cv::solve(a, b, x, cv::DECOMP_SVD);
+    cv::Vec2d centre(x.at<double>(0) / 2, x.at<double>(1) / 2);
+    double radius = std::sqrt(x.at<double>(2) + centre.dot(centre));
+    for (int iteration = 0; iteration < 20; ++iteration) {
+        cv::Mat j(a.rows, 3, CV_64F), r(a.rows, 1, CV_64F);
+        for (int i = 0; i < a.rows; ++i) {
+            const cv::Vec2d d = points[static_cast<size_t>(i)] - centre;
+            const double length = cv::norm(d);
+            j.at<double>(i, 0) = -d[0] / length;
+            j.at<double>(i, 1) = -d[1] / length;
+            j.at<double>(i, 2) = -1;
+            r.at<double>(i) = length - radius;
+        }
+        cv::Mat step;
+        cv::solve(j, -r, step, cv::DECOMP_SVD);
+        centre += cv::Vec2d(step.at<double>(0), step.at<double>(1));
+        radius += step.at<double>(2);
+    }
+    return 2 * radius;
+}
+
+}  // namespace
+
+// The table cap: the plane fitted from the rim of the unseen side (no axis given). The volume
+// is the part's, the cap is declared filled, and the shape holds on the mesh itself.
+TEST(MeshFill, TableCapClosesOnePlacementAtThePartsVolume) {
+    const OnePlacement& placement = one_placement();
+    MeshOptions options;
+    options.fill = MeshFill::Table;
+    const Mesh mesh = mesh_points(placement.merged, options);
+    const MeshCheck check = check_mesh(mesh);
+    const MechanicalPartShape shape;
+    const double truth = true_volume_mm3(shape);
+    std::printf("one placement, table cap: %s\n", check.summary().c_str());
+    std::printf("volume %.1f mm^3, true %.1f mm^3 (%+.2f %%)\n", check.volume_mm3, truth,
+                100 * (check.volume_mm3 / truth - 1));
+    // The merged cloud and the mesh's contact sheet, for the docs and the CLI.
+    const std::string folder = std::string(PICOSCAN_TEST_CACHE_DIR) + "/one-placement";
+    std::filesystem::create_directories(folder);
+    write_ply(placement.merged, folder + "/merged.ply");
+    write_contact_sheet_png(mesh, folder + "/table_cap.png");
+    std::printf("merged cloud and contact sheet in %s\n", folder.c_str());
+    ASSERT_TRUE(check.closed_volume);
+    EXPECT_NEAR(check.volume_mm3, truth, 0.01 * truth);
+    // The cap (50 x 36 mm less the hole and chamfer: about 19 % of the surface) and the hole's
+    // unseen lower wall are filled, not measured.
+    EXPECT_GT(check.filled_fraction, 0.15);
+    EXPECT_LT(check.filled_fraction, 0.35);
+    EXPECT_NE(check.summary().find("WARNING"), std::string::npos);
+
+    // Nothing below the table, and the cap is flat on it.
+    const std::vector<cv::Vec3d> part = in_part_frame(mesh, placement.part_to_model);
+    double lowest = 1e9;
+    for (const cv::Vec3d& p : part) lowest = std::min(lowest, p[2]);
+    std::printf("lowest vertex %.3f mm above the true table\n", lowest);
+    EXPECT_NEAR(lowest, 0.0, 0.1);
+
+    // The shape, measured on the mesh's vertices in regions of the part away from edges.
+    const double hx = shape.length_mm / 2, hy = shape.width_mm / 2, h = shape.height_mm, c = shape.chamfer_mm;
+    std::vector<cv::Vec3d> chamfer, right, back, front, top;
+    std::vector<cv::Vec2d> hole_wall;
+    const double margin = 1.5, near = 0.3;
+    for (const cv::Vec3d& p : part) {
+        const bool mid_height = p[2] > margin && p[2] < h - margin;
+        const double along_chamfer = (p[1] - p[0] + hx - hy + c) / std::sqrt(2.0);  // 0 .. c * sqrt 2
+        if (mid_height && std::abs((p[0] + p[1] - (hx + hy - c)) / std::sqrt(2.0)) < near && along_chamfer > margin &&
+            along_chamfer < c * std::sqrt(2.0) - margin)
+            chamfer.push_back(p);
+        if (mid_height && std::abs(p[0] - hx) < near && p[1] > -hy + margin && p[1] < hy - c - margin) right.push_back(p);
+        if (mid_height && std::abs(p[1] - hy) < near && p[0] > -hx + margin && p[0] < hx - c - margin) back.push_back(p);
+        if (mid_height && std::abs(p[1] + hy) < near && p[0] > -hx + margin && p[0] < hx - margin) front.push_back(p);
+        const cv::Vec2d xy(p[0], p[1]);
+        if (std::abs(p[2] - h) < near && std::abs(p[0]) < hx - margin && std::abs(p[1]) < hy - margin &&
+            p[0] + p[1] < hx + hy - c - margin &&
+            cv::norm(xy - shape.boss_centre_mm) > shape.boss_diameter_mm / 2 + margin &&
+            cv::norm(xy - shape.hole_centre_mm) > shape.hole_diameter_mm / 2 + margin)
+            top.push_back(p);
+        if (p[2] > 2 && p[2] < h - 2 && std::abs(cv::norm(xy - shape.hole_centre_mm) - shape.hole_diameter_mm / 2) < 0.5)
+            hole_wall.push_back(xy);
+    }
+    for (const auto* region : {&chamfer, &right, &back, &front, &top}) ASSERT_GT(region->size(), 50u);
+    ASSERT_GT(hole_wall.size(), 50u);
+    const double chamfer_to_right = angle_deg(plane_normal(chamfer), plane_normal(right));
+    const double chamfer_to_back = angle_deg(plane_normal(chamfer), plane_normal(back));
+    const double right_to_front = angle_deg(plane_normal(right), plane_normal(front));
+    const double top_to_front = angle_deg(plane_normal(top), plane_normal(front));
+    const double top_to_right = angle_deg(plane_normal(top), plane_normal(right));
+    const double diameter = circle_diameter(hole_wall);
+    std::printf("on the mesh: chamfer %.3f / %.3f deg to its sides (true 45), right-front %.3f deg, top-front %.3f deg, "
+                "top-right %.3f deg (true 90); hole %.4f mm from %zu vertices (true %.4f, %+.1f um)\n",
+                chamfer_to_right, chamfer_to_back, right_to_front, top_to_front, top_to_right, diameter,
+                hole_wall.size(), shape.hole_diameter_mm, 1000 * (diameter - shape.hole_diameter_mm));
+    EXPECT_NEAR(chamfer_to_right, 45.0, 0.1);
+    EXPECT_NEAR(chamfer_to_back, 45.0, 0.1);
+    EXPECT_NEAR(right_to_front, 90.0, 0.1);
+    EXPECT_NEAR(top_to_front, 90.0, 0.1);
+    EXPECT_NEAR(top_to_right, 90.0, 0.1);
+    EXPECT_NEAR(diameter, shape.hole_diameter_mm, 0.020);
+}
+
+// The turntable axis given (the part's z in the model frame, either sign): the same cap. A
+// wrong axis (across the part) is refused: the unseen side's edge is not on a plane across it.
+TEST(MeshFill, TableFromTheTurntableAxisAndAWrongAxisRefused) {
+    const OnePlacement& placement = one_placement();
+    MeshOptions options;
+    options.fill = MeshFill::Table;
+    options.sample_spacing_mm = 0.8;  // coarser: this test is about the plane, not the detail
+    const cv::Vec3d up(placement.part_to_model(0, 2), placement.part_to_model(1, 2), placement.part_to_model(2, 2));
+    options.table_axis = -up;
+    const Mesh mesh = mesh_points(placement.merged, options);
+    const MeshCheck check = check_mesh(mesh);
+    const double truth = true_volume_mm3(MechanicalPartShape{});
+    std::printf("table from the axis: %s (%+.2f %%)\n", check.summary().c_str(), 100 * (check.volume_mm3 / truth - 1));
+    ASSERT_TRUE(check.closed_volume);
+    EXPECT_NEAR(check.volume_mm3, truth, 0.015 * truth);
+
+    options.table_axis = cv::Vec3d(placement.part_to_model(0, 0), placement.part_to_model(1, 0), placement.part_to_model(2, 0));
+    try {
+        mesh_points(placement.merged, options);
+        FAIL() << "capped across a wrong axis";
+    } catch (const Error& e) {
+        std::printf("wrong axis refused: %s\n", e.what());
+        EXPECT_NE(std::string(e.what()).find("mesh.fill"), std::string::npos);
+    }
+}
+
+// Open: nothing invented; the bottom stays open and no vertex is below the table.
+TEST(MeshFill, OpenLeavesTheUnseenSideOpen) {
+    const OnePlacement& placement = one_placement();
+    MeshOptions options;
+    options.fill = MeshFill::Open;
+    options.sample_spacing_mm = 0.8;
+    const Mesh mesh = mesh_points(placement.merged, options);
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("one placement, open: %s\n", check.summary().c_str());
+    EXPECT_FALSE(check.watertight());
+    EXPECT_GT(check.border_edges, 100u);
+    EXPECT_LT(check.filled_fraction, 0.02);
+    EXPECT_EQ(check.summary().find("WARNING"), std::string::npos);
+    double lowest = 1e9;
+    for (const cv::Vec3d& p : in_part_frame(mesh, placement.part_to_model)) lowest = std::min(lowest, p[2]);
+    // A vertex counts as measured within twice the spacing of the points (1.6 mm here): the
+    // open edge may hang that far past the lowest points, no farther.
+    EXPECT_GT(lowest, -1.7);
+}
+
+namespace {
+
+// A bumpy closed surface sampled as densely as one full camera view: 1600 x 1200 points
+// (0.2 mm apart on a 60 mm ball), normals outwards.
+PointCloud dense_ball() {
+    PointCloud cloud;
+    for (int y = 0; y < 1200; ++y)
+        for (int x = 0; x < 1600; ++x) {
+            const double theta = CV_PI * (y + 0.5) / 1200, phi = 2 * CV_PI * x / 1600;
+            const cv::Vec3d direction(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+            const double radius = 30 + 1.5 * std::sin(3 * phi) * std::sin(2 * theta);
+            cloud.points.emplace_back(cv::Vec3f(direction * radius + cv::Vec3d(0, 0, 400)));
+            cloud.normals.emplace_back(cv::Vec3f(direction));  // close enough to the bumps' normals for the sign
+        }
+    return cloud;
+}
+
+}  // namespace
+
+// The budget bounds the work whatever the data: 1.9 million points meshed with a small budget
+// give a mesh the size of the budget (timings are in bench_mesh, not here).
+TEST(MeshBudget, PointAndFaceBudgetsBoundTheMesh) {
+    const PointCloud ball = dense_ball();
+    MeshOptions options;
+    options.sample_spacing_mm = 0;  // keep every point: only the budget thins
+    options.max_points = 20000;
+    options.max_faces = 60000;
+    options.fill = MeshFill::Open;
+    std::vector<std::string> stages;
+    const Mesh mesh = mesh_points(ball, options, [&](double, const std::string& stage) {
+        if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+        return true;
+    });
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("1.9 M points on a ball, budget 20 000 points / 60 000 faces: %s\n", check.summary().c_str());
+    for (const std::string& stage : stages) std::printf("  stage: %s\n", stage.c_str());
+    EXPECT_LT(check.faces, 60000u);
+    EXPECT_GT(check.faces, 5000u);
+    EXPECT_NE(std::find(stages.begin(), stages.end(), "Poisson: meshing the surface"), stages.end());
+}
+
+// Cancelling stops the reconstruction in each Poisson stage, also from inside CGAL's surface
+// mesher (its second report comes from there): no further progress is reported.
+TEST(MeshBudget, CancelStopsPoissonInEachStage) {
+    const PointCloud ball = dense_ball();
+    const std::pair<std::string, int> stops[] = {{"Poisson: triangulating the points", 1},
+                                                 {"Poisson: solving the implicit function", 1},
+                                                 {"Poisson: meshing the surface", 2}};
+    for (const auto& [stop_at, nth] : stops) {
+        MeshOptions options;
+        options.max_points = 20000;
+        int seen = 0, calls_after = 0;
+        bool cancelled = false;
+        try {
+            mesh_points(ball, options, [&, stop_at = stop_at, nth = nth](double, const std::string& stage) {
+                if (cancelled) ++calls_after;
+                if (stage == stop_at && ++seen == nth) cancelled = true;
+                return !cancelled;
+            });
+            FAIL() << "meshing went on after cancel at " << stop_at;
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("cancel"), std::string::npos) << e.what();
+        }
+        EXPECT_TRUE(cancelled) << stop_at;
+        EXPECT_EQ(calls_after, 0) << stop_at;
+    }
+}
