@@ -18,7 +18,9 @@ cv::Matx33d rotation_deg(double x, double y, double z) {
 
 }  // namespace
 
-std::vector<StereoBoardView> board_views(const SeedStereoRig& rig, int count, uint64_t seed) {
+BoardSpec stereo_board() { return parse_board_spec(kStereoBoardSpec); }
+
+std::vector<CalibrationBoard> board_poses() {
     struct Pose { cv::Vec3d target, tilt_deg; };
     // Spread over the common field and tilted every way, each facing roughly the midpoint
     // between the cameras (a yaw of -14 degrees), so both see it alike.
@@ -28,6 +30,24 @@ std::vector<StereoBoardView> board_views(const SeedStereoRig& rig, int count, ui
         {{0, -35, 430}, {25, -4, -10}},   {{-50, 0, 370}, {-10, 16, 0}},   {{50, 0, 400}, {10, -44, 5}},
         {{25, 20, 440}, {30, -14, 15}},   {{-25, -20, 360}, {-25, -4, -15}}, {{0, 0, 410}, {5, 21, 0}},
     };
+    const BoardSpec spec = stereo_board();
+    std::vector<CalibrationBoard> boards;
+    for (const Pose& pose : poses) {
+        CalibrationBoard board;
+        board.inner_corners = spec.size;
+        board.square_mm = spec.square_mm;
+        board.rotation = rotation_deg(pose.tilt_deg[0], pose.tilt_deg[1], pose.tilt_deg[2]);
+        const cv::Vec3d middle((spec.size.width - 1) * spec.square_mm / 2, (spec.size.height - 1) * spec.square_mm / 2, 0);
+        board.translation = pose.target - board.rotation * middle;
+        boards.push_back(board);
+    }
+    return boards;
+}
+
+namespace {
+
+std::vector<StereoBoardView> render_board_views() {
+    const SeedStereoRig rig = seed_stereo_rig();
     std::vector<StereoBoardView> views;
     cv::Matx44d left_to_right = cv::Matx44d::eye();
     for (int r = 0; r < 3; ++r) {
@@ -35,25 +55,27 @@ std::vector<StereoBoardView> board_views(const SeedStereoRig& rig, int count, ui
         left_to_right(r, 3) = rig.stereo.T[r];
     }
     const cv::Mat white(rig.left.projector_size, CV_8U, cv::Scalar(255));
-    for (int index = 0; index < count; ++index) {
-        CalibrationBoard board;
-        board.inner_corners = {9, 6};
-        board.square_mm = 12;
-        board.rotation = rotation_deg(poses[size_t(index)].tilt_deg[0], poses[size_t(index)].tilt_deg[1], poses[size_t(index)].tilt_deg[2]);
-        const cv::Vec3d middle(4 * 12, 2.5 * 12, 0);
-        board.translation = poses[size_t(index)].target - board.rotation * middle;
+    const std::vector<CalibrationBoard> boards = board_poses();
+    for (size_t index = 0; index < boards.size(); ++index) {
         Scene scene;
-        scene.boards.push_back(board);
+        scene.boards.push_back(boards[index]);
         SimulationOptions options;
         options.full_scale_dn = 250;
         options.blur_sigma_px = 0.5;
-        options.seed = seed + uint64_t(index);
+        options.seed = 3 + uint64_t(index);
         StereoBoardView view;
         view.name = "pose" + std::to_string(index);
         view.left = Simulator(rig.left, scene, options).render(white, 0);
         view.right = Simulator(rig.right, transformed(scene, left_to_right), options).render(white, 1);
         views.push_back(view);
     }
+    return views;
+}
+
+}  // namespace
+
+const std::vector<StereoBoardView>& twelve_board_views() {
+    static const std::vector<StereoBoardView> views = render_board_views();
     return views;
 }
 

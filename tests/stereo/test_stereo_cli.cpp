@@ -89,7 +89,7 @@ TEST(StereoCli, WrongCombinationsAreRefusedWithTheReason) {
 
 TEST(StereoCli, CalibrateStereoFromBoardImages) {
     const std::string root = test_support::make_temp_dir("stereo_cli_calibrate");
-    const std::vector<StereoBoardView> views = test_support::board_views(seed_stereo_rig(), 4, 11);
+    const std::vector<StereoBoardView> views(test_support::twelve_board_views().begin(), test_support::twelve_board_views().begin() + 4);
     std::string first, second;
     for (size_t index = 0; index < views.size(); ++index) {
         const std::string left = root + "/pose" + std::to_string(index) + "_cam1", right = root + "/pose" + std::to_string(index) + "_cam2";
@@ -100,7 +100,7 @@ TEST(StereoCli, CalibrateStereoFromBoardImages) {
         first += " " + left;
         second += " " + right;
     }
-    const auto result = run_picoscan("calibrate --stereo --board chessboard:9x6:12 --captures" + first + " --second-captures" +
+    const auto result = run_picoscan(std::string("calibrate --stereo --board ") + test_support::kStereoBoardSpec + " --captures" + first + " --second-captures" +
                                      second + " --out " + root + "/stereo.yml --report " + root + "/report.html");
     std::printf("%s", result.output.c_str());
     ASSERT_EQ(result.exit_code, 0) << result.output;
@@ -109,7 +109,7 @@ TEST(StereoCli, CalibrateStereoFromBoardImages) {
     EXPECT_NEAR(c.left_matrix(0, 0), 2500, 10);
     EXPECT_TRUE(contains(result.output, "warning: only 4 usable poses"));
     EXPECT_TRUE(std::filesystem::exists(root + "/report.html"));
-    const auto uneven = run_picoscan("calibrate --stereo --board chessboard:9x6:12 --captures" + first + " --second-captures " +
+    const auto uneven = run_picoscan(std::string("calibrate --stereo --board ") + test_support::kStereoBoardSpec + " --captures" + first + " --second-captures " +
                                      root + "/pose0_cam2 --out " + root + "/other.yml");
     EXPECT_EQ(uneven.exit_code, 1);
     EXPECT_TRUE(contains(uneven.output, "--second-captures: needs one folder per pose of --captures (4), got 1")) << uneven.output;
