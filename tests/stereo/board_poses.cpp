@@ -1,6 +1,12 @@
 #include "stereo/board_poses.h"
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <utility>
 
 namespace picoscan::test_support {
 
@@ -44,11 +50,12 @@ std::vector<CalibrationBoard> board_poses() {
     return boards;
 }
 
-namespace {
-
-std::vector<StereoBoardView> render_board_views() {
+std::vector<StereoBoardView> board_views(int count) {
+    namespace fs = std::filesystem;
+    // The cache key names everything that shapes the images; change it when any of that changes.
+    const fs::path cache = fs::path(PICOSCAN_TEST_CACHE_DIR) / "stereo-board-v1-14x9-blur0.5";
+    fs::create_directories(cache);
     const SeedStereoRig rig = seed_stereo_rig();
-    std::vector<StereoBoardView> views;
     cv::Matx44d left_to_right = cv::Matx44d::eye();
     for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) left_to_right(r, c) = rig.stereo.R(r, c);
@@ -56,26 +63,34 @@ std::vector<StereoBoardView> render_board_views() {
     }
     const cv::Mat white(rig.left.projector_size, CV_8U, cv::Scalar(255));
     const std::vector<CalibrationBoard> boards = board_poses();
-    for (size_t index = 0; index < boards.size(); ++index) {
-        Scene scene;
-        scene.boards.push_back(boards[index]);
-        SimulationOptions options;
-        options.full_scale_dn = 250;
-        options.blur_sigma_px = 0.5;
-        options.seed = 3 + uint64_t(index);
+    std::vector<StereoBoardView> views;
+    for (size_t index = 0; index < boards.size() && int(index) < count; ++index) {
         StereoBoardView view;
         view.name = "pose" + std::to_string(index);
-        view.left = Simulator(rig.left, scene, options).render(white, 0);
-        view.right = Simulator(rig.right, transformed(scene, left_to_right), options).render(white, 1);
+        const fs::path left = cache / (view.name + "_left.png"), right = cache / (view.name + "_right.png");
+        if (fs::exists(left) && fs::exists(right)) {
+            view.left = cv::imread(left.string(), cv::IMREAD_UNCHANGED);
+            view.right = cv::imread(right.string(), cv::IMREAD_UNCHANGED);
+        }
+        if (view.left.empty() || view.right.empty()) {
+            Scene scene;
+            scene.boards.push_back(boards[index]);
+            SimulationOptions options;
+            options.full_scale_dn = 250;
+            options.blur_sigma_px = 0.5;
+            options.seed = 3 + uint64_t(index);
+            view.left = Simulator(rig.left, scene, options).render(white, 0);
+            view.right = Simulator(rig.right, transformed(scene, left_to_right), options).render(white, 1);
+            // Written under a temporary name, then renamed: tests running side by side never
+            // read half a file.
+            for (const auto& [image, path] : {std::pair{view.left, left}, std::pair{view.right, right}}) {
+                const fs::path temporary = path.string() + "." + std::to_string(::getpid()) + ".png";
+                cv::imwrite(temporary.string(), image);
+                fs::rename(temporary, path);
+            }
+        }
         views.push_back(view);
     }
-    return views;
-}
-
-}  // namespace
-
-const std::vector<StereoBoardView>& twelve_board_views() {
-    static const std::vector<StereoBoardView> views = render_board_views();
     return views;
 }
 

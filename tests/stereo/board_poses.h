@@ -19,8 +19,9 @@ BoardSpec stereo_board();
 // tilted every way.
 std::vector<CalibrationBoard> board_poses();
 
-// The white-lit image of each pose in both cameras (blur 0.5 px, noise), rendered once per
-// test process and shared by every stereo test.
-const std::vector<StereoBoardView>& twelve_board_views();
+// The white-lit image of the first `count` poses in both cameras (blur 0.5 px, noise): each
+// pose is rendered once for the whole suite and kept as PNG files in the build's test cache
+// (CTest runs every test in its own process), then read from there.
+std::vector<StereoBoardView> board_views(int count = 12);
 
 }  // namespace picoscan::test_support

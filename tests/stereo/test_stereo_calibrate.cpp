@@ -15,7 +15,7 @@
 
 using namespace picoscan;
 using picoscan::test_support::stereo_board;
-using picoscan::test_support::twelve_board_views;
+using picoscan::test_support::board_views;
 using picoscan::test_support::error_of;
 
 namespace {
@@ -38,7 +38,7 @@ double rotation_error_deg(const cv::Matx33d& a, const cv::Matx33d& b) {
 
 TEST(StereoCalibrate, TwelveBoardPosesGiveTheRig) {
     const SeedStereoRig rig = seed_stereo_rig();
-    const StereoCalibrationReport report = calibrate_stereo(twelve_board_views(), stereo_board());
+    const StereoCalibrationReport report = calibrate_stereo(board_views(12), stereo_board());
     const StereoCalibration& c = report.calibration;
     const StereoCalibration& truth = rig.stereo;
     int used = 0;
@@ -79,7 +79,7 @@ TEST(StereoCalibrate, TwelveBoardPosesGiveTheRig) {
 TEST(StereoCalibrate, TooFewPosesBlankImagesAndTheWrongBoardAreRefused) {
     const BoardSpec board = stereo_board();
     // Two poses at a third of the size: finding (or not finding) the board is then quick.
-    std::vector<StereoBoardView> views(twelve_board_views().begin(), twelve_board_views().begin() + 2);
+    std::vector<StereoBoardView> views = board_views(2);
     for (StereoBoardView& view : views) {
         cv::resize(view.left, view.left, cv::Size(), 1.0 / 3, 1.0 / 3, cv::INTER_AREA);
         cv::resize(view.right, view.right, cv::Size(), 1.0 / 3, 1.0 / 3, cv::INTER_AREA);
