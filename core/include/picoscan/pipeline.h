@@ -215,6 +215,19 @@ Mesh mesh_view(const ScanView& view, const MeshOptions& options = {}, const Prog
 // A cloud with normals (a merged model) into a mesh: Poisson or advancing front (mesh_cloud).
 Mesh mesh_points(const PointCloud& cloud, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
 
+// ---- Fuse views that are already posed ------------------------------------------------------
+
+// Views already aligned (each through its pose, e.g. MeshLab layers with their transforms)
+// merged into one cloud and meshed (mesh_points), with the mesh's check.
+struct FuseResult {
+    PointCloud merged;
+    Mesh mesh;
+    MeshCheck check;
+};
+// Throws Error when no view is given, the merged cloud is empty, or meshing gives no triangle.
+FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& options = {},
+                      const ProgressCallback& progress = nullptr);
+
 // ---- Validation ---------------------------------------------------------------------------
 // Each throws Error naming the offending field (e.g. "decode.min_modulation") when a value is
 // out of range or NaN.
