@@ -170,21 +170,31 @@ RowCodeIndex::Found find_between_rows(const RowCodeIndex& index, double y, doubl
     return RowCodeIndex::Found::Once;
 }
 
-// The crossing of `code` nearest to `near` on row y of `codes`, within `window` pixels.
+// The crossing of `code` nearest to `near` on row y of `codes`, within `window` pixels. As in
+// RowCodeIndex::find, neighbouring segments that all hold the code (a plateau of a binary
+// code) are one crossing at their middle.
 bool nearest_crossing(const cv::Mat& codes, int y, double near, double window, double code, double max_step,
                       double& position) {
     if (y < 0 || y >= codes.rows) return false;
     const float* values = codes.ptr<float>(y);
-    const int first = std::max(0, int(std::floor(near - window))), last = std::min(codes.cols - 2, int(std::floor(near + window)));
-    bool found = false;
-    for (int x = first; x <= last; ++x) {
+    auto holds = [&](int x) {
         const double a = values[x], b = values[x + 1];
-        if (!(std::abs(a - b) <= max_step) || code < std::min(a, b) || code > std::max(a, b)) continue;  // NaN fails too
-        const double crossing = a == b ? x + 0.5 : x + (code - a) / (b - a);
-        if (!found || std::abs(crossing - near) < std::abs(position - near)) position = crossing;
-        found = true;
-    }
-    return found;
+        return std::abs(a - b) <= max_step && code >= std::min(a, b) && code <= std::max(a, b);  // NaN fails
+    };
+    auto crossing = [&](int x) {
+        const double a = values[x], b = values[x + 1];
+        return a == b ? x + 0.5 : x + (code - a) / (b - a);
+    };
+    const int first = std::max(0, int(std::floor(near - window))), last = std::min(codes.cols - 2, int(std::floor(near + window)));
+    int nearest = -1;
+    for (int x = first; x <= last; ++x)
+        if (holds(x) && (nearest < 0 || std::abs(crossing(x) - near) < std::abs(crossing(nearest) - near))) nearest = x;
+    if (nearest < 0) return false;
+    int begin = nearest, end = nearest;
+    while (begin > 0 && holds(begin - 1)) --begin;
+    while (end + 2 < codes.cols && holds(end + 1)) ++end;
+    position = 0.5 * (crossing(begin) + crossing(end));
+    return true;
 }
 
 // The left-right check's way back: where near `near` on the rectified row through y (between
