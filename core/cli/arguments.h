@@ -38,6 +38,8 @@ public:
     void reject_unknown() const;
 
 private:
+    void require_output_folders() const;
+
     std::vector<std::string> inputs_;
     std::map<std::string, std::vector<std::string>> values_;  // every value of every option
     std::set<std::string> list_options_;

@@ -306,6 +306,12 @@ int run_stereo_scan(const Arguments& arguments, const fs::path& out, Reconstruct
             throw Error("--camera virtual", "simulates the seed rig: leave out --calibration for two virtual cameras");
         (void)read_stereo_calibration(request.calibration);  // a bad file is refused before capturing
     }
+    // The outputs are checked before the capture, not after it.
+    try {
+        check_reconstruct_outputs(request);
+    } catch (const Error& error) {
+        throw Error("--mesh", error.what());
+    }
     CaptureRig rig = open_capture_rig(arguments, directories, "", seed ? &*seed : nullptr);
     if (seed && !fs::exists(request.calibration)) {
         fs::create_directories(out);
@@ -334,6 +340,12 @@ int run_scan(const Arguments& arguments) {
         request.calibration = (out / "calibration.yml").string();
         if (fs::exists(request.calibration) && !arguments.flag("--resume"))
             throw Error(request.calibration, "exists; pass it as --calibration or choose another --out");
+    }
+    // The outputs are checked before the capture, not after it.
+    try {
+        check_reconstruct_outputs(request);
+    } catch (const Error& error) {
+        throw Error("--mesh", error.what());
     }
     CaptureRig rig = open_capture_rig(arguments, {request.captures}, write_seed_rig ? "" : request.calibration);
     if (write_seed_rig && !fs::exists(request.calibration)) {

@@ -101,6 +101,10 @@ Writes DIR/captures/view_K/ (capture sets), DIR/calibration.yml, DIR/views/view_
 DIR/merged.ply (+ merged.poses.txt), DIR/part.stl and DIR/part.png (preview), and the
 simulation's true poses in DIR/true_poses.txt. Default DIR: demo-output.
 --single-view: the older one-view demo of a bracket (DIR/cloud.ply, part.stl, preview.png).
+
+An interrupted demo is restarted by running the same command again: the demo marks
+DIR/captures/ (.picoscan-demo) before writing into it and replaces only a folder so marked
+(or an empty one), never one it did not make. The other outputs are replaced whole.
 )";
 
 std::string single_input(const Arguments& arguments) {
@@ -313,15 +317,19 @@ int run_mesh(const Arguments& arguments) {
     return 0;
 }
 
-// Replaces the demo's own previous capture folder (it carries a marker), never anything else.
-void clear_demo_captures(const fs::path& captures) {
-    if (!fs::exists(captures)) return;
-    if (!fs::is_regular_file(captures / ".picoscan-demo"))
+// Replaces the demo's own previous capture folder, finished or interrupted (it carries a
+// marker, written before anything else), or an empty one; never anything else. Leaves the
+// folder empty but for a new marker, so that a run interrupted from here on is restarted by
+// the same command.
+void start_demo_captures(const fs::path& captures) {
+    std::error_code error;
+    if (fs::exists(captures, error) && !fs::is_empty(captures, error) &&
+        !fs::is_regular_file(captures / ".picoscan-demo", error))
         throw Error(captures.string(), "exists and was not made by 'picoscan demo'; choose another --out");
-    fs::remove_all(captures);
-}
-
-void mark_demo_captures(const fs::path& captures) {
+    fs::remove_all(captures, error);
+    if (error) throw Error(captures.string(), "cannot be replaced: " + error.message());
+    fs::create_directories(captures, error);
+    if (error) throw Error(captures.string(), "cannot be created: " + error.message());
     write_file_atomically((captures / ".picoscan-demo").string(),
                           "made by picoscan demo; the next demo run replaces this folder\n");
 }
@@ -329,12 +337,11 @@ void mark_demo_captures(const fs::path& captures) {
 // The older demo: one view of a bracket, reconstructed as 'picoscan reconstruct' does.
 int run_demo_single_view(const fs::path& directory) {
     const fs::path captures = directory / "captures";
-    clear_demo_captures(captures);
+    start_demo_captures(captures);
     const Calibration calibration = seed_rig_calibration();
     std::printf("simulating a scan of the built-in part (1600x1200 camera, 854x480 projector)...\n");
     write_capture_set(simulate_captures(demo_scene(), calibration, SimulateOptions{}, terminal_progress()),
                       captures.string());
-    mark_demo_captures(captures);
     write_calibration(calibration, (directory / "calibration.yml").string());
     ReconstructRequest request;
     request.calibration = (directory / "calibration.yml").string();
@@ -349,7 +356,7 @@ int run_demo_single_view(const fs::path& directory) {
 // The 360-degree demo: scan, clean, stitch, mesh.
 int run_demo_360(const fs::path& directory) {
     const fs::path captures = directory / "captures";
-    clear_demo_captures(captures);
+    start_demo_captures(captures);
     fs::create_directories(directory / "views");
     const Calibration calibration = seed_rig_calibration();
     write_calibration(calibration, (directory / "calibration.yml").string());
@@ -362,7 +369,6 @@ int run_demo_360(const fs::path& directory) {
         mechanical_part(), calibration, scan,
         [&](const SimulatedView& simulated) {
             write_capture_set(simulated.captures, (captures / simulated.name).string());
-            if (view_files.empty()) mark_demo_captures(captures);
             view_files.push_back((directory / "views" / (simulated.name + ".ply")).string());
             write_view_ply(simulated.view, view_files.back());
             truth.push_back({simulated.name + ".ply", cv::Matx44d::eye(), true});

@@ -238,6 +238,17 @@ SimulationOptions camera_options(const Arguments& arguments) {
     return options;
 }
 
+void check_reconstruct_outputs(const ReconstructRequest& request) {
+    check_extension(request.cloud, {".ply"}, "point cloud file");
+    check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
+    check_extension(request.preview, {".png"}, "preview file");
+    const std::vector<std::string> inputs{request.calibration, request.options.manifest_path, request.second_calibration};
+    for (const std::string& output : {request.cloud, request.mesh, request.preview})
+        refuse_overwriting(output, inputs, {request.captures, request.second_captures});
+    refuse_overwriting(request.mesh, {request.cloud});  // outputs must differ from each other too
+    refuse_overwriting(request.preview, {request.cloud, request.mesh});
+}
+
 int reconstruct_and_write(const ReconstructRequest& request) {
     // The calibration's kind decides the method.
     if (calibration_kind(request.calibration) == CalibrationKind::Stereo) return reconstruct_stereo_and_write(request);
@@ -249,14 +260,7 @@ int reconstruct_and_write(const ReconstructRequest& request) {
         throw Error("--second-captures", "--second-calibration and --second-captures go together");
     const auto start = std::chrono::steady_clock::now();
     // Refuse bad output names before any work, so nothing is half done.
-    check_extension(request.cloud, {".ply"}, "point cloud file");
-    check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
-    check_extension(request.preview, {".png"}, "preview file");
-    const std::vector<std::string> inputs{request.calibration, request.options.manifest_path, request.second_calibration};
-    for (const std::string& output : {request.cloud, request.mesh, request.preview})
-        refuse_overwriting(output, inputs, {request.captures, request.second_captures});
-    refuse_overwriting(request.mesh, {request.cloud});  // outputs must differ from each other too
-    refuse_overwriting(request.preview, {request.cloud, request.mesh});
+    check_reconstruct_outputs(request);
     MeshOptions mesh_options;
     mesh_options.method = MeshMethod::Grid;
     mesh_options.grid.pixel_step = request.mesh_step;

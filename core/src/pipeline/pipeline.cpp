@@ -5,6 +5,7 @@
 #include "picoscan/multi_camera.h"
 
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <string>
 
@@ -48,6 +49,11 @@ ReconstructResult reconstruct_view(const std::string& captures_folder, const Cal
                                    const std::string& calibration_name, const ReconstructOptions& options,
                                    const ProgressCallback& progress) {
     validate(options);
+    // The manifest's projector is checked before any frame is read (a missing folder is
+    // reported by load_capture_set).
+    const std::string manifest = options.manifest_path.empty() ? captures_folder + "/sequence.json" : options.manifest_path;
+    if (std::error_code error; std::filesystem::is_directory(captures_folder, error))
+        check_projector_size(calibration, read_manifest(manifest), calibration_name, manifest);
     // The frames' headers are checked against camera_size before any frame is decoded.
     const CaptureSet captures = load_capture_set(captures_folder, options.manifest_path, progress, calibration.camera_size);
     check_camera_size(calibration, captures, calibration_name);
