@@ -8,12 +8,15 @@
 #include "picoscan/virtual_camera.h"
 #include "picoscan/capture_qt.h"
 #include "picoscan/error.h"
+#include "picoscan/simulate.h"
+#include "picoscan/stereo.h"
 
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 namespace fs = std::filesystem;
 
@@ -48,6 +51,8 @@ camera K writes DIR/camera_K (K from 1).
                         FILE         a video file or image sequence (frame_%03d.png) standing
                                      in for a webcam
                         Repeat --camera (or list several) for cameras grabbing the same pattern.
+                        Two 'virtual' cameras without --calibration simulate the two-camera
+                        seed rig and write its stereo calibration to DIR/stereo.yml.
   --out DIR             the capture set (created; must be empty or a capture to resume)
   --resume              complete a capture of the same sequence already in DIR
   --calibration FILE    the rig's calibration: its projector size must equal the screen's, its
@@ -73,14 +78,21 @@ Example, a pico projector as screen 1 and two webcams:
                    --calibration rig.yml --out scan1/
 )";
 
-const char* kScanHelp = R"(picoscan scan --camera SOURCE --out DIR [--projector-screen N] [options]
+const char* kScanHelp = R"(picoscan scan --camera SOURCE [--camera SOURCE2] --out DIR [--projector-screen N] [options]
 
 Capture and reconstruct in one step: captures the patterns into DIR/captures (as 'picoscan
 capture'), then decodes and triangulates them into DIR/cloud.ply with DIR/preview.png (as
 'picoscan reconstruct'). A real camera needs --calibration. With '--camera virtual' and no
 --calibration the seed rig is simulated and written to DIR/calibration.yml.
 
-  --camera SOURCE        one camera (see 'picoscan capture --help')
+Two cameras, any projector: with two --camera sources, both capture every pattern (into
+DIR/captures/camera_1 and camera_2, each with its sequence.json) and the cloud is
+reconstructed binocularly with --calibration, a stereo calibration of the two cameras
+('picoscan calibrate --stereo'); the projector needs no calibration. With
+'--camera virtual --camera virtual' and no --calibration, the two-camera seed rig (200 mm
+apart, the projector between them) is simulated and written to DIR/stereo.yml.
+
+  --camera SOURCE        a camera (see 'picoscan capture --help'); twice for two cameras
   --out DIR              the scan folder (captures/, cloud.ply, preview.png)
   --calibration FILE     the rig's calibration
   --mesh FILE            also write a grid mesh (.stl, .ply or .obj)
@@ -129,8 +141,10 @@ CameraSettings camera_settings(const Arguments& arguments) {
 }
 
 // Parses and checks everything, then opens the display and the cameras. Nothing is written.
+// `stereo_rig`: the simulated two-camera rig the virtual cameras render (camera K of the rig for
+// the K-th --camera), instead of the camera-projector calibration.
 CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::string>& directories_for_cameras,
-                            const std::string& calibration_path) {
+                            const std::string& calibration_path, const SeedStereoRig* stereo_rig = nullptr) {
     CaptureRig rig;
     const std::vector<std::string> sources = arguments.list("--camera");
     if (sources.empty()) throw Error("--camera", "is required (see --help)");
@@ -140,7 +154,10 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     const int screen_index = arguments.integer("--projector-screen", -1);
     if (!has_screen_index && !all_virtual)
         throw Error("--projector-screen", "is required with a real camera (see 'picoscan screens')");
-    if (!calibration_path.empty()) {
+    if (stereo_rig) {
+        rig.calibration = stereo_rig->left;
+        rig.has_calibration = true;
+    } else if (!calibration_path.empty()) {
         rig.calibration = read_calibration(calibration_path);
         rig.has_calibration = true;
     } else if (has_virtual) {
@@ -186,7 +203,18 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
 
     size_t next_webcam = 0;
     for (const std::string& source : sources) {
-        if (source == "virtual") {
+        if (source == "virtual" && stereo_rig && !rig.cameras.empty()) {
+            // The second camera of the rig sees the scene from its own frame, with its own noise.
+            cv::Matx44d left_to_right = cv::Matx44d::eye();
+            for (int r = 0; r < 3; ++r) {
+                for (int c = 0; c < 3; ++c) left_to_right(r, c) = stereo_rig->stereo.R(r, c);
+                left_to_right(r, 3) = stereo_rig->stereo.T[r];
+            }
+            SimulationOptions second = simulation;
+            second.seed = simulation.seed + 1;
+            rig.cameras.push_back(std::make_unique<VirtualCamera>(stereo_rig->right, transformed(scene, left_to_right), second,
+                                                                  *rig.display));
+        } else if (source == "virtual") {
             rig.cameras.push_back(std::make_unique<VirtualCamera>(rig.calibration, scene, simulation, *rig.display));
         } else if (source == "screen") {
             if (!has_screen_index) throw Error("--camera screen", "needs --projector-screen");
@@ -237,17 +265,64 @@ void run_capture_rig(CaptureRig& rig) {
 int run_capture(const Arguments& arguments) {
     const std::string out = arguments.required("--out");
     const size_t camera_count = arguments.list("--camera").size();
+    // Two virtual cameras without a calibration: the two-camera seed rig, its stereo
+    // calibration written beside the captures for 'reconstruct'.
+    std::optional<SeedStereoRig> seed;
+    if (arguments.list("--camera") == std::vector<std::string>{"virtual", "virtual"} && !arguments.has("--calibration"))
+        seed = seed_stereo_rig();
     CaptureRig rig = open_capture_rig(arguments, capture_directories(out, std::max<size_t>(camera_count, 1)),
-                                      arguments.text("--calibration"));
+                                      arguments.text("--calibration"), seed ? &*seed : nullptr);
+    if (seed) {
+        const std::string stereo = (fs::path(out) / "stereo.yml").string();
+        if (!fs::exists(stereo)) write_stereo_calibration(seed->stereo, stereo);
+        std::printf("two-camera seed rig -> %s\n", stereo.c_str());
+    }
     run_capture_rig(rig);
     return 0;
 }
 
+// scan with two cameras: both capture, then the binocular reconstruction.
+int run_stereo_scan(const Arguments& arguments, const fs::path& out, ReconstructRequest request) {
+    const std::vector<std::string> sources = arguments.list("--camera");
+    if (sources.size() != 2) throw Error("--camera", "scan takes one camera, or two for a binocular scan");
+    const bool both_virtual = sources == std::vector<std::string>{"virtual", "virtual"};
+    const std::vector<std::string> directories = capture_directories((out / "captures").string(), 2);
+    request.captures = directories[0];
+    request.second_captures = directories[1];
+    std::optional<SeedStereoRig> seed;
+    if (request.calibration.empty()) {
+        if (!both_virtual)
+            throw Error("--calibration", "is required with real cameras: the two cameras' stereo calibration "
+                                         "(see 'picoscan calibrate --stereo')");
+        seed = seed_stereo_rig();
+        request.calibration = (out / "stereo.yml").string();
+        if (fs::exists(request.calibration) && !arguments.flag("--resume"))
+            throw Error(request.calibration, "exists; pass it as --calibration or choose another --out");
+    } else {
+        if (calibration_kind(request.calibration) != CalibrationKind::Stereo)
+            throw Error("--calibration", request.calibration + " is a camera-projector calibration; two cameras need their "
+                                                               "stereo calibration (see 'picoscan calibrate --stereo')");
+        if (std::count(sources.begin(), sources.end(), "virtual") > 0)
+            throw Error("--camera virtual", "simulates the seed rig: leave out --calibration for two virtual cameras");
+        (void)read_stereo_calibration(request.calibration);  // a bad file is refused before capturing
+    }
+    // The outputs are checked before the capture, not after it.
+    try {
+        check_reconstruct_outputs(request);
+    } catch (const Error& error) {
+        throw Error("--mesh", error.what());
+    }
+    CaptureRig rig = open_capture_rig(arguments, directories, "", seed ? &*seed : nullptr);
+    if (seed && !fs::exists(request.calibration)) {
+        fs::create_directories(out);
+        write_stereo_calibration(seed->stereo, request.calibration);
+    }
+    run_capture_rig(rig);
+    return reconstruct_and_write(request);
+}
+
 int run_scan(const Arguments& arguments) {
     const fs::path out = arguments.required("--out");
-    if (arguments.list("--camera").size() > 1)
-        throw Error("--camera", "scan takes one camera; capture several with 'picoscan capture' and reconstruct "
-                                "with --second-captures");
     ReconstructRequest request;
     request.captures = (out / "captures").string();
     request.cloud = (out / "cloud.ply").string();
@@ -257,6 +332,7 @@ int run_scan(const Arguments& arguments) {
     request.mesh_step = 1;
     request.options.clean = arguments.flag("--clean");
     request.calibration = arguments.text("--calibration");
+    if (arguments.list("--camera").size() > 1) return run_stereo_scan(arguments, out, request);
     const bool write_seed_rig = request.calibration.empty();
     if (write_seed_rig) {
         if (arguments.list("--camera") != std::vector<std::string>{"virtual"})

@@ -33,10 +33,13 @@ std::vector<Command> capture_commands();      // screens, capture, scan       (c
 PatternOptions pattern_options(const Arguments& arguments, cv::Size projector_size);  // --shifts --period-bits --rows
 SimulationOptions camera_options(const Arguments& arguments);                        // --noise --gamma --blur --seed
 
-// Reconstructs a capture folder with the pipeline and writes the view and its products.
+// Reconstructs a capture folder with the pipeline and writes the view and its products; with
+// a stereo calibration, both cameras' folders binocularly.
 struct ReconstructRequest {
     std::string calibration, captures, cloud, mesh, preview;
     std::string second_calibration, second_captures;
+    std::string second_manifest, projector_calibration;  // binocular only
+    bool refine_stereo_pose = false;                      // binocular only
     ReconstructOptions options;
     int mesh_step = 1;
     Encoding encoding = Encoding::Binary;

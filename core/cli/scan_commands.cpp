@@ -69,6 +69,11 @@ left-right and triangulated. The cloud is in the first camera's frame.
                        (both cameras' frames in one folder)
   --refine-stereo-pose re-estimate the cameras' relative pose from the codes both decoded first
                        (for a rig whose cameras moved, or a file whose R, T do not fit)
+  --projector-calibration FILE
+                       the first camera's camera-projector calibration with the same projector:
+                       each point is then triangulated from three views (both cameras and the
+                       projector) instead of two; refused when the projector's columns do not
+                       fit the points
 )";
 
 // Writes the view and what was asked of it: the cloud, a grid mesh, a preview.
@@ -96,7 +101,7 @@ void print_cleaning(const std::optional<CleanReport>& cleaning) {
 }
 
 // The binocular path: a stereo calibration and both cameras' captures.
-int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_pose, const std::string& second_manifest) {
+int reconstruct_stereo_and_write(const ReconstructRequest& request) {
     const auto start = std::chrono::steady_clock::now();
     if (!request.second_calibration.empty())
         throw Error("--second-calibration", request.calibration +
@@ -108,7 +113,8 @@ int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_
     check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
     check_extension(request.preview, {".png"}, "preview file");
     for (const std::string& output : {request.cloud, request.mesh, request.preview})
-        refuse_overwriting(output, {request.calibration, request.options.manifest_path, second_manifest},
+        refuse_overwriting(output, {request.calibration, request.options.manifest_path, request.second_manifest,
+                                    request.projector_calibration},
                            {request.captures, request.second_captures});
     MeshOptions mesh_options;
     mesh_options.method = MeshMethod::Grid;
@@ -117,11 +123,17 @@ int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_
 
     StereoReconstructOptions options;
     options.manifest_path = request.options.manifest_path;
-    options.second_manifest_path = second_manifest;
+    options.second_manifest_path = request.second_manifest;
     options.decode = request.options.decode;
     options.clean = request.options.clean;
     options.cleaning = request.options.cleaning;
-    options.refine_pose = refine_pose;
+    options.refine_pose = request.refine_stereo_pose;
+    if (!request.projector_calibration.empty()) {
+        if (calibration_kind(request.projector_calibration) != CalibrationKind::CameraProjector)
+            throw Error("--projector-calibration", request.projector_calibration +
+                                                       " is a stereo calibration; give the first camera's camera-projector calibration");
+        options.projector = read_calibration(request.projector_calibration);
+    }
     const StereoCalibration calibration = read_stereo_calibration(request.calibration);
     const StereoReconstructResult result = reconstruct_stereo_view(request.captures, request.second_captures, calibration,
                                                                    request.calibration, options, terminal_progress());
@@ -140,6 +152,9 @@ int reconstruct_stereo_and_write(const ReconstructRequest& request, bool refine_
     else
         std::printf("\nwarning: no projector rows in both cameras' captures, so whether the calibration fits them "
                     "(the cameras not swapped or moved) is not checked; project rows to check it\n");
+    if (s.three_view > 0)
+        std::printf("three views: %d points refined with the projector, median projector column residual %.3f px\n",
+                    s.three_view, s.median_projector_residual_px);
     print_cleaning(result.cleaning);
     write_view_products(result.view, request, mesh_options);
     std::printf("%d points (%.1f %% of the first camera's pixels) -> %s\n", result.point_count,
@@ -165,15 +180,10 @@ int run_reconstruct(const Arguments& arguments) {
     decode.min_contrast = arguments.number("--min-contrast", decode.min_contrast);
     decode.min_modulation = arguments.number("--min-modulation", decode.min_modulation);
     request.encoding = arguments.flag("--ascii") ? Encoding::Ascii : Encoding::Binary;
-    const bool refine_pose = arguments.flag("--refine-stereo-pose");
-    const std::string second_manifest = arguments.text("--second-manifest");
+    request.refine_stereo_pose = arguments.flag("--refine-stereo-pose");
+    request.second_manifest = arguments.text("--second-manifest");
+    request.projector_calibration = arguments.text("--projector-calibration");
     arguments.reject_unknown();
-    // The calibration's kind decides the method.
-    if (calibration_kind(request.calibration) == CalibrationKind::Stereo) return reconstruct_stereo_and_write(request, refine_pose, second_manifest);
-    if (refine_pose) throw Error("--refine-stereo-pose", "needs a stereo calibration of two cameras");
-    if (!second_manifest.empty()) throw Error("--second-manifest", "needs a stereo calibration of two cameras");
-    if (request.second_calibration.empty() != request.second_captures.empty())
-        throw Error("--second-captures", "--second-calibration and --second-captures go together");
     return reconstruct_and_write(request);
 }
 
@@ -240,6 +250,14 @@ void check_reconstruct_outputs(const ReconstructRequest& request) {
 }
 
 int reconstruct_and_write(const ReconstructRequest& request) {
+    // The calibration's kind decides the method.
+    if (calibration_kind(request.calibration) == CalibrationKind::Stereo) return reconstruct_stereo_and_write(request);
+    if (request.refine_stereo_pose) throw Error("--refine-stereo-pose", "needs a stereo calibration of two cameras");
+    if (!request.second_manifest.empty()) throw Error("--second-manifest", "needs a stereo calibration of two cameras");
+    if (!request.projector_calibration.empty())
+        throw Error("--projector-calibration", "goes with a stereo calibration of two cameras as --calibration");
+    if (request.second_calibration.empty() != request.second_captures.empty())
+        throw Error("--second-captures", "--second-calibration and --second-captures go together");
     const auto start = std::chrono::steady_clock::now();
     // Refuse bad output names before any work, so nothing is half done.
     check_reconstruct_outputs(request);

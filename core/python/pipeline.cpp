@@ -45,6 +45,7 @@ void bind_pipeline(py::module_& m) {
         .def_readwrite("decode", &StereoReconstructOptions::decode)
         .def_readwrite("stereo", &StereoReconstructOptions::stereo)
         .def_readwrite("refine_pose", &StereoReconstructOptions::refine_pose)
+        .def_readwrite("projector", &StereoReconstructOptions::projector)
         .def_readwrite("clean", &StereoReconstructOptions::clean)
         .def_readwrite("cleaning", &StereoReconstructOptions::cleaning);
     py::class_<StereoReconstructResult>(m, "StereoReconstructResult")

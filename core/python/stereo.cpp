@@ -81,6 +81,8 @@ void bind_stereo(py::module_& m) {
         .def_readonly("behind", &StereoStatistics::behind)
         .def_readonly("valid", &StereoStatistics::valid)
         .def_readonly("median_epipolar_error_px", &StereoStatistics::median_epipolar_error_px)
+        .def_readonly("three_view", &StereoStatistics::three_view)
+        .def_readonly("median_projector_residual_px", &StereoStatistics::median_projector_residual_px)
         .def("left_right_consistency", &StereoStatistics::left_right_consistency);
     py::class_<ExtrinsicsRefinement>(m, "ExtrinsicsRefinement")
         .def_readonly("calibration", &ExtrinsicsRefinement::calibration)
@@ -94,6 +96,8 @@ void bind_stereo(py::module_& m) {
         .def_readonly("statistics", &StereoReconstruction::statistics);
     py::class_<StereoMatcher>(m, "StereoMatcher", "Rectifies once per calibration, then reconstructs decoded pairs.")
         .def(py::init<const StereoCalibration&>(), py::arg("calibration"))
+        .def(py::init<const StereoCalibration&, const Calibration&>(), py::arg("calibration"), py::arg("projector"),
+             "Three views: the projector calibrated with the first camera refines each point.")
         .def(
             "reconstruct",
             [](const StereoMatcher& matcher, const CorrespondenceMap& left, const CorrespondenceMap& right,

@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 using namespace picoscan;
@@ -89,7 +90,7 @@ TEST(StereoCli, WrongCombinationsAreRefusedWithTheReason) {
 
 TEST(StereoCli, CalibrateStereoFromBoardImages) {
     const std::string root = test_support::make_temp_dir("stereo_cli_calibrate");
-    const std::vector<StereoBoardView> views = test_support::board_views(seed_stereo_rig(), 4, 11);
+    const std::vector<StereoBoardView> views = test_support::board_views(4);
     std::string first, second;
     for (size_t index = 0; index < views.size(); ++index) {
         const std::string left = root + "/pose" + std::to_string(index) + "_cam1", right = root + "/pose" + std::to_string(index) + "_cam2";
@@ -100,7 +101,7 @@ TEST(StereoCli, CalibrateStereoFromBoardImages) {
         first += " " + left;
         second += " " + right;
     }
-    const auto result = run_picoscan("calibrate --stereo --board chessboard:9x6:12 --captures" + first + " --second-captures" +
+    const auto result = run_picoscan(std::string("calibrate --stereo --board ") + test_support::kStereoBoardSpec + " --captures" + first + " --second-captures" +
                                      second + " --out " + root + "/stereo.yml --report " + root + "/report.html");
     std::printf("%s", result.output.c_str());
     ASSERT_EQ(result.exit_code, 0) << result.output;
@@ -109,8 +110,48 @@ TEST(StereoCli, CalibrateStereoFromBoardImages) {
     EXPECT_NEAR(c.left_matrix(0, 0), 2500, 10);
     EXPECT_TRUE(contains(result.output, "warning: only 4 usable poses"));
     EXPECT_TRUE(std::filesystem::exists(root + "/report.html"));
-    const auto uneven = run_picoscan("calibrate --stereo --board chessboard:9x6:12 --captures" + first + " --second-captures " +
+    const auto uneven = run_picoscan(std::string("calibrate --stereo --board ") + test_support::kStereoBoardSpec + " --captures" + first + " --second-captures " +
                                      root + "/pose0_cam2 --out " + root + "/other.yml");
     EXPECT_EQ(uneven.exit_code, 1);
     EXPECT_TRUE(contains(uneven.output, "--second-captures: needs one folder per pose of --captures (4), got 1")) << uneven.output;
+}
+
+TEST(StereoCli, ScanWithTwoVirtualCameras) {
+    const std::string root = test_support::make_temp_dir("stereo_scan");
+    {
+        std::FILE* scene = std::fopen((root + "/sphere.yml").c_str(), "w");
+        ASSERT_NE(scene, nullptr);
+        std::fputs("spheres: [{centre: [0, 0, 400], radius_mm: 25, albedo: 0.9}]\n", scene);
+        std::fclose(scene);
+    }
+    const auto result = run_picoscan("scan --camera virtual --camera virtual --latency-ms 0 --shifts 4 --no-rows --scene " +
+                                     root + "/sphere.yml --out " + root + "/scan");
+    std::printf("%s", result.output.c_str());
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_TRUE(contains(result.output, "with 2 cameras"));
+    EXPECT_TRUE(contains(result.output, "left-right consistency"));
+    for (const char* file : {"/scan/stereo.yml", "/scan/captures/camera_1/sequence.json", "/scan/captures/camera_2/sequence.json",
+                             "/scan/preview.png"})
+        EXPECT_TRUE(std::filesystem::exists(root + file)) << file;
+    const SphereFit fit = fit_sphere(to_point_cloud(read_view_ply(root + "/scan/cloud.ply")).points);
+    std::printf("two-camera scan of the sphere: %zu points, diameter error %+.2f um, RMS %.2f um\n", fit.point_count,
+                2000 * (fit.radius_mm - 25), 1000 * fit.rms_mm);
+    EXPECT_GT(fit.point_count, 50000u);
+    EXPECT_LT(std::abs(2 * fit.radius_mm - 50), 0.010);
+    EXPECT_LT(fit.rms_mm, 0.020);
+    // The captures reconstruct again through 'reconstruct' with the written stereo calibration.
+    const auto again = run_picoscan("reconstruct --calibration " + root + "/scan/stereo.yml --captures " + root +
+                                    "/scan/captures/camera_1 --second-captures " + root + "/scan/captures/camera_2 --out " +
+                                    root + "/again.ply");
+    EXPECT_EQ(again.exit_code, 0) << again.output;
+    // Two real cameras need the stereo calibration; a camera-projector one is refused.
+    const auto no_calibration = run_picoscan("scan --camera 0 --camera 1 --projector-screen 1 --out " + root + "/real");
+    EXPECT_EQ(no_calibration.exit_code, 1);
+    EXPECT_TRUE(contains(no_calibration.output, "--calibration: is required with real cameras")) << no_calibration.output;
+    write_calibration(seed_rig_calibration(), root + "/camera_projector.yml");
+    const auto wrong_kind = run_picoscan("scan --camera 0 --camera 1 --projector-screen 1 --calibration " + root +
+                                         "/camera_projector.yml --out " + root + "/real");
+    EXPECT_EQ(wrong_kind.exit_code, 1);
+    EXPECT_TRUE(contains(wrong_kind.output, "is a camera-projector calibration; two cameras need")) << wrong_kind.output;
+    EXPECT_FALSE(std::filesystem::exists(root + "/real"));
 }

@@ -155,6 +155,31 @@ const StereoScan& objects_scan() {
     return instance;
 }
 
+// Three views (the projector calibrated with the first camera) against two on the sphere. Run
+// inside the sphere test: CTest gives every test its own process, and the scan is the
+// expensive part.
+void check_three_views(const StereoScan& data) {
+    const StereoReconstruction two = StereoMatcher(data.rig.stereo).reconstruct(data.left, data.right);
+    const StereoReconstruction three = StereoMatcher(data.rig.stereo, data.rig.left).reconstruct(data.left, data.right);
+    const std::vector<cv::Vec3f> two_points = sphere_points(two.view), three_points = sphere_points(three.view);
+    const SphereFit two_fit = fit_sphere(two_points), three_fit = fit_sphere(three_points);
+    const SphereFit single_fit = fit_sphere(sphere_points(Triangulator(data.rig.left).triangulate(data.left)));
+    std::printf("sphere, three views: %zu points, RMS %.2f um, diameter error %+.2f um, median projector residual %.4f px; "
+                "two views: %zu points, RMS %.2f um, diameter error %+.2f um; camera-projector path RMS %.2f um\n",
+                three_points.size(), 1000 * three_fit.rms_mm, 2000 * (three_fit.radius_mm - 25),
+                three.statistics.median_projector_residual_px, two_points.size(), 1000 * two_fit.rms_mm,
+                2000 * (two_fit.radius_mm - 25), 1000 * single_fit.rms_mm);
+    EXPECT_GT(three.statistics.three_view, 0.95 * three.statistics.valid);
+    EXPECT_LT(three.statistics.median_projector_residual_px, 0.1);
+    EXPECT_LE(three_fit.rms_mm, two_fit.rms_mm);
+    EXPECT_LE(std::abs(2 * three_fit.radius_mm - 50), 0.005);
+    EXPECT_EQ(two.statistics.three_view, 0);
+    // The second camera's projector calibration in the first camera's place: refused.
+    const std::string message =
+        error_of([&] { StereoMatcher(data.rig.stereo, data.rig.right).reconstruct(data.left, data.right); });
+    EXPECT_NE(message.find("projector calibration: does not fit these cameras"), std::string::npos) << message;
+}
+
 }  // namespace
 
 TEST(StereoReconstruct, SphereOnTheTwoCameraRig) {
@@ -175,7 +200,9 @@ TEST(StereoReconstruct, SphereOnTheTwoCameraRig) {
     EXPECT_LT(s.median_epipolar_error_px, 0.1);
     // Every point is on the sphere (no stray points elsewhere in the empty scene).
     EXPECT_EQ(size_t(result.view.valid_count()), points.size());
+    check_three_views(data);
 }
+
 
 TEST(StereoReconstruct, ProjectorGammaLargelyCancels) {
     const StereoScan& linear = sphere_scan(1.0);

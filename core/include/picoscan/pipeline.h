@@ -73,6 +73,9 @@ struct StereoReconstructOptions {
     DecodeOptions decode;
     StereoOptions stereo;
     bool refine_pose = false;   // re-estimate R, T from the codes both cameras decoded first
+    // The first camera's camera-projector calibration with the same projector: each point is
+    // then triangulated from three views (StereoMatcher's second constructor).
+    std::optional<Calibration> projector;
     bool clean = false;         // run clean_view on the result
     CleanOptions cleaning;
 };

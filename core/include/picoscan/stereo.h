@@ -154,6 +154,11 @@ struct StereoStatistics {
     int behind = 0;                 // consistent matches that triangulate behind the cameras
     int valid = 0;                  // points triangulated
     double median_epipolar_error_px = std::numeric_limits<double>::quiet_NaN();  // NaN without rows
+    // Three-view triangulation (a camera-projector calibration given): points refined with the
+    // projector as a third view, and the median distance of their projector column from the
+    // decoded one (projector pixels; NaN without).
+    int three_view = 0;
+    double median_projector_residual_px = std::numeric_limits<double>::quiet_NaN();
     double left_right_consistency() const { return matched > 0 ? double(left_right_consistent) / matched : 0; }
 };
 
@@ -167,6 +172,14 @@ struct StereoReconstruction {
 class StereoMatcher {
 public:
     explicit StereoMatcher(const StereoCalibration& calibration);
+    // Three views: `projector` is a camera-projector calibration of the first camera with the
+    // projector that lit the captures. Each point is then placed on its first-camera ray where
+    // it best explains the first camera's projector codes and the second camera's match
+    // together (Gauss-Newton), rather than from the two cameras alone. The projector's lens and
+    // response errors then count again (the two-camera path cancels them). reconstruct() throws
+    // Error when the projector's columns do not fit the points (a median over 1 projector pixel).
+    // Throws Error when the calibration is invalid or its camera size is not the first camera's.
+    StereoMatcher(const StereoCalibration& calibration, const Calibration& projector);
     ~StereoMatcher();
     StereoMatcher(StereoMatcher&&) noexcept;
     StereoMatcher& operator=(StereoMatcher&&) noexcept;

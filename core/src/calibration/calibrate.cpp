@@ -7,6 +7,7 @@
 #include "picoscan/error.h"
 
 #include "common/board_image.h"
+#include "common/device_calibration.h"
 #include "common/progress_reporter.h"
 
 #include <opencv2/calib3d.hpp>
@@ -18,15 +19,6 @@
 namespace picoscan {
 
 namespace {
-
-// Corners of one usable pose, split into the sets each device is calibrated with.
-struct PoseCorners {
-    std::vector<cv::Point3f> board;
-    std::vector<cv::Point2f> camera;
-    std::vector<cv::Point3f> board_with_projector;
-    std::vector<cv::Point2f> camera_with_projector;
-    std::vector<cv::Point2f> projector;
-};
 
 std::string size_text(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
 
@@ -53,22 +45,6 @@ bool projector_point(const CorrespondenceMap& map, const cv::Point2f& corner, co
     cv::perspectiveTransform(std::vector<cv::Point2f>{corner}, mapped, homography);
     projected = mapped.front();
     return std::isfinite(projected.x) && std::isfinite(projected.y);
-}
-
-double rms(const std::vector<cv::Point2f>& residuals) {
-    double sum = 0;
-    for (const auto& residual : residuals) sum += residual.dot(residual);
-    return residuals.empty() ? 0 : std::sqrt(sum / residuals.size());
-}
-
-std::vector<cv::Point2f> residuals(const std::vector<cv::Point3f>& board, const std::vector<cv::Point2f>& measured,
-                                   const cv::Mat& rvec, const cv::Mat& tvec, const cv::Matx33d& matrix,
-                                   const cv::Mat& distortion) {
-    std::vector<cv::Point2f> projected;
-    cv::projectPoints(board, rvec, tvec, matrix, distortion, projected);
-    std::vector<cv::Point2f> result(measured.size());
-    for (size_t index = 0; index < measured.size(); ++index) result[index] = measured[index] - projected[index];
-    return result;
 }
 
 }  // namespace
@@ -119,7 +95,16 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
     }
 
     CalibrationReport report;
-    std::vector<PoseCorners> corners;
+    Calibration& calibration = report.calibration;
+    calibration.camera_size = camera_size;
+    calibration.projector_size = projector_size;
+    const int lens_flags = options.radial_k1_only ? cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 : 0;
+    const int camera_flags = lens_flags | (options.camera_principal_point_at_centre ? cv::CALIB_FIX_PRINCIPAL_POINT : 0);
+    // The corners of each usable pose, split into the sets each device is calibrated with (the
+    // projector's: the corners with a projector point, with their camera points for the joint
+    // refinement). Built once, pruned when poses are dropped.
+    detail::DeviceObservations camera_views{camera_size, camera_flags, {}, {}}, projector_views{projector_size, lens_flags, {}, {}};
+    std::vector<std::vector<cv::Point2f>> camera_with_projector;
     std::vector<size_t> pose_of;  // report index of each usable pose
     detail::ProgressReporter reporter(progress, "calibrate", 3);
     for (const PoseObservation& pose : poses) {
@@ -130,104 +115,64 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
         pose_report.reason = pose.problem;
         pose_report.used = pose.problem.empty();
         if (pose_report.used) {
-            PoseCorners usable;
-            usable.board = pose.board_points;
-            usable.camera = pose.camera_points;
-            for (size_t index = 0; index < pose.projector_corner.size(); ++index) {
-                usable.board_with_projector.push_back(pose.board_points[size_t(pose.projector_corner[index])]);
-                usable.camera_with_projector.push_back(pose.camera_points[size_t(pose.projector_corner[index])]);
-                usable.projector.push_back(pose.projector_points[index]);
+            camera_views.board.push_back(pose.board_points);
+            camera_views.image.push_back(pose.camera_points);
+            std::vector<cv::Point3f> board_with_projector;
+            std::vector<cv::Point2f> camera_points;
+            for (int corner : pose.projector_corner) {
+                board_with_projector.push_back(pose.board_points[size_t(corner)]);
+                camera_points.push_back(pose.camera_points[size_t(corner)]);
             }
-            corners.push_back(std::move(usable));
+            projector_views.board.push_back(board_with_projector);
+            projector_views.image.push_back(pose.projector_points);
+            camera_with_projector.push_back(camera_points);
             pose_of.push_back(report.poses.size());
         }
         report.poses.push_back(pose_report);
     }
 
     auto require_enough = [&](const std::string& stage) {
-        if (int(corners.size()) >= options.min_views) return;
+        if (int(pose_of.size()) >= options.min_views) return;
         std::string problems;
         for (const auto& pose : report.poses)
             if (!pose.used) problems += "; " + pose.name + ": " + pose.reason;
-        throw Error("--captures", "only " + std::to_string(corners.size()) + " usable board poses " + stage +
+        throw Error("--captures", "only " + std::to_string(pose_of.size()) + " usable board poses " + stage +
                                       " (at least " + std::to_string(options.min_views) + " needed)" + problems);
     };
     require_enough("");
 
-    Calibration& calibration = report.calibration;
-    calibration.camera_size = camera_size;
-    calibration.projector_size = projector_size;
-    const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
-    const int lens_flags = options.radial_k1_only ? cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 : 0;
-    const int camera_flags = lens_flags | (options.camera_principal_point_at_centre ? cv::CALIB_FIX_PRINCIPAL_POINT : 0);
-
     // Each device alone first (Zhang: homographies give the initial guess), dropping poses
     // whose reprojection error shows a bad detection, then both together.
-    std::vector<cv::Mat> camera_rotations, camera_translations;
-    for (int round = 0; round < 2; ++round) {
-        std::vector<std::vector<cv::Point3f>> board_sets, projector_board_sets;
-        std::vector<std::vector<cv::Point2f>> camera_sets, projector_sets;
-        for (const PoseCorners& pose : corners) {
-            board_sets.push_back(pose.board);
-            camera_sets.push_back(pose.camera);
-            projector_board_sets.push_back(pose.board_with_projector);
-            projector_sets.push_back(pose.projector);
-        }
-        cv::Mat camera_matrix, camera_distortion, projector_matrix, projector_distortion;
-        std::vector<cv::Mat> projector_rotations, projector_translations;
-        cv::calibrateCamera(board_sets, camera_sets, camera_size, camera_matrix, camera_distortion, camera_rotations,
-                            camera_translations, camera_flags, criteria);
-        cv::calibrateCamera(projector_board_sets, projector_sets, projector_size, projector_matrix, projector_distortion,
-                            projector_rotations, projector_translations, lens_flags, criteria);
-        calibration.camera_matrix = cv::Matx33d(camera_matrix);
-        calibration.camera_distortion = camera_distortion.reshape(1, 1);
-        calibration.projector_matrix = cv::Matx33d(projector_matrix);
-        calibration.projector_distortion = projector_distortion.reshape(1, 1);
-
-        std::vector<size_t> bad;
-        for (size_t index = 0; index < corners.size(); ++index) {
+    const auto [camera_fit, projector_fit] = detail::calibrate_devices_dropping_bad_poses(
+        camera_views, projector_views, options.max_view_rms_px,
+        [&](size_t index, double camera_rms, double projector_rms) {
             CalibrationPoseReport& pose_report = report.poses[pose_of[index]];
-            pose_report.camera_rms_px = rms(residuals(corners[index].board, corners[index].camera, camera_rotations[index],
-                                                      camera_translations[index], calibration.camera_matrix, camera_distortion));
-            pose_report.projector_rms_px =
-                rms(residuals(corners[index].board_with_projector, corners[index].projector, projector_rotations[index],
-                              projector_translations[index], calibration.projector_matrix, projector_distortion));
-            if (round == 0 && (pose_report.camera_rms_px > options.max_view_rms_px ||
-                               pose_report.projector_rms_px > options.max_view_rms_px))
-                bad.push_back(index);
-        }
-        if (bad.empty()) break;
-        for (auto it = bad.rbegin(); it != bad.rend(); ++it) {
-            CalibrationPoseReport& pose_report = report.poses[pose_of[*it]];
             pose_report.used = false;
+            pose_report.camera_rms_px = camera_rms;
+            pose_report.projector_rms_px = projector_rms;
             char reason[160];
             std::snprintf(reason, sizeof reason, "reprojection error too large (camera %.2f px, projector %.2f px)",
-                          pose_report.camera_rms_px, pose_report.projector_rms_px);
+                          camera_rms, projector_rms);
             pose_report.reason = reason;
-            corners.erase(corners.begin() + long(*it));
-            pose_of.erase(pose_of.begin() + long(*it));
-        }
-        require_enough("after dropping poses with large errors");
-    }
+            camera_with_projector.erase(camera_with_projector.begin() + long(index));
+            pose_of.erase(pose_of.begin() + long(index));
+        },
+        [&] { require_enough("after dropping poses with large errors"); });
     reporter.advance();
 
-    detail::require_pose_spread(camera_rotations, options.min_pose_spread_deg);
+    detail::require_pose_spread(camera_fit.rotations, options.min_pose_spread_deg);
 
     // Both devices and their relative pose, refined together.
     {
-        std::vector<std::vector<cv::Point3f>> board_sets;
-        std::vector<std::vector<cv::Point2f>> camera_sets, projector_sets;
-        for (const PoseCorners& pose : corners) {
-            board_sets.push_back(pose.board_with_projector);
-            camera_sets.push_back(pose.camera_with_projector);
-            projector_sets.push_back(pose.projector);
-        }
-        cv::Mat camera_matrix(calibration.camera_matrix), projector_matrix(calibration.projector_matrix);
+        cv::Mat camera_matrix(camera_fit.matrix), projector_matrix(projector_fit.matrix);
+        calibration.camera_distortion = camera_fit.distortion;
+        calibration.projector_distortion = projector_fit.distortion;
         cv::Mat R, T, essential, fundamental;
-        report.stereo_rms_px = cv::stereoCalibrate(board_sets, camera_sets, projector_sets, camera_matrix,
-                                                   calibration.camera_distortion, projector_matrix,
+        report.stereo_rms_px = cv::stereoCalibrate(projector_views.board, camera_with_projector, projector_views.image,
+                                                   camera_matrix, calibration.camera_distortion, projector_matrix,
                                                    calibration.projector_distortion, camera_size, R, T, essential,
-                                                   fundamental, cv::CALIB_USE_INTRINSIC_GUESS | camera_flags, criteria);
+                                                   fundamental, cv::CALIB_USE_INTRINSIC_GUESS | camera_flags,
+                                                   detail::kCalibrationCriteria);
         calibration.camera_matrix = cv::Matx33d(camera_matrix);
         calibration.projector_matrix = cv::Matx33d(projector_matrix);
         calibration.R = cv::Matx33d(R);
@@ -238,11 +183,12 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
     // Final residuals per pose with the joint model: the board pose from the camera, the
     // projector's view of it through R, T.
     std::vector<cv::Point2f> all_camera, all_projector;
-    for (size_t index = 0; index < corners.size(); ++index) {
-        const PoseCorners& pose = corners[index];
+    for (size_t index = 0; index < pose_of.size(); ++index) {
+        const std::vector<cv::Point3f>& board = camera_views.board[index];
+        const std::vector<cv::Point2f>& camera = camera_views.image[index];
         cv::Mat rvec, tvec;
-        cv::solvePnP(pose.board, pose.camera, cv::Mat(calibration.camera_matrix), calibration.camera_distortion, rvec, tvec);
-        cv::solvePnPRefineLM(pose.board, pose.camera, cv::Mat(calibration.camera_matrix), calibration.camera_distortion, rvec, tvec);
+        cv::solvePnP(board, camera, cv::Mat(calibration.camera_matrix), calibration.camera_distortion, rvec, tvec);
+        cv::solvePnPRefineLM(board, camera, cv::Mat(calibration.camera_matrix), calibration.camera_distortion, rvec, tvec);
         cv::Matx33d board_rotation;
         cv::Rodrigues(rvec, board_rotation);
         const cv::Matx33d projector_rotation = calibration.R * board_rotation;
@@ -250,16 +196,16 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
         cv::Mat projector_rvec;
         cv::Rodrigues(cv::Mat(projector_rotation), projector_rvec);
         const auto camera_residual =
-            residuals(pose.board, pose.camera, rvec, tvec, calibration.camera_matrix, calibration.camera_distortion);
-        const auto projector_residual = residuals(pose.board_with_projector, pose.projector, projector_rvec,
-                                                  cv::Mat(projector_translation), calibration.projector_matrix,
-                                                  calibration.projector_distortion);
+            detail::reprojection_residuals(board, camera, rvec, tvec, calibration.camera_matrix, calibration.camera_distortion);
+        const auto projector_residual = detail::reprojection_residuals(
+            projector_views.board[index], projector_views.image[index], projector_rvec, cv::Mat(projector_translation),
+            calibration.projector_matrix, calibration.projector_distortion);
         CalibrationPoseReport& pose_report = report.poses[pose_of[index]];
-        pose_report.camera_rms_px = rms(camera_residual);
-        pose_report.projector_rms_px = rms(projector_residual);
+        pose_report.camera_rms_px = detail::rms(camera_residual);
+        pose_report.projector_rms_px = detail::rms(projector_residual);
         all_camera.insert(all_camera.end(), camera_residual.begin(), camera_residual.end());
         all_projector.insert(all_projector.end(), projector_residual.begin(), projector_residual.end());
-        report.camera_corners.insert(report.camera_corners.end(), pose.camera.begin(), pose.camera.end());
+        report.camera_corners.insert(report.camera_corners.end(), camera.begin(), camera.end());
         cv::Matx44d board_to_camera = cv::Matx44d::eye();
         for (int r = 0; r < 3; ++r) {
             for (int c = 0; c < 3; ++c) board_to_camera(r, c) = board_rotation(r, c);
@@ -269,12 +215,12 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
     }
     report.camera_residuals = all_camera;
     report.projector_residuals = all_projector;
-    report.camera_rms_px = rms(all_camera);
-    report.projector_rms_px = rms(all_projector);
+    report.camera_rms_px = detail::rms(all_camera);
+    report.projector_rms_px = detail::rms(all_projector);
 
     // Advice: too few poses, or corners seen in too little of the image.
-    if (int(corners.size()) < options.recommended_views)
-        report.warnings.push_back("only " + std::to_string(corners.size()) + " usable poses; " +
+    if (int(pose_of.size()) < options.recommended_views)
+        report.warnings.push_back("only " + std::to_string(pose_of.size()) + " usable poses; " +
                                   std::to_string(options.recommended_views) + " or more give a steadier calibration");
     constexpr int kCells = 4;
     std::vector<bool> covered(kCells * kCells, false);

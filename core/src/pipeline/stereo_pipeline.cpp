@@ -32,8 +32,8 @@ StereoReconstructResult reconstruct_stereo_view(const std::string& first_folder,
         result.refinement = refine_stereo_extrinsics(first_map, second_map, calibration);
         used = result.refinement->calibration;
     }
-    StereoReconstruction reconstruction =
-        StereoMatcher(used).reconstruct(first_map, second_map, first.white_colour, options.stereo, progress);
+    const StereoMatcher matcher = options.projector ? StereoMatcher(used, *options.projector) : StereoMatcher(used);
+    StereoReconstruction reconstruction = matcher.reconstruct(first_map, second_map, first.white_colour, options.stereo, progress);
     result.view = std::move(reconstruction.view);
     result.statistics = reconstruction.statistics;
     if (options.clean) result.cleaning = clean_view(result.view, options.cleaning);

@@ -2,13 +2,14 @@
 // cameras from board poses.
 #include "picoscan/stereo.h"
 
-#include "common/pose_spread.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
 #include "common/board_image.h"
 #include "common/calibration_reader.h"
+#include "common/device_calibration.h"
+#include "common/pose_spread.h"
 #include "common/progress_reporter.h"
 #include "common/storage_file.h"
 
@@ -77,50 +78,24 @@ cv::Size camera_size(const detail::CalibrationReader& reader, std::initializer_l
 
 std::string size_text(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
 
-double rms(const std::vector<double>& squares) {
-    double sum = 0;
-    for (double value : squares) sum += value;
-    return squares.empty() ? 0 : std::sqrt(sum / squares.size());
-}
-
-std::vector<double> squared_residuals(const std::vector<cv::Point3f>& board, const std::vector<cv::Point2f>& measured,
-                                      const cv::Mat& rvec, const cv::Mat& tvec, const cv::Matx33d& matrix,
-                                      const cv::Mat& distortion) {
-    std::vector<cv::Point2f> projected;
-    cv::projectPoints(board, rvec, tvec, matrix, distortion, projected);
-    std::vector<double> squares(measured.size());
-    for (size_t index = 0; index < measured.size(); ++index) {
-        const cv::Point2f residual = measured[index] - projected[index];
-        squares[index] = residual.dot(residual);
-    }
-    return squares;
-}
-
-// Squared distances of the right points from the epipolar lines of the left points, on
-// undistorted pixels.
-std::vector<double> squared_epipolar_errors(const StereoCalibration& c, const std::vector<cv::Point2f>& left,
-                                            const std::vector<cv::Point2f>& right) {
+// Distances of the right points from the epipolar lines of the left points, on undistorted
+// pixels (as residuals across the line).
+std::vector<cv::Point2f> epipolar_errors(const StereoCalibration& c, const std::vector<cv::Point2f>& left,
+                                         const std::vector<cv::Point2f>& right) {
     std::vector<cv::Point2f> left_undistorted, right_undistorted;
     cv::undistortPoints(left, left_undistorted, cv::Mat(c.left_matrix), c.left_distortion, cv::noArray(), cv::Mat(c.left_matrix));
     cv::undistortPoints(right, right_undistorted, cv::Mat(c.right_matrix), c.right_distortion, cv::noArray(),
                         cv::Mat(c.right_matrix));
     const cv::Matx33d t_cross(0, -c.T[2], c.T[1], c.T[2], 0, -c.T[0], -c.T[1], c.T[0], 0);
     const cv::Matx33d fundamental = c.right_matrix.inv().t() * t_cross * c.R * c.left_matrix.inv();
-    std::vector<double> squares(left.size());
+    std::vector<cv::Point2f> distances(left.size());
     for (size_t index = 0; index < left.size(); ++index) {
         const cv::Vec3d line = fundamental * cv::Vec3d(left_undistorted[index].x, left_undistorted[index].y, 1);
-        const double distance = (line[0] * right_undistorted[index].x + line[1] * right_undistorted[index].y + line[2]) /
-                                std::hypot(line[0], line[1]);
-        squares[index] = distance * distance;
+        distances[index].x = float((line[0] * right_undistorted[index].x + line[1] * right_undistorted[index].y + line[2]) /
+                                   std::hypot(line[0], line[1]));
     }
-    return squares;
+    return distances;
 }
-
-// Board corners both cameras found in one pose.
-struct PosePair {
-    std::vector<cv::Point3f> board;
-    std::vector<cv::Point2f> left, right;
-};
 
 }  // namespace
 
@@ -233,6 +208,10 @@ cv::Mat load_board_image(const std::string& directory, const std::string& manife
 StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& views, const BoardSpec& board,
                                          const StereoCalibrateOptions& options, const ProgressCallback& progress) {
     if (views.empty()) throw Error("--captures", "no board poses given");
+    if (board.kind == BoardKind::Chessboard && board.size.width % 2 == 0 && board.size.height % 2 == 0)
+        throw Error("--board", "a chessboard of " + size_text(board.size) +
+                                   " inner corners looks the same turned half a turn, so the two cameras may number its "
+                                   "corners differently; use a board with an odd number of corners one way, or ChArUco");
     const cv::Size left_size = views.front().left.size(), right_size = views.front().right.size();
     for (const StereoBoardView& view : views) {
         if (view.left.empty() || view.right.empty()) throw Error(view.name, "a board image is missing");
@@ -249,7 +228,12 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
     };
 
     StereoCalibrationReport report;
-    std::vector<PosePair> pairs;
+    StereoCalibration& c = report.calibration;
+    c.left_size = left_size;
+    c.right_size = right_size;
+    const int lens_flags = options.radial_k3 ? 0 : cv::CALIB_FIX_K3;
+    // The corners both cameras found, per usable pose: built once, pruned when poses are dropped.
+    detail::DeviceObservations left_views{left_size, lens_flags, {}, {}}, right_views{right_size, lens_flags, {}, {}};
     std::vector<size_t> pose_of;  // report index of each usable pose
     const std::vector<cv::Point3f> model = board_points(board);
     for (const StereoBoardView& view : views) {
@@ -265,19 +249,23 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
         if (!detect_board(grey(view.left), board, left)) pose.reason = "board not found in the first camera's image";
         else if (!detect_board(grey(view.right), board, right)) pose.reason = "board not found in the second camera's image";
         else {
-            PosePair pair;
+            std::vector<cv::Point3f> shared_board;
+            std::vector<cv::Point2f> left_points, right_points;
             for (size_t a = 0; a < left.point_ids.size(); ++a)
                 for (size_t b = 0; b < right.point_ids.size(); ++b)
                     if (left.point_ids[a] == right.point_ids[b]) {
-                        pair.board.push_back(model[size_t(left.point_ids[a])]);
-                        pair.left.push_back(left.image_points[a]);
-                        pair.right.push_back(right.image_points[b]);
+                        shared_board.push_back(model[size_t(left.point_ids[a])]);
+                        left_points.push_back(left.image_points[a]);
+                        right_points.push_back(right.image_points[b]);
                     }
-            pose.corners = int(pair.board.size());
-            if (pair.board.size() < 6) pose.reason = "only " + std::to_string(pair.board.size()) + " corners seen by both cameras";
+            pose.corners = int(shared_board.size());
+            if (shared_board.size() < 6) pose.reason = "only " + std::to_string(shared_board.size()) + " corners seen by both cameras";
             else {
                 pose.used = true;
-                pairs.push_back(std::move(pair));
+                left_views.board.push_back(shared_board);
+                left_views.image.push_back(left_points);
+                right_views.board.push_back(shared_board);
+                right_views.image.push_back(right_points);
                 pose_of.push_back(report.poses.size());
             }
         }
@@ -285,80 +273,43 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
         advance();
     }
     auto require_enough = [&](const std::string& stage) {
-        if (int(pairs.size()) >= options.min_views) return;
+        if (int(pose_of.size()) >= options.min_views) return;
         std::string problems;
         for (const auto& pose : report.poses)
             if (!pose.used) problems += "; " + pose.name + ": " + pose.reason;
-        throw Error("--captures", "only " + std::to_string(pairs.size()) + " usable board poses" + stage + " (at least " +
+        throw Error("--captures", "only " + std::to_string(pose_of.size()) + " usable board poses" + stage + " (at least " +
                                       std::to_string(options.min_views) + " needed)" + problems);
     };
     require_enough("");
 
-    StereoCalibration& c = report.calibration;
-    c.left_size = left_size;
-    c.right_size = right_size;
-    const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
-    const int lens_flags = options.radial_k3 ? 0 : cv::CALIB_FIX_K3;
     // Each camera alone first (Zhang), dropping poses whose error shows a bad detection.
-    std::vector<cv::Mat> left_rotations, left_translations;
-    for (int round = 0; round < 2; ++round) {
-        std::vector<std::vector<cv::Point3f>> boards;
-        std::vector<std::vector<cv::Point2f>> lefts, rights;
-        for (const PosePair& pair : pairs) {
-            boards.push_back(pair.board);
-            lefts.push_back(pair.left);
-            rights.push_back(pair.right);
-        }
-        cv::Mat left_matrix, left_distortion, right_matrix, right_distortion;
-        std::vector<cv::Mat> right_rotations, right_translations;
-        cv::calibrateCamera(boards, lefts, left_size, left_matrix, left_distortion, left_rotations, left_translations, lens_flags,
-                            criteria);
-        cv::calibrateCamera(boards, rights, right_size, right_matrix, right_distortion, right_rotations, right_translations,
-                            lens_flags, criteria);
-        c.left_matrix = cv::Matx33d(left_matrix);
-        c.right_matrix = cv::Matx33d(right_matrix);
-        c.left_distortion = left_distortion.reshape(1, 1);
-        c.right_distortion = right_distortion.reshape(1, 1);
-        std::vector<size_t> bad;
-        for (size_t index = 0; index < pairs.size(); ++index) {
+    const auto [left_fit, right_fit] = detail::calibrate_devices_dropping_bad_poses(
+        left_views, right_views, options.max_view_rms_px,
+        [&](size_t index, double left_rms, double right_rms) {
             StereoPoseReport& pose = report.poses[pose_of[index]];
-            pose.left_rms_px = rms(squared_residuals(pairs[index].board, pairs[index].left, left_rotations[index],
-                                                     left_translations[index], c.left_matrix, c.left_distortion));
-            pose.right_rms_px = rms(squared_residuals(pairs[index].board, pairs[index].right, right_rotations[index],
-                                                      right_translations[index], c.right_matrix, c.right_distortion));
-            if (round == 0 && (pose.left_rms_px > options.max_view_rms_px || pose.right_rms_px > options.max_view_rms_px))
-                bad.push_back(index);
-        }
-        if (bad.empty()) break;
-        for (auto it = bad.rbegin(); it != bad.rend(); ++it) {
-            StereoPoseReport& pose = report.poses[pose_of[*it]];
             pose.used = false;
+            pose.left_rms_px = left_rms;
+            pose.right_rms_px = right_rms;
             char reason[160];
             std::snprintf(reason, sizeof reason, "reprojection error too large (first camera %.2f px, second %.2f px)",
-                          pose.left_rms_px, pose.right_rms_px);
+                          left_rms, right_rms);
             pose.reason = reason;
-            pairs.erase(pairs.begin() + long(*it));
-            pose_of.erase(pose_of.begin() + long(*it));
-        }
-        require_enough(" after dropping poses with large errors");
-    }
-
-    detail::require_pose_spread(left_rotations, options.min_pose_spread_deg);
+            pose_of.erase(pose_of.begin() + long(index));
+        },
+        [&] { require_enough(" after dropping poses with large errors"); });
+    detail::require_pose_spread(left_fit.rotations, options.min_pose_spread_deg);
     advance();
 
-    // Both cameras and their relative pose, refined together.
+    // Both cameras and their relative pose, refined together (all parameters of both cameras,
+    // the board poses and R, T: the bundle adjustment of the whole rig).
     {
-        std::vector<std::vector<cv::Point3f>> boards;
-        std::vector<std::vector<cv::Point2f>> lefts, rights;
-        for (const PosePair& pair : pairs) {
-            boards.push_back(pair.board);
-            lefts.push_back(pair.left);
-            rights.push_back(pair.right);
-        }
-        cv::Mat left_matrix(c.left_matrix), right_matrix(c.right_matrix), R, T, essential, fundamental;
-        report.stereo_rms_px = cv::stereoCalibrate(boards, lefts, rights, left_matrix, c.left_distortion, right_matrix,
-                                                   c.right_distortion, left_size, R, T, essential, fundamental,
-                                                   cv::CALIB_USE_INTRINSIC_GUESS | lens_flags, criteria);
+        cv::Mat left_matrix(left_fit.matrix), right_matrix(right_fit.matrix), R, T, essential, fundamental;
+        c.left_distortion = left_fit.distortion;
+        c.right_distortion = right_fit.distortion;
+        report.stereo_rms_px = cv::stereoCalibrate(left_views.board, left_views.image, right_views.image, left_matrix,
+                                                   c.left_distortion, right_matrix, c.right_distortion, left_size, R, T,
+                                                   essential, fundamental, cv::CALIB_USE_INTRINSIC_GUESS | lens_flags,
+                                                   detail::kCalibrationCriteria);
         c.left_matrix = cv::Matx33d(left_matrix);
         c.right_matrix = cv::Matx33d(right_matrix);
         c.R = cv::Matx33d(R);
@@ -367,34 +318,47 @@ StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& vie
 
     // Final errors per pose with the joint model: the board pose from the first camera, the
     // second camera's view of it through R, T.
-    std::vector<double> all_left, all_right, all_epipolar;
-    for (size_t index = 0; index < pairs.size(); ++index) {
-        const PosePair& pair = pairs[index];
+    std::vector<cv::Point2f> all_left, all_right, all_epipolar;
+    for (size_t index = 0; index < pose_of.size(); ++index) {
+        const std::vector<cv::Point3f>& board_corners = left_views.board[index];
+        const std::vector<cv::Point2f>& left_points = left_views.image[index];
+        const std::vector<cv::Point2f>& right_points = right_views.image[index];
         cv::Mat rvec, tvec;
-        cv::solvePnP(pair.board, pair.left, cv::Mat(c.left_matrix), c.left_distortion, rvec, tvec);
-        cv::solvePnPRefineLM(pair.board, pair.left, cv::Mat(c.left_matrix), c.left_distortion, rvec, tvec);
+        cv::solvePnP(board_corners, left_points, cv::Mat(c.left_matrix), c.left_distortion, rvec, tvec);
+        cv::solvePnPRefineLM(board_corners, left_points, cv::Mat(c.left_matrix), c.left_distortion, rvec, tvec);
         cv::Matx33d board_rotation;
         cv::Rodrigues(rvec, board_rotation);
         cv::Mat right_rvec;
         cv::Rodrigues(cv::Mat(c.R * board_rotation), right_rvec);
         const cv::Vec3d right_translation = c.R * cv::Vec3d(tvec) + c.T;
-        const auto left_squares = squared_residuals(pair.board, pair.left, rvec, tvec, c.left_matrix, c.left_distortion);
-        const auto right_squares =
-            squared_residuals(pair.board, pair.right, right_rvec, cv::Mat(right_translation), c.right_matrix, c.right_distortion);
-        const auto epipolar_squares = squared_epipolar_errors(c, pair.left, pair.right);
+        const auto left_residuals =
+            detail::reprojection_residuals(board_corners, left_points, rvec, tvec, c.left_matrix, c.left_distortion);
+        const auto right_residuals = detail::reprojection_residuals(board_corners, right_points, right_rvec,
+                                                                    cv::Mat(right_translation), c.right_matrix,
+                                                                    c.right_distortion);
+        const auto epipolar = epipolar_errors(c, left_points, right_points);
         StereoPoseReport& pose = report.poses[pose_of[index]];
-        pose.left_rms_px = rms(left_squares);
-        pose.right_rms_px = rms(right_squares);
-        pose.epipolar_rms_px = rms(epipolar_squares);
-        all_left.insert(all_left.end(), left_squares.begin(), left_squares.end());
-        all_right.insert(all_right.end(), right_squares.begin(), right_squares.end());
-        all_epipolar.insert(all_epipolar.end(), epipolar_squares.begin(), epipolar_squares.end());
+        pose.left_rms_px = detail::rms(left_residuals);
+        pose.right_rms_px = detail::rms(right_residuals);
+        pose.epipolar_rms_px = detail::rms(epipolar);
+        all_left.insert(all_left.end(), left_residuals.begin(), left_residuals.end());
+        all_right.insert(all_right.end(), right_residuals.begin(), right_residuals.end());
+        all_epipolar.insert(all_epipolar.end(), epipolar.begin(), epipolar.end());
     }
-    report.left_rms_px = rms(all_left);
-    report.right_rms_px = rms(all_right);
-    report.epipolar_rms_px = rms(all_epipolar);
-    if (int(pairs.size()) < options.recommended_views)
-        report.warnings.push_back("only " + std::to_string(pairs.size()) + " usable poses; " +
+    report.left_rms_px = detail::rms(all_left);
+    report.right_rms_px = detail::rms(all_right);
+    report.epipolar_rms_px = detail::rms(all_epipolar);
+    // Every pose fitted alone, yet not together: the cameras' corners do not belong together.
+    if (report.left_rms_px > options.max_view_rms_px || report.right_rms_px > options.max_view_rms_px) {
+        char problem[300];
+        std::snprintf(problem, sizeof problem,
+                      "the two cameras do not fit one rig: RMS %.2f px (first camera) and %.2f px (second) with their "
+                      "relative pose, above %.2f px; were the second camera's pose folders given in the same order?",
+                      report.left_rms_px, report.right_rms_px, options.max_view_rms_px);
+        throw Error("--second-captures", problem);
+    }
+    if (int(pose_of.size()) < options.recommended_views)
+        report.warnings.push_back("only " + std::to_string(pose_of.size()) + " usable poses; " +
                                   std::to_string(options.recommended_views) + " or more give a steadier calibration");
     validate_stereo_calibration(c, "stereo calibration result");
     advance();

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace picoscan {
 
@@ -31,22 +32,36 @@ inline float sample(const cv::Mat& image, double x, double y) {
     return (top[0] * (1 - fx) + top[1] * fx) * (1 - fy) + (bottom[0] * (1 - fx) + bottom[1] * fx) * fy;
 }
 
-// One camera's rectified grid: where each rectified pixel samples the camera image.
+// One camera's rectified grid: where each rectified pixel samples the camera image, as the
+// offset of the top-left of its four camera pixels and the bilinear weights (computed once
+// per calibration, so resampling a map is four loads and three blends per pixel).
 struct RectifiedGrid {
     cv::Matx33d rotation;  // camera frame -> rectified frame
     double cx = 0;         // rectified principal point column (the focal length and cy are shared)
-    cv::Mat source;        // CV_32FC2, camera pixel per rectified pixel, NaN where none
+    cv::Mat source_offset; // CV_32S, y0 * width + x0 in the camera image, -1 where none
+    cv::Mat source_weight; // CV_32FC2, (x - x0, y - y0)
 };
 
 // The rectified image of a CV_32F map (projector_u or projector_v).
 cv::Mat resample(const cv::Mat& image, const RectifiedGrid& grid) {
-    cv::Mat rectified(grid.source.size(), CV_32F);
+    const cv::Mat continuous = image.isContinuous() ? image : image.clone();
+    cv::Mat rectified(grid.source_offset.size(), CV_32F);
+    const float* pixels = continuous.ptr<float>();
+    const int step = continuous.cols;
     detail::parallel_rows(rectified.rows, [&](int begin, int end) {
         for (int y = begin; y < end; ++y) {
-            const cv::Vec2f* source = grid.source.ptr<cv::Vec2f>(y);
+            const int* offsets = grid.source_offset.ptr<int>(y);
+            const cv::Vec2f* weights = grid.source_weight.ptr<cv::Vec2f>(y);
             float* out = rectified.ptr<float>(y);
-            for (int x = 0; x < rectified.cols; ++x)
-                out[x] = std::isfinite(source[x][0]) ? sample(image, source[x][0], source[x][1]) : kNaN;
+            for (int x = 0; x < rectified.cols; ++x) {
+                if (offsets[x] < 0) {
+                    out[x] = kNaN;
+                    continue;
+                }
+                const float* top = pixels + offsets[x];
+                const float fx = weights[x][0], fy = weights[x][1];
+                out[x] = (top[0] * (1 - fx) + top[1] * fx) * (1 - fy) + (top[step] * (1 - fx) + top[step + 1] * fx) * fy;
+            }
         }
     });
     return rectified;
@@ -155,14 +170,75 @@ RowCodeIndex::Found find_between_rows(const RowCodeIndex& index, double y, doubl
     return RowCodeIndex::Found::Once;
 }
 
+// The crossing of `code` nearest to `near` on row y of `codes`, within `window` pixels. As in
+// RowCodeIndex::find, neighbouring segments that all hold the code (a plateau of a binary
+// code) are one crossing at their middle.
+bool nearest_crossing(const cv::Mat& codes, int y, double near, double window, double code, double max_step,
+                      double& position) {
+    if (y < 0 || y >= codes.rows) return false;
+    const float* values = codes.ptr<float>(y);
+    auto holds = [&](int x) {
+        const double a = values[x], b = values[x + 1];
+        return std::abs(a - b) <= max_step && code >= std::min(a, b) && code <= std::max(a, b);  // NaN fails
+    };
+    auto crossing = [&](int x) {
+        const double a = values[x], b = values[x + 1];
+        return a == b ? x + 0.5 : x + (code - a) / (b - a);
+    };
+    const int first = std::max(0, int(std::floor(near - window))), last = std::min(codes.cols - 2, int(std::floor(near + window)));
+    int nearest = -1;
+    for (int x = first; x <= last; ++x)
+        if (holds(x) && (nearest < 0 || std::abs(crossing(x) - near) < std::abs(crossing(nearest) - near))) nearest = x;
+    if (nearest < 0) return false;
+    int begin = nearest, end = nearest;
+    while (begin > 0 && holds(begin - 1)) --begin;
+    while (end + 2 < codes.cols && holds(end + 1)) ++end;
+    position = 0.5 * (crossing(begin) + crossing(end));
+    return true;
+}
+
+// The left-right check's way back: where near `near` on the rectified row through y (between
+// two grid rows) the code equals `code`. A local search: the forward match already required
+// the code to cross the other camera's row once.
+bool crossing_near(const cv::Mat& codes, double y, double near, double window, double code, double max_step,
+                   double max_row_difference, double& position) {
+    const int y0 = int(std::floor(y));
+    double above = 0, below = 0;
+    if (!nearest_crossing(codes, y0, near, window, code, max_step, above) ||
+        !nearest_crossing(codes, y0 + 1, near, window, code, max_step, below) || std::abs(above - below) > max_row_difference)
+        return false;
+    const double t = y - y0;
+    position = (1 - t) * above + t * below;
+    return true;
+}
+
 cv::Matx33d rows_to_matrix(const cv::Vec3d& x, const cv::Vec3d& y, const cv::Vec3d& z) {
     return {x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]};
 }
 
 }  // namespace
 
+// The projector as a third view of the first camera's rays (three-view triangulation).
+struct ProjectorView {
+    cv::Matx33d R;  // first camera -> projector
+    cv::Vec3d T;
+    cv::Matx33d matrix;
+    detail::LensDistortion lens;
+
+    // The projector pixel (column, row) of a point in the first camera's frame.
+    cv::Vec2d pixel(const cv::Vec3d& point) const {
+        const cv::Vec3d p = R * point + T;
+        return detail::normalised_to_pixel(matrix, lens.distort({p[0] / p[2], p[1] / p[2]}));
+    }
+};
+
+// Largest median projector column residual (projector pixels) of three-view points: more means
+// the camera-projector calibration does not belong to these cameras and captures.
+constexpr double kMaxMedianProjectorResidualPx = 1.0;
+
 struct StereoMatcher::Impl {
     StereoCalibration calibration;
+    std::optional<ProjectorView> projector;
     double focal = 0, cy = 0;     // rectified intrinsics shared by both cameras
     double baseline = 0;          // along the rectified x axis
     RectifiedGrid left, right;
@@ -232,19 +308,27 @@ StereoMatcher::StereoMatcher(const StereoCalibration& calibration) : impl_(std::
     auto make_grid = [&](RectifiedGrid& grid, const Extent& extent, const cv::Matx33d& matrix,
                          const detail::LensDistortion& lens, cv::Size size) {
         grid.cx = 2 - extent.x0;
-        grid.source.create(rows, int(std::ceil(extent.x1 - extent.x0)) + 4, CV_32FC2);
+        const cv::Size grid_size(int(std::ceil(extent.x1 - extent.x0)) + 4, rows);
+        grid.source_offset.create(grid_size, CV_32S);
+        grid.source_weight.create(grid_size, CV_32FC2);
         const cv::Matx33d back = grid.rotation.t();
-        detail::parallel_rows(grid.source.rows, [&](int begin, int end) {
+        detail::parallel_rows(grid_size.height, [&](int begin, int end) {
             for (int y = begin; y < end; ++y)
-                for (int x = 0; x < grid.source.cols; ++x) {
+                for (int x = 0; x < grid_size.width; ++x) {
                     const cv::Vec3d ray = back * cv::Vec3d((x - grid.cx) / m.focal, (y - m.cy) / m.focal, 1);
-                    cv::Vec2f source(kNaN, kNaN);
+                    int offset = -1;
+                    cv::Vec2f weight(0, 0);
                     if (ray[2] > 1e-3) {
-                        const cv::Vec2d pixel = detail::normalised_to_pixel(matrix, lens.distort({ray[0] / ray[2], ray[1] / ray[2]}));
-                        if (pixel[0] >= -1 && pixel[1] >= -1 && pixel[0] <= size.width && pixel[1] <= size.height)
-                            source = cv::Vec2f(pixel);
+                        // Float pixel positions, as the bilinear sample of the camera map uses them.
+                        const cv::Vec2f pixel(detail::normalised_to_pixel(matrix, lens.distort({ray[0] / ray[2], ray[1] / ray[2]})));
+                        const int x0 = int(std::floor(pixel[0])), y0 = int(std::floor(pixel[1]));
+                        if (x0 >= 0 && y0 >= 0 && x0 + 1 < size.width && y0 + 1 < size.height) {
+                            offset = y0 * size.width + x0;
+                            weight = cv::Vec2f(pixel[0] - float(x0), pixel[1] - float(y0));
+                        }
                     }
-                    grid.source.at<cv::Vec2f>(y, x) = source;
+                    grid.source_offset.at<int>(y, x) = offset;
+                    grid.source_weight.at<cv::Vec2f>(y, x) = weight;
                 }
         });
     };
@@ -264,6 +348,20 @@ StereoMatcher::StereoMatcher(const StereoCalibration& calibration) : impl_(std::
                                   : cv::Vec2f(kNaN, kNaN);
             }
     });
+}
+
+StereoMatcher::StereoMatcher(const StereoCalibration& calibration, const Calibration& projector)
+    : StereoMatcher(calibration) {
+    validate_calibration(projector, "projector calibration");
+    if (projector.camera_size != calibration.left_size)
+        throw Error("projector calibration", "its camera is " + std::to_string(projector.camera_size.width) + "x" +
+                                                 std::to_string(projector.camera_size.height) +
+                                                 " but the stereo calibration's first camera is " +
+                                                 std::to_string(calibration.left_size.width) + "x" +
+                                                 std::to_string(calibration.left_size.height) +
+                                                 "; it must calibrate the first camera with the projector");
+    impl_->projector = ProjectorView{projector.R, projector.T, projector.projector_matrix,
+                                     detail::LensDistortion(projector.projector_distortion)};
 }
 
 StereoMatcher::~StereoMatcher() = default;
@@ -294,7 +392,8 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
     const cv::Mat left_codes = resample(left.projector_u, m.left);
     const cv::Mat right_codes = resample(right.projector_u, m.right);
     const cv::Mat right_rows = use_rows ? resample(right.projector_v, m.right) : cv::Mat();
-    const RowCodeIndex left_index(left_codes, options.max_code_step_px), right_index(right_codes, options.max_code_step_px);
+    const RowCodeIndex right_index(right_codes, options.max_code_step_px);
+    const double back_window = options.max_left_right_difference_px + 2;
     const double max_row_difference = 4.0;  // rectified px between the crossings on two neighbouring rows
 
     StereoReconstruction result;
@@ -307,8 +406,48 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
 
     const int height = c.left_size.height, width = c.left_size.width;
     std::vector<StereoStatistics> row_statistics(static_cast<size_t>(height));
-    std::vector<std::vector<float>> row_epipolar(static_cast<size_t>(height));
+    std::vector<std::vector<float>> row_epipolar(static_cast<size_t>(height)), row_projector(static_cast<size_t>(height));
     const cv::Matx33d to_left = m.left.rotation.t();
+    // Three views (a camera-projector calibration given): the rectified depth s along the exact
+    // left ray that best explains the left pixel's projector codes u (and v) and the right
+    // camera's match xr, by Gauss-Newton from the two-ray depth. With code noise of the same
+    // size in both cameras, the residuals with unit variance are
+    //   e_left  = u - P_u(s)                         (the projector's view of the left code)
+    //   e_right = u - P_u(s) - g (xr - x_right(s))   (the right code at xr, g its slope along the row)
+    //   e_row   = v - P_v(s)                         (where rows were decoded)
+    // where P is the projector's pixel of the point and x_right(s) its rectified right column.
+    // The first step solves the linearised least squares over the three views; a second
+    // Gauss-Newton step follows. Returns |e_left| at the solution, NaN when not refined.
+    auto three_view_depth = [&](const ProjectorView& projector, const cv::Matx33d& rectified_to_left, double a, double b,
+                                double u, double v, double xr, double gradient, double& s) {
+        if (!std::isfinite(gradient) || std::abs(gradient) < 1e-3) return std::numeric_limits<double>::quiet_NaN();
+        const bool with_row = std::isfinite(v);
+        auto residuals = [&](double depth, double out[3]) {
+            const cv::Vec2d pixel = projector.pixel(rectified_to_left * cv::Vec3d(a * depth, b * depth, depth));
+            const double x_right = m.focal * (a - m.baseline / depth) + m.right.cx;
+            out[0] = u - pixel[0];
+            out[1] = u - pixel[0] - gradient * (xr - x_right);
+            out[2] = with_row ? v - pixel[1] : 0.0;
+        };
+        for (int iteration = 0; iteration < 2; ++iteration) {
+            double r[3], ahead[3], behind[3];
+            const double h = 1e-4 * s;
+            residuals(s, r);
+            residuals(s + h, ahead);
+            residuals(s - h, behind);
+            double jtj = 0, jtr = 0;
+            for (int k = 0; k < 3; ++k) {
+                const double jacobian = (ahead[k] - behind[k]) / (2 * h);
+                jtj += jacobian * jacobian;
+                jtr += jacobian * r[k];
+            }
+            if (!(jtj > 0)) return std::numeric_limits<double>::quiet_NaN();
+            s -= jtr / jtj;
+        }
+        double r[3];
+        residuals(s, r);
+        return std::abs(r[0]);
+    };
     detail::ProgressReporter reporter(progress, "stereo", height);
     detail::parallel_rows(height, [&](int begin, int end) {
         for (int y = begin; y < end && !reporter.cancelled(); ++y) {
@@ -330,11 +469,12 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
                 if (forward == RowCodeIndex::Found::Ambiguous) ++counts.ambiguous;
                 if (forward != RowCodeIndex::Found::Once) continue;
                 ++counts.matched;
-                // Left-right check: from the match, search the left row for the right camera's code.
+                // Left-right check: from the match, find the right camera's code on the left row.
                 const double right_code = sample(right_codes, xr, yl);
                 double xl_back = 0;
                 if (!std::isfinite(right_code) ||
-                    find_between_rows(left_index, yl, right_code, max_row_difference, xl_back) != RowCodeIndex::Found::Once ||
+                    !crossing_near(left_codes, yl, xl, back_window, right_code, options.max_code_step_px,
+                                   max_row_difference, xl_back) ||
                     std::abs(xl_back - xl) > options.max_left_right_difference_px)
                     continue;
                 ++counts.left_right_consistent;
@@ -361,7 +501,15 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
                     ++counts.behind;
                     continue;
                 }
-                const cv::Vec3d point = to_left * cv::Vec3d(a * depth, b * depth, depth);
+                double refined_depth = depth;
+                if (m.projector) {
+                    const double gradient = sample(right_codes, xr + 0.5, yl) - sample(right_codes, xr - 0.5, yl);
+                    const double row_code = row_codes ? double(row_codes[x]) : std::numeric_limits<double>::quiet_NaN();
+                    const double residual = three_view_depth(*m.projector, to_left, a, b, code, row_code, xr, gradient,
+                                                             refined_depth);
+                    if (std::isfinite(residual)) row_projector[size_t(y)].push_back(float(residual));
+                }
+                const cv::Vec3d point = to_left * cv::Vec3d(a * refined_depth, b * refined_depth, refined_depth);
                 if (!(point[2] >= options.min_depth_mm && point[2] <= options.max_depth_mm)) continue;
                 points[x] = cv::Vec3f(point);
                 ++counts.valid;
@@ -372,7 +520,7 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
     if (reporter.cancelled()) throw Error("cancelled", "stereo reconstruction cancelled");
 
     StereoStatistics& total = result.statistics;
-    std::vector<float> epipolar;
+    std::vector<float> epipolar, projector_residuals;
     for (int y = 0; y < height; ++y) {
         const StereoStatistics& counts = row_statistics[size_t(y)];
         total.left_decoded += counts.left_decoded;
@@ -383,6 +531,7 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
         total.valid += counts.valid;
         total.behind += counts.behind;
         epipolar.insert(epipolar.end(), row_epipolar[size_t(y)].begin(), row_epipolar[size_t(y)].end());
+        projector_residuals.insert(projector_residuals.end(), row_projector[size_t(y)].begin(), row_projector[size_t(y)].end());
     }
     if (total.left_decoded == 0) throw Error("stereo", "the first camera decoded no projector columns");
     // Matches behind the cameras: the codes run the other way along the rows than the
@@ -403,6 +552,21 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
                           "check that R, T take the first camera to the second and the captures are not swapped",
                           total.median_epipolar_error_px, options.max_epipolar_error_px);
             throw Error("stereo calibration", problem);
+        }
+    }
+    if (!projector_residuals.empty()) {
+        total.three_view = int(projector_residuals.size());
+        std::nth_element(projector_residuals.begin(), projector_residuals.begin() + long(projector_residuals.size() / 2),
+                         projector_residuals.end());
+        total.median_projector_residual_px = projector_residuals[projector_residuals.size() / 2];
+        if (projector_residuals.size() >= 100 && total.median_projector_residual_px > kMaxMedianProjectorResidualPx) {
+            char problem[300];
+            std::snprintf(problem, sizeof problem,
+                          "does not fit these cameras and captures: the points the two cameras agree on are a median "
+                          "%.2f projector pixels from the columns the first camera decoded (at most %.1f allowed); is it "
+                          "the first camera's calibration with this projector?",
+                          total.median_projector_residual_px, kMaxMedianProjectorResidualPx);
+            throw Error("projector calibration", problem);
         }
     }
     detail::estimate_normals(view);
