@@ -174,6 +174,56 @@ class BestFitCommand(Command):
         return result
 
 
+def selected_features():
+    """The selection as (object, sub-element) pairs in the order picked: each picked face or vertex,
+    or the whole object when nothing inside it was picked."""
+    features = []
+    for selection in FreeCADGui.Selection.getSelectionEx():
+        names = [name for name in selection.SubElementNames if name]
+        features += [(selection.Object, name) for name in names] if names else [(selection.Object, "")]
+    return features
+
+
+def _is_feature(feature):
+    obj, sub = feature
+    return bool(sub) or getattr(obj, "FitKind", "") in ("Plane", "Sphere")
+
+
+class DatumAlignCommand(Command):
+    icon = "picoscan_datum"
+    menu = "Datum alignment (3-2-1)"
+    tooltip = ("Put a scan into its part's coordinate system: select the scan, then a primary plane (Z), a secondary "
+               "plane (X along their line) and an origin plane or point; add the model's three matching faces to move "
+               "the scan onto the model. Select the model's three faces, then the scan's three, to move the model onto "
+               "the scan. Axes point into the material.")
+
+    def IsActive(self):
+        return len(selected_features()) in (3, 4, 6, 7)
+
+    def run(self):
+        from picoscan_wb.operations import datum
+
+        features = selected_features()
+        if not _is_feature(features[0]):
+            moving, features = features[0][0], features[1:]
+        else:
+            owners = set(obj.Name for obj, _ in features[:3])
+            if len(owners) != 1:
+                raise picoscan.Error("Datum alignment: select the object to move first, or three faces of it")
+            moving = features[0][0]
+        if len(features) not in (3, 6):
+            raise picoscan.Error("Datum alignment: select 3 datums (primary, secondary, origin), or 3 on the object to "
+                                 "move and then 3 matching ones on the fixed object (%d selected)" % len(features))
+        # The primitives fitted on the scan travel with it.
+        groups = {parent.Name: parent for obj, _ in features[:3] for parent in obj.InList
+                  if parent.TypeId == "App::DocumentObjectGroup"}
+        carried = [member for group in groups.values() for member in group.Group]
+        frame, fixed, move = datum.align(moving, features[:3], features[3:] or None, carried=carried)
+        FreeCAD.Console.PrintMessage("%s: datum frame %s; moved by %s\n" % (moving.Label, datum.frame_report(frame), move))
+        moving.Document.recompute()
+        return frame
+
+
 class ShowRigCommand(Command):
     icon = "picoscan_rig"
     menu = "Show rig"

@@ -14,7 +14,7 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import cloud_of, deviation_map, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import alignment, encoding, primitives, rig, section, simulate, solid
+from picoscan_wb.operations import alignment, datum, encoding, primitives, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -463,3 +463,137 @@ class PicoScanSectionFitTest(unittest.TestCase):
         self.assertAlmostEqual(result.MaxDeviation.Value, 1.0, delta=0.1)
         self.assertLess(result.MeanDeviation.Value, -0.01)  # the boss top, about 2 % of the points, 1 mm inside
         self.assertLessEqual(result.WithinTolerance, within - 2)
+
+
+def sampled_demo_part(count, sigma_mm, seed=3):
+    """Points spread evenly over the demo part's true surface with their outward normals and
+    Gaussian noise along them: what a scan of every side would give, in the part's frame."""
+    part = picoscan.mechanical_part()
+    triangles = numpy.array(part.vertices, dtype=numpy.float64)[numpy.array(part.faces)]
+    normals = numpy.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    areas = numpy.linalg.norm(normals, axis=1)
+    keep = areas > 1e-9
+    triangles, normals, areas = triangles[keep], normals[keep] / areas[keep, None], areas[keep]
+    random = numpy.random.default_rng(seed)
+    chosen = random.choice(len(areas), count, p=areas / areas.sum())
+    a, b = random.random(count), random.random(count)
+    flip = a + b > 1
+    a[flip], b[flip] = 1 - a[flip], 1 - b[flip]
+    t = triangles[chosen]
+    points = t[:, 0] + a[:, None] * (t[:, 1] - t[:, 0]) + b[:, None] * (t[:, 2] - t[:, 0])
+    points += normals[chosen] * random.normal(0.0, sigma_mm, count)[:, None]
+    return points, normals[chosen]
+
+
+class PicoScanDatumTest(unittest.TestCase):
+    """3-2-1 datum alignment of a scan of the demo part, seen turned 30 degrees and 400 mm away as a
+    camera would see it: its bottom, back and left faces fitted as planes put it into the part's own
+    frame (corner (-25, -18, 0) at the origin), and the model onto the scan."""
+
+    # Where the scanner saw the part: its frame -> scan coordinates.
+    POSE = FreeCAD.Placement(FreeCAD.Vector(20.0, -35.0, 400.0), FreeCAD.Rotation(FreeCAD.Vector(1, -2, 0.5), 30.0))
+    CORNER = FreeCAD.Vector(-25, -18, 0)
+
+    @classmethod
+    def setUpClass(cls):
+        cls.doc = FreeCAD.newDocument("PicoScanDatumTest")
+        points, normals = sampled_demo_part(60000, 0.02)
+        matrix = numpy.array(cls.POSE.toMatrix().A).reshape(4, 4)
+        cloud = picoscan.PointCloud()
+        cloud.points = (points @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
+        cloud.normals = (normals @ matrix[:3, :3].T).astype(numpy.float32)
+        cls.cloud = cloud
+        cls.group, created = primitives.fit_primitives(cls.doc, cloud, primitives.detection_options(epsilon_mm=0.1, min_points=300))
+        # The fitted planes whose outward normal is the part's -z, -y, -x, +z (the top, for a parallel pair).
+        cls.planes = {}
+        for obj, shape in created:
+            if obj.TypeId != "Part::Plane":
+                continue
+            normal = cls.POSE.Rotation.inverted().multVec(obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)))
+            for name, axis in (("bottom", (0, 0, -1)), ("back", (0, -1, 0)), ("left", (-1, 0, 0)), ("top", (0, 0, 1))):
+                if normal.dot(FreeCAD.Vector(*axis)) > 0.99 and name not in cls.planes:
+                    cls.planes[name] = obj
+        cls.cylinders = [obj for obj, _ in created if obj.TypeId == "Part::Cylinder"]
+
+    @classmethod
+    def tearDownClass(cls):
+        FreeCAD.closeDocument(cls.doc.Name)
+
+    def scan_object(self):
+        scan = self.doc.addObject("Points::Feature", "DemoScan")
+        scan.Points = Points.Points([tuple(p) for p in self.cloud.points.tolist()])
+        return scan
+
+    def restore(self, objects, placements):
+        for obj, placement in zip(objects, placements):
+            obj.Placement = placement
+
+    def test_scan_into_the_part_frame(self):
+        self.assertEqual(sorted(self.planes), ["back", "bottom", "left", "top"], [o.Label for o in self.group.Group])
+        scan = self.scan_object()
+        carried = list(self.group.Group)
+        before = [o.Placement for o in carried]
+        features = [(self.planes["bottom"], ""), (self.planes["back"], ""), (self.planes["left"], "")]
+        frame, _, move = datum.align(scan, features, carried=carried)
+        FreeCAD.Console.PrintMessage("datum frame of the scan: %s\n" % datum.frame_report(frame))
+        # The move must be the true one: scan -> part frame -> shifted so the corner is the origin.
+        truth = FreeCAD.Placement(-self.CORNER, FreeCAD.Rotation()).multiply(self.POSE.inverse())
+        error = truth.inverse().multiply(move)
+        centre = move.multVec(self.POSE.multVec(FreeCAD.Vector(0, 0, 12))) - truth.multVec(self.POSE.multVec(FreeCAD.Vector(0, 0, 12)))
+        FreeCAD.Console.PrintMessage("datum alignment left %.5f deg, %.5f mm at the part's middle\n" % (
+            math.degrees(error.Rotation.Angle), centre.Length))
+        self.assertLess(math.degrees(error.Rotation.Angle), 0.02)
+        self.assertLess(centre.Length, 0.01)
+        self.assertAlmostEqual(frame.primary_secondary_deg, 90.0, delta=0.02)
+        box = scan.Points.BoundBox  # the part now spans [0, 50] x [0, 36] x [0, 32]
+        for low, high, size in ((box.XMin, box.XMax, 50), (box.YMin, box.YMax, 36), (box.ZMin, box.ZMax, 32)):
+            self.assertAlmostEqual(low, 0.0, delta=0.15)
+            self.assertAlmostEqual(high, size, delta=0.15)
+        # The fitted hole (10 mm, at (-11, 0) in the part's drawing) followed: vertical, at (14, 18).
+        holes = [c for c in self.cylinders if abs(c.Radius.Value - 5.0) < 0.05]
+        self.assertEqual(len(holes), 1, [c.Radius.Value for c in self.cylinders])
+        axis = holes[0].Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertGreater(abs(axis.z), math.cos(math.radians(0.05)))
+        self.assertAlmostEqual(holes[0].Placement.Base.x, 14.0, delta=0.02)
+        self.assertAlmostEqual(holes[0].Placement.Base.y, 18.0, delta=0.02)
+        self.restore(carried, before)
+        self.doc.removeObject(scan.Name)
+
+    def test_model_onto_the_scan_and_parallel_datums_refused(self):
+        scan = self.scan_object()
+        model = self.doc.addObject("Part::Box", "Model")
+        model.Length, model.Width, model.Height = 50, 36, 24
+        model.Placement.Base = self.CORNER
+        self.doc.recompute()
+        faces = {}
+        for index, face in enumerate(model.Shape.Faces):
+            normal = face.normalAt(0, 0)
+            for name, axis in (("bottom", (0, 0, -1)), ("back", (0, -1, 0)), ("left", (-1, 0, 0))):
+                if normal.dot(FreeCAD.Vector(*axis)) > 0.999:
+                    faces[name] = (model, "Face%d" % (index + 1))
+        scan_features = [(self.planes[n], "") for n in ("bottom", "back", "left")]
+        model_features = [faces[n] for n in ("bottom", "back", "left")]
+        datum.align(model, model_features, scan_features)
+        error = self.POSE.inverse().multiply(model.Placement)
+        FreeCAD.Console.PrintMessage("model onto scan: left %.5f deg, %.5f mm\n" % (
+            math.degrees(error.Rotation.Angle), (error.Base - self.CORNER).Length))
+        self.assertLess(math.degrees(error.Rotation.Angle), 0.02)
+        middle = self.POSE.inverse().multVec(model.Placement.multVec(FreeCAD.Vector(25, 18, 12)))  # the box's middle
+        self.assertLess((middle - FreeCAD.Vector(0, 0, 12)).Length, 0.01)
+        # The origin from a point: the model's corner vertex nearest the part's (-25, -18, 0).
+        corner = min(range(len(model.Shape.Vertexes)), key=lambda i: (model.Shape.Vertexes[i].Point -
+                                                                       model.Placement.multVec(FreeCAD.Vector())).Length)
+        by_point = datum.datum_frame(model_features[:2] + [(model, "Vertex%d" % (corner + 1))])
+        by_plane = datum.datum_frame(model_features)
+        self.assertLess(numpy.linalg.norm(numpy.asarray(by_point.origin) - numpy.asarray(by_plane.origin)), 1e-6)
+        # Parallel datums (bottom and top) fix no line: refused with the reason, nothing moves.
+        placements = (scan.Placement, model.Placement)
+        with self.assertRaisesRegex(picoscan.Error, r"secondary plane is 0\.\d+ degrees from parallel to the primary"):
+            datum.align(scan, [(self.planes["bottom"], ""), (self.planes["top"], ""), (self.planes["left"], "")])
+        with self.assertRaisesRegex(picoscan.Error, "is not planar"):
+            datum.align(scan, [(self.cylinders[0], "Face1"), (self.planes["back"], ""), (self.planes["left"], "")])
+        with self.assertRaisesRegex(picoscan.Error, "has 6 faces; pick one face"):
+            datum.align(scan, [(model, ""), (self.planes["back"], ""), (self.planes["left"], "")])
+        self.assertEqual((scan.Placement, model.Placement), placements)
+        self.doc.removeObject(scan.Name)
+        self.doc.removeObject(model.Name)
