@@ -1,4 +1,7 @@
 """ScanView: capture set + calibration + parameters -> Points (an organised scan of one camera view)."""
+import os
+import tempfile
+
 import FreeCAD
 import Points
 
@@ -14,6 +17,44 @@ TYPE = "PicoScan::ScanView"
 def _parameters(obj):
     return (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
             obj.BinaryOnly, obj.Clean, obj.MaxGrazingAngle)
+
+
+def _decoding(obj):
+    """The parameters a stored view was decoded with (the paths may change: a moved folder)."""
+    return repr((obj.MinContrast, obj.MinModulation, obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle)))
+
+
+def _add_storage(obj):
+    # The decoded view (pixel grid, camera, points, normals) goes into the .FCStd, so the scan still
+    # meshes, fits and stitches when the capture folder is gone (docs/formats.md, view PLY).
+    obj.addProperty("App::PropertyFileIncluded", "StoredView", "Result",
+                    "The decoded view kept in the document (a view PLY): used when the capture folder is gone", 1)
+    obj.addProperty("App::PropertyString", "StoredDecoding", "Result", "Decoding parameters of the stored view", 1)
+
+
+def _store(obj, view):
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, obj.Name + "_view.ply")
+        picoscan.write_view_ply(view, path)
+        obj.StoredView = path  # FreeCAD copies the file into the document
+    obj.StoredDecoding = _decoding(obj)
+
+
+def _stored_view(obj):
+    """(view, calibration or None, None) from the document when the capture folder or calibration is
+    gone; None when they are there (reconstruct from them) or nothing usable is stored."""
+    if os.path.isdir(obj.CaptureFolder or "") and os.path.isfile(obj.CalibrationFile or ""):
+        return None
+    stored = getattr(obj, "StoredView", "")
+    if not stored or not os.path.isfile(stored):
+        return None
+    if obj.StoredDecoding != _decoding(obj):
+        raise picoscan.Error("%s: capture folder %s is gone, and the view kept in the document was decoded with other "
+                             "parameters; restore them or the captures" % (obj.Label, obj.CaptureFolder))
+    FreeCAD.Console.PrintLog("%s: capture folder %s is gone; using the view kept in the document\n" % (
+        obj.Label, obj.CaptureFolder))
+    calibration = picoscan.read_calibration(obj.CalibrationFile) if os.path.isfile(obj.CalibrationFile or "") else None
+    return picoscan.read_view_ply(stored), calibration, None
 
 
 def points_of(cloud):
@@ -43,25 +84,40 @@ class ScanView(DocumentObjectProxy):
         group = "Result"
         obj.addProperty("App::PropertyInteger", "PointCount", group, "Points measured", 1)
         obj.addProperty("App::PropertyString", "CleanReport", group, "What cleaning removed", 1)
+        _add_storage(obj)
         obj.MinContrast = 15.0
         obj.MinModulation = 4.0
         obj.MaxGrazingAngle = 80.0
 
+    def onDocumentRestored(self, obj):
+        super().onDocumentRestored(obj)
+        if not hasattr(obj, "StoredView"):  # a document saved before views were kept in it
+            _add_storage(obj)
+
     def execute(self, obj):
-        # The organised view lives on the proxy, so it goes when the object goes. Not saved: the
-        # document stores the Points; the view is recomputed when first needed after reopening.
+        # The organised view lives on the proxy, so it goes when the object goes. After reopening
+        # it is recomputed when first needed: from the captures, or from StoredView when they are gone.
         fresh, self.fresh = getattr(self, "fresh", None), None
+        stored = None
         if fresh is not None and fresh[0] == _parameters(obj):
             view, calibration, report = fresh[1:]
         else:
-            parameters = (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
-                          obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle))
-            view, calibration, report = run_in_background(
-                "Reconstructing " + obj.Label, lambda progress: reconstruct(*parameters, progress=progress))
+            stored = _stored_view(obj) if hasattr(obj, "StoredView") else None
+            if stored is not None:
+                view, calibration, report = stored
+            else:
+                parameters = (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
+                              obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle))
+                view, calibration, report = run_in_background(
+                    "Reconstructing " + obj.Label, lambda progress: reconstruct(*parameters, progress=progress))
         self.cached = (_parameters(obj), view, calibration)
+        if stored is None and hasattr(obj, "StoredView"):
+            _store(obj, view)
         cloud = picoscan.to_point_cloud(view)
         obj.Points = points_of(cloud)
         obj.PointCount = len(cloud)
+        if stored is not None:
+            return  # the clean report of the stored view is in the document already
         obj.CleanReport = "" if report is None else (
             "removed %d: %d grazing, %d outliers, %d with few neighbours, %d in small clusters" % (
                 report.removed(), report.by_grazing, report.by_statistics, report.by_radius, report.by_cluster))

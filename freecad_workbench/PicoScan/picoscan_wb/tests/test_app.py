@@ -245,6 +245,52 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertEqual(view.PointCount, points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
 
+    def test_document_recomputes_without_its_capture_folder(self):
+        """The decoded view is kept in the .FCStd: with the captures deleted, the reopened document
+        still meshes, fits and measures, with the same results."""
+        captures = os.path.join(self.folder, "doomed_captures")
+        shutil.copytree(self.captures, captures)
+        view = scan_view.create(self.doc, captures, self.calibration)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        model = self.doc.addObject("Part::Cylinder", "ShaftModel")
+        model.Radius, model.Height = SHAFT_RADIUS_MM, 80
+        model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400),
+                                            FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
+        self.doc.recompute()
+        deviation = deviation_map.create(self.doc, view, model, tolerance_mm=0.05, max_distance_mm=1.0)
+        options = primitives.detection_options(planes=False, spheres=False, cones=False)
+        shaft = picoscan.detect_shapes(cloud_of(view), options)[0]
+        before = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
+        names = (view.Name, mesh.Name, deviation.Name)
+        path = os.path.join(self.folder, "self_contained.FCStd")
+        self.doc.saveAs(path)
+        FreeCAD.closeDocument(self.doc.Name)
+        shutil.rmtree(captures)
+        self.doc = FreeCAD.openDocument(path)
+        view, mesh, deviation = (self.doc.getObject(name) for name in names)
+        view.touch()
+        self.doc.recompute()
+        self.assertTrue(all(o.isValid() for o in (view, mesh, deviation)),
+                        [o.getStatusString() for o in (view, mesh, deviation)])
+        after = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
+        FreeCAD.Console.PrintMessage("without captures: points, facets, mean |d|, measured: %s -> %s\n" % (before, after))
+        self.assertEqual(after[:2], before[:2])
+        self.assertAlmostEqual(after[2], before[2], delta=1e-6)
+        self.assertEqual(after[3], before[3])
+        again = picoscan.detect_shapes(cloud_of(view), options)[0]
+        self.assertAlmostEqual(again.radius_mm, shaft.radius_mm, delta=1e-4)
+        mesh.PixelStep = 8  # still parametric: a coarser grid from the stored view
+        self.doc.recompute()
+        self.assertTrue(mesh.isValid(), mesh.getStatusString())
+        self.assertLess(mesh.Mesh.CountFacets, before[1] / 3)
+        # Decoding differently needs the captures: refused with the reason, the points stay.
+        view.MinContrast = 100
+        self.doc.recompute()
+        self.assertFalse(view.isValid())
+        self.assertRegex(view.getStatusString(), "doomed_captures is gone, and the view kept in the document was decoded "
+                                                 "with other parameters")
+        self.assertEqual(view.Points.CountPoints, before[0])
+
 
 class PicoScanStitchTest(unittest.TestCase):
     """Three views of the speckle-painted mechanical part, 45 degrees apart on a turntable."""
@@ -309,15 +355,28 @@ class PicoScanStitchTest(unittest.TestCase):
             scan_mesh.create(self.doc, merged, method="Grid")
         path = os.path.join(self.folder, "stitched.FCStd")
         count, name = merged.PointCount, merged.Name
+        poses = [p.toMatrix() for p in merged.ViewPoses]
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
-        self.doc = FreeCAD.openDocument(path)
-        merged = self.doc.getObject(name)
-        self.assertEqual(merged.Points.CountPoints, count)
-        merged.touch()
-        self.doc.recompute()
-        self.assertTrue(merged.isValid(), merged.getStatusString())
-        self.assertEqual(merged.PointCount, count)
+        # The capture folders are gone when the document is reopened: it stitches from the views kept in it.
+        for folder, _ in self.scans:
+            os.rename(folder, folder + ".gone")
+        try:
+            self.doc = FreeCAD.openDocument(path)
+            merged = self.doc.getObject(name)
+            self.assertEqual(merged.Points.CountPoints, count)
+            for view in merged.Views:
+                view.touch()
+            merged.touch()
+            self.doc.recompute()
+            self.assertTrue(merged.isValid(), merged.getStatusString())
+            self.assertEqual(merged.PointCount, count)
+            for placement, pose in zip(merged.ViewPoses, poses):
+                difference = numpy.abs(numpy.array(placement.toMatrix().A) - numpy.array(pose.A))
+                self.assertLess(difference.max(), 1e-6)
+        finally:
+            for folder, _ in self.scans:
+                os.rename(folder + ".gone", folder)
 
     def test_stitch_needs_two_views(self):
         views = self.scan_views()
