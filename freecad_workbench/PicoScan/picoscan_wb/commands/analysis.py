@@ -86,7 +86,7 @@ class FitPrimitivesCommand(Command):
         source = selected_clouds()[0]
         with FreeCADProgress("Fitting primitives") as progress:
             group, created = primitives.fit_primitives(source.Document, cloud_of(source), progress=progress,
-                                                       label="Primitives of " + source.Label)
+                                                       label="Primitives of " + source.Label, placement=source.Placement)
         for obj, shape in created:
             FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, shape))
         return group
@@ -111,7 +111,10 @@ class CrossSectionCommand(Command):
     def section(mesh, axis, position_mm, tolerance_mm):
         sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position_mm, tolerance_mm=tolerance_mm)
         source = getattr(mesh, "Source", None)
-        if is_scan_view(source):
+        if is_scan_view(source) and not source.Placement.isIdentity():
+            FreeCAD.Console.PrintMessage("%s: the hybrid/binary profile plot is drawn only for scans in their camera "
+                                         "frame\n" % source.Label)
+        elif is_scan_view(source):
             path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")
             sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position_mm, path)
             open_image(sketch.ProfilePlot)

@@ -55,9 +55,11 @@ class ScanMesh(DocumentObjectProxy):
 
     def execute(self, obj):
         if obj.Method == "Grid":
-            obj.Mesh, obj.Check = self.grid(obj)
+            mesh, obj.Check = self.grid(obj)
         else:
-            obj.Mesh, obj.Check = self.surface(obj)
+            mesh, obj.Check = self.surface(obj)
+        mesh.Placement = obj.Source.Placement  # the mesh goes where its scan was placed (part frame, best fit)
+        obj.Mesh = mesh
 
     def grid(self, obj):
         if not is_scan_view(obj.Source):

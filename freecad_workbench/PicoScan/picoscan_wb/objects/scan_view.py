@@ -57,11 +57,14 @@ def _stored_view(obj):
     return picoscan.read_view_ply(stored), calibration, None
 
 
-def points_of(cloud):
-    """FreeCAD Points from a picoscan.PointCloud (or an N x 3 array)."""
+def points_of(cloud, placement=None):
+    """FreeCAD Points from a picoscan.PointCloud (or an N x 3 array), moved by `placement`: the
+    object's own, since assigning Points resets an object's Placement to the points'."""
     coordinates = cloud.points if hasattr(cloud, "points") else cloud
     result = Points.Points()
     result.addPoints([tuple(point) for point in coordinates.tolist()])
+    if placement is not None:
+        result.Placement = placement
     return result
 
 
@@ -98,9 +101,14 @@ class ScanView(DocumentObjectProxy):
         # The organised view lives on the proxy, so it goes when the object goes. After reopening
         # it is recomputed when first needed: from the captures, or from StoredView when they are gone.
         fresh, self.fresh = getattr(self, "fresh", None), None
+        cached = getattr(self, "cached", None)
         stored = None
         if fresh is not None and fresh[0] == _parameters(obj):
             view, calibration, report = fresh[1:]
+        elif cached is not None and cached[0] == _parameters(obj):
+            # Only the Placement changed (a best fit, a datum alignment): the points stay as decoded.
+            obj.Points = points_of(picoscan.to_point_cloud(cached[1]), obj.Placement)
+            return
         else:
             stored = _stored_view(obj) if hasattr(obj, "StoredView") else None
             if stored is not None:
@@ -114,7 +122,7 @@ class ScanView(DocumentObjectProxy):
         if stored is None and hasattr(obj, "StoredView"):
             _store(obj, view)
         cloud = picoscan.to_point_cloud(view)
-        obj.Points = points_of(cloud)
+        obj.Points = points_of(cloud, obj.Placement)
         obj.PointCount = len(cloud)
         if stored is not None:
             return  # the clean report of the stored view is in the document already

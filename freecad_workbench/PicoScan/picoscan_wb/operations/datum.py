@@ -121,3 +121,21 @@ def frame_report(frame):
     if frame.primary_tertiary_deg:
         report += ", %.3f, %.3f" % (frame.primary_tertiary_deg, frame.secondary_tertiary_deg)
     return report + " deg"
+
+
+def place_in_part_frame(obj, options=None):
+    """Puts a ScanView or Stitch into its part frame (the core's part_frame: Z up on the turntable's
+    axis, else on its base plane), replacing its Placement. Returns the picoscan.PartFrame; its
+    basis is kept in the object's PartFrame property. Raises picoscan.Error, leaving it in place."""
+    from picoscan_wb.objects import cloud_of
+    from picoscan_wb.progress import run_in_background
+
+    cloud = cloud_of(obj)  # in the object's own frame (a camera's)
+    turntable = getattr(obj.Proxy, "turntable", None)
+    result = run_in_background("Finding the part frame of " + obj.Label, lambda progress: picoscan.part_frame(
+        cloud, turntable, options or picoscan.PartFrameOptions(), progress))
+    if not hasattr(obj, "PartFrame"):
+        obj.addProperty("App::PropertyString", "PartFrame", "Placement", "What placed the scan in its part frame", 1)
+    obj.Placement = placement(result.frame.part_from_scan)
+    obj.PartFrame = result.basis
+    return result

@@ -245,6 +245,34 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertEqual(view.PointCount, points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
 
+    def test_part_frame_on_the_base_plane_and_what_follows_it(self):
+        """The shaft's scan stands on the wall behind it: Z along the wall's normal towards the camera,
+        the wall at z = 0, the shaft's axis 60 mm above it; meshes and fitted primitives follow, and a
+        recompute keeps the placement."""
+        view = self.scan()
+        frame = datum.place_in_part_frame(view)
+        FreeCAD.Console.PrintMessage("part frame of the shaft scan: %s\n" % frame.basis)
+        self.assertIn("base plane", view.PartFrame)
+        z_axis = numpy.asarray(frame.frame.z_axis)
+        self.assertGreater(-z_axis[2], math.cos(math.radians(0.05)))  # the camera's -z: out of the wall
+        box = view.Points.BoundBox
+        self.assertAlmostEqual(box.ZMin, 0.0, delta=0.3)
+        self.assertAlmostEqual(box.ZMax, BACKGROUND_Z_MM - 400.0 + SHAFT_RADIUS_MM, delta=0.3)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        self.assertAlmostEqual(mesh.Mesh.BoundBox.ZMax, box.ZMax, delta=0.3)
+        group, created = primitives.fit_primitives(self.doc, cloud_of(view), placement=view.Placement)
+        shaft = [obj for obj, _ in created if obj.TypeId == "Part::Cylinder"][0]
+        axis = shaft.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertLess(abs(axis.z), math.sin(math.radians(0.1)))  # parallel to the wall
+        self.assertAlmostEqual(shaft.Placement.Base.z, BACKGROUND_Z_MM - 400.0, delta=0.05)
+        placement = view.Placement
+        view.touch()
+        self.doc.recompute()
+        self.assertTrue(view.isValid() and mesh.isValid(), view.getStatusString())
+        self.assertEqual(view.Placement, placement)
+        self.assertAlmostEqual(view.Points.BoundBox.ZMax, box.ZMax, delta=1e-3)
+        self.assertAlmostEqual(mesh.Mesh.BoundBox.ZMax, box.ZMax, delta=0.3)
+
     def test_document_recomputes_without_its_capture_folder(self):
         """The decoded view is kept in the .FCStd: with the captures deleted, the reopened document
         still meshes, fits and measures, with the same results."""
@@ -323,6 +351,19 @@ class PicoScanStitchTest(unittest.TestCase):
         views = self.scan_views()
         merged = stitch.create(self.doc, views)
         self.assertTrue(merged.isValid(), merged.getStatusString())
+        # It lands in its part frame: Z up the turntable's axis, the part's foot at z = 0.
+        plan = picoscan.TurntablePlan()
+        plan.top_view = False
+        part_to_camera = numpy.asarray(picoscan.turntable_part_poses(plan)[0])
+        to_document = numpy.array(merged.Placement.toMatrix().A).reshape(4, 4) @ part_to_camera
+        tilt = math.degrees(math.acos(min(1.0, to_document[2, 2])))
+        origin = to_document[:3, 3]  # where the part's own origin (its foot, on the axis) landed
+        FreeCAD.Console.PrintMessage("stitch part frame (%s): Z off %.4f deg, part origin at (%.3f, %.3f, %.3f) mm\n" % (
+            merged.PartFrame, tilt, origin[0], origin[1], origin[2]))
+        self.assertIn("turntable axis", merged.PartFrame)
+        self.assertLess(tilt, 0.1)
+        self.assertLess(math.hypot(origin[0], origin[1]), 0.2)
+        self.assertLess(abs(origin[2]), 0.5)
         self.assertEqual(merged.AlignedCount, 3, merged.Report)
         self.assertEqual(merged.PointCount, sum(v.PointCount for v in views))
         centre = numpy.array([0.0, 0.0, 400.0])  # the part's middle, where pose errors matter
