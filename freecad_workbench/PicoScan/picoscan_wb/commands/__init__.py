@@ -16,6 +16,7 @@ COMMANDS = {
     "PicoScan_DeviationMap": analysis.DeviationMapCommand(),
     "PicoScan_BestFit": analysis.BestFitCommand(),
     "PicoScan_DatumAlign": analysis.DatumAlignCommand(),
+    "PicoScan_PartFrame": analysis.PartFrameCommand(),
     "PicoScan_ShowRig": analysis.ShowRigCommand(),
     "PicoScan_EncodingView": analysis.EncodingViewCommand(),
 }

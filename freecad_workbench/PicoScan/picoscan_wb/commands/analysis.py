@@ -111,10 +111,7 @@ class CrossSectionCommand(Command):
     def section(mesh, axis, position_mm, tolerance_mm):
         sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position_mm, tolerance_mm=tolerance_mm)
         source = getattr(mesh, "Source", None)
-        if is_scan_view(source) and not source.Placement.isIdentity():
-            FreeCAD.Console.PrintMessage("%s: the hybrid/binary profile plot is drawn only for scans in their camera "
-                                         "frame\n" % source.Label)
-        elif is_scan_view(source):
+        if is_scan_view(source):
             path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")
             sketch.ProfilePlot = section.hybrid_vs_binary_plot(source, axis, position_mm, path)
             open_image(sketch.ProfilePlot)
@@ -225,6 +222,24 @@ class DatumAlignCommand(Command):
         FreeCAD.Console.PrintMessage("%s: datum frame %s; moved by %s\n" % (moving.Label, datum.frame_report(frame), move))
         moving.Document.recompute()
         return frame
+
+
+class PartFrameCommand(Command):
+    icon = "picoscan_datum"
+    menu = "Part frame (Z up)"
+    tooltip = ("Place the selected ScanViews and Stitches in their part frame: Z up on the turntable's axis, else on "
+               "the base plane they stand on (replaces their Placement)")
+
+    def IsActive(self):
+        return bool(selected_clouds())
+
+    def run(self):
+        from picoscan_wb.operations import datum
+
+        for obj in selected_clouds():
+            frame = datum.place_in_part_frame(obj)
+            FreeCAD.Console.PrintMessage("%s: part frame from its %s\n" % (obj.Label, frame.basis))
+        FreeCAD.ActiveDocument.recompute()
 
 
 class ShowRigCommand(Command):

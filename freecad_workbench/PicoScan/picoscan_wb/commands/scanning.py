@@ -63,7 +63,7 @@ class ImportCapturesCommand(Command):
         if answer is None:
             return None
         active_document()
-        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1])
+        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1], part_frame=True)
         FreeCADGui.SendMsgToActiveView("ViewFit")
         return view
 

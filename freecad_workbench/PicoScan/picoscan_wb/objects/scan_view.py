@@ -139,8 +139,11 @@ class ScanView(DocumentObjectProxy):
         return cached[1], cached[2]
 
 
-def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file=""):
-    """Reconstructs first and adds the object only when that worked, so bad input leaves `doc` unchanged."""
+def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file="",
+           part_frame=False):
+    """Reconstructs first and adds the object only when that worked, so bad input leaves `doc` unchanged.
+    With part_frame, the scan is placed Z up on its base plane (the commands do this; it stays in the
+    camera's frame, with a warning, when it has no plane to stand on)."""
     result = run_in_background("Reconstructing", lambda progress: reconstruct(
         capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean, progress=progress))
     obj = doc.addObject("Points::FeaturePython", name)
@@ -155,4 +158,11 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
         from picoscan_wb.viewproviders.view_provider import ViewProvider
         ViewProvider(obj.ViewObject, "picoscan_scan")
     obj.recompute()
+    if part_frame:
+        from picoscan_wb.operations import datum
+
+        try:
+            datum.place_in_part_frame(obj)
+        except picoscan.Error as error:
+            FreeCAD.Console.PrintWarning("%s: left in the camera's frame: %s\n" % (obj.Label, error))
     return obj

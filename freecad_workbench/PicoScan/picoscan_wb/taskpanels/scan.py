@@ -86,7 +86,7 @@ class ScanTaskPanel:
         doc = FreeCAD.ActiveDocument or FreeCAD.newDocument("Scan")
         doc.openTransaction("Scan")  # one undo step
         try:
-            self.created = scan_view.create(doc, folder, calibration)
+            self.created = scan_view.create(doc, folder, calibration, part_frame=True)
         except Exception:
             doc.abortTransaction()
             raise
