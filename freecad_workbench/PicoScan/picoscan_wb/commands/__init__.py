@@ -17,6 +17,7 @@ COMMANDS = {
     "PicoScan_BestFit": analysis.BestFitCommand(),
     "PicoScan_DatumAlign": analysis.DatumAlignCommand(),
     "PicoScan_PartFrame": analysis.PartFrameCommand(),
+    "PicoScan_Measurements": analysis.MeasurementsCommand(),
     "PicoScan_ShowRig": analysis.ShowRigCommand(),
     "PicoScan_EncodingView": analysis.EncodingViewCommand(),
 }

@@ -224,6 +224,40 @@ class DatumAlignCommand(Command):
         return frame
 
 
+def _fitted(obj):
+    return getattr(obj, "FitKind", "") in ("Plane", "Cylinder", "Sphere")
+
+
+def selected_fitted_features():
+    """Fitted features picked, or every fitted feature of a picked group (Fit primitives' result)."""
+    features = []
+    for obj in FreeCADGui.Selection.getSelection():
+        features += [m for m in obj.Group if _fitted(m)] if obj.TypeId == "App::DocumentObjectGroup" else \
+            ([obj] if _fitted(obj) else [])
+    return features
+
+
+class MeasurementsCommand(Command):
+    icon = "picoscan_measure"
+    menu = "Measurements"
+    tooltip = ("Distances and angles between the selected fitted features (or all those of a selected Fit primitives "
+               "group), with their fit uncertainty, in a table written as CSV")
+
+    def IsActive(self):
+        return len(selected_fitted_features()) >= 2
+
+    def run(self):
+        from picoscan_wb.objects import measurements
+
+        features = selected_fitted_features()
+        doc = features[0].Document
+        result = measurements.create(doc, features)
+        result.CsvFile = os.path.join(output_folder(doc, "measurements"), result.Name + ".csv")
+        doc.recompute()
+        FreeCAD.Console.PrintMessage("%s: %d rows, written to %s\n" % (result.Label, len(result.Table), result.CsvFile))
+        return result
+
+
 class PartFrameCommand(Command):
     icon = "picoscan_datum"
     menu = "Part frame (Z up)"

@@ -13,7 +13,7 @@ import Mesh
 import Points
 
 import picoscan
-from picoscan_wb.objects import cloud_of, deviation_map, scan_mesh, scan_view, stitch
+from picoscan_wb.objects import cloud_of, deviation_map, measurements, scan_mesh, scan_view, stitch
 from picoscan_wb.operations import alignment, datum, encoding, primitives, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
@@ -697,3 +697,71 @@ class PicoScanDatumTest(unittest.TestCase):
         self.assertEqual((scan.Placement, model.Placement), placements)
         self.doc.removeObject(scan.Name)
         self.doc.removeObject(model.Name)
+
+    def test_measurements_between_fitted_features(self):
+        """Hole to boss, plane to plane and hole axis to base on the fitted demo part, against its
+        drawing; the table follows the features and is written as CSV."""
+        features = [o for o in self.group.Group if getattr(o, "FitKind", "") in ("Plane", "Cylinder")]
+
+        def in_part(obj):  # a feature's middle and direction in the part's drawing frame
+            inverse = self.POSE.inverse()
+            middle = obj.Shape.CenterOfMass if obj.TypeId == "Part::Plane" else obj.Placement.Base
+            return inverse.multVec(middle), inverse.Rotation.multVec(obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)))
+
+        def find(kind, test):
+            found = [o for o in features if o.FitKind == kind and test(*in_part(o))]
+            self.assertEqual(len(found), 1, [(o.Label, in_part(o)) for o in features if o.FitKind == kind])
+            return found[0]
+
+        hole = find("Cylinder", lambda m, d: abs(m.x + 11) < 0.5 and abs(m.y) < 0.5)
+        boss = find("Cylinder", lambda m, d: abs(m.x - 12) < 0.5 and abs(m.y + 2) < 0.5)
+        bottom = find("Plane", lambda m, d: abs(m.z) < 0.2 and abs(d.z) > 0.99)
+        block_top = find("Plane", lambda m, d: abs(m.z - 24) < 0.2 and abs(d.z) > 0.99)
+        left = find("Plane", lambda m, d: abs(m.x + 25) < 0.2 and abs(d.x) > 0.99)
+        right = find("Plane", lambda m, d: abs(m.x - 25) < 0.2 and abs(d.x) > 0.99)
+        back = find("Plane", lambda m, d: abs(m.y + 18) < 0.2 and abs(d.y) > 0.99)
+        csv_path = os.path.join(tempfile.gettempdir(), "picoscan_measurements_test.csv")
+        table = measurements.create(self.doc, features, csv_file=csv_path)
+        self.assertTrue(table.isValid(), table.getStatusString())
+        import csv as csv_module
+
+        with open(csv_path) as stream:
+            rows = list(csv_module.reader(stream))
+        os.remove(csv_path)
+        self.assertEqual(rows[0], ["Feature A", "Feature B", "Measure", "Value", "Unit", "Uncertainty"])
+        self.assertEqual(len(rows) - 1, len(table.Table))
+        values = {}
+        for a, b, what, value, unit, sigma in rows[1:]:
+            values[(a, b, what)] = values[(b, a, what)] = (float(value), float(sigma))
+        expectations = [
+            ((hole.Label, "", "diameter"), 10.0, 0.02),
+            ((boss.Label, "", "diameter"), 14.0, 0.02),
+            ((hole.Label, boss.Label, "axis distance"), math.hypot(23, 2), 0.02),
+            ((hole.Label, boss.Label, "axis angle"), 0.0, 0.1),
+            ((bottom.Label, block_top.Label, "distance"), 24.0, 0.02),
+            ((left.Label, right.Label, "distance"), 50.0, 0.02),
+            ((bottom.Label, left.Label, "angle"), 90.0, 0.02),
+            ((back.Label, left.Label, "angle"), 90.0, 0.02),
+            ((hole.Label, bottom.Label, "axis to plane angle"), 90.0, 0.1),
+        ]
+        for key, truth, tolerance in expectations:
+            self.assertIn(key, values, sorted(k for k in values if key[0] in k))
+            value, sigma = values[key]
+            FreeCAD.Console.PrintMessage("%s: %.4f (truth %.4f, error %+.4f, uncertainty %.4f)\n" % (
+                " / ".join(k for k in key if k), value, truth, value - truth, sigma))
+            self.assertAlmostEqual(value, truth, delta=tolerance)
+            self.assertGreater(sigma, 0.0)
+            self.assertLess(sigma, tolerance)
+        # Parametric: the boss moved 1 mm along x moves the hole-to-boss distance after recompute.
+        before = boss.Placement
+        boss.Placement = FreeCAD.Placement(self.POSE.Rotation.multVec(FreeCAD.Vector(1, 0, 0)), FreeCAD.Rotation()).multiply(boss.Placement)
+        self.doc.recompute()
+        moved = [row for row in table.Table if row.startswith("%s - %s: axis distance" % (hole.Label, boss.Label))]
+        self.assertEqual(len(moved), 1, table.Table)
+        self.assertAlmostEqual(float(moved[0].split("axis distance ")[1].split()[0]), math.hypot(24, 2), delta=0.02)
+        boss.Placement = before
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "needs two or more fitted features"):
+            measurements.create(self.doc, features[:1])
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
+        self.doc.removeObject(table.Name)
