@@ -2,7 +2,7 @@
 (operations/measure.py), parametric (it follows the features) and written as CSV when asked."""
 import FreeCAD
 
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors
 from picoscan_wb.operations import measure
 
 TYPE = "PicoScan::Measurements"
@@ -17,6 +17,7 @@ class Measurements(DocumentObjectProxy):
         obj.addProperty("App::PropertyFile", "CsvFile", "Measurements", "The table is written here on every recompute (empty: not written)")
         obj.addProperty("App::PropertyStringList", "Table", "Result", "Feature A - feature B: measure value +- uncertainty", 1)
 
+    @brief_input_errors
     def execute(self, obj):
         rows = measure.measure(obj.Features)
         obj.Table = [measure.format_row(row) for row in rows]

@@ -8,7 +8,7 @@ import FreeCAD
 import Mesh
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, cloud_of, is_scan_view, is_stitch, millimetres
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors, cloud_of, is_scan_view, is_stitch, millimetres
 from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanMesh"
@@ -53,6 +53,7 @@ class ScanMesh(DocumentObjectProxy):
         obj.MaxHoleDiameter = defaults.max_hole_diameter_mm
         obj.TargetFaces = defaults.target_faces
 
+    @brief_input_errors
     def execute(self, obj):
         if obj.Method == "Grid":
             mesh, obj.Check = self.grid(obj)

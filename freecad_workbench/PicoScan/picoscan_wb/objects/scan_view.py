@@ -6,7 +6,7 @@ import FreeCAD
 import Points
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy
+from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors
 from picoscan_wb.operations.reconstruct import reconstruct
 from picoscan_wb.progress import run_in_background
 
@@ -97,6 +97,7 @@ class ScanView(DocumentObjectProxy):
         if not hasattr(obj, "StoredView"):  # a document saved before views were kept in it
             _add_storage(obj)
 
+    @brief_input_errors
     def execute(self, obj):
         # The organised view lives on the proxy, so it goes when the object goes. After reopening
         # it is recomputed when first needed: from the captures, or from StoredView when they are gone.

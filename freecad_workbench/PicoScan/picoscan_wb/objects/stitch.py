@@ -6,7 +6,7 @@ import numpy
 import FreeCAD
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, is_scan_view, millimetres
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors, is_scan_view, millimetres
 from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
 from picoscan_wb.progress import run_in_background
 
@@ -38,6 +38,7 @@ class Stitch(DocumentObjectProxy):
         obj.IcpMaxDistance = options.icp_max_distance_mm
         obj.MinOverlap = options.min_overlap
 
+    @brief_input_errors
     def execute(self, obj):
         cached = getattr(self, "cached", None)
         if cached is not None and cached[0] == _parameters(obj):

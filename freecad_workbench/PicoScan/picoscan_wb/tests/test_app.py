@@ -273,6 +273,27 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertAlmostEqual(view.Points.BoundBox.ZMax, box.ZMax, delta=1e-3)
         self.assertAlmostEqual(mesh.Mesh.BoundBox.ZMax, box.ZMax, delta=0.3)
 
+    def test_bad_input_during_recompute_prints_one_line_not_a_traceback(self):
+        """What the Report view shows: a separate freecadcmd runs brief_errors_script.py."""
+        import subprocess
+
+        workbench = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "brief_errors_script.py")
+        environment = dict(os.environ, PICOSCAN_WORKBENCH=workbench, PICOSCAN_CAPTURES=self.captures,
+                           PICOSCAN_CALIBRATION=self.calibration)
+        run = subprocess.run(["freecadcmd", script], env=environment, capture_output=True, text=True, timeout=300)
+        output = run.stdout + run.stderr
+        self.assertIn("DONE", output, output[-3000:])
+        self.assertIn("MESH VALID False: ScanMesh: PixelStep must be at least 1", output)
+        self.assertIn("CREATE REFUSED: ScanMesh001: PixelStep must be at least 1", output)
+        self.assertIn("VIEW VALID False", output)
+        self.assertIn("<class 'picoscan.Error'>: ScanMesh: PixelStep must be at least 1", output)
+        self.assertNotIn("Traceback", output, output[-3000:])
+        self.assertNotIn('File "', output)
+        # Only bad input is shortened: a real bug's traceback is whole afterwards.
+        lines = int(output.split("BUG TRACEBACK LINES ")[1].split()[0])
+        self.assertGreaterEqual(lines, 3)
+
     def test_document_recomputes_without_its_capture_folder(self):
         """The decoded view is kept in the .FCStd: with the captures deleted, the reopened document
         still meshes, fits and measures, with the same results."""
