@@ -214,10 +214,10 @@ class DatumAlignCommand(Command):
         if len(features) not in (3, 6):
             raise picoscan.Error("Datum alignment: select 3 datums (primary, secondary, origin), or 3 on the object to "
                                  "move and then 3 matching ones on the fixed object (%d selected)" % len(features))
-        # The primitives fitted on the scan travel with it.
-        groups = {parent.Name: parent for obj, _ in features[:3] for parent in obj.InList
-                  if parent.TypeId == "App::DocumentObjectGroup"}
-        carried = [member for group in groups.values() for member in group.Group]
+        # The primitives fitted on the scan (the Fit primitives group of a fitted datum) travel with it.
+        groups = {parent.Name: parent for obj, _ in features[:3] if getattr(obj, "FitKind", "")
+                  for parent in obj.InList if parent.TypeId == "App::DocumentObjectGroup"}
+        carried = [member for group in groups.values() for member in group.Group if getattr(member, "FitKind", "")]
         frame, fixed, move = datum.align(moving, features[:3], features[3:] or None, carried=carried)
         FreeCAD.Console.PrintMessage("%s: datum frame %s; moved by %s\n" % (moving.Label, datum.frame_report(frame), move))
         moving.Document.recompute()
