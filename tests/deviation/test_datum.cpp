@@ -3,6 +3,7 @@
 // (parallel planes, a third plane along the line) are refused with the reason.
 #include "picoscan/error.h"
 #include "picoscan/fit.h"
+#include "picoscan/pipeline.h"
 
 #include <gtest/gtest.h>
 
@@ -138,4 +139,93 @@ TEST(Datum, FrameFromAnAxis) {
     EXPECT_NEAR(cv::norm(frame.x_axis - cv::Vec3d(1, 0, 1) / std::sqrt(2.0)), 0, 1e-12);
     const cv::Vec4d origin = frame.part_from_scan * cv::Vec4d(1, 2, 3, 1);
     EXPECT_NEAR(cv::norm(cv::Vec3d(origin[0], origin[1], origin[2])), 0, 1e-12);
+}
+
+namespace {
+
+// A camera's cloud of a 30 mm cube standing on a 200 x 200 mm table, the table turned 40 degrees
+// about x towards a camera 400 mm away (normals towards the camera), with 20 um noise.
+PointCloud cube_on_table(const cv::Matx33d& table_to_camera, const cv::Vec3d& table_origin, bool with_table) {
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> across(-100.0, 100.0), side(0.0, 30.0);
+    std::normal_distribution<double> noise(0.0, 0.02);
+    PointCloud cloud;
+    const auto add = [&](const cv::Vec3d& local, const cv::Vec3d& normal) {
+        const cv::Vec3d point = table_to_camera * (local + noise(random) * normal) + table_origin;
+        cloud.points.emplace_back(point);
+        cloud.normals.emplace_back(table_to_camera * normal);
+    };
+    for (int i = 0; with_table && i < 20000; ++i) {
+        const cv::Vec3d local(across(random), across(random), 0.0);
+        if (std::abs(local[0] - 5) < 15 && std::abs(local[1] - 10) < 15) continue;  // under the cube
+        add(local, {0, 0, 1});
+    }
+    for (int i = 0; i < 6000; ++i) {  // the cube's top and the two sides the camera sees
+        const double u = side(random), v = side(random);
+        add({-10 + u, -5 + v, 30}, {0, 0, 1});
+        add({-10 + u, -5, v}, {0, -1, 0});
+    }
+    return cloud;
+}
+
+}  // namespace
+
+TEST(PartFrame, TheBasePlaneIsZUpAndItsOriginIsUnderThePart) {
+    cv::Matx33d tilt;
+    cv::Rodrigues(cv::Vec3d(-40 * CV_PI / 180, 0, 0), tilt);  // the table's normal turns towards the camera (-z)
+    const cv::Matx33d table_to_camera = tilt * cv::Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
+    const cv::Vec3d table_origin(10, 20, 420);
+    const PartFrame result = part_frame(cube_on_table(table_to_camera, table_origin, true));
+    std::printf("part frame: %s, Z off %.4f deg\n", result.basis.c_str(),
+                angle_deg(result.frame.z_axis, table_to_camera * cv::Vec3d(0, 0, 1)));
+    EXPECT_NE(result.basis.find("base plane"), std::string::npos);
+    EXPECT_LT(angle_deg(result.frame.z_axis, table_to_camera * cv::Vec3d(0, 0, 1)), 0.02);
+    // The origin is on the table, under the middle of the cube's visible points (x 5, y about 5).
+    const cv::Vec4d origin = result.frame.part_from_scan * cv::Vec4d(table_origin[0], table_origin[1], table_origin[2], 1);
+    EXPECT_NEAR(origin[2], 0.0, 0.01);  // the table's origin is on the frame's z = 0
+    const cv::Vec3d middle = table_to_camera.t() * (result.frame.origin - table_origin);
+    EXPECT_NEAR(middle[0], 5.0, 1.0);
+    EXPECT_NEAR(middle[2], 0.0, 0.01);
+}
+
+TEST(PartFrame, TheTurntableAxisIsZUpWhicheverWayItTurns) {
+    const cv::Matx33d table_to_camera(1, 0, 0, 0, 0, -1, 0, 1, 0);  // the table's up is the camera's -y
+    const PointCloud cloud = cube_on_table(table_to_camera, {0, 30, 400}, false);
+    for (const double sign : {1.0, -1.0}) {
+        TurntableAxis axis;
+        axis.point_mm = cv::Vec3d(5, 0, 400);
+        axis.direction = sign * cv::Vec3d(0, -1, 0);
+        const PartFrame result = part_frame(cloud, axis);
+        EXPECT_NE(result.basis.find("turntable axis"), std::string::npos);
+        EXPECT_NEAR(result.frame.z_axis.dot(cv::Vec3d(0, -1, 0)), 1.0, 1e-12);
+        // The cube's lowest visible points (its side's foot, y = 30 in the camera) are z = 0.
+        EXPECT_NEAR(result.frame.origin[1], 30.0, 0.2);
+        EXPECT_NEAR(result.frame.origin[0], 5.0, 1e-9);
+    }
+}
+
+TEST(PartFrame, NoPlaneToStandOnOrNoNormalsIsRefused) {
+    // A ball alone: nothing to stand on.
+    std::mt19937 random(9);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    PointCloud ball;
+    for (int i = 0; i < 20000; ++i) {
+        cv::Vec3d direction(gauss(random), gauss(random), gauss(random));
+        direction /= cv::norm(direction);
+        ball.points.emplace_back(cv::Vec3d(0, 0, 400) + 20 * direction);
+        ball.normals.emplace_back(direction);
+    }
+    try {
+        part_frame(ball);
+        FAIL() << "a ball got a base plane";
+    } catch (const Error& error) {
+        EXPECT_NE(std::string(error.what()).find("no plane holding 5 % of its points"), std::string::npos) << error.what();
+    }
+    PointCloud bare = ball;
+    bare.normals.clear();
+    EXPECT_THROW(part_frame(bare), Error);
+    PartFrameOptions options;
+    options.min_plane_share = 1.5;
+    EXPECT_THROW(part_frame(ball, std::nullopt, options), Error);
+    EXPECT_THROW(part_frame(PointCloud{}), Error);
 }
