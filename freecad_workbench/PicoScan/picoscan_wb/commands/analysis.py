@@ -64,7 +64,7 @@ class MeshCommand(Command):
 class MakeSolidCommand(Command):
     icon = "picoscan_solid"
     menu = "Make solid"
-    tooltip = "Part solid from the selected mesh when it is closed and small enough"
+    tooltip = "Part solid from the selected mesh when it is closed, manifold and not self-intersecting"
 
     def IsActive(self):
         return bool(selected_meshes())

@@ -88,11 +88,26 @@ class PicoScanAppTest(unittest.TestCase):
             solid.make_solid(self.doc, open_mesh)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
         closed = self.doc.addObject("Mesh::Feature", "Closed")
-        closed.Mesh = Mesh.createSphere(10.0, 40)
+        closed.Mesh = Mesh.createSphere(10.0, 60)  # 7080 facets
         feature = solid.make_solid(self.doc, closed)
         self.assertTrue(feature.Shape.isValid())
         self.assertEqual(feature.Shape.ShapeType, "Solid")
-        self.assertAlmostEqual(feature.Shape.Volume, closed.Mesh.Volume, delta=1e-3 * closed.Mesh.Volume)
+        self.assertEqual(len(feature.Shape.Faces), closed.Mesh.CountFacets)
+        self.assertAlmostEqual(feature.Shape.Volume, closed.Mesh.Volume, delta=1e-4 * closed.Mesh.Volume)
+        # Facets turned inwards: the same solid, outward.
+        inverted = closed.Mesh.copy()
+        inverted.flipNormals()
+        shape = solid.solid_of_mesh(inverted, "inverted")
+        self.assertAlmostEqual(shape.Volume, closed.Mesh.Volume, delta=1e-4 * closed.Mesh.Volume)
+        # Two overlapping closed spheres in one mesh bound no single solid: refused, nothing added.
+        overlapping = Mesh.createSphere(10.0, 30)
+        other = Mesh.createSphere(10.0, 30)
+        other.translate(8, 0, 0)
+        overlapping.addMesh(other)
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "overlap: the mesh intersects itself"):
+            solid.solid_of_mesh(overlapping, "overlap")
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
 
     def test_fit_cylinder_to_shaft_and_plane_to_wall(self):
         view = self.scan()
