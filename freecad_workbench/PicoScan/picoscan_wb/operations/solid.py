@@ -81,10 +81,10 @@ def write_brep(points, facets, path, tolerance_mm=1e-7):
         edge_rows = numpy.column_stack([numpy.arange(1, edge_count + 1), lengths, vertex_refs[starts], vertex_refs[ends]])
         stream.write(_format_rows("Ed\n %g 1 1 0\n1  %%d 0 0 %%.17g\n0\n\n0101000\n+%%d 0 -%%d 0 *\n" % tolerance_mm,
                                   edge_rows))
-        signs = numpy.where(signed_edges > 0, "+", "-")
-        magnitudes = numpy.abs(signed_edges)
-        face_rows = [(signs[k, 0], magnitudes[k, 0], signs[k, 1], magnitudes[k, 1], signs[k, 2], magnitudes[k, 2],
-                      k + 1, wire_refs[k]) for k in range(facet_count)]
+        signs = numpy.where(signed_edges > 0, "+", "-").tolist()
+        magnitudes = numpy.abs(signed_edges).tolist()
+        face_rows = [(s[0], m[0], s[1], m[1], s[2], m[2], k + 1, wire) for k, (s, m, wire) in
+                     enumerate(zip(signs, magnitudes, wire_refs.tolist()))]
         pattern = "Wi\n\n0101100\n%%s%%d 0 %%s%%d 0 %%s%%d 0 *\nFa\n0  %g %%d 0\n\n0101000\n+%%d 0 *\n" % tolerance_mm
         stream.write("".join(map(pattern.__mod__, face_rows)))
         stream.write("Sh\n\n0101100\n%s *\n" % " ".join("+%d 0" % r for r in face_refs.tolist()))
@@ -99,7 +99,7 @@ def solid_of_mesh(mesh, label="mesh"):
         raise picoscan.Error("%s: %d facets, more than %d; use a coarser mesh or Fit primitives" % (
             label, mesh.CountFacets, MAX_FACETS))
     vertices, facet_list = mesh.Topology
-    points = numpy.array([(p.x, p.y, p.z) for p in vertices], dtype=numpy.float64)
+    points = numpy.array([tuple(p) for p in vertices], dtype=numpy.float64)
     facets = numpy.array(facet_list, dtype=numpy.int64)
     problem = _mesh_problem(mesh, points, facets)
     if problem:
