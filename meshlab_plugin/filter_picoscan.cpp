@@ -24,6 +24,7 @@ namespace {
 // Parameter names, shared by initParameterSet, applyFilter and the .mlx scripts.
 const char* const kCaptureFolder = "captureFolder";
 const char* const kCalibrationFile = "calibrationFile";
+const char* const kSecondCaptureFolder = "secondCaptureFolder";
 const char* const kSequence = "sequence";
 const char* const kManifestFile = "manifestFile";
 const char* const kShifts = "shifts";
@@ -236,7 +237,10 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
                "every camera pixel with the rig's calibration. Creates a new layer: a coloured point cloud with "
                "normals and quality (fringe modulation) that keeps each point's camera pixel, or a grid mesh.<br>"
                "The frame order comes from <i>sequence.json</i> in the capture folder, a manifest file, or a preset "
-               "for capture sets made by SLMaster or SLStudio.";
+               "for capture sets made by SLMaster or SLStudio.<br>"
+               "With a stereo calibration (two cameras), give the second camera's capture folder as well: each "
+               "camera decodes the projector's codes, and the cameras are matched along rectified rows and "
+               "triangulated (binocular structured light; the projector is not calibrated).";
     case Simulate:
         return "Simulates a scan with PicoScan's virtual rig (ray-cast camera and projector, noise, defocus) and "
                "reconstructs it into a new layer, for trying the tool without hardware. The scene is the built-in "
@@ -311,8 +315,14 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
         parameters.addParam(RichString(kCaptureFolder, "", "Capture folder",
                                        "Folder with the capture set's images (and its sequence.json)."));
         parameters.addParam(RichString(kCalibrationFile, "", "Calibration file",
-                                       "Camera-projector calibration: PicoScan YAML, SLMaster caliInfo.yml or "
-                                       "SLStudio calibration.xml."));
+                                       "Camera-projector calibration (PicoScan YAML, SLMaster caliInfo.yml or "
+                                       "SLStudio calibration.xml), or a stereo calibration of two cameras (PicoScan, "
+                                       "OpenCV stereoCalibrate M1 D1 M2 D2 R T, ...): then the second camera's "
+                                       "capture folder is needed too."));
+        parameters.addParam(RichString(kSecondCaptureFolder, "", "Second capture folder (stereo)",
+                                       "With a stereo calibration: the second camera's capture set of the same "
+                                       "patterns. The two cameras are matched by the projector's codes and "
+                                       "triangulated; the projector needs no calibration."));
         parameters.addParam(RichEnum(kSequence, OwnManifest,
                                      QStringList{"sequence.json in the capture folder",
                                                  "SLMaster sinus + complementary Gray code",
@@ -465,6 +475,36 @@ void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParamet
     validate(options);
     const LayerRequest request = layer_request(parameters);
 
+    const std::string second_folder = parameter_text(parameters.getString(kSecondCaptureFolder));
+    if (calibration_kind(calibration_file) == CalibrationKind::Stereo) {
+        if (second_folder.empty())
+            throw Error(kSecondCaptureFolder, "is required: " + calibration_file +
+                                                  " is a stereo calibration (two cameras); give the second camera's "
+                                                  "capture folder");
+        if (!QFileInfo(QString::fromStdString(second_folder)).isDir())
+            throw Error(second_folder, "second capture folder not found");
+        if (options.manifest_path.empty() && parameters.getEnum(kSequence) != OwnManifest)
+            throw Error(kSequence, "the presets take the projector's size from a camera-projector calibration; with "
+                                   "the stereo calibration " + calibration_file + " give a manifest file");
+        StereoReconstructOptions stereo_options;
+        stereo_options.manifest_path = options.manifest_path;
+        stereo_options.decode = options.decode;
+        const StereoCalibration calibration = read_stereo_calibration(calibration_file);
+        const StereoReconstructResult result = reconstruct_stereo_view(
+            folder, second_folder, calibration, calibration_file, stereo_options, meshlab_progress(callback));
+        const QString label = QDir(QString::fromStdString(folder)).dirName();
+        MeshModel* layer = add_scan_layer(document, (label.isEmpty() ? "PicoScan scan" : label) + " (stereo)",
+                                          result.view, request, folder);
+        Log("PicoScan reconstructed %s with the second camera's %s (stereo): %d points (%.1f %% of the camera "
+            "pixels), %d faces; %d of %d decoded pixels matched, left-right consistency %.1f %%",
+            folder.c_str(), second_folder.c_str(), result.point_count,
+            100.0 * result.point_count / double(result.view.points.total()), layer->cm.fn, result.statistics.matched,
+            result.statistics.left_decoded, 100.0 * result.statistics.left_right_consistency());
+        return;
+    }
+    if (!second_folder.empty())
+        throw Error(kSecondCaptureFolder, calibration_file + " is a camera-projector calibration; a second camera "
+                                          "needs a stereo calibration of both cameras");
     const Calibration calibration = read_calibration(calibration_file);
     // Presets describe foreign capture sets: their manifest is written to a temporary folder.
     QTemporaryDir preset_folder;
@@ -629,15 +669,12 @@ void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList&
     if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
     std::vector<ScanView> views;
     for (MeshModel* layer : layers) views.push_back(layer_view(*layer));  // pose = the layer's transform
-    const PointCloud merged = merge_views(views);
-    const Mesh mesh = mesh_points(merged, options, meshlab_progress(callback));
-    if (mesh.faces.empty()) throw Error("Fuse and Mesh", "meshing produced no triangles");
-    const MeshCheck check = check_mesh(mesh);
+    const FuseResult fused = fuse_views(views, options, meshlab_progress(callback));
     add_filled_layer(document,
                      options.method == MeshMethod::Poisson ? "Fused mesh (Poisson)" : "Fused mesh (advancing front)",
-                     [&](MeshModel& layer) { fill_layer(layer, mesh); });
-    Log("PicoScan fused %zu layers (%zu points) into %zu vertices, %zu faces; %s", layers.size(), merged.points.size(),
-        mesh.vertices.size(), mesh.faces.size(), check.summary().c_str());
+                     [&](MeshModel& layer) { fill_layer(layer, fused.mesh); });
+    Log("PicoScan fused %zu layers (%zu points) into %zu vertices, %zu faces; %s", layers.size(),
+        fused.merged.points.size(), fused.mesh.vertices.size(), fused.mesh.faces.size(), fused.check.summary().c_str());
 }
 
 void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterList& parameters) {

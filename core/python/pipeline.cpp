@@ -64,6 +64,20 @@ void bind_pipeline(py::module_& m) {
         py::arg("first_folder"), py::arg("second_folder"), py::arg("calibration"), py::arg("calibration_name"),
         py::arg("options") = StereoReconstructOptions(), py::arg("progress") = py::none());
 
+    py::class_<FuseResult>(m, "FuseResult")
+        .def_readonly("merged", &FuseResult::merged)
+        .def_readonly("mesh", &FuseResult::mesh)
+        .def_readonly("check", &FuseResult::check);
+    m.def(
+        "fuse_views",
+        [](const std::vector<ScanView>& views, const MeshOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return fuse_views(views, options, callback);
+        },
+        py::arg("views"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none(),
+        "Posed views merged (each through its pose) and meshed, with the mesh's check.");
+
     py::class_<CleanScanOptions>(m, "CleanScanOptions")
         .def(py::init<>())
         .def_readwrite("cleaning", &CleanScanOptions::cleaning)

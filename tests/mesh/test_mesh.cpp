@@ -2,6 +2,7 @@
 // for watertightness and against the ground-truth part; bad clouds refused.
 #include "picoscan/error.h"
 #include "picoscan/mesh.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/register.h"
 #include "support/turntable_scan.h"
 
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 using namespace picoscan;
 
@@ -233,6 +235,41 @@ TEST(Mesh, EmptyAndDegenerateCloudsAreRefused) {
     EXPECT_GT(check.faces, 2000u);  // 40 x 40 grid: ~2 x 39 x 39 triangles
     EXPECT_FALSE(check.watertight());
     EXPECT_EQ(check.non_manifold_edges, 0u);
+}
+
+// The pipeline's fuse_views (MeshLab's Fuse): each view through its pose, merged and meshed.
+TEST(Mesh, FuseViewsMovesEachViewByItsPoseAndRefusesEmptyInput) {
+    ScanView sheet;
+    sheet.points.create(40, 40, CV_32FC3);
+    sheet.normals.create(40, 40, CV_32FC3);
+    for (int y = 0; y < 40; ++y)
+        for (int x = 0; x < 40; ++x) {
+            sheet.points.at<cv::Vec3f>(y, x) = {x * 0.5f, y * 0.5f, 400.f};
+            sheet.normals.at<cv::Vec3f>(y, x) = {0.f, 0.f, -1.f};
+        }
+    ScanView moved = sheet;
+    moved.pose(0, 3) = 20;  // continues the first sheet along x, one spacing apart
+    MeshOptions open_surface;
+    open_surface.method = MeshMethod::AdvancingFront;
+    open_surface.sample_spacing_mm = 0;
+    const FuseResult fused = fuse_views({sheet, moved}, open_surface);
+    float x_max = 0;
+    for (const cv::Vec3f& point : fused.merged.points) x_max = std::max(x_max, point[0]);
+    std::printf("fused two posed sheets: %zu points up to x = %.2f mm; %s\n", fused.merged.points.size(), x_max,
+                fused.check.summary().c_str());
+    EXPECT_EQ(fused.merged.points.size(), 3200u);
+    EXPECT_FLOAT_EQ(x_max, 39.5f);
+    EXPECT_GT(fused.check.faces, 2 * 2000u);
+    EXPECT_EQ(fused.check.faces, fused.mesh.faces.size());
+    EXPECT_THROW(fuse_views({}, open_surface), Error);
+    ScanView empty = sheet;
+    empty.points.setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    try {
+        fuse_views({empty}, open_surface);
+        FAIL() << "a view without points was fused";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("no valid point"), std::string::npos) << e.what();
+    }
 }
 
 TEST(Mesh, CheckFindsHolesAndNonManifoldEdges) {

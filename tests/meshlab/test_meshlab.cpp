@@ -5,6 +5,7 @@
 #include "picoscan/fit.h"
 #include "picoscan/io.h"
 #include "picoscan/mesh.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/register.h"
 #include "picoscan/simulate.h"
 #include "support/test_support.h"
@@ -40,7 +41,8 @@ const Params kSimulateDefaults{
     {"RichFloat", "minContrast", "15"},  {"RichFloat", "minModulation", "4"},   {"RichEnum", "output", "0"},
     {"RichInt", "meshStep", "1"}};
 const Params kReconstructDefaults{
-    {"RichString", "captureFolder", ""}, {"RichString", "calibrationFile", ""}, {"RichEnum", "sequence", "0"},
+    {"RichString", "captureFolder", ""}, {"RichString", "calibrationFile", ""}, {"RichString", "secondCaptureFolder", ""},
+    {"RichEnum", "sequence", "0"},
     {"RichString", "manifestFile", ""},  {"RichInt", "shifts", "12"},            {"RichInt", "periods", "32"},
     {"RichInt", "grayBits", "0"},        {"RichBool", "binaryOnly", "false"},    {"RichFloat", "minContrast", "15"},
     {"RichFloat", "minModulation", "4"}, {"RichEnum", "output", "0"},            {"RichInt", "meshStep", "1"}};
@@ -578,4 +580,112 @@ TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
     EXPECT_LT(error.rotation_deg, 0.15);
     EXPECT_LT(error.translation_mm, 0.1);
     EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
+}
+
+namespace {
+
+// The seed stereo rig at half resolution (two 800 x 600 cameras 200 mm apart, the projector
+// between them) looking at a sphere of radius 25 mm: camera1/, camera2/ and stereo.yml, plus a
+// camera-projector calibration of the first camera. Made once for the suite.
+const cv::Vec3d kStereoSphereCentre{0, 0, 400};
+const double kStereoSphereRadius = 25;
+
+Calibration half_resolution(Calibration calibration) {
+    calibration.camera_size = {calibration.camera_size.width / 2, calibration.camera_size.height / 2};
+    calibration.camera_matrix(0, 0) /= 2, calibration.camera_matrix(1, 1) /= 2;
+    // Pixel centres at integer coordinates: scaled about the corner of the first pixel.
+    calibration.camera_matrix(0, 2) = (calibration.camera_matrix(0, 2) + 0.5) / 2 - 0.5;
+    calibration.camera_matrix(1, 2) = (calibration.camera_matrix(1, 2) + 0.5) / 2 - 0.5;
+    return calibration;
+}
+
+const std::string& stereo_sphere_folder() {
+    static const std::string folder = [] {
+        const std::string root = make_temp_dir("meshlab_stereo");
+        SeedStereoRig rig = seed_stereo_rig();
+        rig.left = half_resolution(rig.left);
+        rig.right = half_resolution(rig.right);
+        rig.stereo = stereo_from_projector_calibrations(rig.left, rig.right);
+        PatternOptions patterns;
+        patterns.shifts = 8;
+        Scene scene;
+        scene.spheres.push_back({kStereoSphereCentre, kStereoSphereRadius, 0.9});
+        const auto captures = simulate_stereo_capture(make_pattern_sequence(patterns), rig, scene);
+        write_capture_set(captures.first, root + "/camera1");
+        write_capture_set(captures.second, root + "/camera2");
+        write_stereo_calibration(rig.stereo, root + "/stereo.yml");
+        write_calibration(rig.left, root + "/camera_projector.yml");
+        write_stereo_calibration(seed_stereo_rig().stereo, root + "/full_size.yml");  // 1600 x 1200 cameras
+        return root;
+    }();
+    return folder;
+}
+
+}  // namespace
+
+// A stereo calibration and two capture folders: the filter takes the binocular path, its layer is
+// the core recipe's view point for point, and the sphere is the scene's.
+TEST(MeshlabPlugin, StereoReconstructMeasuresTheSphere) {
+    const std::string& root = stereo_sphere_folder();
+    const std::map<std::string, std::string> stereo{{"captureFolder", root + "/camera1"},
+                                                    {"calibrationFile", root + "/stereo.yml"},
+                                                    {"secondCaptureFolder", root + "/camera2"}};
+    // A second layer of the same scan is cleaned: a stereo layer carries its pixel grid and camera.
+    const ServerRun run = run_meshlabserver(root, reconstruct(stereo) + measure("sphere") + reconstruct(stereo) + clean(),
+                                            "-o stereo.ply -l 0 -m vc vn vq -o cleaned.ply -l 1");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_NE(run.log.find("(stereo):"), std::string::npos) << run.log;
+    EXPECT_NE(run.log.find("left-right consistency"), std::string::npos) << run.log;
+    const Mesh layer = read_ply(root + "/stereo.ply");
+    const StereoReconstructResult core = reconstruct_stereo_view(root + "/camera1", root + "/camera2",
+                                                                 read_stereo_calibration(root + "/stereo.yml"), "stereo.yml");
+    const PointCloud expected = to_point_cloud(core.view);
+    ASSERT_EQ(layer.vertices.size(), expected.points.size());
+    EXPECT_LT(max_distance(layer.vertices, expected.points), 1e-4);
+    const SphereFit fit = fit_sphere(layer.vertices);
+    std::printf("stereo sphere through MeshLab (800x600 cameras): %zu points; radius %.4f mm (truth %.1f), centre error "
+                "%.4f mm, RMS %.4f mm\n",
+                layer.vertices.size(), fit.radius_mm, kStereoSphereRadius, cv::norm(fit.centre - kStereoSphereCentre),
+                fit.rms_mm);
+    EXPECT_GT(layer.vertices.size(), 15000u);
+    EXPECT_LT(std::abs(fit.radius_mm - kStereoSphereRadius), 0.015);
+    EXPECT_LT(cv::norm(fit.centre - kStereoSphereCentre), 0.02);
+    EXPECT_LT(fit.rms_mm, 0.02);
+    const std::vector<double> logged_radius = numbers_after(run.log, "radius", 1);
+    ASSERT_EQ(logged_radius.size(), 1u) << run.log;
+    EXPECT_NEAR(logged_radius[0], fit.radius_mm, 1e-3);
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    std::printf("stereo layer cleaned: %.0f of %zu points removed\n", removed[0], layer.vertices.size());
+    EXPECT_EQ(read_ply(root + "/cleaned.ply").vertices.size() + size_t(removed[0]), layer.vertices.size());
+    EXPECT_LT(removed[0], 0.05 * layer.vertices.size());
+}
+
+// Each wrong combination is refused with a message naming the parameter or the reason, and no
+// layer is saved.
+TEST(MeshlabPlugin, StereoReconstructRefusesWrongCombinations) {
+    const std::string& root = stereo_sphere_folder();
+    const std::string first = root + "/camera1", second = root + "/camera2";
+    const std::vector<std::pair<std::map<std::string, std::string>, std::string>> cases{
+        {{{"captureFolder", first}, {"calibrationFile", root + "/stereo.yml"}},
+         "error: secondCaptureFolder: is required: " + root + "/stereo.yml is a stereo calibration (two cameras)"},
+        {{{"captureFolder", first}, {"calibrationFile", root + "/camera_projector.yml"}, {"secondCaptureFolder", second}},
+         "error: secondCaptureFolder: " + root + "/camera_projector.yml is a camera-projector calibration"},
+        {{{"captureFolder", first}, {"calibrationFile", root + "/stereo.yml"}, {"secondCaptureFolder", root + "/none"}},
+         "error: " + root + "/none: second capture folder not found"},
+        {{{"captureFolder", first}, {"calibrationFile", root + "/stereo.yml"}, {"secondCaptureFolder", second},
+          {"sequence", "1"}},
+         "error: sequence: the presets take the projector's size from a camera-projector calibration"},
+        {{{"captureFolder", first}, {"calibrationFile", root + "/full_size.yml"}, {"secondCaptureFolder", second}},
+         "error: " + root + "/full_size.yml: camera1_size is 1600x1200 but the captures in " + first + " are 800x600"},
+        // The cameras swapped: both decode, but the projector rows show that R, T do not fit.
+        {{{"captureFolder", second}, {"calibrationFile", root + "/stereo.yml"}, {"secondCaptureFolder", first}},
+         "does not fit these captures"},
+    };
+    for (const auto& [overrides, message] : cases) {
+        const ServerRun run = run_meshlabserver(root, reconstruct(overrides), "-o never.ply");
+        EXPECT_NE(run.exit_code, 0) << message;
+        EXPECT_NE(run.log.find(message), std::string::npos) << run.log;
+    }
+    EXPECT_FALSE(std::ifstream(root + "/never.ply").good());
 }

@@ -234,6 +234,19 @@ struct PartFrame {
 PartFrame part_frame(const PointCloud& cloud, const std::optional<TurntableAxis>& turntable = std::nullopt,
                      const PartFrameOptions& options = {}, const ProgressCallback& progress = nullptr);
 
+// ---- Fuse views that are already posed ------------------------------------------------------
+
+// Views already aligned (each through its pose, e.g. MeshLab layers with their transforms)
+// merged into one cloud and meshed (mesh_points), with the mesh's check.
+struct FuseResult {
+    PointCloud merged;
+    Mesh mesh;
+    MeshCheck check;
+};
+// Throws Error when no view is given, the merged cloud is empty, or meshing gives no triangle.
+FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& options = {},
+                      const ProgressCallback& progress = nullptr);
+
 // ---- Validation ---------------------------------------------------------------------------
 // Each throws Error naming the offending field (e.g. "decode.min_modulation") when a value is
 // out of range or NaN.

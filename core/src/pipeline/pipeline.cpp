@@ -166,6 +166,18 @@ Mesh mesh_points(const PointCloud& cloud, const MeshOptions& options, const Prog
     return mesh_cloud(cloud, options, progress);
 }
 
+FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& options, const ProgressCallback& progress) {
+    validate(options);
+    if (views.empty()) throw Error("views", "fusing needs at least one view");
+    FuseResult result;
+    result.merged = merge_views(views);
+    if (result.merged.points.empty()) throw Error("views", "the views hold no valid point");
+    result.mesh = mesh_cloud(result.merged, options, progress);
+    if (result.mesh.faces.empty()) throw Error("views", "meshing the merged views produced no triangles");
+    result.check = check_mesh(result.mesh);
+    return result;
+}
+
 // ---- Validation --------------------------------------------------------------------------
 
 namespace {

@@ -35,8 +35,11 @@ class ScanCommand(Command):
 
 
 def _ask_capture_set():
-    """(capture folder, calibration file) from file dialogs; None when the user cancels."""
+    """(capture folder, calibration file, second capture folder or "") from file dialogs; None when the
+    user cancels. A stereo calibration (two cameras) asks for the second camera's folder too."""
     from PySide import QtGui
+
+    from picoscan_wb.operations.reconstruct import is_stereo_calibration
 
     window = FreeCADGui.getMainWindow()
     folder = QtGui.QFileDialog.getExistingDirectory(window, "Capture set folder (images + sequence.json)")
@@ -44,13 +47,24 @@ def _ask_capture_set():
         return None
     if not os.path.isdir(folder):
         raise picoscan.Error("%s: capture folder does not exist" % folder)
-    calibration = os.path.join(folder, "calibration.yml")
-    if not os.path.isfile(calibration):
-        calibration, _ = QtGui.QFileDialog.getOpenFileName(window, "Calibration of the rig", folder,
-                                                           "Calibration (*.yml *.yaml *.xml)")
+    found = [os.path.join(folder, name) for name in ("calibration.yml", "stereo.yml")
+             if os.path.isfile(os.path.join(folder, name))]
+    if len(found) == 1:
+        calibration = found[0]
+    else:
+        calibration, _ = QtGui.QFileDialog.getOpenFileName(
+            window, "Calibration of the rig (camera-projector, or stereo for two cameras)", folder,
+            "Calibration (*.yml *.yaml *.xml)")
         if not calibration:
             return None
-    return folder, calibration
+    second_folder = ""
+    if is_stereo_calibration(calibration):
+        second_folder = QtGui.QFileDialog.getExistingDirectory(
+            window, "Second camera's capture folder (%s is a stereo calibration)" % os.path.basename(calibration),
+            os.path.dirname(folder))
+        if not second_folder:
+            return None
+    return folder, calibration, second_folder
 
 
 class ImportCapturesCommand(Command):
@@ -63,7 +77,8 @@ class ImportCapturesCommand(Command):
         if answer is None:
             return None
         active_document()
-        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1], part_frame=True)
+        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1], second_capture_folder=answer[2],
+                                part_frame=True)
         FreeCADGui.SendMsgToActiveView("ViewFit")
         return view
 

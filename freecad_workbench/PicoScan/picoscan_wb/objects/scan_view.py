@@ -7,7 +7,7 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors
-from picoscan_wb.operations.reconstruct import reconstruct
+from picoscan_wb.operations.reconstruct import reconstruct, stereo_summary
 from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanView"
@@ -15,8 +15,20 @@ TYPE = "PicoScan::ScanView"
 
 
 def _parameters(obj):
+    """What the reconstruction depends on, in the order of reconstruct()'s arguments."""
     return (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
-            obj.BinaryOnly, obj.Clean, obj.MaxGrazingAngle)
+            obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle), obj.SecondCaptureFolder)
+
+
+def _add_stereo_properties(obj):
+    """The two-camera properties (also added to ScanViews of documents saved before they existed)."""
+    if not hasattr(obj, "SecondCaptureFolder"):
+        obj.addProperty("App::PropertyPath", "SecondCaptureFolder", "Scan",
+                        "The second camera's capture folder, needed when CalibrationFile is a stereo calibration "
+                        "(two cameras; the projector only labels pixels)")
+    if not hasattr(obj, "StereoReport"):
+        obj.addProperty("App::PropertyString", "StereoReport", "Result",
+                        "What the two cameras matched (stereo calibrations only)", 1)
 
 
 def _decoding(obj):
@@ -41,9 +53,10 @@ def _store(obj, view):
 
 
 def _stored_view(obj):
-    """(view, calibration or None, None) from the document when the capture folder or calibration is
-    gone; None when they are there (reconstruct from them) or nothing usable is stored."""
-    if os.path.isdir(obj.CaptureFolder or "") and os.path.isfile(obj.CalibrationFile or ""):
+    """(view, calibration or None, None, None) from the document when the capture folders or the
+    calibration are gone; None when they are there (reconstruct from them) or nothing usable is stored."""
+    folders = [obj.CaptureFolder] + ([obj.SecondCaptureFolder] if obj.SecondCaptureFolder else [])
+    if all(os.path.isdir(folder or "") for folder in folders) and os.path.isfile(obj.CalibrationFile or ""):
         return None
     stored = getattr(obj, "StoredView", "")
     if not stored or not os.path.isfile(stored):
@@ -54,7 +67,7 @@ def _stored_view(obj):
     FreeCAD.Console.PrintLog("%s: capture folder %s is gone; using the view kept in the document\n" % (
         obj.Label, obj.CaptureFolder))
     calibration = picoscan.read_calibration(obj.CalibrationFile) if os.path.isfile(obj.CalibrationFile or "") else None
-    return picoscan.read_view_ply(stored), calibration, None
+    return picoscan.read_view_ply(stored), calibration, None, None
 
 
 def points_of(cloud, placement=None):
@@ -75,7 +88,7 @@ class ScanView(DocumentObjectProxy):
         super().__init__(obj)
         group = "Scan"
         obj.addProperty("App::PropertyPath", "CaptureFolder", group, "Folder of the capture set (images + sequence.json)")
-        obj.addProperty("App::PropertyFile", "CalibrationFile", group, "Camera-projector calibration (.yml)")
+        obj.addProperty("App::PropertyFile", "CalibrationFile", group, "Calibration (.yml): camera-projector, or stereo (two cameras, with SecondCaptureFolder)")
         obj.addProperty("App::PropertyFile", "ManifestFile", group, "sequence.json to use instead of the folder's own (foreign capture sets)")
         group = "Decoding"
         obj.addProperty("App::PropertyFloat", "MinContrast", group, "White-black contrast below this is shadow (grey levels)")
@@ -87,6 +100,7 @@ class ScanView(DocumentObjectProxy):
         group = "Result"
         obj.addProperty("App::PropertyInteger", "PointCount", group, "Points measured", 1)
         obj.addProperty("App::PropertyString", "CleanReport", group, "What cleaning removed", 1)
+        _add_stereo_properties(obj)
         _add_storage(obj)
         obj.MinContrast = 15.0
         obj.MinModulation = 4.0
@@ -94,6 +108,7 @@ class ScanView(DocumentObjectProxy):
 
     def onDocumentRestored(self, obj):
         super().onDocumentRestored(obj)
+        _add_stereo_properties(obj)
         if not hasattr(obj, "StoredView"):  # a document saved before views were kept in it
             _add_storage(obj)
 
@@ -105,7 +120,7 @@ class ScanView(DocumentObjectProxy):
         cached = getattr(self, "cached", None)
         stored = None
         if fresh is not None and fresh[0] == _parameters(obj):
-            view, calibration, report = fresh[1:]
+            view, calibration, report, statistics = fresh[1:]
         elif cached is not None and cached[0] == _parameters(obj):
             # Only the Placement changed (a best fit, a datum alignment): the points stay as decoded.
             obj.Points = points_of(picoscan.to_point_cloud(cached[1]), obj.Placement)
@@ -113,11 +128,10 @@ class ScanView(DocumentObjectProxy):
         else:
             stored = _stored_view(obj) if hasattr(obj, "StoredView") else None
             if stored is not None:
-                view, calibration, report = stored
+                view, calibration, report, statistics = stored
             else:
-                parameters = (obj.CaptureFolder, obj.CalibrationFile, obj.ManifestFile, obj.MinContrast, obj.MinModulation,
-                              obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle))
-                view, calibration, report = run_in_background(
+                parameters = _parameters(obj)
+                view, calibration, report, statistics = run_in_background(
                     "Reconstructing " + obj.Label, lambda progress: reconstruct(*parameters, progress=progress))
         self.cached = (_parameters(obj), view, calibration)
         if stored is None and hasattr(obj, "StoredView"):
@@ -126,7 +140,8 @@ class ScanView(DocumentObjectProxy):
         obj.Points = points_of(cloud, obj.Placement)
         obj.PointCount = len(cloud)
         if stored is not None:
-            return  # the clean report of the stored view is in the document already
+            return  # the clean and stereo reports of the stored view are in the document already
+        obj.StereoReport = stereo_summary(statistics)
         obj.CleanReport = "" if report is None else (
             "removed %d: %d grazing, %d outliers, %d with few neighbours, %d in small clusters" % (
                 report.removed(), report.by_grazing, report.by_statistics, report.by_radius, report.by_cluster))
@@ -141,15 +156,18 @@ class ScanView(DocumentObjectProxy):
 
 
 def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file="",
-           part_frame=False):
+           second_capture_folder="", part_frame=False):
     """Reconstructs first and adds the object only when that worked, so bad input leaves `doc` unchanged.
+    With a stereo calibration, second_capture_folder is the second camera's capture set.
     With part_frame, the scan is placed Z up on its base plane (the commands do this; it stays in the
     camera's frame, with a warning, when it has no plane to stand on)."""
     result = run_in_background("Reconstructing", lambda progress: reconstruct(
-        capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean, progress=progress))
+        capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean,
+        second_capture_folder=second_capture_folder, progress=progress))
     obj = doc.addObject("Points::FeaturePython", name)
     ScanView(obj)
     obj.CaptureFolder = capture_folder
+    obj.SecondCaptureFolder = second_capture_folder
     obj.CalibrationFile = calibration_file
     obj.ManifestFile = manifest_file
     obj.Clean = clean

@@ -29,7 +29,10 @@ def projector_in_camera(calibration, points):
 
 
 def show_rig(doc, calibration_file, depth_mm=450.0):
-    """Adds a group with the camera and projector frusta. Returns (group, camera, projector)."""
+    """Adds a group with the camera and projector frusta (both cameras' for a stereo calibration).
+    Returns (group, camera, projector or second camera)."""
+    if picoscan.calibration_kind(calibration_file) == picoscan.CalibrationKind.Stereo:
+        return show_stereo_rig(doc, picoscan.read_stereo_calibration(calibration_file), depth_mm)
     calibration = picoscan.read_calibration(calibration_file)
     camera = doc.addObject("Part::Feature", "CameraFrustum")
     camera.Shape = frustum_shape((0, 0, 0), frustum_corners(calibration.camera_matrix, calibration.camera_size, depth_mm))
@@ -45,3 +48,25 @@ def show_rig(doc, calibration_file, depth_mm=450.0):
         projector.ViewObject.LineColor = (0.9, 0.5, 0.1)
     doc.recompute()
     return group, camera, projector
+
+
+def show_stereo_rig(doc, stereo, depth_mm=450.0):
+    """Both cameras of a stereo calibration, in the first camera's frame (X_2 = R X_1 + T)."""
+    first = doc.addObject("Part::Feature", "CameraFrustum")
+    first.Shape = frustum_shape((0, 0, 0), frustum_corners(stereo.left_matrix, stereo.left_size, depth_mm))
+    rotation, translation = numpy.asarray(stereo.R), numpy.asarray(stereo.T)
+
+    def in_first_camera(points):
+        return (numpy.atleast_2d(points) - translation) @ rotation
+
+    second = doc.addObject("Part::Feature", "SecondCameraFrustum")
+    second.Shape = frustum_shape(in_first_camera(numpy.zeros(3))[0],
+                                 in_first_camera(frustum_corners(stereo.right_matrix, stereo.right_size, depth_mm)))
+    group = doc.addObject("App::DocumentObjectGroup", "Rig")
+    group.addObject(first)
+    group.addObject(second)
+    if hasattr(first, "ViewObject") and first.ViewObject is not None:
+        first.ViewObject.LineColor = (0.1, 0.4, 0.9)
+        second.ViewObject.LineColor = (0.1, 0.7, 0.3)
+    doc.recompute()
+    return group, first, second

@@ -255,8 +255,8 @@ def hybrid_vs_binary_plot(scan_view_object, axis, position_mm, path):
     from picoscan_wb.operations.reconstruct import reconstruct
 
     hybrid, calibration = scan_view_object.Proxy.scan_view(scan_view_object)
-    binary, _, _ = reconstruct(scan_view_object.CaptureFolder, scan_view_object.CalibrationFile,
-                               scan_view_object.ManifestFile, binary_only=True)
+    binary = reconstruct(scan_view_object.CaptureFolder, scan_view_object.CalibrationFile, scan_view_object.ManifestFile,
+                         binary_only=True, second_capture_folder=getattr(scan_view_object, "SecondCaptureFolder", ""))[0]
     depths = hybrid.points[..., 2]
     # Half a pixel footprint at the typical depth: one row (or column) of pixels per profile.
     half_width = 0.5 * float(numpy.nanmedian(depths)) / hybrid.focal_px()

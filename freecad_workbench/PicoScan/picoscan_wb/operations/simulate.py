@@ -21,6 +21,48 @@ def scaled_calibration(calibration, scale):
     return calibration
 
 
+def scaled_stereo_rig(rig, scale):
+    """The seed stereo rig with both cameras' resolution scaled, its stereo calibration derived again."""
+    if scale == 1.0:
+        return rig
+    rig.left = scaled_calibration(rig.left, scale)
+    rig.right = scaled_calibration(rig.right, scale)
+    rig.stereo = picoscan.stereo_from_projector_calibrations(rig.left, rig.right)
+    return rig
+
+
+def _require_empty(folder):
+    if os.path.exists(folder) and (not os.path.isdir(folder) or os.listdir(folder)):
+        raise picoscan.Error("%s: output folder must be empty or new" % folder)
+
+
+def simulate_stereo_scan(folder, second_folder, scene, camera_scale=1.0, shifts=8, noise_dn=1.0, seed=1,
+                         baseline_mm=200.0, progress=None):
+    """Renders `scene` (first camera's frame) with the seed stereo rig, two cameras `baseline_mm` apart
+    with the projector between them: the first camera's capture set into `folder`, the second's into
+    `second_folder` (both empty or new), and the stereo calibration as folder/stereo.yml (the projector
+    is not calibrated). Returns the stereo calibration file's path."""
+    _require_empty(folder)
+    _require_empty(second_folder)
+    if os.path.realpath(folder) == os.path.realpath(second_folder):
+        raise picoscan.Error("%s: the two cameras need different capture folders" % second_folder)
+    rig = scaled_stereo_rig(picoscan.seed_stereo_rig(baseline_mm), camera_scale)
+    patterns = picoscan.PatternOptions()
+    patterns.shifts = shifts
+    options = picoscan.SimulationOptions()
+    options.noise_sigma_dn = noise_dn
+    options.seed = seed
+    first, second = picoscan.simulate_stereo_capture(picoscan.make_pattern_sequence(patterns), rig, scene, options,
+                                                     progress)
+    os.makedirs(folder, exist_ok=True)
+    os.makedirs(second_folder, exist_ok=True)
+    picoscan.write_capture_set(first, folder)
+    picoscan.write_capture_set(second, second_folder)
+    calibration_file = os.path.join(folder, "stereo.yml")
+    picoscan.write_stereo_calibration(rig.stereo, calibration_file)
+    return calibration_file
+
+
 def shaft_scene(radius_mm=12.5, length_mm=80.0, distance_mm=400.0, background_mm=460.0):
     """A shaft (capped cylinder, axis along the camera's y) in front of a flat background."""
     scene = picoscan.Scene()
@@ -47,8 +89,7 @@ def make_scene(kind, scene_file=""):
 def simulate_scan(folder, scene, camera_scale=1.0, shifts=8, noise_dn=1.0, seed=1, progress=None):
     """Renders the capture set of `scene` with the seed-like rig into `folder` (which must be empty
     or new) and writes the rig as folder/calibration.yml. Returns the calibration file's path."""
-    if os.path.exists(folder) and (not os.path.isdir(folder) or os.listdir(folder)):
-        raise picoscan.Error("%s: output folder must be empty or new" % folder)
+    _require_empty(folder)
     calibration = scaled_calibration(picoscan.seed_rig_calibration(), camera_scale)
     patterns = picoscan.PatternOptions()
     patterns.shifts = shifts

@@ -1,6 +1,7 @@
 """Scan task panel: capture a scan with the projector and a camera (through `picoscan capture`,
-the capture issue's command) or simulate one with the core's virtual rig, then reconstruct it
-into a ScanView. The capture step is this panel's `capture()` alone."""
+the capture issue's command) or simulate one with the core's virtual rig (one camera, or two
+cameras with a stereo calibration), then reconstruct it into a ScanView. The capture step is
+this panel's `capture()` alone."""
 import os
 import tempfile
 
@@ -15,6 +16,7 @@ from picoscan_wb.operations import capture as hardware, simulate
 from picoscan_wb.progress import FreeCADProgress
 
 SOURCES = ("Simulate", "Camera + projector")
+CAMERAS = ("One camera", "Two cameras (stereo)")
 
 
 class ScanTaskPanel:
@@ -46,8 +48,17 @@ class ScanTaskPanel:
         self.scene_file = QtGui.QLineEdit()
         self.scene_file.setToolTip("Scene description (YAML/JSON) when Scene is 'Scene file'")
         layout.addRow("Scene file", self.scene_file)
+        self.cameras = QtGui.QComboBox()
+        self.cameras.addItems(list(CAMERAS))
+        self.cameras.setToolTip("Two cameras: the simulated stereo rig (two cameras 200 mm apart, the projector "
+                                "between them only labelling pixels), reconstructed with its stereo calibration")
+        layout.addRow("Cameras", self.cameras)
         self.folder = QtGui.QLineEdit(tempfile.mkdtemp(prefix="picoscan_scan_"))
         layout.addRow("Capture folder", self.folder)
+        self.second_folder = QtGui.QLineEdit()
+        self.second_folder.setToolTip("Two cameras: where the second camera's capture set is written "
+                                      "(empty: a new temporary folder)")
+        layout.addRow("Second capture folder", self.second_folder)
         self.camera_scale = QtGui.QDoubleSpinBox()
         self.camera_scale.setRange(0.25, 1.0)
         self.camera_scale.setSingleStep(0.25)
@@ -67,26 +78,40 @@ class ScanTaskPanel:
         QtGui.QApplication.processEvents()
         return self.cancel_requested
 
-    def capture(self, folder, progress):
-        """Writes a capture set into `folder`; returns the calibration file to reconstruct it with."""
+    def two_cameras(self):
+        return self.cameras.currentText() == CAMERAS[1]
+
+    def capture(self, folder, progress, second_folder=""):
+        """Writes a capture set into `folder` (and the second camera's into `second_folder` with two
+        cameras); returns the calibration file to reconstruct it with."""
         if self.source.currentText() == "Camera + projector":
             screen = self.projector_screen.value()
             return hardware.capture(folder, self.camera.text().strip(), self.calibration.text().strip(),
                                     None if screen < 0 else screen, self.should_cancel)
         scene = simulate.make_scene(self.scene.currentText(), self.scene_file.text().strip())
+        if second_folder:
+            return simulate.simulate_stereo_scan(folder, second_folder, scene, camera_scale=self.camera_scale.value(),
+                                                 progress=progress)
         return simulate.simulate_scan(folder, scene, camera_scale=self.camera_scale.value(), progress=progress)
 
     def scan(self):
         folder = self.folder.text().strip()
         if not folder:
             raise picoscan.Error("Capture folder: choose where the scan is written")
+        second_folder = ""
+        if self.two_cameras():
+            if self.source.currentText() == "Camera + projector":
+                raise picoscan.Error("Cameras: this panel captures with one camera; reconstruct a two-camera capture "
+                                     "with Import capture set and its stereo calibration")
+            second_folder = self.second_folder.text().strip() or tempfile.mkdtemp(prefix="picoscan_scan_camera2_")
         self.cancel_requested = False
         with FreeCADProgress("Scanning", self.should_cancel) as progress:
-            calibration = self.capture(folder, progress)
+            calibration = self.capture(folder, progress, second_folder)
         doc = FreeCAD.ActiveDocument or FreeCAD.newDocument("Scan")
         doc.openTransaction("Scan")  # one undo step
         try:
-            self.created = scan_view.create(doc, folder, calibration, part_frame=True)
+            self.created = scan_view.create(doc, folder, calibration, second_capture_folder=second_folder,
+                                            part_frame=True)
         except Exception:
             doc.abortTransaction()
             raise

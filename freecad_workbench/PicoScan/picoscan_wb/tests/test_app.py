@@ -14,7 +14,7 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import cloud_of, deviation_map, measurements, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import alignment, datum, encoding, primitives, rig, section, simulate, solid
+from picoscan_wb.operations import alignment, datum, encoding, primitives, reconstruct, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -354,6 +354,135 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertRegex(view.getStatusString(), "doomed_captures is gone, and the view kept in the document was decoded "
                                                  "with other parameters")
         self.assertEqual(view.Points.CountPoints, before[0])
+
+
+class PicoScanStereoTest(unittest.TestCase):
+    """Two cameras 200 mm apart (the seed stereo rig at half resolution, 800 x 600), the projector between
+    them uncalibrated, looking at a sphere of radius 25 mm 400 mm away: a ScanView from a stereo calibration
+    and two capture folders."""
+
+    CENTRE = (0.0, 0.0, 400.0)
+    RADIUS_MM = 25.0
+
+    @classmethod
+    def setUpClass(cls):
+        cls.folder = tempfile.mkdtemp(prefix="picoscan_stereo_")
+        cls.first, cls.second = os.path.join(cls.folder, "camera1"), os.path.join(cls.folder, "camera2")
+        scene = picoscan.Scene()
+        scene.add_sphere(cls.CENTRE, cls.RADIUS_MM, 0.9)
+        cls.calibration = simulate.simulate_stereo_scan(cls.first, cls.second, scene, camera_scale=0.5)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder, ignore_errors=True)
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanStereoTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def sphere_fit(self, view):
+        fit = picoscan.fit_sphere(numpy.array([tuple(p) for p in view.Points.Points], dtype=numpy.float32))
+        centre_error = numpy.linalg.norm(numpy.asarray(fit.centre) - self.CENTRE)
+        FreeCAD.Console.PrintMessage("stereo ScanView: %d points, radius %.4f mm (truth %.1f), centre error %.4f mm, "
+                                     "RMS %.4f mm; %s\n" % (view.PointCount, fit.radius_mm, self.RADIUS_MM, centre_error,
+                                                             fit.rms_mm, view.StereoReport))
+        return fit, centre_error
+
+    def test_stereo_scan_view_measures_the_sphere_and_survives_reopening(self):
+        view = scan_view.create(self.doc, self.first, self.calibration, second_capture_folder=self.second)
+        self.assertTrue(view.isValid(), view.getStatusString())
+        self.assertEqual(view.SecondCaptureFolder, self.second)
+        self.assertGreater(view.PointCount, 15000)  # of the ~18700 sphere pixels the first camera decodes
+        fit, centre_error = self.sphere_fit(view)
+        self.assertLess(abs(fit.radius_mm - self.RADIUS_MM), 0.015)
+        self.assertLess(centre_error, 0.02)
+        self.assertLess(fit.rms_mm, 0.02)
+        self.assertIn("left-right consistency", view.StereoReport)
+        # The rig of a stereo calibration: the second camera's centre is the baseline away.
+        _, _, second_camera = rig.show_rig(self.doc, self.calibration)
+        self.assertAlmostEqual(second_camera.Shape.Edges[0].Vertexes[0].Point.Length, 200.0, delta=1e-6)
+        # The camera-projector fields stay empty: nothing was confirmed or cleaned.
+        self.assertEqual(view.CleanReport, "")
+        points, name = view.PointCount, view.Name
+        path = os.path.join(self.folder, "stereo.FCStd")
+        self.doc.saveAs(path)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        view = self.doc.getObject(name)
+        self.assertEqual(view.Points.CountPoints, points)
+        view.touch()
+        self.doc.recompute()
+        self.assertTrue(view.isValid(), view.getStatusString())
+        self.assertEqual(view.PointCount, points)
+        # Parametric: without the second folder the stereo calibration cannot be used, and the object says why.
+        view.SecondCaptureFolder = ""
+        self.doc.recompute()
+        self.assertFalse(view.isValid())
+        self.assertIn("SecondCaptureFolder", view.getStatusString())
+
+    def test_progress_reports_the_stereo_stages_and_cancel_stops_matching(self):
+        # The progress the GUI's dialog shows (and its Cancel answers) while the work runs off the GUI thread.
+        stages = set()
+        reconstruct.reconstruct(self.first, self.calibration, second_capture_folder=self.second,
+                                progress=lambda fraction, stage: stages.add(stage) or True)
+        self.assertTrue({"load", "decode", "stereo"} <= stages, stages)
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            reconstruct.reconstruct(self.first, self.calibration, second_capture_folder=self.second,
+                                    progress=lambda fraction, stage: stage != "stereo")
+
+    def test_opencv_stereo_calibration_file_gives_the_same_scan(self):
+        # The keys OpenCV's stereoCalibrate sample writes (M1 D1 M2 D2 R T) plus image_size.
+        stereo = picoscan.read_stereo_calibration(self.calibration)
+
+        def matrix(name, values, rows, cols):
+            data = ", ".join("%.17g" % v for v in numpy.asarray(values, dtype=float).ravel())
+            return "%s: !!opencv-matrix\n   rows: %d\n   cols: %d\n   dt: d\n   data: [ %s ]\n" % (name, rows, cols, data)
+
+        text = "%YAML:1.0\n---\n" + "image_size: [ %d, %d ]\n" % tuple(stereo.left_size)
+        text += matrix("M1", stereo.left_matrix, 3, 3) + matrix("D1", stereo.left_distortion, 1, 5)
+        text += matrix("M2", stereo.right_matrix, 3, 3) + matrix("D2", stereo.right_distortion, 1, 5)
+        text += matrix("R", stereo.R, 3, 3) + matrix("T", stereo.T, 3, 1)
+        opencv_file = os.path.join(self.folder, "opencv_stereo.yml")
+        with open(opencv_file, "w") as stream:
+            stream.write(text)
+        ours = scan_view.create(self.doc, self.first, self.calibration, second_capture_folder=self.second)
+        theirs = scan_view.create(self.doc, self.first, opencv_file, second_capture_folder=self.second)
+        self.assertTrue(theirs.isValid(), theirs.getStatusString())
+        self.assertEqual(theirs.PointCount, ours.PointCount)
+        difference = numpy.abs(numpy.array(theirs.Points.Points) - numpy.array(ours.Points.Points)).max()
+        self.assertLess(difference, 1e-4)
+
+    def test_wrong_calibration_or_folders_are_refused_and_leave_the_document_unchanged(self):
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "^SecondCaptureFolder: .*stereo.yml is a stereo calibration"):
+            scan_view.create(self.doc, self.first, self.calibration)
+        projector_calibration = os.path.join(self.folder, "camera_projector.yml")
+        picoscan.write_calibration(simulate.scaled_stereo_rig(picoscan.seed_stereo_rig(), 0.5).left,
+                                   projector_calibration)
+        with self.assertRaisesRegex(picoscan.Error, "^SecondCaptureFolder: .*camera_projector.yml is a camera-projector"):
+            scan_view.create(self.doc, self.first, projector_calibration, second_capture_folder=self.second)
+        with self.assertRaisesRegex(picoscan.Error, "no_such_folder: second capture folder does not exist"):
+            scan_view.create(self.doc, self.first, self.calibration,
+                             second_capture_folder=os.path.join(self.folder, "no_such_folder"))
+        # The cameras swapped, and a calibration whose second camera is turned 0.1 degree about the
+        # baseline: both decode and match, but the rows show that R, T do not fit.
+        with self.assertRaisesRegex(picoscan.Error, "does not fit these captures"):
+            scan_view.create(self.doc, self.second, self.calibration, second_capture_folder=self.first)
+        turned = picoscan.read_stereo_calibration(self.calibration)
+        angle = math.radians(0.1)
+        turned.R = numpy.array([[1, 0, 0], [0, math.cos(angle), -math.sin(angle)],
+                                [0, math.sin(angle), math.cos(angle)]]) @ numpy.asarray(turned.R)
+        turned_file = os.path.join(self.folder, "turned.yml")
+        picoscan.write_stereo_calibration(turned, turned_file)
+        with self.assertRaisesRegex(picoscan.Error, "does not fit these captures"):
+            scan_view.create(self.doc, self.first, turned_file, second_capture_folder=self.second)
+        full_size = os.path.join(self.folder, "full_size.yml")
+        picoscan.write_stereo_calibration(picoscan.seed_stereo_rig().stereo, full_size)
+        with self.assertRaisesRegex(picoscan.Error, "full_size.yml: camera1_size is 1600x1200 but the captures in .* are 800x600"):
+            scan_view.create(self.doc, self.first, full_size, second_capture_folder=self.second)
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
 
 
 class PicoScanStitchTest(unittest.TestCase):

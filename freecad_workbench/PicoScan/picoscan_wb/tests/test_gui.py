@@ -172,6 +172,60 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(self.object_names(), before)
         self.assertTrue(all(o.isValid() for o in self.doc.Objects))
 
+    def test_f_stereo_scan_panel_and_import_ask_for_the_second_folder(self):
+        # The Scan panel simulates two cameras (at a quarter of the seed resolution: 400 x 300).
+        FreeCADGui.runCommand("PicoScan_Scan")
+        process_events()
+        panel = COMMANDS["PicoScan_Scan"].panel
+        panel.scene.setCurrentText("Shaft")
+        panel.cameras.setCurrentText("Two cameras (stereo)")
+        panel.camera_scale.setValue(0.25)
+        first, second = os.path.join(self.folder, "stereo_1"), os.path.join(self.folder, "stereo_2")
+        panel.folder.setText(first)
+        panel.second_folder.setText(second)
+        panel.source.setCurrentText("Camera + projector")  # two real cameras are `picoscan capture`'s
+        self.assertFalse(panel.accept())
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("Cameras: this panel captures with one camera", self.messages[0][2])
+        self.assertFalse(os.path.exists(second))
+        self.messages.clear()
+        panel.source.setCurrentText("Simulate")
+        self.assertTrue(panel.accept(), self.messages)
+        view = panel.created
+        self.assertEqual((view.CaptureFolder, view.SecondCaptureFolder), (first, second))
+        self.assertGreater(view.PointCount, 50000)  # the shaft and the wall, of 120 000 pixels
+        self.assertIn("left-right consistency", view.StereoReport)
+        # Import: the folder holds stereo.yml, so the command asks for the second camera's folder.
+        answers = [first, os.path.join(self.folder, "no_second_camera")]
+        QtWidgets.QFileDialog.getExistingDirectory = lambda *args, **kwargs: answers.pop(0)
+        before = self.object_names()
+        FreeCADGui.runCommand("PicoScan_ImportCaptures")
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("no_second_camera: second capture folder does not exist", self.messages[0][2])
+        self.assertEqual(self.object_names(), before)
+        answers = [first, second]
+        FreeCADGui.runCommand("PicoScan_ImportCaptures")
+        process_events()
+        self.assertEqual(len(self.messages), 1, self.messages)
+        added = [self.doc.getObject(name) for name in self.object_names() if name not in before]
+        self.assertEqual(len(added), 1)
+        self.assertEqual(added[0].SecondCaptureFolder, second)
+        self.assertEqual(added[0].PointCount, view.PointCount)
+        # Both cameras of the stereo calibration with the scan, for docs/freecad.md.
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.runCommand("PicoScan_ShowRig")
+        process_events()
+        self.assertIsNotNone(self.doc.getObject("SecondCameraFrustum"), self.messages)
+        self.doc.removeObject(added[0].Name)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=1)  # shaded, so the shaft stands out from the wall
+        self.assertGreater(mesh.Mesh.CountFacets, 50000)
+        view.ViewObject.Visibility = False
+        # Seen from behind the cameras (their y points down), turned to show the depth.
+        behind_cameras = FreeCAD.Rotation(FreeCAD.Vector(0, 1, 0), 35).multiply(FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 160))
+        self.screenshot(self.doc.getObject("Rig"), "freecad-stereo.png", orientation=behind_cameras)
+
     def test_g_cancelled_scan_shows_message(self):
         before = self.object_names()
         FreeCADGui.runCommand("PicoScan_Scan")
@@ -329,7 +383,7 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertNotIn("Traceback", self.messages[0][2])
         self.assertLess((model.Placement.Base - turned.Base).Length, 1e-9)
 
-    def screenshot(self, shown, name, report=None):
+    def screenshot(self, shown, name, report=None, orientation=FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215)):
         """The 3D view on `shown`, saved beside PICOSCAN_SCREENSHOT as `name` (and the report picture)."""
         path = os.environ.get("PICOSCAN_SCREENSHOT")
         if not path:
@@ -343,7 +397,7 @@ class PicoScanGuiTest(unittest.TestCase):
                 mdi.setActiveSubWindow(window)
         process_events()
         view3d = FreeCADGui.ActiveDocument.ActiveView
-        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        view3d.setCameraOrientation(orientation)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(shown)
         FreeCADGui.SendMsgToActiveView("ViewSelection")
