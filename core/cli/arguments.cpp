@@ -1,9 +1,12 @@
 #include "arguments.h"
 
+#include "cli_support.h"
+
 #include "picoscan/error.h"
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 namespace picoscan::cli {
@@ -11,6 +14,12 @@ namespace picoscan::cli {
 namespace {
 
 bool looks_like_option(const std::string& word) { return word.rfind("--", 0) == 0 || word == "-h"; }
+
+// Options whose empty value means something (no file-name prefix or suffix); for every other
+// option an empty value is a mistake, such as an unset shell variable.
+const std::set<std::string> kMayBeEmpty{"--prefix", "--suffix"};
+// Options that name files or folders PicoScan writes: checked here, before any work.
+const std::set<std::string> kOutputOptions{"--out", "--mesh", "--preview", "--report"};
 
 }  // namespace
 
@@ -26,13 +35,42 @@ Arguments::Arguments(int argc, char** argv, int first, const ArgumentRules& rule
         if (values_.count(key) && !is_list) throw Error(key, "is given more than once");
         std::vector<std::string>& values = values_[key];
         if (key == "--help" || rules.flags.count(key)) continue;
+        occurrence_starts_[key].push_back(values.size());
         if (index + 1 >= argc || looks_like_option(argv[index + 1])) throw Error(key, "needs a value");
         values.push_back(argv[++index]);
+        if (values.back().empty() && !kMayBeEmpty.count(key)) throw Error(key, "must not be empty");
+        if (kOutputOptions.count(key)) check_output_name(values.back(), key);
         // Further values up to the next option belong to the same key (--captures A B C).
         while (index + 1 < argc && !looks_like_option(argv[index + 1])) {
             if (!is_list) throw Error(argv[index + 1], "unexpected argument after " + key + " (it takes one value)");
             values.push_back(argv[++index]);
+            if (values.back().empty()) throw Error(key, "must not be empty");
         }
+    }
+    for (const std::string& input : inputs_)
+        if (input.empty()) throw Error("input file", "an empty name was given");
+    require_output_folders();
+}
+
+// A file output's folder must exist (or be --out, which the command creates): otherwise the
+// write would fail only after all the work.
+void Arguments::require_output_folders() const {
+    static const std::set<std::string> file_extensions{".ply", ".stl", ".obj", ".png", ".yml", ".yaml",
+                                                       ".xml", ".json", ".html", ".htm", ".txt"};
+    const auto out = values_.find("--out");
+    const std::string made_folder = out != values_.end() && !out->second.empty() ? out->second.back() : "";
+    for (const std::string& key : kOutputOptions) {
+        const auto found = values_.find(key);
+        if (found == values_.end() || found->second.empty()) continue;
+        const std::filesystem::path path = found->second.back(), folder = path.parent_path();
+        if (key == "--out" && !file_extensions.count(lowercase_extension(path.string()))) continue;  // a folder
+        if (folder.empty()) continue;
+        if (key != "--out" && !made_folder.empty()) {
+            const std::filesystem::path inside = absolute_path(folder.string()), made = absolute_path(made_folder);
+            if (inside == made || is_inside(inside, made)) continue;
+        }
+        if (std::error_code error; !std::filesystem::is_directory(folder, error))
+            throw Error(key, "the folder '" + folder.string() + "' does not exist");
     }
 }
 
@@ -58,6 +96,19 @@ std::vector<std::string> Arguments::list(const std::string& key) const {
     used_.insert(key);
     const auto found = values_.find(key);
     return found == values_.end() ? std::vector<std::string>{} : found->second;
+}
+
+std::vector<std::vector<std::string>> Arguments::occurrences(const std::string& key) const {
+    used_.insert(key);
+    std::vector<std::vector<std::string>> groups;
+    const auto found = values_.find(key);
+    if (found == values_.end()) return groups;
+    const std::vector<size_t>& starts = occurrence_starts_.at(key);
+    for (size_t k = 0; k < starts.size(); ++k) {
+        const size_t end = k + 1 < starts.size() ? starts[k + 1] : found->second.size();
+        groups.emplace_back(found->second.begin() + static_cast<long>(starts[k]), found->second.begin() + static_cast<long>(end));
+    }
+    return groups;
 }
 
 double Arguments::number(const std::string& key, double fallback) const {

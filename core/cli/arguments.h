@@ -30,6 +30,9 @@ public:
     std::string required(const std::string& key) const;
     // Every value given for an option that takes several.
     std::vector<std::string> list(const std::string& key) const;
+    // The values of each occurrence of an option that takes several, apart:
+    // --then A B --then C gives {{A, B}, {C}}.
+    std::vector<std::vector<std::string>> occurrences(const std::string& key) const;
     double number(const std::string& key, double fallback) const;
     int integer(const std::string& key, int fallback) const;
     cv::Size size(const std::string& key) const;                          // WIDTHxHEIGHT
@@ -38,8 +41,11 @@ public:
     void reject_unknown() const;
 
 private:
+    void require_output_folders() const;
+
     std::vector<std::string> inputs_;
     std::map<std::string, std::vector<std::string>> values_;  // every value of every option
+    std::map<std::string, std::vector<size_t>> occurrence_starts_;  // where each occurrence's values begin
     std::set<std::string> list_options_;
     mutable std::set<std::string> used_;
 };

@@ -5,6 +5,7 @@
 #include "picoscan/calibrate.h"
 #include "picoscan/calibration.h"
 #include "picoscan/calibration_report.h"
+#include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/response.h"
 #include "picoscan/stereo.h"
@@ -65,7 +66,7 @@ int run_response(const Arguments& arguments) {
     const std::string input = arguments.required("--calibration");
     const std::string out = arguments.required("--out");
     arguments.reject_unknown();
-    check_extension(out, {".yml", ".yaml"}, "calibration file (YAML)");
+    check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file (YAML, XML or JSON)");
     if (absolute_path(out) == absolute_path(input)) throw Error(out, "would overwrite the input calibration; choose another --out");
     Calibration calibration = read_calibration(input);
     std::vector<int> levels;
@@ -73,8 +74,7 @@ int run_response(const Arguments& arguments) {
     for (int level = 0; level < 256; ++level) {
         const fs::path file = fs::path(directory) / flat_level_file(level);
         if (!fs::exists(file)) continue;
-        cv::Mat image = cv::imread(file.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
-        if (image.empty()) throw Error(file.string(), "unreadable or corrupt image");
+        cv::Mat image = read_image_file(file.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
         levels.push_back(level);
         images.push_back(image);
     }
@@ -101,7 +101,7 @@ int run_calibrate_stereo(const Arguments& arguments) {
     StereoCalibrateOptions options;
     options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
     arguments.reject_unknown();
-    check_extension(out, {".yml", ".yaml"}, "calibration file (YAML)");
+    check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file (YAML, XML or JSON)");
     std::vector<std::string> folders = first;
     folders.insert(folders.end(), second.begin(), second.end());
     for (const std::string& output : {out, report_path}) refuse_overwriting(output, {manifest}, folders);
@@ -146,7 +146,7 @@ int run_calibrate(const Arguments& arguments) {
     CalibrateOptions options;
     options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
     arguments.reject_unknown();
-    check_extension(out, {".yml", ".yaml"}, "calibration file (YAML)");
+    check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file (YAML, XML or JSON)");
     for (const std::string& directory : pose_directories)
         if (absolute_path(out) == absolute_path(directory) || is_inside(absolute_path(out), absolute_path(directory)))
             throw Error(out, "must not be written into the capture directory " + directory);

@@ -265,6 +265,12 @@ int run_scan(const Arguments& arguments) {
         if (fs::exists(request.calibration) && !arguments.flag("--resume"))
             throw Error(request.calibration, "exists; pass it as --calibration or choose another --out");
     }
+    // The outputs are checked before the capture, not after it.
+    try {
+        check_reconstruct_outputs(request);
+    } catch (const Error& error) {
+        throw Error("--mesh", error.what());
+    }
     CaptureRig rig = open_capture_rig(arguments, {request.captures}, write_seed_rig ? "" : request.calibration);
     if (write_seed_rig && !fs::exists(request.calibration)) {
         fs::create_directories(out);

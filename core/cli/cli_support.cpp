@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <cstdio>
 
 namespace fs = std::filesystem;
@@ -47,9 +48,27 @@ void check_extension(const std::string& path, const std::set<std::string>& allow
     throw Error(path, what + " must end in " + list);
 }
 
+void check_output_name(const std::string& path, const std::string& subject) {
+    // ".tmp-PID-N" (atomic_write.cpp) needs at most 5 + 10 + 1 + 20 characters.
+    constexpr size_t kTemporarySuffix = 36;
+    constexpr size_t kLongestName = NAME_MAX - kTemporarySuffix;
+    // A folder's own files (a capture set's frame names) need room inside it too.
+    constexpr size_t kLongestPath = PATH_MAX - kTemporarySuffix - 64;
+    if (path.size() > kLongestPath)
+        throw Error(subject, "the path is " + std::to_string(path.size()) + " characters long; at most " +
+                                 std::to_string(kLongestPath) + " are allowed");
+    for (const fs::path& part : fs::path(path))
+        if (part.native().size() > kLongestName)
+            throw Error(subject, "the name '" + part.native().substr(0, 24) + "...' is " +
+                                     std::to_string(part.native().size()) + " characters long; at most " +
+                                     std::to_string(kLongestName) + " are allowed (the file system's limit, " +
+                                     std::to_string(NAME_MAX) + ", less room for the temporary file)");
+}
+
 void refuse_overwriting(const std::string& output, const std::vector<std::string>& input_files,
                         const std::vector<std::string>& input_folders) {
     if (output.empty()) return;
+    check_output_name(output, output.size() > 80 ? output.substr(0, 77) + "..." : output);
     const fs::path target = absolute_path(output);
     for (const std::string& input : input_files)
         if (!input.empty() && target == absolute_path(input)) throw Error(output, "output would overwrite an input file");

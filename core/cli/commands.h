@@ -42,5 +42,8 @@ struct ReconstructRequest {
     Encoding encoding = Encoding::Binary;
 };
 int reconstruct_and_write(const ReconstructRequest& request);
+// Throws Error when an output of `request` is badly named, would overwrite an input or another
+// output, or lies in a capture folder: what reconstruct_and_write checks before any work.
+void check_reconstruct_outputs(const ReconstructRequest& request);
 
 }  // namespace picoscan::cli

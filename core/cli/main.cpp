@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -62,6 +63,8 @@ std::string flag_for_field(const std::string& field) {
         {"mesh.target_faces", "--target-faces"},
         {"mesh.grid.pixel_step", "--mesh-step"},
         {"preset", "--preset"},
+        {"periods", "--periods"},  // manifest presets
+        {"bits", "--bits"},
     };
     const auto found = flags.find(field);
     return found == flags.end() ? field : found->second;
@@ -95,12 +98,16 @@ int main(int argc, char** argv) {
     } catch (const Error& error) {
         const std::string subject = flag_for_field(error.subject());
         const std::string what = error.what();
-        const std::string problem = error.subject().empty() ? what : what.substr(error.subject().size() + 2);
+        std::string problem = error.subject().empty() ? what : what.substr(error.subject().size() + 2);
+        std::replace(problem.begin(), problem.end(), '\n', ' ');
         std::fprintf(stderr, "%spicoscan %s: error: %s%s%s\n", fresh_line, name.c_str(), subject.c_str(),
                      subject.empty() ? "" : ": ", problem.c_str());
         return 1;
     } catch (const std::exception& error) {
-        std::fprintf(stderr, "%spicoscan %s: error: %s\n", fresh_line, name.c_str(), error.what());
+        // A third-party exception (CGAL's spans several lines) still makes one line.
+        std::string what = error.what();
+        std::replace(what.begin(), what.end(), '\n', ' ');
+        std::fprintf(stderr, "%spicoscan %s: error: %s\n", fresh_line, name.c_str(), what.c_str());
         return 1;
     }
 }

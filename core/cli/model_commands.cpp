@@ -8,6 +8,7 @@
 #include "picoscan/io.h"
 #include "picoscan/preview.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -41,10 +42,20 @@ Options:
                              stored the camera in the view
 )";
 
-const char* kStitchHelp = R"(picoscan stitch VIEW.ply VIEW.ply ... --out MERGED.ply [options]
+const char* kStitchHelp = R"(picoscan stitch VIEW.ply VIEW.ply ... [--then VIEW.ply ...] --out MERGED.ply [options]
 
 Aligns several views of one part (each written by 'picoscan reconstruct', ideally cleaned)
 into one model, in the first view's camera frame, and writes the merged cloud with normals.
+
+Placements: when the part was set down again between views (standing, then on its side, so
+that the face it stood on is seen), give the views of each further placement after --then:
+  picoscan stitch stand/*.ply --then side/*.ply --out merged.ply --turntable-round
+Each placement is aligned on its own (with the turntable options below, which apply to every
+placement: the table stays where it is), then the placements are aligned to each other by
+their shape alone: no guess and no paint needed. A placement is joined only when exactly one
+fit passes, it fixes the pose, fits within the views' own residual, and puts no point where
+a camera of the other placement saw through; otherwise it is named with the reason and left
+out. Then all views are refined together.
   1. ORB features on each view's white frame, lifted to 3D, matched and fitted by RANSAC;
      where too few match (large turns, plain parts), shape histograms (FPFH) instead;
   2. point-to-plane ICP with trimmed correspondences for every overlapping pair; a pair is
@@ -54,7 +65,8 @@ into one model, in the first view's camera frame, and writes the merged cloud wi
   3. all views refined together (multi-view ICP), so no error piles up around a full turn.
 Views that cannot be aligned are named with the reason and their overlap, are left out of
 the merge and are written beside it as MERGED.unmerged-NAME.ply; the exit code is then 3.
-The poses go to MERGED.poses.txt (one 4x4 view->model matrix per view).
+The poses go to MERGED.poses.txt (one 4x4 view->model matrix per view; with placements, a
+'# placement N' line before each placement's views).
 
 Options:
   --turntable X,Y,Z,DX,DY,DZ  a calibrated turntable axis (point and direction, camera frame,
@@ -62,7 +74,8 @@ Options:
                              its steps replace the feature search as the initial guess. When
                              the views of a turntable are stitched by features, stitch prints
                              the axis it found, ready to paste here.
-  --step-deg A               turntable step between consecutive views (default 360/views)
+  --step-deg A               turntable step between consecutive views (default 360/views
+                             of the placement)
   --turntable-round          the views are one full turntable round, in order, in equal steps;
                              the axis is unknown: the step is estimated from all the views
                              together (for plain parts whose views do not register alone)
@@ -93,14 +106,21 @@ Options:
 
 const char* kDemo360Help = R"(picoscan demo [--out DIR] [--single-view]
 
-A full 360-degree scan of the built-in mechanical part (a block with a through hole, a boss
-and a chamfer, speckle-painted) on a simulated turntable: 8 views around it and one from
-above, each knocked by a few degrees and millimetres as if placed by hand. Each view is
-simulated, reconstructed and cleaned; the views are stitched and meshed into a watertight STL.
-Writes DIR/captures/view_K/ (capture sets), DIR/calibration.yml, DIR/views/view_K.ply,
-DIR/merged.ply (+ merged.poses.txt), DIR/part.stl and DIR/part.png (preview), and the
-simulation's true poses in DIR/true_poses.txt. Default DIR: demo-output.
+A complete scan of the built-in mechanical part (a block with a through hole, a boss and a
+chamfer, speckle-painted) on a simulated turntable, in two placements: standing, then laid on
+its side so that the face it stood on is seen; one round of 8 views each. Each view is
+simulated, reconstructed and cleaned; the views of both placements are stitched into one
+model as 'stitch --turntable-round' does (each round's step estimated from its views, then
+the placements joined by shape) and meshed into a watertight STL.
+Writes DIR/captures/{standing,side}_view_K/ (capture sets), DIR/calibration.yml,
+DIR/views/{standing,side}_view_K.ply, DIR/merged.ply (+ merged.poses.txt), DIR/part.stl and
+DIR/part.png (preview), and the simulation's true poses in DIR/true_poses.txt. Default DIR:
+demo-output.
 --single-view: the older one-view demo of a bracket (DIR/cloud.ply, part.stl, preview.png).
+
+An interrupted demo is restarted by running the same command again: the demo marks
+DIR/captures/ (.picoscan-demo) before writing into it and replaces only a folder so marked
+(or an empty one), never one it did not make. The other outputs are replaced whole.
 )";
 
 std::string single_input(const Arguments& arguments) {
@@ -159,7 +179,7 @@ int run_clean(const Arguments& arguments) {
 
 std::vector<ViewPose> view_poses(const Alignment& alignment) {
     std::vector<ViewPose> poses;
-    for (const ViewAlignment& view : alignment.views) poses.push_back({view.name, view.pose, view.aligned});
+    for (const ViewAlignment& view : alignment.views) poses.push_back({view.name, view.pose, view.aligned, view.placement});
     return poses;
 }
 
@@ -169,14 +189,24 @@ std::string unmerged_view_path(const std::string& out, const std::string& view_n
     return fs::path(out).replace_extension("").string() + ".unmerged-" + view_name;
 }
 
+// Views are named by their file names, or, when two share one (placements in folders of
+// their own), by folder_file.
+std::vector<std::string> view_names(const std::vector<std::string>& paths) {
+    std::vector<std::string> names;
+    for (const std::string& path : paths) names.push_back(fs::path(path).filename().string());
+    std::vector<std::string> sorted = names;
+    std::sort(sorted.begin(), sorted.end());
+    if (std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end()) return names;
+    for (size_t i = 0; i < paths.size(); ++i)
+        names[i] = absolute_path(paths[i]).parent_path().filename().string() + "_" + names[i];
+    return names;
+}
+
 // Aligns the views and writes the merged cloud and its poses; returns how many views were left out.
 int stitch_and_write(const std::vector<std::string>& paths, const std::string& out, const StitchOptions& options) {
     std::vector<ScanView> views;
-    std::vector<std::string> names;
-    for (const std::string& path : paths) {
-        views.push_back(read_view_ply(path));
-        names.push_back(fs::path(path).filename().string());
-    }
+    for (const std::string& path : paths) views.push_back(read_view_ply(path));
+    const std::vector<std::string> names = view_names(paths);
     const auto start = std::chrono::steady_clock::now();
     const StitchResult result = stitch_views(views, names, options, terminal_progress());
     OutputBatch outputs;  // the cloud, its poses and the unmerged views appear together
@@ -194,6 +224,15 @@ int stitch_and_write(const std::vector<std::string>& paths, const std::string& o
         const std::string unmerged = unmerged_view_path(out, names[i]);
         write_view_ply(views[i], unmerged);
         std::fprintf(stderr, "%-24s written unmerged -> %s\n", "", unmerged.c_str());
+    }
+    for (const PlacementAlignment& placement : result.alignment.placements) {
+        if (&placement == &result.alignment.placements.front())
+            std::printf("%-24s %s\n", placement.name.c_str(), placement.aligned ? "the model frame" : "NOT aligned: no view of it aligned");
+        else if (placement.aligned)
+            std::printf("%-24s aligned to the others: residual %.4f mm (its views' own %.4f mm), overlap %.0f %%\n",
+                        placement.name.c_str(), placement.rms_mm, placement.noise_mm, 100 * std::min(1.0, placement.overlap));
+        else
+            std::fprintf(stderr, "%-24s NOT aligned: %s\n", placement.name.c_str(), placement.problem.c_str());
     }
     write_ply(result.merged, out);
     write_poses(view_poses(result.alignment), poses_path(out));
@@ -223,7 +262,18 @@ void warn_about_duplicate_views(const std::vector<std::string>& inputs) {
 }
 
 int run_stitch(const Arguments& arguments) {
-    const std::vector<std::string>& inputs = arguments.inputs();
+    // The views in order, placement after placement.
+    std::vector<std::string> inputs = arguments.inputs();
+    std::vector<int> placement_of_view(inputs.size(), 0);
+    std::vector<size_t> placement_sizes{inputs.size()};
+    for (const std::vector<std::string>& placement : arguments.occurrences("--then")) {
+        for (const std::string& input : placement) {
+            inputs.push_back(input);
+            placement_of_view.push_back(static_cast<int>(placement_sizes.size()));
+        }
+        placement_sizes.push_back(placement.size());
+    }
+    if (placement_sizes.front() == 0) throw Error("--then", "give the first placement's views before --then");
     for (const std::string& input : inputs)
         if (!fs::is_regular_file(input)) throw Error(input, "no such file");
     const std::string out = arguments.required("--out");
@@ -234,21 +284,26 @@ int run_stitch(const Arguments& arguments) {
     every_input.push_back(initial_poses);
     refuse_overwriting(out, every_input);
     refuse_overwriting(poses_path(out), every_input);
-    for (const std::string& input : inputs) refuse_overwriting(unmerged_view_path(out, fs::path(input).filename().string()), every_input);
+    for (const std::string& name : view_names(inputs)) refuse_overwriting(unmerged_view_path(out, name), every_input);
     if (inputs.size() < 2) throw Error("stitch", "needs at least two views (got " + std::to_string(inputs.size()) + ")");
     warn_about_duplicate_views(inputs);
     StitchOptions options;
     options.registration.sample_spacing_mm = arguments.number("--spacing-mm", options.registration.sample_spacing_mm);
     if (arguments.has("--turntable")) {
         const std::vector<double> axis = arguments.numbers("--turntable", 6);
-        options.turntable = TurntableAxis{{axis[0], axis[1], axis[2]}, {axis[3], axis[4], axis[5]}, 360.0 / inputs.size()};
+        options.turntable = TurntableAxis{{axis[0], axis[1], axis[2]}, {axis[3], axis[4], axis[5]}, 360.0 / placement_sizes.front()};
         if (cv::norm(options.turntable->direction) < 1e-9) throw Error("--turntable", "the axis direction must not be zero");
+        if (!arguments.has("--step-deg") &&
+            std::any_of(placement_sizes.begin(), placement_sizes.end(), [&](size_t size) { return size != placement_sizes.front(); }))
+            throw Error("--step-deg", "is needed when the placements have different numbers of views");
         options.turntable->step_deg = arguments.number("--step-deg", options.turntable->step_deg);
     }
     options.registration.turntable_round = arguments.flag("--turntable-round");
     if (options.registration.turntable_round && options.turntable)
         throw Error("--turntable-round", "give either --turntable (axis known) or --turntable-round (axis estimated)");
+    if (placement_sizes.size() > 1) options.placement_of_view = placement_of_view;
     if (arguments.has("--initial-poses")) {
+        if (placement_sizes.size() > 1) throw Error("--initial-poses", "cannot be used with --then (placements)");
         if (options.turntable || options.registration.turntable_round)
             throw Error("--initial-poses", "give either --turntable, --turntable-round or --initial-poses");
         const std::string path = arguments.text("--initial-poses");
@@ -313,15 +368,19 @@ int run_mesh(const Arguments& arguments) {
     return 0;
 }
 
-// Replaces the demo's own previous capture folder (it carries a marker), never anything else.
-void clear_demo_captures(const fs::path& captures) {
-    if (!fs::exists(captures)) return;
-    if (!fs::is_regular_file(captures / ".picoscan-demo"))
+// Replaces the demo's own previous capture folder, finished or interrupted (it carries a
+// marker, written before anything else), or an empty one; never anything else. Leaves the
+// folder empty but for a new marker, so that a run interrupted from here on is restarted by
+// the same command.
+void start_demo_captures(const fs::path& captures) {
+    std::error_code error;
+    if (fs::exists(captures, error) && !fs::is_empty(captures, error) &&
+        !fs::is_regular_file(captures / ".picoscan-demo", error))
         throw Error(captures.string(), "exists and was not made by 'picoscan demo'; choose another --out");
-    fs::remove_all(captures);
-}
-
-void mark_demo_captures(const fs::path& captures) {
+    fs::remove_all(captures, error);
+    if (error) throw Error(captures.string(), "cannot be replaced: " + error.message());
+    fs::create_directories(captures, error);
+    if (error) throw Error(captures.string(), "cannot be created: " + error.message());
     write_file_atomically((captures / ".picoscan-demo").string(),
                           "made by picoscan demo; the next demo run replaces this folder\n");
 }
@@ -329,12 +388,11 @@ void mark_demo_captures(const fs::path& captures) {
 // The older demo: one view of a bracket, reconstructed as 'picoscan reconstruct' does.
 int run_demo_single_view(const fs::path& directory) {
     const fs::path captures = directory / "captures";
-    clear_demo_captures(captures);
+    start_demo_captures(captures);
     const Calibration calibration = seed_rig_calibration();
     std::printf("simulating a scan of the built-in part (1600x1200 camera, 854x480 projector)...\n");
     write_capture_set(simulate_captures(demo_scene(), calibration, SimulateOptions{}, terminal_progress()),
                       captures.string());
-    mark_demo_captures(captures);
     write_calibration(calibration, (directory / "calibration.yml").string());
     ReconstructRequest request;
     request.calibration = (directory / "calibration.yml").string();
@@ -346,35 +404,52 @@ int run_demo_single_view(const fs::path& directory) {
     return reconstruct_and_write(request);
 }
 
-// The 360-degree demo: scan, clean, stitch, mesh.
+// The 360-degree demo: the part scanned in two placements (standing, then on its side so
+// that its bottom is seen), cleaned, stitched into one model, meshed.
 int run_demo_360(const fs::path& directory) {
     const fs::path captures = directory / "captures";
-    clear_demo_captures(captures);
+    start_demo_captures(captures);
     fs::create_directories(directory / "views");
     const Calibration calibration = seed_rig_calibration();
     write_calibration(calibration, (directory / "calibration.yml").string());
-    TurntableScanOptions scan;
-    scan.plan.max_disturbance_deg = 3;  // as if placed by hand
-    scan.plan.max_disturbance_mm = 5;
+    struct Placement { std::string name; TurntableScanOptions scan; };
+    std::vector<Placement> placements(2);
+    placements[0].name = "standing";
+    placements[1].name = "side";
+    placements[1].scan.plan.placement = PartPlacement::OnItsSide;  // the face it stood on turned to the camera
+    placements[1].scan.plan.placement_turn_deg = 20;
+    placements[1].scan.camera.seed = 101;  // independent camera noise
     std::vector<std::string> view_files;
+    std::vector<int> placement_of_view;
     std::vector<ViewPose> truth;
-    const std::vector<cv::Matx44d> poses = simulate_turntable_scan(
-        mechanical_part(), calibration, scan,
-        [&](const SimulatedView& simulated) {
-            write_capture_set(simulated.captures, (captures / simulated.name).string());
-            if (view_files.empty()) mark_demo_captures(captures);
-            view_files.push_back((directory / "views" / (simulated.name + ".ply")).string());
-            write_view_ply(simulated.view, view_files.back());
-            truth.push_back({simulated.name + ".ply", cv::Matx44d::eye(), true});
-            std::printf("view %zu: %d points after cleaning (%d removed) -> %s\n", view_files.size(),
-                        simulated.cleaning.remaining, simulated.cleaning.removed(), view_files.back().c_str());
-        },
-        terminal_progress());
+    std::vector<cv::Matx44d> part_to_camera;
+    for (size_t p = 0; p < placements.size(); ++p) {
+        Placement& placement = placements[p];
+        placement.scan.plan.top_view = false;  // each placement one turntable round
+        std::printf("placement %zu (%s):\n", p + 1, placement.name.c_str());
+        const std::vector<cv::Matx44d> poses = simulate_turntable_scan(
+            mechanical_part(), calibration, placement.scan,
+            [&](const SimulatedView& simulated) {
+                const std::string name = placement.name + "_" + simulated.name;
+                write_capture_set(simulated.captures, (captures / name).string());
+                view_files.push_back((directory / "views" / (name + ".ply")).string());
+                placement_of_view.push_back(static_cast<int>(p));
+                write_view_ply(simulated.view, view_files.back());
+                truth.push_back({name + ".ply", cv::Matx44d::eye(), true, static_cast<int>(p)});
+                std::printf("view %zu: %d points after cleaning (%d removed) -> %s\n", view_files.size(),
+                            simulated.cleaning.remaining, simulated.cleaning.removed(), view_files.back().c_str());
+            },
+            terminal_progress());
+        part_to_camera.insert(part_to_camera.end(), poses.begin(), poses.end());
+    }
     // The simulation's ground truth, in the format stitch writes, to judge the stitching by.
-    for (size_t i = 0; i < poses.size(); ++i) truth[i].pose = poses[0] * poses[i].inv();
+    for (size_t i = 0; i < part_to_camera.size(); ++i) truth[i].pose = part_to_camera[0] * part_to_camera[i].inv();
     write_poses(truth, (directory / "true_poses.txt").string());
     const std::string merged = (directory / "merged.ply").string();
-    if (stitch_and_write(view_files, merged, StitchOptions{}) > 0)
+    StitchOptions stitch;
+    stitch.placement_of_view = placement_of_view;
+    stitch.registration.turntable_round = true;  // each placement: one round, its step estimated
+    if (stitch_and_write(view_files, merged, stitch) > 0)
         throw Error(merged, "not every view could be aligned (see above)");
     const Mesh points = read_ply(merged);
     PointCloud cloud;
@@ -402,11 +477,11 @@ std::vector<Command> model_commands() {
     return {
         {"clean", "remove stray-light noise, background and outliers from a view", kCleanHelp, run_clean,
          {{}, {}, true}},
-        {"stitch", "align several views of a part into one model (features, RANSAC, ICP)", kStitchHelp, run_stitch,
-         {{"--turntable-round"}, {}, true}},
+        {"stitch", "align several views of a part, in one or more placements, into one model", kStitchHelp, run_stitch,
+         {{"--turntable-round"}, {"--then"}, true}},
         {"mesh", "mesh a cloud: watertight Poisson, advancing front or pixel grid -> STL", kMeshHelp, run_mesh,
          {{}, {}, true}},
-        {"demo", "simulated 360-degree turntable scan of the built-in part -> watertight STL", kDemo360Help, run_demo,
+        {"demo", "simulated scan of the built-in part in two placements -> watertight STL", kDemo360Help, run_demo,
          {{"--single-view"}, {}, false}},
     };
 }

@@ -228,9 +228,7 @@ SimulationOptions camera_options(const Arguments& arguments) {
     return options;
 }
 
-int reconstruct_and_write(const ReconstructRequest& request) {
-    const auto start = std::chrono::steady_clock::now();
-    // Refuse bad output names before any work, so nothing is half done.
+void check_reconstruct_outputs(const ReconstructRequest& request) {
     check_extension(request.cloud, {".ply"}, "point cloud file");
     check_extension(request.mesh, {".stl", ".ply", ".obj"}, "mesh file");
     check_extension(request.preview, {".png"}, "preview file");
@@ -239,6 +237,12 @@ int reconstruct_and_write(const ReconstructRequest& request) {
         refuse_overwriting(output, inputs, {request.captures, request.second_captures});
     refuse_overwriting(request.mesh, {request.cloud});  // outputs must differ from each other too
     refuse_overwriting(request.preview, {request.cloud, request.mesh});
+}
+
+int reconstruct_and_write(const ReconstructRequest& request) {
+    const auto start = std::chrono::steady_clock::now();
+    // Refuse bad output names before any work, so nothing is half done.
+    check_reconstruct_outputs(request);
     MeshOptions mesh_options;
     mesh_options.method = MeshMethod::Grid;
     mesh_options.grid.pixel_step = request.mesh_step;

@@ -27,6 +27,8 @@ void bind_capture_set(py::module_& m) {
     m.def("require_empty_directory", &require_empty_directory, py::arg("directory"));
     m.def("write_capture_frame", &write_capture_frame, py::arg("frame"), py::arg("image"), py::arg("directory"),
           py::call_guard<py::gil_scoped_release>());
+    m.def("read_image_file", &read_image_file, py::arg("path"), py::arg("flags") = -1,
+          py::call_guard<py::gil_scoped_release>());
 }
 
 }  // namespace picoscan::python

@@ -26,11 +26,12 @@ void bind_io(py::module_& m) {
     m.def("read_stl", &read_stl, py::arg("path"), py::call_guard<py::gil_scoped_release>());
     py::class_<ViewPose>(m, "ViewPose", "One entry of a poses file: a view's name and view -> model pose.")
         .def(py::init<>())
-        .def(py::init([](const std::string& name, const cv::Matx44d& pose, bool aligned) { return ViewPose{name, pose, aligned}; }),
+        .def(py::init([](const std::string& name, const cv::Matx44d& pose, bool aligned) { return ViewPose{name, pose, aligned, 0}; }),
              py::arg("name"), py::arg("pose"), py::arg("aligned") = true)
         .def_readwrite("name", &ViewPose::name)
         .def_readwrite("pose", &ViewPose::pose)
-        .def_readwrite("aligned", &ViewPose::aligned);
+        .def_readwrite("aligned", &ViewPose::aligned)
+        .def_readwrite("placement", &ViewPose::placement);
     m.def("write_poses", &write_poses, py::arg("poses"), py::arg("path"));
     m.def("read_poses", &read_poses, py::arg("path"));
 }

@@ -146,7 +146,8 @@ void bind_pipeline(py::module_& m) {
     py::class_<StitchOptions>(m, "StitchOptions")
         .def(py::init<>())
         .def_readwrite("registration", &StitchOptions::registration)
-        .def_readwrite("turntable", &StitchOptions::turntable);
+        .def_readwrite("turntable", &StitchOptions::turntable)
+        .def_readwrite("placement_of_view", &StitchOptions::placement_of_view);
     py::class_<StitchResult>(m, "StitchResult")
         .def_readonly("alignment", &StitchResult::alignment)
         .def_readonly("merged", &StitchResult::merged)

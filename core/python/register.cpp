@@ -46,11 +46,30 @@ void bind_register(py::module_& m) {
         .def_readonly("aligned", &ViewAlignment::aligned)
         .def_readonly("overlap", &ViewAlignment::overlap)
         .def_readonly("rms_mm", &ViewAlignment::rms_mm)
-        .def_readonly("problem", &ViewAlignment::problem);
+        .def_readonly("problem", &ViewAlignment::problem)
+        .def_readonly("placement", &ViewAlignment::placement);
+    py::class_<PlacementAlignment>(m, "PlacementAlignment")
+        .def_readonly("name", &PlacementAlignment::name)
+        .def_readonly("aligned", &PlacementAlignment::aligned)
+        .def_readonly("pose", &PlacementAlignment::pose)
+        .def_readonly("aligned_views", &PlacementAlignment::aligned_views)
+        .def_readonly("overlap", &PlacementAlignment::overlap)
+        .def_readonly("rms_mm", &PlacementAlignment::rms_mm)
+        .def_readonly("noise_mm", &PlacementAlignment::noise_mm)
+        .def_readonly("free_space_conflict", &PlacementAlignment::free_space_conflict)
+        .def_readonly("stability", &PlacementAlignment::stability)
+        .def_readonly("alternatives", &PlacementAlignment::alternatives)
+        .def_readonly("problem", &PlacementAlignment::problem);
+    py::class_<PlacementPlan>(m, "PlacementPlan")
+        .def(py::init<>())
+        .def_readwrite("views", &PlacementPlan::views)
+        .def_readwrite("turntable", &PlacementPlan::turntable)
+        .def_readwrite("turntable_round", &PlacementPlan::turntable_round);
     py::class_<Alignment>(m, "Alignment")
         .def_readonly("views", &Alignment::views)
         .def_readonly("turntable_step", &Alignment::turntable_step)
         .def_readonly("turntable_supporting_pairs", &Alignment::turntable_supporting_pairs)
+        .def_readonly("placements", &Alignment::placements)
         .def("aligned_count", &Alignment::aligned_count);
     m.def(
         "align_views",
@@ -61,6 +80,16 @@ void bind_register(py::module_& m) {
             return align_views(views, names, options, turntable, callback);
         },
         py::arg("views"), py::arg("names"), py::arg("options") = RegistrationOptions(), py::arg("turntable") = py::none(),
+        py::arg("progress") = py::none());
+    m.def(
+        "align_placements",
+        [](const std::vector<ScanView>& views, const std::vector<std::string>& names,
+           const std::vector<PlacementPlan>& placements, const RegistrationOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return align_placements(views, names, placements, options, callback);
+        },
+        py::arg("views"), py::arg("names"), py::arg("placements"), py::arg("options") = RegistrationOptions(),
         py::arg("progress") = py::none());
     py::class_<PoseDifference>(m, "PoseDifference")
         .def_readonly("rotation_deg", &PoseDifference::rotation_deg)

@@ -111,8 +111,14 @@ void bind_simulate(py::module_& m) {
         .def_readwrite("paint_seed", &MechanicalPartShape::paint_seed);
     m.def("mechanical_part", &mechanical_part, py::arg("shape") = MechanicalPartShape(),
           "The built-in speckle-painted test part (block, chamfer, hole, boss), part frame, z up");
+    py::enum_<PartPlacement>(m, "PartPlacement")
+        .value("Standing", PartPlacement::Standing)
+        .value("UpsideDown", PartPlacement::UpsideDown)
+        .value("OnItsSide", PartPlacement::OnItsSide);
     py::class_<TurntablePlan>(m, "TurntablePlan")
         .def(py::init<>())
+        .def_readwrite("placement", &TurntablePlan::placement)
+        .def_readwrite("placement_turn_deg", &TurntablePlan::placement_turn_deg)
         .def_readwrite("turntable_views", &TurntablePlan::turntable_views)
         .def_readwrite("elevation_deg", &TurntablePlan::elevation_deg)
         .def_readwrite("top_view", &TurntablePlan::top_view)

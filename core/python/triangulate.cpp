@@ -25,6 +25,8 @@ void bind_triangulate(py::module_& m) {
             py::arg("progress") = py::none());
     m.def("check_camera_size", &check_camera_size, py::arg("calibration"), py::arg("captures"),
           py::arg("calibration_name"));
+    m.def("check_projector_size", &check_projector_size, py::arg("calibration"), py::arg("sequence"),
+          py::arg("calibration_name"), py::arg("manifest_name"));
     m.def(
         "triangulate",
         [](const CorrespondenceMap& map, const Calibration& calibration, const cv::Mat& colour,

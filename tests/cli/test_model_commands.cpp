@@ -213,3 +213,41 @@ TEST(CleanCli, CoreRangeChecksNameTheFlag) {
     EXPECT_FALSE(fs::exists(dir / "c.ply"));
     EXPECT_FALSE(fs::exists(dir / "m.stl"));
 }
+
+// Two placements of the plain grey part (standing, then on its side), given with --then: each
+// placement a turntable round about the same axis, the placements joined by shape alone. The
+// poses file records each view's placement.
+TEST(StitchCli, TwoPlacementsGivenWithThenMergeOnTheTruePart) {
+    const test_support::TurntableScan& scan = test_support::two_placement_scan(test_support::PlacementPart::GreyMechanical);
+    std::string views;
+    for (size_t i = 0; i < scan.views.size(); ++i) {
+        if (i == test_support::kViewsPerPlacement) views += "--then ";
+        const std::string folder = i < test_support::kViewsPerPlacement ? "half-v1-grey-mechanical-standing"
+                                                                        : "half-v1-grey-mechanical-on-its-side";
+        views += (fs::path(PICOSCAN_TEST_CACHE_DIR) / folder / ("view_" + std::to_string(i % test_support::kViewsPerPlacement) + ".ply"))
+                     .string() + " ";
+    }
+    const cv::Matx44d part = scan.part_to_camera[0];
+    char axis[200];
+    std::snprintf(axis, sizeof axis, " --turntable %.6f,%.6f,%.6f,%.6f,%.6f,%.6f", part(0, 3), part(1, 3), part(2, 3), part(0, 2),
+                  part(1, 2), part(2, 2));
+    const fs::path dir = make_temp_dir("stitch_cli_placements");
+    const std::string out = (dir / "merged.ply").string();
+    const Result result = run_picoscan("stitch " + views + "--out " + out + axis);
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("16 of 16 views merged"), std::string::npos) << result.output;
+    EXPECT_NE(result.output.find("placement 2              aligned to the others"), std::string::npos) << result.output;
+    const std::vector<ViewPose> poses = read_poses(fs::path(out).replace_extension(".poses.txt").string());
+    ASSERT_EQ(poses.size(), scan.views.size());
+    EXPECT_EQ(poses[8].name, "half-v1-grey-mechanical-on-its-side_view_0.ply");  // file names repeat: folder_file
+    for (size_t i = 0; i < poses.size(); ++i) {
+        EXPECT_EQ(poses[i].placement, i < test_support::kViewsPerPlacement ? 0 : 1) << i;
+        const PoseDifference error = pose_difference(scan.true_view_to_model[i], poses[i].pose, scan.centroid(i));
+        EXPECT_LT(error.rotation_deg, 0.05) << i;
+        EXPECT_LT(error.translation_mm, 0.05) << i;
+    }
+    // --then with no views before it, or placements of different sizes without a step: one-line errors.
+    const Result empty_first = run_picoscan("stitch --then " + views.substr(0, views.find("--then")) + "--out " + out + "2.ply");
+    EXPECT_EQ(empty_first.exit_code, 1);
+    EXPECT_NE(empty_first.output.find("--then"), std::string::npos) << empty_first.output;
+}

@@ -15,8 +15,8 @@ namespace picoscan::test_support {
 namespace {
 
 // One view as the turntable recipe (pipeline.h) makes it.
-ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t noise_seed) {
-    const Calibration rig = seed_rig_calibration();
+ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t noise_seed,
+                   const Calibration& rig = seed_rig_calibration()) {
     const TurntableScanOptions recipe;
     Scene scene;
     // A painted part is white with dark speckles; a plain one is uniform grey plastic.
@@ -31,10 +31,12 @@ ScanView scan_view(const Mesh& part, const cv::Matx44d& part_to_camera, uint64_t
     return reconstruct_view(simulate_captures(scene, rig, simulate), rig, "seed rig", reconstruct).view;
 }
 
-TurntableScan make_scan(const std::string& name, const Mesh& part, const TurntablePlan& plan) {
+// Views are simulated once and cached as view PLYs under `name`; view i gets noise seed first_seed + i.
+TurntableScan make_scan(const std::string& name, const Mesh& part, const std::vector<cv::Matx44d>& part_to_camera,
+                        const Calibration& rig = seed_rig_calibration(), uint64_t first_seed = 1) {
     TurntableScan scan;
     scan.part = part;
-    scan.part_to_camera = turntable_part_poses(plan);
+    scan.part_to_camera = part_to_camera;
     const std::filesystem::path cache = std::filesystem::path(PICOSCAN_TEST_CACHE_DIR) / name;
     std::filesystem::create_directories(cache);
     for (size_t i = 0; i < scan.part_to_camera.size(); ++i) {
@@ -42,7 +44,7 @@ TurntableScan make_scan(const std::string& name, const Mesh& part, const Turntab
         const std::filesystem::path path = cache / file;
         if (!std::filesystem::exists(path)) {
             std::printf("scanning %s (cached in %s)\n", file.c_str(), cache.string().c_str());
-            write_view_ply(scan_view(scan.part, scan.part_to_camera[i], i + 1), path.string());
+            write_view_ply(scan_view(scan.part, scan.part_to_camera[i], first_seed + i, rig), path.string());
         }
         scan.views.push_back(read_view_ply(path.string()));
         scan.names.push_back(file);
@@ -65,12 +67,12 @@ const TurntableScan& disturbed_turntable_scan() {
     TurntablePlan plan;
     plan.max_disturbance_deg = 10;
     plan.max_disturbance_mm = 20;
-    static const TurntableScan scan = make_scan("turntable-v3-disturbed", mechanical_part(), plan);
+    static const TurntableScan scan = make_scan("turntable-v3-disturbed", mechanical_part(), turntable_part_poses(plan));
     return scan;
 }
 
 const TurntableScan& turntable_scan() {
-    static const TurntableScan scan = make_scan("turntable-v3-exact", mechanical_part(), TurntablePlan{});
+    static const TurntableScan scan = make_scan("turntable-v3-exact", mechanical_part(), turntable_part_poses(TurntablePlan{}));
     return scan;
 }
 
@@ -168,7 +170,70 @@ const TurntableScan& plain_turntable_scan(PlainPart part) {
     double top = 0;
     for (const cv::Vec3f& v : mesh.vertices) top = std::max(top, static_cast<double>(v[2]));
     plan.part_middle_height_mm = top / 2;
-    return scans.emplace(part, make_scan("plain-v2-" + plain_part_name(part), mesh, plan)).first->second;
+    return scans.emplace(part, make_scan("plain-v2-" + plain_part_name(part), mesh, turntable_part_poses(plan))).first->second;
+}
+
+Calibration half_resolution_seed_rig() {
+    Calibration rig = seed_rig_calibration();
+    rig.camera_size = cv::Size(rig.camera_size.width / 2, rig.camera_size.height / 2);
+    rig.camera_matrix(0, 0) /= 2;
+    rig.camera_matrix(1, 1) /= 2;
+    rig.camera_matrix(0, 2) = (rig.camera_matrix(0, 2) + 0.5) / 2 - 0.5;  // pixel centres
+    rig.camera_matrix(1, 2) = (rig.camera_matrix(1, 2) + 0.5) / 2 - 0.5;
+    return rig;
+}
+
+std::string placement_part_name(PlacementPart part) {
+    switch (part) {
+    case PlacementPart::SpeckledMechanical: return "speckled-mechanical";
+    case PlacementPart::GreyMechanical: return "grey-mechanical";
+    case PlacementPart::SteppedBlock: return "stepped-block";
+    case PlacementPart::HexWithPeg: return "hex-with-peg";
+    case PlacementPart::Block: return "block";
+    case PlacementPart::GreyMechanicalUpsideDown: return "grey-mechanical-upside-down";
+    }
+    return "unknown";
+}
+
+const TurntableScan& two_placement_scan(PlacementPart part) {
+    static std::map<PlacementPart, TurntableScan> scans;
+    const auto found = scans.find(part);
+    if (found != scans.end()) return found->second;
+    Mesh mesh;
+    std::string shape = placement_part_name(part);  // names the cache of the standing placement, shared
+    PartPlacement flip = PartPlacement::OnItsSide;
+    switch (part) {
+    case PlacementPart::SpeckledMechanical: mesh = mechanical_part(); break;
+    case PlacementPart::GreyMechanical: mesh = plain_part_mesh(PlainPart::GreyMechanical); break;
+    case PlacementPart::SteppedBlock: mesh = plain_part_mesh(PlainPart::SteppedBlock); break;
+    case PlacementPart::HexWithPeg: mesh = plain_part_mesh(PlainPart::HexWithPeg); break;
+    case PlacementPart::Block: mesh = plain_part_mesh(PlainPart::Block); break;
+    case PlacementPart::GreyMechanicalUpsideDown:
+        mesh = plain_part_mesh(PlainPart::GreyMechanical);
+        shape = "grey-mechanical";
+        flip = PartPlacement::UpsideDown;
+        break;
+    }
+    TurntablePlan plan;
+    plan.top_view = false;
+    plan.turntable_views = static_cast<int>(kViewsPerPlacement);
+    double top = 0;
+    for (const cv::Vec3f& v : mesh.vertices) top = std::max(top, static_cast<double>(v[2]));
+    plan.part_middle_height_mm = top / 2;
+    const Calibration rig = half_resolution_seed_rig();
+    TurntableScan scan = make_scan("half-v1-" + shape + "-standing", mesh, turntable_part_poses(plan), rig, 1);
+    plan.placement = flip;
+    plan.placement_turn_deg = 20;
+    const std::string flipped_name = flip == PartPlacement::OnItsSide ? "on-its-side" : "upside-down";
+    const TurntableScan flipped = make_scan("half-v1-" + shape + "-" + flipped_name, mesh, turntable_part_poses(plan), rig, 101);
+    for (std::string& name : scan.names) name = "standing-" + name;
+    for (size_t i = 0; i < flipped.views.size(); ++i) {
+        scan.views.push_back(flipped.views[i]);
+        scan.names.push_back(flipped_name + "-" + flipped.names[i]);
+        scan.part_to_camera.push_back(flipped.part_to_camera[i]);
+        scan.true_view_to_model.push_back(scan.part_to_camera[0] * flipped.part_to_camera[i].inv());
+    }
+    return scans.emplace(part, std::move(scan)).first->second;
 }
 
 namespace {

@@ -35,6 +35,18 @@ constexpr PlainPart kPlainParts[] = {PlainPart::GreyMechanical, PlainPart::Stepp
 std::string plain_part_name(PlainPart part);
 const TurntableScan& plain_turntable_scan(PlainPart part);
 
+// Two placements of one part on the turntable: views 0-7 with the part standing, views 8-15
+// with it on its side (or upside down) and turned 20 degrees, so that the second placement
+// sees the face the part stood on. Simulated with a half-resolution seed camera (800 x 600)
+// to keep the suite fast. part_to_camera and true_view_to_model hold the truth of every view
+// (model frame: view 0). Parts: the speckled mechanical part and plain ones.
+enum class PlacementPart { SpeckledMechanical, GreyMechanical, SteppedBlock, HexWithPeg, Block, GreyMechanicalUpsideDown };
+constexpr size_t kViewsPerPlacement = 8;
+std::string placement_part_name(PlacementPart part);
+const TurntableScan& two_placement_scan(PlacementPart part);
+// The seed rig with its camera at half the resolution (800 x 600).
+Calibration half_resolution_seed_rig();
+
 // Distances (mm) from points to the nearest triangle of a finely tessellated mesh; points
 // farther than `reach_mm` from every triangle get reach_mm.
 class MeshDistance {

@@ -37,4 +37,9 @@ void require_empty_directory(const std::string& directory);
 // a temporary + rename): what write_capture_set does per frame, for captures taken one by one.
 void write_capture_frame(const Frame& frame, const cv::Mat& image, const std::string& directory);
 
+// Decodes one image file with cv::imread's `flags` (-1: unchanged). Throws Error naming the
+// file when it cannot be decoded; what the decoder printed (libpng's errors and warnings) is
+// attached to that error and never printed itself, and dropped when the image decodes.
+cv::Mat read_image_file(const std::string& path, int flags = -1);
+
 }  // namespace picoscan

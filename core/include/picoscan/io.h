@@ -37,6 +37,7 @@ struct ViewPose {
     std::string name;
     cv::Matx44d pose = cv::Matx44d::eye();
     bool aligned = true;
+    int placement = 0;  // which placement of the part the view belongs to (0: the first); a '# placement N' line
 };
 void write_poses(const std::vector<ViewPose>& poses, const std::string& path);
 // Throws Error naming the file and the line when it is malformed.

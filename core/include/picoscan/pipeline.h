@@ -191,6 +191,12 @@ PatternSequence foreign_preset_sequence(const ForeignPresetOptions& options);
 struct StitchOptions {
     RegistrationOptions registration;
     std::optional<TurntableAxis> turntable;  // known turntable motion (views in order)
+    // Several placements (the part set down again between them, e.g. on its side to show the
+    // face it stood on): each view's placement, 0, 1, ... in order, a placement's views in
+    // turntable order. Empty: all views are one placement. `turntable` (the table stays
+    // where it is) and registration.turntable_round then apply to each placement on its own;
+    // the placements are aligned to each other by shape (align_placements).
+    std::vector<int> placement_of_view;
 };
 
 struct StitchResult {
@@ -200,8 +206,10 @@ struct StitchResult {
     std::optional<TurntableAxis> axis;     // the turntable the aligned views turn about, if any
 };
 
-// Aligns the views (features -> RANSAC -> ICP -> multi-view refinement) and merges those that
-// aligned. Views that did not are left out, never forced in; their reason is in alignment.
+// Aligns the views (features -> RANSAC -> ICP -> multi-view refinement; with placements,
+// each placement, then the placements by shape, then every view) and merges those that
+// aligned. Views that did not are left out, never forced in; their reason is in alignment
+// (and a placement's in alignment.placements).
 StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<std::string>& names,
                           const StitchOptions& options = {}, const ProgressCallback& progress = nullptr);
 

@@ -82,6 +82,22 @@ struct ViewAlignment {
     double overlap = 0;     // best overlap with the other aligned views
     double rms_mm = 0;      // point-to-plane residual against the other views after refinement
     std::string problem;    // why it was left out, empty when aligned
+    int placement = 0;      // align_placements: the placement the view belongs to
+};
+
+// align_placements: how one placement (the part set down once) was joined to the model.
+struct PlacementAlignment {
+    std::string name;                          // "placement 1", "placement 2", ...
+    bool aligned = false;
+    cv::Matx44d pose = cv::Matx44d::eye();     // placement frame (its first view's camera) -> model
+    int aligned_views = 0;                     // of its views, those aligned within the placement
+    double overlap = 0;       // fraction of the smaller placement cloud with a partner in the fit it joined by
+    double rms_mm = 0;        // point-to-plane residual of that fit
+    double noise_mm = 0;      // residual of its own views against each other: the scan's noise
+    double free_space_conflict = 0;  // largest fraction of points lying where a camera of the other placement saw through
+    double stability = 0;     // as PairRegistration::stability
+    int alternatives = 0;     // other distinct fits that passed every check (a part that looks alike flipped)
+    std::string problem;      // why it was left out, empty when aligned
 };
 
 struct Alignment {
@@ -90,6 +106,7 @@ struct Alignment {
     // many neighbouring pairs agreed on it.
     std::optional<cv::Matx44d> turntable_step;
     int turntable_supporting_pairs = 0;
+    std::vector<PlacementAlignment> placements;  // align_placements only
     int aligned_count() const;
 };
 
@@ -102,6 +119,26 @@ struct Alignment {
 Alignment align_views(const std::vector<ScanView>& views, const std::vector<std::string>& names,
                       const RegistrationOptions& options = {}, const std::optional<TurntableAxis>& turntable = std::nullopt,
                       const ProgressCallback& progress = nullptr);
+
+// A scan in several placements: the part set down again between them (standing, then
+// flipped to show the face it stood on), each a turntable round or a set of hand-held views.
+struct PlacementPlan {
+    std::vector<size_t> views;               // indices into the views; a turntable round in order
+    std::optional<TurntableAxis> turntable;  // known turntable axis (camera frame) for this placement
+    bool turntable_round = false;            // one full round, axis unknown (RegistrationOptions::turntable_round)
+};
+
+// Aligns each placement on its own (as align_views, with its turntable), then the placements
+// to each other by their shape alone (no guess, no shared paint needed): each placement's
+// views merged into one cloud, shape-histogram (FPFH) hypotheses refined by trimmed ICP,
+// and a fit accepted only when it is the only one that passes, fixes the pose (nothing
+// slides), fits within the scan's own noise, and puts no point where any view's camera of
+// the other placement saw through. Then all views are refined together (a turntable round
+// moves as one body). A placement that does not align is named with the reason, never
+// forced in. The model frame is the first view of the first placement.
+Alignment align_placements(const std::vector<ScanView>& views, const std::vector<std::string>& names,
+                           const std::vector<PlacementPlan>& placements, const RegistrationOptions& options = {},
+                           const ProgressCallback& progress = nullptr);
 
 // How far apart two poses are: the angle (degrees) of the rotation a^-1 * b, and how far
 // (mm) the two move the point `at` apart. Give `at` on the part (its centroid): measured at

@@ -139,6 +139,14 @@ struct MechanicalPartShape {
 };
 Mesh mechanical_part(const MechanicalPartShape& shape = {});
 
+// How the part lies on the turntable. A second placement, the part flipped, shows the face
+// it stood on in the first.
+enum class PartPlacement {
+    Standing,    // as modelled: part z up
+    UpsideDown,  // turned half round about its x axis: the bottom face up
+    OnItsSide,   // turned a quarter round about its x axis: its +y face up, its -y face down
+};
+
 // A turntable scan plan: the part turned in equal steps on a table the camera looks down on
 // at `elevation_deg`, plus an optional view from nearly above; each pose may be disturbed
 // by a random rotation and shift (a part knocked or re-placed by hand).
@@ -151,6 +159,10 @@ struct TurntablePlan {
     cv::Vec3d part_centre_mm{0, 0, 400};  // where the part's middle sits, camera frame
     double part_middle_height_mm = 16;    // height (part z) of that middle
     uint64_t seed = 1;
+    // The part is turned about its middle (x = y = 0, z = part_middle_height_mm) into this
+    // placement, then by `placement_turn_deg` about the table's axis, before the first view.
+    PartPlacement placement = PartPlacement::Standing;
+    double placement_turn_deg = 0;
 };
 // Part frame -> camera frame transform of each view.
 std::vector<cv::Matx44d> turntable_part_poses(const TurntablePlan& plan);

@@ -41,7 +41,14 @@ private:
 
 // Throws Error naming `calibration_name` (its file) when the calibration's camera size
 // differs from the captures' image size: the wrong calibration for these captures.
+// It also checks the captures' projector size, as check_projector_size does.
 void check_camera_size(const Calibration& calibration, const CaptureSet& captures, const std::string& calibration_name);
+
+// Throws Error naming `manifest_name` and `calibration_name` when the manifest's projector
+// size differs from the calibration's projector_size: the decoded projector coordinates
+// would not be in the calibrated projector's pixels, and every point would be wrong.
+void check_projector_size(const Calibration& calibration, const PatternSequence& sequence,
+                          const std::string& calibration_name, const std::string& manifest_name);
 
 // One-off convenience: builds a Triangulator and triangulates.
 ScanView triangulate(const CorrespondenceMap& correspondences, const Calibration& calibration,

@@ -38,8 +38,17 @@ void validate_calibration(const Calibration& calibration, const std::string& sou
         fail("'R' must be a rotation matrix");
     if (!cv::checkRange(cv::Mat(calibration.T)) || cv::norm(calibration.T) < 1e-9)
         fail("'T' must be a finite, non-zero translation (the camera-projector baseline)");
-    if (!cv::checkRange(calibration.camera_distortion) || !cv::checkRange(calibration.projector_distortion))
-        fail("distortion coefficients must be finite");
+    auto check_distortion = [&](const cv::Mat& coefficients, const char* key) {
+        cv::Mat values;
+        coefficients.convertTo(values, CV_64F);
+        values = values.reshape(1, 1);
+        if (!cv::checkRange(values)) fail(std::string("'") + key + "' must hold finite coefficients");
+        if (values.cols > 14) fail(std::string("'") + key + "' holds more than 14 coefficients");
+        if (values.cols > 12 && (values.at<double>(12) != 0 || values.at<double>(13) != 0))
+            fail(std::string("'") + key + "': the tilted-sensor terms tau_x, tau_y (coefficients 13 and 14) must be 0");
+    };
+    check_distortion(calibration.camera_distortion, "camera_distortion");
+    check_distortion(calibration.projector_distortion, "projector_distortion");
 }
 
 Calibration read_calibration(const std::string& path) {
@@ -90,8 +99,10 @@ Calibration read_calibration(const std::string& path) {
 
 void write_calibration(const Calibration& calibration, const std::string& path) {
     validate_calibration(calibration, "calibration");
-    cv::FileStorage storage("calibration.yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-    storage.writeComment("PicoScan calibration, millimetres. X_projector = R * X_camera + T.");
+    const int format = detail::storage_format_for(path);
+    cv::FileStorage storage("calibration", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | format);
+    if (format != cv::FileStorage::FORMAT_JSON)  // JSON has no comments
+        storage.writeComment("PicoScan calibration, millimetres. X_projector = R * X_camera + T.");
     storage << "camera_size" << std::vector<int>{calibration.camera_size.width, calibration.camera_size.height};
     storage << "camera_matrix" << cv::Mat(calibration.camera_matrix);
     storage << "camera_distortion" << calibration.camera_distortion;

@@ -113,12 +113,9 @@ CaptureSet load_capture_set(const std::string& directory, const std::string& man
             const std::string file = (fs::path(directory) / frames[index].file).string();
             cv::Mat image;
             try {
-                image = cv::imread(file, cv::IMREAD_UNCHANGED);
-            } catch (const cv::Exception&) {
-                image.release();
-            }
-            if (image.empty()) {
-                errors[index] = file + ": unreadable or corrupt image";
+                image = read_image_file(file, cv::IMREAD_UNCHANGED);
+            } catch (const Error& error) {
+                errors[index] = error.what();
                 continue;
             }
             if (image.depth() != CV_8U && image.depth() != CV_16U) {

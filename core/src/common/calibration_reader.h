@@ -45,6 +45,8 @@ public:
         const int count = coefficients.cols;
         if (count != 4 && count != 5 && count != 8 && count != 12 && count != 14)
             fail("'" + key + "' must hold 4, 5, 8, 12 or 14 coefficients, got " + std::to_string(count));
+        if (count == 14 && (coefficients.at<double>(12) != 0 || coefficients.at<double>(13) != 0))
+            fail("'" + key + "': the tilted-sensor terms tau_x, tau_y (coefficients 13 and 14) must be 0");
         return coefficients.clone();
     }
     int whole_pixels(double number, const std::string& key) const {

@@ -2,10 +2,14 @@
 
 #include "picoscan/error.h"
 
+#include <opencv2/core/persistence.hpp>
+
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 
 namespace picoscan::detail {
@@ -279,6 +283,125 @@ public:
         return entries;
     }
 
+    // OpenCV's JSON: one object of "key": value, where a value is a number, a string, a list
+    // of numbers or a matrix object; nothing nests deeper.
+    StorageEntries parse_json(const std::string& text) const {
+        size_t at = 0;
+        int line = 1;
+        auto skip_space = [&] {  // and the /* comments */ OpenCV writes into JSON
+            while (at < text.size()) {
+                if (text.compare(at, 2, "/*") == 0) {
+                    const size_t end = text.find("*/", at + 2);
+                    if (end == std::string::npos) fail(line, "unclosed comment");
+                    line += int(std::count(text.begin() + long(at), text.begin() + long(end), '\n'));
+                    at = end + 2;
+                } else if (std::strchr(" \t\r\n", text[at]) && text[at] != '\0') {
+                    line += text[at++] == '\n';
+                } else {
+                    return;
+                }
+            }
+        };
+        auto expect = [&](char wanted) {
+            skip_space();
+            if (at >= text.size() || text[at] != wanted) fail(line, std::string("expected '") + wanted + "'");
+            ++at;
+        };
+        auto peek = [&] {
+            skip_space();
+            return at < text.size() ? text[at] : '\0';
+        };
+        auto string_value = [&] {
+            expect('"');
+            const size_t end = text.find_first_of("\"\\\n", at);
+            if (end == std::string::npos || text[end] != '"') fail(line, "unclosed or escaped string");
+            const std::string word = text.substr(at, end - at);
+            at = end + 1;
+            return word;
+        };
+        auto number_token = [&] {
+            skip_space();
+            const size_t end = text.find_first_of(",]} \t\r\n", at);
+            const std::string token = text.substr(at, (end == std::string::npos ? text.size() : end) - at);
+            at += token.size();
+            return token;
+        };
+        auto number_list = [&](std::vector<double>& numbers) {
+            expect('[');
+            if (peek() == ']') {
+                ++at;
+                return;
+            }
+            while (true) {
+                append_numbers(number_token(), line, numbers);
+                if (peek() == ']') {
+                    ++at;
+                    return;
+                }
+                expect(',');
+            }
+        };
+        // Calls `member(key)` for each "key": of an object, with `at` on the value.
+        auto object = [&](const auto& member) {
+            expect('{');
+            if (peek() == '}') {
+                ++at;
+                return;
+            }
+            while (true) {
+                const std::string key = string_value();
+                expect(':');
+                member(key);
+                if (peek() == '}') {
+                    ++at;
+                    return;
+                }
+                expect(',');
+            }
+        };
+
+        StorageEntries entries;
+        object([&](const std::string& key) {
+            if (!is_key(key)) fail(line, "'" + key.substr(0, 32) + "' is not a valid key");
+            if (entries.count(key)) fail(line, "'" + key + "' appears twice");
+            StorageValue value;
+            value.line = line;
+            const char first = peek();
+            if (first == '"') {
+                value.kind = StorageValue::Kind::Word;
+                value.word = string_value();
+            } else if (first == '[') {
+                value.kind = StorageValue::Kind::List;
+                number_list(value.numbers);
+            } else if (first == '{') {
+                value.kind = StorageValue::Kind::Matrix;
+                bool is_matrix = false, has_rows = false, has_cols = false, has_data = false;
+                object([&](const std::string& field) {
+                    const int field_line = line;
+                    if (field == "type_id") is_matrix = string_value() == "opencv-matrix";
+                    else if (field == "rows") value.rows = whole_number(number_token(), field_line, "rows"), has_rows = true;
+                    else if (field == "cols") value.cols = whole_number(number_token(), field_line, "cols"), has_cols = true;
+                    else if (field == "dt") string_value();
+                    else if (field == "data") number_list(value.numbers), has_data = true;
+                    else fail(field_line, "unknown matrix field '" + field.substr(0, 32) + "'");
+                });
+                if (!is_matrix) fail(value.line, "'" + key + "' is a map that is not an opencv-matrix");
+                if (!has_rows || !has_cols || !has_data) fail(value.line, "'" + key + "' needs rows, cols and data");
+                check_matrix(value, key);
+            } else {
+                const std::string token = number_token();
+                double parsed;
+                if (!parse_number(token, parsed)) fail(line, "'" + key + "' has no valid value");
+                value.kind = StorageValue::Kind::Number;
+                value.numbers.push_back(parsed);
+            }
+            entries[key] = std::move(value);
+        });
+        skip_space();
+        if (at != text.size()) fail(line, "text after the closing '}'");
+        return entries;
+    }
+
 private:
     std::string path_;
 };
@@ -289,7 +412,17 @@ StorageEntries parse_storage_text(const std::string& text, const std::string& pa
     const Parser parser(path);
     const size_t first = text.find_first_not_of(" \t\r\n");
     if (first == std::string::npos) throw Error(path, "file is empty");
-    return text[first] == '<' ? parser.parse_xml(text) : parser.parse_yaml(text);
+    if (text[first] == '<') return parser.parse_xml(text);
+    if (text[first] == '{') return parser.parse_json(text);
+    return parser.parse_yaml(text);
+}
+
+int storage_format_for(const std::string& path) {
+    std::string extension = path.substr(std::min(path.size(), path.find_last_of('.')));
+    for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (extension == ".xml") return cv::FileStorage::FORMAT_XML;
+    if (extension == ".json") return cv::FileStorage::FORMAT_JSON;
+    return cv::FileStorage::FORMAT_YAML;
 }
 
 }  // namespace picoscan::detail

@@ -1,4 +1,4 @@
-// A strict reader for the small subset of OpenCV FileStorage YAML and XML that calibration
+// A strict reader for the small subset of OpenCV FileStorage YAML, XML and JSON that calibration
 // files use: one level of `key: value` entries whose values are numbers, words, lists of
 // numbers, or !!opencv-matrix maps (rows, cols, dt, data).
 //
@@ -23,8 +23,13 @@ struct StorageValue {
 
 using StorageEntries = std::map<std::string, StorageValue>;
 
-// Parses YAML (with or without the "%YAML:1.0" line) or XML (<opencv_storage>), chosen by
-// the first character. Throws Error(path, "line N: what is wrong").
+// Parses YAML (with or without the "%YAML:1.0" line), XML (<opencv_storage>) or JSON (a
+// top-level object; matrices as {"type_id": "opencv-matrix", ...}), chosen by the first
+// character. Throws Error(path, "line N: what is wrong").
 StorageEntries parse_storage_text(const std::string& text, const std::string& path);
+
+// The cv::FileStorage format flag that writes a calibration file named `path`: XML for
+// .xml, JSON for .json, YAML otherwise (.yml, .yaml).
+int storage_format_for(const std::string& path);
 
 }  // namespace picoscan::detail

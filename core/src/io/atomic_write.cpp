@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace picoscan {
@@ -204,23 +205,53 @@ void OutputBatch::commit() {
         delete active_batch;
         active_batch = nullptr;
     }
-    // Renames are quick and rarely fail, so the set appears as one; a failing rename still
-    // leaves every other file whole (old or new) and removes the remaining temporaries.
+    // 1. Each old output gets a second name (a hard link: the old file stays where it is), so
+    //    that a failure later can put it back. 2. The new files are renamed into place. 3. The
+    //    second names are removed. A failure in 1 or 2 renames every old file back and removes
+    //    the new ones that had no old one: the old set stays whole. The backups carry ".tmp-"
+    //    and are registered, so a signal removes them like temporary files.
+    struct Backup {
+        std::string path;
+        int slot = -1;
+    };
+    std::vector<Backup> backups(pending.size());
     std::string failure;
-    for (const PendingOutput& output : pending) {
-        if (failure.empty()) {
-            try {
-                rename_into_place(output.temp, output.target);
-            } catch (const Error& error) {
-                failure = error.what();
-                ::unlink(output.temp.c_str());
-            }
-        } else {
-            ::unlink(output.temp.c_str());
+    size_t renamed = 0;
+    for (size_t index = 0; index < pending.size() && failure.empty(); ++index) {
+        const std::string& target = pending[index].target;
+        struct stat status {};
+        if (::lstat(target.c_str(), &status) != 0 || S_ISDIR(status.st_mode)) continue;  // nothing to keep
+        const std::string backup = target + ".tmp-" + std::to_string(::getpid()) + "-" +
+                                   std::to_string(temp_counter.fetch_add(1)) + ".old";
+        backups[index] = {backup, register_temporary(backup)};
+        if (::link(target.c_str(), backup.c_str()) != 0) {
+            failure = target + ": cannot keep the old file while the new set is written: " + errno_text(errno);
+            unregister_temporary(backups[index].slot);
+            backups[index] = {};
         }
-        unregister_temporary(output.slot);
     }
-    if (!failure.empty()) throw Error("outputs", failure);
+    while (renamed < pending.size() && failure.empty()) {
+        try {
+            rename_into_place(pending[renamed].temp, pending[renamed].target);
+            ++renamed;
+        } catch (const Error& error) {
+            failure = error.what();
+        }
+    }
+    if (!failure.empty()) {
+        // Rolled back: renamed targets get their old file back (or are removed if there was none).
+        for (size_t index = 0; index < renamed; ++index) {
+            if (!backups[index].path.empty()) ::rename(backups[index].path.c_str(), pending[index].target.c_str());
+            else ::unlink(pending[index].target.c_str());
+        }
+        for (size_t index = renamed; index < pending.size(); ++index) ::unlink(pending[index].temp.c_str());
+    }
+    for (size_t index = 0; index < pending.size(); ++index) {
+        if (!backups[index].path.empty()) ::unlink(backups[index].path.c_str());  // gone already if restored
+        unregister_temporary(backups[index].slot);
+        unregister_temporary(pending[index].slot);
+    }
+    if (!failure.empty()) throw Error("outputs", failure + "; the old outputs were left as they were");
 }
 
 }  // namespace picoscan

@@ -1,5 +1,8 @@
+#include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
+
+#include "common/third_party_output.h"
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -7,6 +10,25 @@
 #include <vector>
 
 namespace picoscan {
+
+cv::Mat read_image_file(const std::string& path, int flags) {
+    cv::Mat image;
+    std::string problem;
+    detail::ThirdPartyOutput decoder;
+    try {
+        image = cv::imread(path, flags);
+    } catch (const cv::Exception& error) {
+        image.release();
+        problem = error.msg;
+    }
+    if (image.empty()) {
+        const std::string printed = decoder.text();
+        throw Error(path, "unreadable or corrupt image" +
+                              detail::attached(printed.empty() ? problem : printed, "the decoder"));
+    }
+    decoder.discard();  // warnings about an image that decoded (a colour profile, say)
+    return image;
+}
 
 void write_image_file(const cv::Mat& image, const std::string& path) {
     std::vector<uint8_t> bytes;

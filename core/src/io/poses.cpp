@@ -4,6 +4,7 @@
 #include "picoscan/file_output.h"
 #include "picoscan/io.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -13,6 +14,7 @@ namespace {
 
 constexpr size_t kMaxPosesFileBytes = 16u << 20;  // thousands of views are a few hundred KB
 constexpr const char* kNotAligned = " NOT-ALIGNED";
+constexpr const char* kPlacement = "# placement ";  // views after it belong to that placement (1, 2, ...)
 constexpr size_t kMostPoses = 10000;              // views of one model
 constexpr double kFarthestTranslationMm = 1e6;
 
@@ -20,7 +22,14 @@ constexpr double kFarthestTranslationMm = 1e6;
 
 void write_poses(const std::vector<ViewPose>& poses, const std::string& path) {
     std::string text = "# PicoScan view -> model poses (4x4, row by row); model frame = first view's camera\n";
+    const bool placements = std::any_of(poses.begin(), poses.end(), [](const ViewPose& view) { return view.placement != 0; });
+    int placement = -1;
     for (const ViewPose& view : poses) {
+        if (view.placement < 0) throw Error(path, "view '" + view.name + "' has a negative placement");
+        if (placements && view.placement != placement) {
+            placement = view.placement;
+            text += "# placement " + std::to_string(placement + 1) + "\n";
+        }
         if (view.name.empty() || view.name.find('\n') != std::string::npos || view.name[0] == '#')
             throw Error(path, "view name '" + view.name + "' cannot be written in a poses file");
         text += view.name + (view.aligned ? "" : kNotAligned) + "\n";
@@ -48,11 +57,21 @@ std::vector<ViewPose> read_poses(const std::string& path) {
     std::vector<ViewPose> poses;
     std::string line;
     int line_number = 0;
+    int placement = 0;
     auto where = [&] { return path + ":" + std::to_string(line_number); };
     while (std::getline(lines, line)) {
         ++line_number;
+        if (line.rfind(kPlacement, 0) == 0) {
+            const std::string number = line.substr(std::char_traits<char>::length(kPlacement));
+            double value = 0;
+            if (!detail::parse_double(number, value) || value < 1 || value > kMostPoses || value != std::floor(value))
+                throw Error(where(), "a placement line needs a whole number from 1: '" + line + "'");
+            placement = static_cast<int>(value) - 1;
+            continue;
+        }
         if (line.empty() || line[0] == '#') continue;
         ViewPose view;
+        view.placement = placement;
         view.name = line;
         const size_t suffix = line.size() >= std::char_traits<char>::length(kNotAligned)
                                   ? line.size() - std::char_traits<char>::length(kNotAligned)

@@ -127,8 +127,8 @@ Mesh parse_binary_stl(const std::string& data, const std::string& path) {
     const uint64_t triangles = load_le_u32(data.data() + kBinaryHeaderBytes);
     const uint64_t needed = kBinaryPrefixBytes + triangles * kBinaryTriangleBytes;
     if (needed > data.size())
-        throw Error(path, "binary STL: header declares " + std::to_string(triangles) + " triangles (" +
-                              std::to_string(needed) + " bytes) but the file has " +
+        throw Error(path, "truncated or corrupt binary STL: its header declares " + std::to_string(triangles) +
+                              " triangles (" + std::to_string(needed) + " bytes) but the file has " +
                               std::to_string(data.size()) + " bytes");
     Mesh mesh;
     mesh.faces.reserve(static_cast<size_t>(triangles));
@@ -232,6 +232,17 @@ Mesh parse_ascii_stl(const std::string& data, const std::string& path) {
     return mesh;
 }
 
+// ASCII STL is text: a NUL or another control byte (not white space) means binary data,
+// even behind a header that begins with "solid".
+bool has_binary_bytes(const std::string& data) {
+    for (const char c : data) {
+        const auto byte = static_cast<unsigned char>(c);
+        if (byte < 32 && byte != ' ' && byte != '\t' && byte != '\n' && byte != '\r' && byte != '\f' && byte != '\v')
+            return true;
+    }
+    return false;
+}
+
 bool starts_with_solid(const std::string& data) {
     size_t i = 0;
     while (i < data.size() && (data[i] == ' ' || data[i] == '\t' || data[i] == '\r' || data[i] == '\n')) ++i;
@@ -255,7 +266,7 @@ Mesh read_stl(const std::string& path) {
     if (data.size() >= kBinaryPrefixBytes) {
         const uint64_t triangles = load_le_u32(data.data() + kBinaryHeaderBytes);
         const bool exact = kBinaryPrefixBytes + triangles * kBinaryTriangleBytes == data.size();
-        if (exact || !starts_with_solid(data)) return parse_binary_stl(data, path);
+        if (exact || !starts_with_solid(data) || has_binary_bytes(data)) return parse_binary_stl(data, path);
     }
     if (starts_with_solid(data)) return parse_ascii_stl(data, path);
     throw Error(path, "not an STL file (too short for binary, no 'solid' for ASCII)");

@@ -2,6 +2,7 @@
 // Delaunay-refinement implementation), then a projection of the surface back onto the points.
 #define CGAL_EIGEN3_ENABLED 1
 #include "mesh/cgal_types.h"
+#include "common/third_party_output.h"
 #include "picoscan/error.h"
 
 #include <CGAL/Orthogonal_k_neighbor_search.h>
@@ -73,9 +74,11 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
 
 Mesh poisson_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double triangle_size, double distance) {
     SurfaceMesh surface;
+    ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
     if (!CGAL::poisson_surface_reconstruction_delaunay(points.begin(), points.end(), PointMap(), NormalMap(), surface,
                                                        spacing_mm, 20.0, triangle_size, distance))
-        throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)");
+        throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
+                                                  attached(cgal.text(), "CGAL"));
     return to_mesh(surface);
 }
 

@@ -5,6 +5,7 @@
 #include "picoscan/multi_camera.h"
 
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <string>
 
@@ -48,6 +49,11 @@ ReconstructResult reconstruct_view(const std::string& captures_folder, const Cal
                                    const std::string& calibration_name, const ReconstructOptions& options,
                                    const ProgressCallback& progress) {
     validate(options);
+    // The manifest's projector is checked before any frame is read (a missing folder is
+    // reported by load_capture_set).
+    const std::string manifest = options.manifest_path.empty() ? captures_folder + "/sequence.json" : options.manifest_path;
+    if (std::error_code error; std::filesystem::is_directory(captures_folder, error))
+        check_projector_size(calibration, read_manifest(manifest), calibration_name, manifest);
     // The frames' headers are checked against camera_size before any frame is decoded.
     const CaptureSet captures = load_capture_set(captures_folder, options.manifest_path, progress, calibration.camera_size);
     check_camera_size(calibration, captures, calibration_name);
@@ -133,7 +139,27 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
     validate(options.registration);
     if (views.size() < 2) throw Error("views", "stitching needs at least two views (got " + std::to_string(views.size()) + ")");
     StitchResult result;
-    result.alignment = align_views(views, names, options.registration, options.turntable, progress);
+    if (options.placement_of_view.empty()) {
+        result.alignment = align_views(views, names, options.registration, options.turntable, progress);
+    } else {
+        if (options.placement_of_view.size() != views.size())
+            throw Error("placement_of_view", std::to_string(options.placement_of_view.size()) + " placements given for " +
+                                                 std::to_string(views.size()) + " views");
+        std::vector<PlacementPlan> placements;
+        for (size_t i = 0; i < views.size(); ++i) {
+            const int placement = options.placement_of_view[i];
+            if (placement < 0 || placement > static_cast<int>(placements.size()))
+                throw Error("placement_of_view", "view " + names[i] + " has placement " + std::to_string(placement) +
+                                                     "; placements are numbered 0, 1, ... in the order of the views");
+            if (placement == static_cast<int>(placements.size())) {
+                placements.emplace_back();
+                placements.back().turntable = options.turntable;
+                placements.back().turntable_round = options.registration.turntable_round;
+            }
+            placements[static_cast<size_t>(placement)].views.push_back(i);
+        }
+        result.alignment = align_placements(views, names, placements, options.registration, progress);
+    }
     std::vector<ScanView> aligned;
     for (size_t i = 0; i < views.size(); ++i) {
         if (!result.alignment.views[i].aligned) continue;
@@ -142,7 +168,8 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
         result.merged_views.push_back(i);
     }
     result.merged = merge_views(aligned);
-    if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3) {
+    if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3 &&
+        options.placement_of_view.empty()) {
         // Views of a turntable sequence calibrate its axis, for the next scan.
         std::vector<cv::Matx44d> poses;
         for (const ViewAlignment& view : result.alignment.views) poses.push_back(view.pose);

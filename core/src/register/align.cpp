@@ -11,11 +11,12 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <map>
 #include <numeric>
 
 namespace picoscan {
 
-namespace {
+namespace detail {
 
 std::string format(const char* pattern, double value) {
     char text[64];
@@ -23,14 +24,7 @@ std::string format(const char* pattern, double value) {
     return text;
 }
 
-// What registration needs of a view, computed once.
-struct ViewData {
-    detail::SurfaceSamples samples;
-    detail::ViewFeatures features;  // ORB on the white frame (feature mode only)
-    detail::ViewCamera camera;      // for the free-space check
-    bool textured = false;          // the white frame carries paint worth comparing
-    cv::Vec3d centroid{0, 0, 0};    // of the samples, view frame
-};
+namespace {
 
 // Paint shows as spread in the white frame divided by its local mean; a plain part's spread
 // is camera noise and shading left at edges. Median absolute deviation, so edges do not count.
@@ -44,6 +38,8 @@ bool has_texture(const std::vector<float>& grey) {
     std::nth_element(values.begin(), values.begin() + static_cast<long>(middle), values.end());
     return 1.4826 * values[middle] > 0.04;
 }
+
+}  // namespace
 
 ViewData view_data(const ScanView& view, const RegistrationOptions& options, bool with_features) {
     ViewData data;
@@ -78,11 +74,16 @@ double free_space_conflict(const ViewData& fixed, const ViewData& moving, const 
     return std::max(into_fixed.fraction(), into_moving.fraction());
 }
 
-constexpr double kMaxFreeSpaceConflict = 0.02;
-// Below this, the overlap leaves a direction of motion unfixed (see IcpResult::stability):
-// a pose found from features alone cannot be confirmed. A guided pose (turntable, earlier
-// poses) keeps its guess along such a direction.
-constexpr double kMinStability = 0.01;
+}  // namespace detail
+
+namespace {
+
+using detail::format;
+using detail::free_space_conflict;
+using detail::kMaxFreeSpaceConflict;
+using detail::kMinStability;
+using detail::view_data;
+using detail::ViewData;
 
 // A pair is accepted when ICP converged onto enough shared surface, tightly, without either
 // view's points in the other's free space, and (only where both views are painted) with the
@@ -314,16 +315,27 @@ TurntableStep estimate_turntable_step(const std::vector<ViewData>& data, const R
     return result;
 }
 
-// Multi-view refinement: every accepted view against every other, all poses solved together
-// (view `anchor` fixed; none moves without move_views). Returns each view's point-to-plane RMS against the others.
+}  // namespace
+
+namespace detail {
+
 std::vector<double> refine_together(const std::vector<ViewData>& data, std::vector<cv::Matx44d>& poses,
                                     const std::vector<bool>& active, int anchor, bool move_views,
-                                    const RegistrationOptions& options, const ProgressCallback& progress) {
+                                    const RegistrationOptions& options, const ProgressCallback& progress,
+                                    const std::vector<int>& groups) {
     const size_t n = data.size();
-    std::vector<int> unknown(n, -1);  // column block of each view's motion
+    // Column block of each view's motion: one per group (views of a group move as one), the
+    // anchor's group fixed.
+    std::vector<int> unknown(n, -1);
+    auto group_of = [&](size_t i) { return groups.empty() ? static_cast<int>(i) : groups[i]; };
+    std::map<int, int> block_of_group;
     int blocks = 0;
-    for (size_t i = 0; i < n; ++i)
-        if (active[i] && static_cast<int>(i) != anchor) unknown[i] = blocks++;
+    for (size_t i = 0; i < n; ++i) {
+        if (!active[i] || group_of(i) == group_of(static_cast<size_t>(anchor))) continue;
+        const auto [found, fresh] = block_of_group.emplace(group_of(i), blocks);
+        if (fresh) ++blocks;
+        unknown[i] = found->second;
+    }
     std::vector<double> rms(n, 0.0);
     const double min_normal_cos = std::cos(CV_PI / 4);
     double limit = std::max(3 * options.sample_spacing_mm, 1.0);
@@ -434,7 +446,7 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
     return rms;
 }
 
-}  // namespace
+}  // namespace detail
 
 int Alignment::aligned_count() const {
     return static_cast<int>(std::count_if(views.begin(), views.end(), [](const ViewAlignment& v) { return v.aligned; }));
@@ -633,7 +645,7 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
         }
     }
     const bool move_views = !alignment.turntable_step;
-    std::vector<double> rms = refine_together(data, poses, reached, 0, move_views, options, progress);
+    std::vector<double> rms = detail::refine_together(data, poses, reached, 0, move_views, options, progress);
 
     // The whole model checked against every view's free space: a view placed where another
     // view's camera saw through is taken out (the one in most conflicts first), and the rest
@@ -664,7 +676,7 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
         removed = true;
         const size_t anchor = static_cast<size_t>(std::find(reached.begin(), reached.end(), true) - reached.begin());
         if (anchor == n) break;
-        rms = refine_together(data, poses, reached, static_cast<int>(anchor), move_views, options, progress);
+        rms = detail::refine_together(data, poses, reached, static_cast<int>(anchor), move_views, options, progress);
     }
     report(1.0, "aligned");
 

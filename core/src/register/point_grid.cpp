@@ -1,7 +1,7 @@
 #include "register/point_grid.h"
 
-
 #include <opencv2/imgproc.hpp>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -21,9 +21,14 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
         for (int y = 0; y < measured.rows; ++y)
             for (int x = 0; x < measured.cols; ++x)
                 measured.at<float>(y, x) = is_finite_point(view.points.at<cv::Vec3f>(y, x)) ? 1.f : 0.f;
+        // The local mean spans about 1.3 mm of surface at the working distance whatever the
+        // camera's resolution (8 pixels of the seed camera, fx 2500): wider, the shading near
+        // an edge would count as paint on a lower-resolution camera.
+        const double fx = view.camera_matrix(0, 0);
+        const double sigma_px = fx > 0 ? std::clamp(8.0 * fx / 2500.0, 1.0, 32.0) : 8.0;
         cv::Mat local_sum, local_count;
-        cv::GaussianBlur(grey.mul(measured), local_sum, cv::Size(), 8);
-        cv::GaussianBlur(measured, local_count, cv::Size(), 8);
+        cv::GaussianBlur(grey.mul(measured), local_sum, cv::Size(), sigma_px);
+        cv::GaussianBlur(measured, local_count, cv::Size(), sigma_px);
         paint = grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0);
     }
     std::unordered_map<long long, int> taken;

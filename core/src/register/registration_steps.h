@@ -3,9 +3,11 @@
 
 #include "picoscan/register.h"
 #include "register/point_grid.h"
+#include "register/visibility.h"
 
 #include <opencv2/core.hpp>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,5 +65,36 @@ cv::Matx44d inverse_rigid(const cv::Matx44d& transform);
 
 // Small-motion update: rotation vector (rad) and translation -> 4x4 transform.
 cv::Matx44d motion_matrix(const cv::Vec3d& rotation_vector, const cv::Vec3d& translation);
+
+// What registration needs of a view, computed once.
+struct ViewData {
+    SurfaceSamples samples;
+    ViewFeatures features;        // ORB on the white frame (feature mode only)
+    ViewCamera camera;            // for the free-space check
+    bool textured = false;        // the white frame carries paint worth comparing
+    cv::Vec3d centroid{0, 0, 0};  // of the samples, view frame
+};
+ViewData view_data(const ScanView& view, const RegistrationOptions& options, bool with_features);
+
+// The larger fraction, of either view's points, lying where the other view's camera saw
+// through (in front of what it measured): a contradiction however well the overlap fits.
+double free_space_conflict(const ViewData& fixed, const ViewData& moving, const cv::Matx44d& moving_to_fixed);
+constexpr double kMaxFreeSpaceConflict = 0.02;
+// Below this, the overlap leaves a direction of motion unfixed (see IcpResult::stability):
+// a pose found from features alone cannot be confirmed. A guided pose (turntable, earlier
+// poses) keeps its guess along such a direction.
+constexpr double kMinStability = 0.01;
+
+// Multi-view refinement: every active view against every other, all poses solved together
+// (view `anchor` and its group fixed; none moves without move_views). Views with the same
+// entry in `groups` move as one rigid body (a turntable round); empty: each view alone.
+// Returns each view's point-to-plane RMS against the others.
+std::vector<double> refine_together(const std::vector<ViewData>& data, std::vector<cv::Matx44d>& poses,
+                                    const std::vector<bool>& active, int anchor, bool move_views,
+                                    const RegistrationOptions& options, const ProgressCallback& progress,
+                                    const std::vector<int>& groups = {});
+
+// printf of one number, for messages.
+std::string format(const char* pattern, double value);
 
 }  // namespace picoscan::detail

@@ -169,12 +169,15 @@ std::vector<cv::Matx44d> turntable_part_poses(const TurntablePlan& plan) {
         cv::Rodrigues(cv::normalize(axis) * angle_rad, r);
         return r;
     };
+    // The placement turns the part about its middle, which stays at part_centre_mm.
+    const double flip_deg = plan.placement == PartPlacement::UpsideDown ? 180 : plan.placement == PartPlacement::OnItsSide ? 90 : 0;
+    const cv::Matx33d placed = rotation_about({1, 0, 0}, flip_deg * kPi / 180);
     auto pose_at = [&](double elevation_deg, double turn_deg) {
         const double e = elevation_deg * kPi / 180;
         // Part axes in the camera frame: x stays, z (up) leans towards the camera.
         const cv::Vec3d x(1, 0, 0), z(0, -std::cos(e), -std::sin(e)), y = z.cross(x);
         const cv::Matx33d tilt(x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2]);
-        cv::Matx33d rotation = tilt * rotation_about({0, 0, 1}, turn_deg * kPi / 180);
+        cv::Matx33d rotation = tilt * rotation_about({0, 0, 1}, (turn_deg + plan.placement_turn_deg) * kPi / 180) * placed;
         cv::Vec3d translation = plan.part_centre_mm - rotation * cv::Vec3d(0, 0, plan.part_middle_height_mm);
         if (plan.max_disturbance_deg > 0 || plan.max_disturbance_mm > 0) {
             const cv::Vec3d axis(rng.gaussian(1), rng.gaussian(1), rng.gaussian(1));

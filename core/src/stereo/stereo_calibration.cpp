@@ -3,6 +3,7 @@
 #include "picoscan/stereo.h"
 
 #include "common/pose_spread.h"
+#include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
@@ -178,8 +179,10 @@ StereoCalibration read_stereo_calibration(const std::string& path) {
 
 void write_stereo_calibration(const StereoCalibration& c, const std::string& path) {
     validate_stereo_calibration(c, "stereo calibration");
-    cv::FileStorage storage("stereo.yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-    storage.writeComment("PicoScan stereo calibration, millimetres. X_camera2 = R * X_camera1 + T.");
+    const int format = detail::storage_format_for(path);
+    cv::FileStorage storage("stereo", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | format);
+    if (format != cv::FileStorage::FORMAT_JSON)  // JSON has no comments
+        storage.writeComment("PicoScan stereo calibration, millimetres. X_camera2 = R * X_camera1 + T.");
     storage << "camera1_size" << std::vector<int>{c.left_size.width, c.left_size.height};
     storage << "camera1_matrix" << cv::Mat(c.left_matrix);
     storage << "camera1_distortion" << c.left_distortion;
@@ -224,13 +227,7 @@ cv::Mat load_board_image(const std::string& directory, const std::string& manife
     if (images.size() != 1)
         throw Error(directory, "holds " + std::to_string(images.size()) +
                                    " images and no sequence.json; a pose folder needs one board image or a capture set");
-    cv::Mat image;
-    try {
-        image = cv::imread(images.front().string(), cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception&) {
-    }
-    if (image.empty()) throw Error(images.front().string(), "cannot be read as an image");
-    return image;
+    return read_image_file(images.front().string(), cv::IMREAD_UNCHANGED);
 }
 
 StereoCalibrationReport calibrate_stereo(const std::vector<StereoBoardView>& views, const BoardSpec& board,
