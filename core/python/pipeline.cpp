@@ -181,9 +181,29 @@ void bind_pipeline(py::module_& m) {
         },
         py::arg("cloud"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none());
 
+    py::class_<PartFrameOptions>(m, "PartFrameOptions")
+        .def(py::init<>())
+        .def_readwrite("max_points", &PartFrameOptions::max_points)
+        .def_readwrite("plane_epsilon_mm", &PartFrameOptions::plane_epsilon_mm)
+        .def_readwrite("min_plane_share", &PartFrameOptions::min_plane_share);
+    py::class_<PartFrame>(m, "PartFrame")
+        .def_readonly("frame", &PartFrame::frame)
+        .def_readonly("basis", &PartFrame::basis);
+    m.def(
+        "part_frame",
+        [](const PointCloud& cloud, const std::optional<TurntableAxis>& turntable, const PartFrameOptions& options,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return part_frame(cloud, turntable, options, callback);
+        },
+        py::arg("cloud"), py::arg("turntable") = py::none(), py::arg("options") = PartFrameOptions(),
+        py::arg("progress") = py::none(), "The scan's part frame, Z up: on the turntable's axis, else on its base plane");
+
     // validate(options) for every options struct: raises picoscan.Error naming the field.
     m.def("validate", py::overload_cast<const PatternOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const DecodeOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const PartFrameOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const SimulationOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const CleanOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const RegistrationOptions&>(&validate), py::arg("options"));

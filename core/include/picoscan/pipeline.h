@@ -10,6 +10,7 @@
 #include "picoscan/clean.h"
 #include "picoscan/cloud.h"
 #include "picoscan/decode.h"
+#include "picoscan/fit.h"
 #include "picoscan/mesh.h"
 #include "picoscan/patterns.h"
 #include "picoscan/progress.h"
@@ -223,6 +224,27 @@ Mesh mesh_view(const ScanView& view, const MeshOptions& options = {}, const Prog
 // A cloud with normals (a merged model) into a mesh: Poisson or advancing front (mesh_cloud).
 Mesh mesh_points(const PointCloud& cloud, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
 
+// ---- Part frame ---------------------------------------------------------------------------
+
+// Where a scan's own part coordinate system lies, Z up, so that a scan does not sit in the
+// camera's frame: about the turntable's axis when the views turned on one (origin where the
+// axis meets the lowest points), else on the cloud's largest plane (the table or base the part
+// stands on: Z along its normal towards the camera, origin under the middle of the points above
+// it). X is the camera's x made square to Z. Datum alignment (fit.h) then gives the exact frame.
+struct PartFrameOptions {
+    int max_points = 60000;          // evenly chosen subset searched for the base plane
+    double plane_epsilon_mm = 0.25;  // base plane inliers are nearer than this
+    double min_plane_share = 0.05;   // the base plane holds at least this share of the points
+};
+struct PartFrame {
+    DatumFrame frame;                // part_from_scan takes the cloud's coordinates into the part frame
+    std::string basis;               // what fixed it: "turntable axis ..." or "base plane ..."
+};
+// Throws Error("cloud", ...) when the cloud has no normals (without a turntable) or no plane with
+// min_plane_share of the points, Error(<field>, ...) for bad options.
+PartFrame part_frame(const PointCloud& cloud, const std::optional<TurntableAxis>& turntable = std::nullopt,
+                     const PartFrameOptions& options = {}, const ProgressCallback& progress = nullptr);
+
 // ---- Fuse views that are already posed ------------------------------------------------------
 
 // Views already aligned (each through its pose, e.g. MeshLab layers with their transforms)
@@ -248,5 +270,6 @@ void validate(const MeshOptions& options);
 void validate(const ReconstructOptions& options);
 void validate(const SimulateOptions& options);
 void validate(const CleanScanOptions& options);
+void validate(const PartFrameOptions& options);
 
 }  // namespace picoscan

@@ -2,7 +2,10 @@
 
 #include "picoscan/error.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 namespace picoscan {
 
@@ -79,6 +82,116 @@ SphereFit fit_sphere(const std::vector<cv::Vec3f>& points) {
     fit.rms_mm = std::sqrt(sum_squares / points.size());
     fit.point_count = points.size();
     return fit;
+}
+
+namespace {
+
+double angle_between_deg(const cv::Vec3d& a, const cv::Vec3d& b) {
+    return std::acos(std::clamp(a.dot(b) / (cv::norm(a) * cv::norm(b)), -1.0, 1.0)) * 180.0 / CV_PI;
+}
+
+// Angle of two directions as lines (0..90 degrees): how far from parallel they are.
+double line_angle_deg(const cv::Vec3d& a, const cv::Vec3d& b) {
+    const double angle = angle_between_deg(a, b);
+    return std::min(angle, 180.0 - angle);
+}
+
+std::string degrees(double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2f", value);
+    return text;
+}
+
+cv::Vec3d unit_normal(const PlaneFit& plane, const char* name) {
+    const double length = cv::norm(plane.normal);
+    if (!(length > 1e-9) || !std::isfinite(length)) throw Error(name, "the plane has no normal");
+    return plane.normal / length;
+}
+
+DatumFrame make_frame(const cv::Vec3d& origin, const cv::Vec3d& x_axis, const cv::Vec3d& y_axis, const cv::Vec3d& z_axis) {
+    DatumFrame frame;
+    frame.origin = origin;
+    frame.x_axis = x_axis;
+    frame.y_axis = y_axis;
+    frame.z_axis = z_axis;
+    // part = R (scan - origin) with the axes as R's rows.
+    for (int column = 0; column < 3; ++column) {
+        frame.part_from_scan(0, column) = x_axis[column];
+        frame.part_from_scan(1, column) = y_axis[column];
+        frame.part_from_scan(2, column) = z_axis[column];
+    }
+    for (int row = 0; row < 3; ++row) {
+        frame.part_from_scan(row, 3) = -(frame.part_from_scan(row, 0) * origin[0] + frame.part_from_scan(row, 1) * origin[1] +
+                                          frame.part_from_scan(row, 2) * origin[2]);
+    }
+    return frame;
+}
+
+// The primary/secondary part of the 3-2-1 frame: axes, and a point on their common line.
+struct DatumAxes {
+    cv::Vec3d x, y, z, point_on_line, n1, n2;
+};
+
+DatumAxes datum_axes(const PlaneFit& primary, const PlaneFit& secondary, const DatumOptions& options) {
+    if (!(options.min_angle_deg > 0 && options.min_angle_deg < 90))
+        throw Error("min_angle_deg", "must be between 0 and 90 degrees, is " + degrees(options.min_angle_deg));
+    DatumAxes axes;
+    axes.n1 = unit_normal(primary, "primary");
+    axes.n2 = unit_normal(secondary, "secondary");
+    const double angle = line_angle_deg(axes.n1, axes.n2);
+    if (angle < options.min_angle_deg)
+        throw Error("secondary", "the secondary plane is " + degrees(angle) + " degrees from parallel to the primary "
+                    "plane (at least " + degrees(options.min_angle_deg) + " needed): they meet in no well-defined line");
+    axes.z = axes.n1;
+    axes.y = axes.n2 - axes.n2.dot(axes.z) * axes.z;
+    axes.y /= cv::norm(axes.y);
+    axes.x = axes.y.cross(axes.z);
+    // The point of the line nearest to the origin: n1.p = d1, n2.p = d2, x.p = 0.
+    const cv::Matx33d rows(axes.n1[0], axes.n1[1], axes.n1[2], axes.n2[0], axes.n2[1], axes.n2[2], axes.x[0], axes.x[1], axes.x[2]);
+    const double d1 = primary.offset_mm / cv::norm(primary.normal), d2 = secondary.offset_mm / cv::norm(secondary.normal);
+    axes.point_on_line = rows.solve(cv::Vec3d(d1, d2, 0), cv::DECOMP_LU);
+    return axes;
+}
+
+}  // namespace
+
+DatumFrame datum_frame(const PlaneFit& primary, const PlaneFit& secondary, const PlaneFit& tertiary, const DatumOptions& options) {
+    const DatumAxes axes = datum_axes(primary, secondary, options);
+    const cv::Vec3d n3 = unit_normal(tertiary, "tertiary");
+    // The third plane must cut the primary/secondary line, i.e. not contain its direction.
+    const double crossing = 90.0 - line_angle_deg(n3, axes.x);
+    if (crossing < options.min_angle_deg)
+        throw Error("tertiary", "the tertiary plane is " + degrees(crossing) + " degrees from parallel to the line where "
+                    "the primary and secondary planes meet (at least " + degrees(options.min_angle_deg) +
+                    " needed): it fixes no origin along it");
+    const double d3 = tertiary.offset_mm / cv::norm(tertiary.normal);
+    const double along = (d3 - n3.dot(axes.point_on_line)) / n3.dot(axes.x);
+    DatumFrame frame = make_frame(axes.point_on_line + along * axes.x, axes.x, axes.y, axes.z);
+    frame.primary_secondary_deg = angle_between_deg(axes.n1, axes.n2);
+    frame.primary_tertiary_deg = angle_between_deg(axes.n1, n3);
+    frame.secondary_tertiary_deg = angle_between_deg(axes.n2, n3);
+    return frame;
+}
+
+DatumFrame datum_frame(const PlaneFit& primary, const PlaneFit& secondary, const cv::Vec3d& origin_point, const DatumOptions& options) {
+    if (!std::isfinite(origin_point.dot(origin_point))) throw Error("origin_point", "is not a finite point");
+    const DatumAxes axes = datum_axes(primary, secondary, options);
+    const double along = (origin_point - axes.point_on_line).dot(axes.x);
+    DatumFrame frame = make_frame(axes.point_on_line + along * axes.x, axes.x, axes.y, axes.z);
+    frame.primary_secondary_deg = angle_between_deg(axes.n1, axes.n2);
+    return frame;
+}
+
+DatumFrame frame_from_axis(const cv::Vec3d& origin, const cv::Vec3d& up, const cv::Vec3d& x_hint) {
+    const double up_length = cv::norm(up);
+    if (!(up_length > 1e-12) || !std::isfinite(up_length)) throw Error("up", "is a zero or non-finite vector");
+    if (!std::isfinite(origin.dot(origin))) throw Error("origin", "is not a finite point");
+    const cv::Vec3d z = up / up_length;
+    cv::Vec3d x = x_hint - x_hint.dot(z) * z;
+    if (!(cv::norm(x) > 1e-6 * std::max(1.0, cv::norm(x_hint))))
+        throw Error("x_hint", "is zero or parallel to the up direction");
+    x /= cv::norm(x);
+    return make_frame(origin, x, z.cross(x), z);
 }
 
 }  // namespace picoscan

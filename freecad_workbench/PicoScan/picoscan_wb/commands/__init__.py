@@ -15,6 +15,9 @@ COMMANDS = {
     "PicoScan_CrossSection": analysis.CrossSectionCommand(),
     "PicoScan_DeviationMap": analysis.DeviationMapCommand(),
     "PicoScan_BestFit": analysis.BestFitCommand(),
+    "PicoScan_DatumAlign": analysis.DatumAlignCommand(),
+    "PicoScan_PartFrame": analysis.PartFrameCommand(),
+    "PicoScan_Measurements": analysis.MeasurementsCommand(),
     "PicoScan_ShowRig": analysis.ShowRigCommand(),
     "PicoScan_EncodingView": analysis.EncodingViewCommand(),
 }

@@ -64,7 +64,7 @@ class MeshCommand(Command):
 class MakeSolidCommand(Command):
     icon = "picoscan_solid"
     menu = "Make solid"
-    tooltip = "Part solid from the selected mesh when it is closed and small enough"
+    tooltip = "Part solid from the selected mesh when it is closed, manifold and not self-intersecting"
 
     def IsActive(self):
         return bool(selected_meshes())
@@ -86,7 +86,7 @@ class FitPrimitivesCommand(Command):
         source = selected_clouds()[0]
         with FreeCADProgress("Fitting primitives") as progress:
             group, created = primitives.fit_primitives(source.Document, cloud_of(source), progress=progress,
-                                                       label="Primitives of " + source.Label)
+                                                       label="Primitives of " + source.Label, placement=source.Placement)
         for obj, shape in created:
             FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, shape))
         return group
@@ -172,6 +172,108 @@ class BestFitCommand(Command):
             scan.Label, result.iterations, result.rms_mm, result.pairs))
         scan.Document.recompute()
         return result
+
+
+def selected_features():
+    """The selection as (object, sub-element) pairs in the order picked: each picked face or vertex,
+    or the whole object when nothing inside it was picked."""
+    features = []
+    for selection in FreeCADGui.Selection.getSelectionEx():
+        names = [name for name in selection.SubElementNames if name]
+        features += [(selection.Object, name) for name in names] if names else [(selection.Object, "")]
+    return features
+
+
+def _is_feature(feature):
+    obj, sub = feature
+    return bool(sub) or getattr(obj, "FitKind", "") in ("Plane", "Sphere")
+
+
+class DatumAlignCommand(Command):
+    icon = "picoscan_datum"
+    menu = "Datum alignment (3-2-1)"
+    tooltip = ("Put a scan into its part's coordinate system: select the scan, then a primary plane (Z), a secondary "
+               "plane (X along their line) and an origin plane or point; add the model's three matching faces to move "
+               "the scan onto the model. Select the model's three faces, then the scan's three, to move the model onto "
+               "the scan. Axes point into the material.")
+
+    def IsActive(self):
+        return len(selected_features()) in (3, 4, 6, 7)
+
+    def run(self):
+        from picoscan_wb.operations import datum
+
+        features = selected_features()
+        if not _is_feature(features[0]):
+            moving, features = features[0][0], features[1:]
+        else:
+            owners = set(obj.Name for obj, _ in features[:3])
+            if len(owners) != 1:
+                raise picoscan.Error("Datum alignment: select the object to move first, or three faces of it")
+            moving = features[0][0]
+        if len(features) not in (3, 6):
+            raise picoscan.Error("Datum alignment: select 3 datums (primary, secondary, origin), or 3 on the object to "
+                                 "move and then 3 matching ones on the fixed object (%d selected)" % len(features))
+        # The primitives fitted on the scan (the Fit primitives group of a fitted datum) travel with it.
+        groups = {parent.Name: parent for obj, _ in features[:3] if getattr(obj, "FitKind", "")
+                  for parent in obj.InList if parent.TypeId == "App::DocumentObjectGroup"}
+        carried = [member for group in groups.values() for member in group.Group if getattr(member, "FitKind", "")]
+        frame, fixed, move = datum.align(moving, features[:3], features[3:] or None, carried=carried)
+        FreeCAD.Console.PrintMessage("%s: datum frame %s; moved by %s\n" % (moving.Label, datum.frame_report(frame), move))
+        moving.Document.recompute()
+        return frame
+
+
+def _fitted(obj):
+    return getattr(obj, "FitKind", "") in ("Plane", "Cylinder", "Sphere")
+
+
+def selected_fitted_features():
+    """Fitted features picked, or every fitted feature of a picked group (Fit primitives' result)."""
+    features = []
+    for obj in FreeCADGui.Selection.getSelection():
+        features += [m for m in obj.Group if _fitted(m)] if obj.TypeId == "App::DocumentObjectGroup" else \
+            ([obj] if _fitted(obj) else [])
+    return features
+
+
+class MeasurementsCommand(Command):
+    icon = "picoscan_measure"
+    menu = "Measurements"
+    tooltip = ("Distances and angles between the selected fitted features (or all those of a selected Fit primitives "
+               "group), with their fit uncertainty, in a table written as CSV")
+
+    def IsActive(self):
+        return len(selected_fitted_features()) >= 2
+
+    def run(self):
+        from picoscan_wb.objects import measurements
+
+        features = selected_fitted_features()
+        doc = features[0].Document
+        result = measurements.create(doc, features)
+        result.CsvFile = os.path.join(output_folder(doc, "measurements"), result.Name + ".csv")
+        doc.recompute()
+        FreeCAD.Console.PrintMessage("%s: %d rows, written to %s\n" % (result.Label, len(result.Table), result.CsvFile))
+        return result
+
+
+class PartFrameCommand(Command):
+    icon = "picoscan_datum"
+    menu = "Part frame (Z up)"
+    tooltip = ("Place the selected ScanViews and Stitches in their part frame: Z up on the turntable's axis, else on "
+               "the base plane they stand on (replaces their Placement)")
+
+    def IsActive(self):
+        return bool(selected_clouds())
+
+    def run(self):
+        from picoscan_wb.operations import datum
+
+        for obj in selected_clouds():
+            frame = datum.place_in_part_frame(obj)
+            FreeCAD.Console.PrintMessage("%s: part frame from its %s\n" % (obj.Label, frame.basis))
+        FreeCAD.ActiveDocument.recompute()
 
 
 class ShowRigCommand(Command):

@@ -5,10 +5,10 @@ import FreeCADGui
 
 import picoscan
 from picoscan_wb import icon_path
-from picoscan_wb.objects import has_mesh, is_scan_view
+from picoscan_wb.objects import has_mesh, input_errors, is_scan_view, restore_tracebacks
 
 # Errors that come from the user's input or files; anything else is a bug and propagates.
-INPUT_ERRORS = (picoscan.Error, OSError, ValueError)
+INPUT_ERRORS = input_errors()
 
 
 def show_message(title, text, warning=False):
@@ -28,6 +28,7 @@ def run_guarded(title, action):
     try:
         result = action()
     except INPUT_ERRORS as error:
+        restore_tracebacks()
         if doc:
             doc.abortTransaction()
             for name in [o.Name for o in doc.Objects if o.Name not in before]:

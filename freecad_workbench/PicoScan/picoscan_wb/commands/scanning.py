@@ -77,7 +77,8 @@ class ImportCapturesCommand(Command):
         if answer is None:
             return None
         active_document()
-        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1], second_capture_folder=answer[2])
+        view = scan_view.create(FreeCAD.ActiveDocument, answer[0], answer[1], second_capture_folder=answer[2],
+                                part_frame=True)
         FreeCADGui.SendMsgToActiveView("ViewFit")
         return view
 

@@ -1,5 +1,64 @@
 """Parametric document objects (FeaturePython). Their results that FreeCAD cannot store (the organised
 view of a scan) are kept in memory and recomputed on demand after a document is reopened."""
+import functools
+import sys
+
+
+def input_errors():
+    """Errors that come from the user's input or files; anything else is a bug and keeps its traceback."""
+    import picoscan
+
+    return (picoscan.Error, OSError, ValueError)
+
+
+class _BriefErrors:
+    """FreeCAD prints a Python traceback for any exception of an object's execute. For bad input the
+    user needs the one-line reason: sys.tracebacklimit is 0 from such an error until the recompute
+    that met it has ended (FreeCAD formats the error after execute returns)."""
+
+    saved = None
+    active = False
+    observer_added = False
+
+    def slotRecomputedDocument(self, doc):
+        restore_tracebacks()
+
+
+_brief = _BriefErrors()
+
+
+def _shorten_tracebacks():
+    import FreeCAD
+
+    if not _brief.observer_added:
+        FreeCAD.addDocumentObserver(_brief)
+        _brief.observer_added = True
+    if not _brief.active:
+        _brief.saved, _brief.active = getattr(sys, "tracebacklimit", None), True
+    sys.tracebacklimit = 0
+
+
+def restore_tracebacks():
+    if _brief.active:
+        if _brief.saved is None:
+            if hasattr(sys, "tracebacklimit"):
+                del sys.tracebacklimit
+        else:
+            sys.tracebacklimit = _brief.saved
+        _brief.active = False
+
+
+def brief_input_errors(execute):
+    """Decorates a proxy's execute: bad input is reported in one line, without a traceback."""
+    @functools.wraps(execute)
+    def wrapper(self, obj):
+        restore_tracebacks()  # a new computation: real bugs keep their traceback
+        try:
+            return execute(self, obj)
+        except input_errors():
+            _shorten_tracebacks()
+            raise
+    return wrapper
 
 
 class DocumentObjectProxy:
@@ -62,6 +121,7 @@ def add_or_remove(doc, type_name, name, setup):
     try:
         setup(obj)
         obj.recompute()
+        restore_tracebacks()
         if not obj.isValid():
             raise picoscan.Error(obj.getStatusString())
     except Exception:

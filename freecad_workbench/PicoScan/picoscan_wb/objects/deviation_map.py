@@ -8,7 +8,7 @@ import FreeCAD
 import Points
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors
 from picoscan_wb.operations import deviation
 from picoscan_wb.progress import run_in_background
 
@@ -40,6 +40,7 @@ class DeviationMap(DocumentObjectProxy):
         obj.Tolerance = 0.05
         obj.Deflection = 0.005
 
+    @brief_input_errors
     def execute(self, obj):
         points = deviation.scan_points(obj.Scan)
         reference = deviation.reference_mesh(obj.Reference, obj.Deflection.Value)

@@ -8,7 +8,7 @@ import FreeCAD
 import Mesh
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, cloud_of, is_scan_view, is_stitch, millimetres
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors, cloud_of, is_scan_view, is_stitch, millimetres
 from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanMesh"
@@ -53,11 +53,14 @@ class ScanMesh(DocumentObjectProxy):
         obj.MaxHoleDiameter = defaults.max_hole_diameter_mm
         obj.TargetFaces = defaults.target_faces
 
+    @brief_input_errors
     def execute(self, obj):
         if obj.Method == "Grid":
-            obj.Mesh, obj.Check = self.grid(obj)
+            mesh, obj.Check = self.grid(obj)
         else:
-            obj.Mesh, obj.Check = self.surface(obj)
+            mesh, obj.Check = self.surface(obj)
+        mesh.Placement = obj.Source.Placement  # the mesh goes where its scan was placed (part frame, best fit)
+        obj.Mesh = mesh
 
     def grid(self, obj):
         if not is_scan_view(obj.Source):

@@ -1,9 +1,12 @@
 """ScanView: capture set + calibration + parameters -> Points (an organised scan of one camera view)."""
+import os
+import tempfile
+
 import FreeCAD
 import Points
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy
+from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors
 from picoscan_wb.operations.reconstruct import reconstruct, stereo_summary
 from picoscan_wb.progress import run_in_background
 
@@ -28,11 +31,53 @@ def _add_stereo_properties(obj):
                         "What the two cameras matched (stereo calibrations only)", 1)
 
 
-def points_of(cloud):
-    """FreeCAD Points from a picoscan.PointCloud (or an N x 3 array)."""
+def _decoding(obj):
+    """The parameters a stored view was decoded with (the paths may change: a moved folder)."""
+    return repr((obj.MinContrast, obj.MinModulation, obj.BinaryOnly, obj.Clean, float(obj.MaxGrazingAngle)))
+
+
+def _add_storage(obj):
+    # The decoded view (pixel grid, camera, points, normals) goes into the .FCStd, so the scan still
+    # meshes, fits and stitches when the capture folder is gone (docs/formats.md, view PLY).
+    obj.addProperty("App::PropertyFileIncluded", "StoredView", "Result",
+                    "The decoded view kept in the document (a view PLY): used when the capture folder is gone", 1)
+    obj.addProperty("App::PropertyString", "StoredDecoding", "Result", "Decoding parameters of the stored view", 1)
+
+
+def _store(obj, view):
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, obj.Name + "_view.ply")
+        picoscan.write_view_ply(view, path)
+        obj.StoredView = path  # FreeCAD copies the file into the document
+    obj.StoredDecoding = _decoding(obj)
+
+
+def _stored_view(obj):
+    """(view, calibration or None, None, None) from the document when the capture folders or the
+    calibration are gone; None when they are there (reconstruct from them) or nothing usable is stored."""
+    folders = [obj.CaptureFolder] + ([obj.SecondCaptureFolder] if obj.SecondCaptureFolder else [])
+    if all(os.path.isdir(folder or "") for folder in folders) and os.path.isfile(obj.CalibrationFile or ""):
+        return None
+    stored = getattr(obj, "StoredView", "")
+    if not stored or not os.path.isfile(stored):
+        return None
+    if obj.StoredDecoding != _decoding(obj):
+        raise picoscan.Error("%s: capture folder %s is gone, and the view kept in the document was decoded with other "
+                             "parameters; restore them or the captures" % (obj.Label, obj.CaptureFolder))
+    FreeCAD.Console.PrintLog("%s: capture folder %s is gone; using the view kept in the document\n" % (
+        obj.Label, obj.CaptureFolder))
+    calibration = picoscan.read_calibration(obj.CalibrationFile) if os.path.isfile(obj.CalibrationFile or "") else None
+    return picoscan.read_view_ply(stored), calibration, None, None
+
+
+def points_of(cloud, placement=None):
+    """FreeCAD Points from a picoscan.PointCloud (or an N x 3 array), moved by `placement`: the
+    object's own, since assigning Points resets an object's Placement to the points'."""
     coordinates = cloud.points if hasattr(cloud, "points") else cloud
     result = Points.Points()
     result.addPoints([tuple(point) for point in coordinates.tolist()])
+    if placement is not None:
+        result.Placement = placement
     return result
 
 
@@ -56,36 +101,53 @@ class ScanView(DocumentObjectProxy):
         obj.addProperty("App::PropertyInteger", "PointCount", group, "Points measured", 1)
         obj.addProperty("App::PropertyString", "CleanReport", group, "What cleaning removed", 1)
         _add_stereo_properties(obj)
+        _add_storage(obj)
         obj.MinContrast = 15.0
         obj.MinModulation = 4.0
         obj.MaxGrazingAngle = 80.0
 
+    def onDocumentRestored(self, obj):
+        super().onDocumentRestored(obj)
+        _add_stereo_properties(obj)
+        if not hasattr(obj, "StoredView"):  # a document saved before views were kept in it
+            _add_storage(obj)
+
+    @brief_input_errors
     def execute(self, obj):
-        # The organised view lives on the proxy, so it goes when the object goes. Not saved: the
-        # document stores the Points; the view is recomputed when first needed after reopening.
+        # The organised view lives on the proxy, so it goes when the object goes. After reopening
+        # it is recomputed when first needed: from the captures, or from StoredView when they are gone.
         fresh, self.fresh = getattr(self, "fresh", None), None
+        cached = getattr(self, "cached", None)
+        stored = None
         if fresh is not None and fresh[0] == _parameters(obj):
             view, calibration, report, statistics = fresh[1:]
+        elif cached is not None and cached[0] == _parameters(obj):
+            # Only the Placement changed (a best fit, a datum alignment): the points stay as decoded.
+            obj.Points = points_of(picoscan.to_point_cloud(cached[1]), obj.Placement)
+            return
         else:
-            parameters = _parameters(obj)
-            view, calibration, report, statistics = run_in_background(
-                "Reconstructing " + obj.Label, lambda progress: reconstruct(*parameters, progress=progress))
+            stored = _stored_view(obj) if hasattr(obj, "StoredView") else None
+            if stored is not None:
+                view, calibration, report, statistics = stored
+            else:
+                parameters = _parameters(obj)
+                view, calibration, report, statistics = run_in_background(
+                    "Reconstructing " + obj.Label, lambda progress: reconstruct(*parameters, progress=progress))
         self.cached = (_parameters(obj), view, calibration)
+        if stored is None and hasattr(obj, "StoredView"):
+            _store(obj, view)
         cloud = picoscan.to_point_cloud(view)
-        obj.Points = points_of(cloud)
+        obj.Points = points_of(cloud, obj.Placement)
         obj.PointCount = len(cloud)
+        if stored is not None:
+            return  # the clean and stereo reports of the stored view are in the document already
         obj.StereoReport = stereo_summary(statistics)
         obj.CleanReport = "" if report is None else (
             "removed %d: %d grazing, %d outliers, %d with few neighbours, %d in small clusters" % (
                 report.removed(), report.by_grazing, report.by_statistics, report.by_radius, report.by_cluster))
 
-    def onDocumentRestored(self, obj):
-        super().onDocumentRestored(obj)
-        _add_stereo_properties(obj)
-
     def scan_view(self, obj):
-        """(organised picoscan.ScanView, picoscan.Calibration or StereoCalibration), recomputed if not in
-        memory or stale."""
+        """(organised picoscan.ScanView, picoscan.Calibration), recomputed if not in memory or stale."""
         cached = getattr(self, "cached", None)
         if cached is None or cached[0] != _parameters(obj):
             self.execute(obj)
@@ -94,9 +156,11 @@ class ScanView(DocumentObjectProxy):
 
 
 def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, binary_only=False, manifest_file="",
-           second_capture_folder=""):
+           second_capture_folder="", part_frame=False):
     """Reconstructs first and adds the object only when that worked, so bad input leaves `doc` unchanged.
-    With a stereo calibration, second_capture_folder is the second camera's capture set."""
+    With a stereo calibration, second_capture_folder is the second camera's capture set.
+    With part_frame, the scan is placed Z up on its base plane (the commands do this; it stays in the
+    camera's frame, with a warning, when it has no plane to stand on)."""
     result = run_in_background("Reconstructing", lambda progress: reconstruct(
         capture_folder, calibration_file, manifest_file, binary_only=binary_only, clean=clean,
         second_capture_folder=second_capture_folder, progress=progress))
@@ -113,4 +177,11 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
         from picoscan_wb.viewproviders.view_provider import ViewProvider
         ViewProvider(obj.ViewObject, "picoscan_scan")
     obj.recompute()
+    if part_frame:
+        from picoscan_wb.operations import datum
+
+        try:
+            datum.place_in_part_frame(obj)
+        except picoscan.Error as error:
+            FreeCAD.Console.PrintWarning("%s: left in the camera's frame: %s\n" % (obj.Label, error))
     return obj

@@ -6,7 +6,7 @@ import numpy
 import FreeCAD
 
 import picoscan
-from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, is_scan_view, millimetres
+from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors, is_scan_view, millimetres
 from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
 from picoscan_wb.progress import run_in_background
 
@@ -38,7 +38,13 @@ class Stitch(DocumentObjectProxy):
         obj.IcpMaxDistance = options.icp_max_distance_mm
         obj.MinOverlap = options.min_overlap
 
+    @brief_input_errors
     def execute(self, obj):
+        cached = getattr(self, "cached", None)
+        if cached is not None and cached[0] == _parameters(obj):
+            # Only the Placement changed (a datum alignment): the registration stands.
+            obj.Points = points_of(cached[1], obj.Placement)
+            return
         sources = list(obj.Views)
         if len(sources) < 2 or not all(is_scan_view(v) for v in sources):
             raise picoscan.Error("%s: Views must hold two or more ScanViews" % obj.Label)
@@ -59,11 +65,12 @@ class Stitch(DocumentObjectProxy):
         if alignment.aligned_count() < 2:
             raise picoscan.Error("%s: fewer than two views could be registered (%s)" % (obj.Label, "; ".join(report)))
         cloud = stitched.merged
+        self.turntable = stitched.axis  # the axis the views turned about, if they did: the part frame's Z
         self.cached = (_parameters(obj), cloud)  # on the proxy: goes with the object; not saved (see scan_view)
         obj.ViewPoses = [_placement(result.pose) for result in alignment.views]
         obj.Report = report
         obj.AlignedCount = alignment.aligned_count()
-        obj.Points = points_of(cloud)
+        obj.Points = points_of(cloud, obj.Placement)
         obj.PointCount = len(cloud)
 
     def merged_cloud(self, obj):
@@ -75,7 +82,9 @@ class Stitch(DocumentObjectProxy):
         return cached[1]
 
 
-def create(doc, views, name="Stitch"):
+def create(doc, views, name="Stitch", part_frame=True):
+    """Stitches the views; the result lands in its part frame (Z up on the turntable's axis or
+    its base plane) unless part_frame is False or none is found (then view 0's camera frame)."""
     if len(views) < 2 or not all(is_scan_view(v) for v in views):
         raise picoscan.Error("Stitch views: select two or more ScanViews")
 
@@ -87,6 +96,13 @@ def create(doc, views, name="Stitch"):
             ViewProvider(obj.ViewObject, "picoscan_stitch")
 
     obj = add_or_remove(doc, "Points::FeaturePython", name, setup)
+    if part_frame:
+        from picoscan_wb.operations import datum
+
+        try:
+            datum.place_in_part_frame(obj)
+        except picoscan.Error as error:  # the camera frame of the first view stays; say why
+            FreeCAD.Console.PrintWarning("%s: left in the first camera's frame: %s\n" % (obj.Label, error))
     if FreeCAD.GuiUp:
         for view in views:
             view.ViewObject.Visibility = False

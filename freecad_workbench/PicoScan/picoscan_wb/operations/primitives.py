@@ -86,9 +86,10 @@ def detection_options(planes=True, cylinders=True, spheres=True, cones=True, eps
     return options
 
 
-def fit_primitives(doc, cloud, options=None, progress=None, label="Fitted primitives"):
+def fit_primitives(doc, cloud, options=None, progress=None, label="Fitted primitives", placement=None):
     """Detects shapes in `cloud` (picoscan.PointCloud with normals) and adds one Part primitive per
-    shape, in a group. Returns (group, [(part object, picoscan.DetectedShape)])."""
+    shape, in a group; `placement` (the scan object's) moves them from the cloud's frame into the
+    document's. Returns (group, [(part object, picoscan.DetectedShape)])."""
     shapes = picoscan.detect_shapes(cloud, options or detection_options(), progress)
     if not shapes:
         raise picoscan.Error("%s: no plane, cylinder, sphere or cone with enough points was found" % label)
@@ -105,6 +106,8 @@ def fit_primitives(doc, cloud, options=None, progress=None, label="Fitted primit
             obj = _add_sphere(doc, shape)
         else:
             obj = _add_cone(doc, shape, points)
+        if placement is not None:
+            obj.Placement = placement.multiply(obj.Placement)
         _add_fit_properties(obj, shape)
         group.addObject(obj)
         created.append((obj, shape))

@@ -211,15 +211,19 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     return sketch
 
 
-def profile_points(view, axis, position_mm, half_width_mm):
-    """Points of an organised view within half_width_mm of the plane `axis` = position_mm."""
+def profile_points(view, axis, position_mm, half_width_mm, placement=None):
+    """Points of an organised view within half_width_mm of the plane `axis` = position_mm, in the
+    document's coordinates when the scan's `placement` is given."""
     index = "XYZ".index(axis)
     points = view.points.reshape(-1, 3)
+    if placement is not None and not placement.isIdentity():
+        matrix = numpy.array(placement.toMatrix().A).reshape(4, 4)
+        points = points @ matrix[:3, :3].T + matrix[:3, 3]
     near = numpy.abs(points[:, index] - position_mm) < half_width_mm
     return points[near & numpy.isfinite(points).all(axis=1)]
 
 
-def plot_profiles(profiles, axis, position_mm, path):
+def plot_profiles(profiles, axis, position_mm, path, camera_frame=True):
     """Saves a plot of depth (z) along the section for each (label, points) in `profiles` as PNG."""
     import matplotlib
     matplotlib.use("Agg")
@@ -231,8 +235,9 @@ def plot_profiles(profiles, axis, position_mm, path):
         order = numpy.argsort(points[:, along])
         plot.plot(points[order, along], points[order, 2], ".", markersize=1.5, label="%s (%d points)" % (label, len(points)))
     plot.set_xlabel("%s (mm)" % "XYZ"[along])
-    plot.set_ylabel("depth z (mm)")
-    plot.invert_yaxis()
+    plot.set_ylabel("depth z (mm)" if camera_frame else "z (mm)")
+    if camera_frame:  # depth grows away from the camera: the nearest surface on top
+        plot.invert_yaxis()
     plot.set_title("Profile at %s = %.2f mm" % (axis, position_mm))
     plot.legend(markerscale=6)
     plot.grid(True, alpha=0.3)
@@ -255,6 +260,7 @@ def hybrid_vs_binary_plot(scan_view_object, axis, position_mm, path):
     depths = hybrid.points[..., 2]
     # Half a pixel footprint at the typical depth: one row (or column) of pixels per profile.
     half_width = 0.5 * float(numpy.nanmedian(depths)) / hybrid.focal_px()
-    profiles = [("hybrid (Gray + phase)", profile_points(hybrid, axis, position_mm, half_width)),
-                ("binary (Gray only)", profile_points(binary, axis, position_mm, half_width))]
-    return plot_profiles(profiles, axis, position_mm, path)
+    placement = scan_view_object.Placement
+    profiles = [("hybrid (Gray + phase)", profile_points(hybrid, axis, position_mm, half_width, placement)),
+                ("binary (Gray only)", profile_points(binary, axis, position_mm, half_width, placement))]
+    return plot_profiles(profiles, axis, position_mm, path, camera_frame=placement.isIdentity())

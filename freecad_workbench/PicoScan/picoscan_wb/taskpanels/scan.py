@@ -110,7 +110,8 @@ class ScanTaskPanel:
         doc = FreeCAD.ActiveDocument or FreeCAD.newDocument("Scan")
         doc.openTransaction("Scan")  # one undo step
         try:
-            self.created = scan_view.create(doc, folder, calibration, second_capture_folder=second_folder)
+            self.created = scan_view.create(doc, folder, calibration, second_capture_folder=second_folder,
+                                            part_frame=True)
         except Exception:
             doc.abortTransaction()
             raise

@@ -13,8 +13,8 @@ import Mesh
 import Points
 
 import picoscan
-from picoscan_wb.objects import cloud_of, deviation_map, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import alignment, encoding, primitives, reconstruct, rig, section, simulate, solid
+from picoscan_wb.objects import cloud_of, deviation_map, measurements, scan_mesh, scan_view, stitch
+from picoscan_wb.operations import alignment, datum, encoding, primitives, reconstruct, rig, section, simulate, solid
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -88,11 +88,26 @@ class PicoScanAppTest(unittest.TestCase):
             solid.make_solid(self.doc, open_mesh)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
         closed = self.doc.addObject("Mesh::Feature", "Closed")
-        closed.Mesh = Mesh.createSphere(10.0, 40)
+        closed.Mesh = Mesh.createSphere(10.0, 60)  # 7080 facets
         feature = solid.make_solid(self.doc, closed)
         self.assertTrue(feature.Shape.isValid())
         self.assertEqual(feature.Shape.ShapeType, "Solid")
-        self.assertAlmostEqual(feature.Shape.Volume, closed.Mesh.Volume, delta=1e-3 * closed.Mesh.Volume)
+        self.assertEqual(len(feature.Shape.Faces), closed.Mesh.CountFacets)
+        self.assertAlmostEqual(feature.Shape.Volume, closed.Mesh.Volume, delta=1e-4 * closed.Mesh.Volume)
+        # Facets turned inwards: the same solid, outward.
+        inverted = closed.Mesh.copy()
+        inverted.flipNormals()
+        shape = solid.solid_of_mesh(inverted, "inverted")
+        self.assertAlmostEqual(shape.Volume, closed.Mesh.Volume, delta=1e-4 * closed.Mesh.Volume)
+        # Two overlapping closed spheres in one mesh bound no single solid: refused, nothing added.
+        overlapping = Mesh.createSphere(10.0, 30)
+        other = Mesh.createSphere(10.0, 30)
+        other.translate(8, 0, 0)
+        overlapping.addMesh(other)
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "overlap: the mesh intersects itself"):
+            solid.solid_of_mesh(overlapping, "overlap")
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
 
     def test_fit_cylinder_to_shaft_and_plane_to_wall(self):
         view = self.scan()
@@ -244,6 +259,101 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertTrue(view.isValid() and mesh.isValid())
         self.assertEqual(view.PointCount, points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
+
+    def test_part_frame_on_the_base_plane_and_what_follows_it(self):
+        """The shaft's scan stands on the wall behind it: Z along the wall's normal towards the camera,
+        the wall at z = 0, the shaft's axis 60 mm above it; meshes and fitted primitives follow, and a
+        recompute keeps the placement."""
+        view = self.scan()
+        frame = datum.place_in_part_frame(view)
+        FreeCAD.Console.PrintMessage("part frame of the shaft scan: %s\n" % frame.basis)
+        self.assertIn("base plane", view.PartFrame)
+        z_axis = numpy.asarray(frame.frame.z_axis)
+        self.assertGreater(-z_axis[2], math.cos(math.radians(0.05)))  # the camera's -z: out of the wall
+        box = view.Points.BoundBox
+        self.assertAlmostEqual(box.ZMin, 0.0, delta=0.3)
+        self.assertAlmostEqual(box.ZMax, BACKGROUND_Z_MM - 400.0 + SHAFT_RADIUS_MM, delta=0.3)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        self.assertAlmostEqual(mesh.Mesh.BoundBox.ZMax, box.ZMax, delta=0.3)
+        group, created = primitives.fit_primitives(self.doc, cloud_of(view), placement=view.Placement)
+        shaft = [obj for obj, _ in created if obj.TypeId == "Part::Cylinder"][0]
+        axis = shaft.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertLess(abs(axis.z), math.sin(math.radians(0.1)))  # parallel to the wall
+        self.assertAlmostEqual(shaft.Placement.Base.z, BACKGROUND_Z_MM - 400.0, delta=0.05)
+        placement = view.Placement
+        view.touch()
+        self.doc.recompute()
+        self.assertTrue(view.isValid() and mesh.isValid(), view.getStatusString())
+        self.assertEqual(view.Placement, placement)
+        self.assertAlmostEqual(view.Points.BoundBox.ZMax, box.ZMax, delta=1e-3)
+        self.assertAlmostEqual(mesh.Mesh.BoundBox.ZMax, box.ZMax, delta=0.3)
+
+    def test_bad_input_during_recompute_prints_one_line_not_a_traceback(self):
+        """What the Report view shows: a separate freecadcmd runs brief_errors_script.py."""
+        import subprocess
+
+        workbench = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "brief_errors_script.py")
+        environment = dict(os.environ, PICOSCAN_WORKBENCH=workbench, PICOSCAN_CAPTURES=self.captures,
+                           PICOSCAN_CALIBRATION=self.calibration)
+        run = subprocess.run(["freecadcmd", script], env=environment, capture_output=True, text=True, timeout=300)
+        output = run.stdout + run.stderr
+        self.assertIn("DONE", output, output[-3000:])
+        self.assertIn("MESH VALID False: ScanMesh: PixelStep must be at least 1", output)
+        self.assertIn("CREATE REFUSED: ScanMesh001: PixelStep must be at least 1", output)
+        self.assertIn("VIEW VALID False", output)
+        self.assertIn("<class 'picoscan.Error'>: ScanMesh: PixelStep must be at least 1", output)
+        self.assertNotIn("Traceback", output, output[-3000:])
+        self.assertNotIn('File "', output)
+        # Only bad input is shortened: a real bug's traceback is whole afterwards.
+        lines = int(output.split("BUG TRACEBACK LINES ")[1].split()[0])
+        self.assertGreaterEqual(lines, 3)
+
+    def test_document_recomputes_without_its_capture_folder(self):
+        """The decoded view is kept in the .FCStd: with the captures deleted, the reopened document
+        still meshes, fits and measures, with the same results."""
+        captures = os.path.join(self.folder, "doomed_captures")
+        shutil.copytree(self.captures, captures)
+        view = scan_view.create(self.doc, captures, self.calibration)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        model = self.doc.addObject("Part::Cylinder", "ShaftModel")
+        model.Radius, model.Height = SHAFT_RADIUS_MM, 80
+        model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400),
+                                            FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
+        self.doc.recompute()
+        deviation = deviation_map.create(self.doc, view, model, tolerance_mm=0.05, max_distance_mm=1.0)
+        options = primitives.detection_options(planes=False, spheres=False, cones=False)
+        shaft = picoscan.detect_shapes(cloud_of(view), options)[0]
+        before = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
+        names = (view.Name, mesh.Name, deviation.Name)
+        path = os.path.join(self.folder, "self_contained.FCStd")
+        self.doc.saveAs(path)
+        FreeCAD.closeDocument(self.doc.Name)
+        shutil.rmtree(captures)
+        self.doc = FreeCAD.openDocument(path)
+        view, mesh, deviation = (self.doc.getObject(name) for name in names)
+        view.touch()
+        self.doc.recompute()
+        self.assertTrue(all(o.isValid() for o in (view, mesh, deviation)),
+                        [o.getStatusString() for o in (view, mesh, deviation)])
+        after = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
+        FreeCAD.Console.PrintMessage("without captures: points, facets, mean |d|, measured: %s -> %s\n" % (before, after))
+        self.assertEqual(after[:2], before[:2])
+        self.assertAlmostEqual(after[2], before[2], delta=1e-6)
+        self.assertEqual(after[3], before[3])
+        again = picoscan.detect_shapes(cloud_of(view), options)[0]
+        self.assertAlmostEqual(again.radius_mm, shaft.radius_mm, delta=1e-4)
+        mesh.PixelStep = 8  # still parametric: a coarser grid from the stored view
+        self.doc.recompute()
+        self.assertTrue(mesh.isValid(), mesh.getStatusString())
+        self.assertLess(mesh.Mesh.CountFacets, before[1] / 3)
+        # Decoding differently needs the captures: refused with the reason, the points stay.
+        view.MinContrast = 100
+        self.doc.recompute()
+        self.assertFalse(view.isValid())
+        self.assertRegex(view.getStatusString(), "doomed_captures is gone, and the view kept in the document was decoded "
+                                                 "with other parameters")
+        self.assertEqual(view.Points.CountPoints, before[0])
 
 
 class PicoScanStereoTest(unittest.TestCase):
@@ -406,6 +516,19 @@ class PicoScanStitchTest(unittest.TestCase):
         views = self.scan_views()
         merged = stitch.create(self.doc, views)
         self.assertTrue(merged.isValid(), merged.getStatusString())
+        # It lands in its part frame: Z up the turntable's axis, the part's foot at z = 0.
+        plan = picoscan.TurntablePlan()
+        plan.top_view = False
+        part_to_camera = numpy.asarray(picoscan.turntable_part_poses(plan)[0])
+        to_document = numpy.array(merged.Placement.toMatrix().A).reshape(4, 4) @ part_to_camera
+        tilt = math.degrees(math.acos(min(1.0, to_document[2, 2])))
+        origin = to_document[:3, 3]  # where the part's own origin (its foot, on the axis) landed
+        FreeCAD.Console.PrintMessage("stitch part frame (%s): Z off %.4f deg, part origin at (%.3f, %.3f, %.3f) mm\n" % (
+            merged.PartFrame, tilt, origin[0], origin[1], origin[2]))
+        self.assertIn("turntable axis", merged.PartFrame)
+        self.assertLess(tilt, 0.1)
+        self.assertLess(math.hypot(origin[0], origin[1]), 0.2)
+        self.assertLess(abs(origin[2]), 0.5)
         self.assertEqual(merged.AlignedCount, 3, merged.Report)
         self.assertEqual(merged.PointCount, sum(v.PointCount for v in views))
         centre = numpy.array([0.0, 0.0, 400.0])  # the part's middle, where pose errors matter
@@ -427,10 +550,12 @@ class PicoScanStitchTest(unittest.TestCase):
         self.assertIn("watertight", mesh.Check)
         self.assertNotIn("NOT watertight", mesh.Check)
         self.assertTrue(mesh.Mesh.isSolid())
-        part = solid.make_solid(self.doc, mesh)
-        self.assertTrue(part.Shape.isValid())
-        self.assertAlmostEqual(part.Shape.Volume, mesh.Mesh.Volume, delta=0.01 * mesh.Mesh.Volume)
-        FreeCAD.Console.PrintMessage("solid volume %.0f mm3 from %d facets\n" % (part.Shape.Volume, mesh.Mesh.CountFacets))
+        # Closed, but folded into itself where the simplified surface crosses over (the core's check
+        # says so too): it bounds no proper solid, and Make solid refuses it rather than make a bad one.
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "the mesh intersects itself"):
+            solid.make_solid(self.doc, mesh)
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
         stl = os.path.join(self.folder, "stitched.stl")
         Mesh.export([mesh], stl)
         self.assertEqual(Mesh.Mesh(stl).CountFacets, mesh.Mesh.CountFacets)
@@ -438,15 +563,28 @@ class PicoScanStitchTest(unittest.TestCase):
             scan_mesh.create(self.doc, merged, method="Grid")
         path = os.path.join(self.folder, "stitched.FCStd")
         count, name = merged.PointCount, merged.Name
+        poses = [p.toMatrix() for p in merged.ViewPoses]
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
-        self.doc = FreeCAD.openDocument(path)
-        merged = self.doc.getObject(name)
-        self.assertEqual(merged.Points.CountPoints, count)
-        merged.touch()
-        self.doc.recompute()
-        self.assertTrue(merged.isValid(), merged.getStatusString())
-        self.assertEqual(merged.PointCount, count)
+        # The capture folders are gone when the document is reopened: it stitches from the views kept in it.
+        for folder, _ in self.scans:
+            os.rename(folder, folder + ".gone")
+        try:
+            self.doc = FreeCAD.openDocument(path)
+            merged = self.doc.getObject(name)
+            self.assertEqual(merged.Points.CountPoints, count)
+            for view in merged.Views:
+                view.touch()
+            merged.touch()
+            self.doc.recompute()
+            self.assertTrue(merged.isValid(), merged.getStatusString())
+            self.assertEqual(merged.PointCount, count)
+            for placement, pose in zip(merged.ViewPoses, poses):
+                difference = numpy.abs(numpy.array(placement.toMatrix().A) - numpy.array(pose.A))
+                self.assertLess(difference.max(), 1e-6)
+        finally:
+            for folder, _ in self.scans:
+                os.rename(folder + ".gone", folder)
 
     def test_stitch_needs_two_views(self):
         views = self.scan_views()
@@ -592,3 +730,205 @@ class PicoScanSectionFitTest(unittest.TestCase):
         self.assertAlmostEqual(result.MaxDeviation.Value, 1.0, delta=0.1)
         self.assertLess(result.MeanDeviation.Value, -0.01)  # the boss top, about 2 % of the points, 1 mm inside
         self.assertLessEqual(result.WithinTolerance, within - 2)
+
+
+def sampled_demo_part(count, sigma_mm, seed=3):
+    """Points spread evenly over the demo part's true surface with their outward normals and
+    Gaussian noise along them: what a scan of every side would give, in the part's frame."""
+    part = picoscan.mechanical_part()
+    triangles = numpy.array(part.vertices, dtype=numpy.float64)[numpy.array(part.faces)]
+    normals = numpy.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    areas = numpy.linalg.norm(normals, axis=1)
+    keep = areas > 1e-9
+    triangles, normals, areas = triangles[keep], normals[keep] / areas[keep, None], areas[keep]
+    random = numpy.random.default_rng(seed)
+    chosen = random.choice(len(areas), count, p=areas / areas.sum())
+    a, b = random.random(count), random.random(count)
+    flip = a + b > 1
+    a[flip], b[flip] = 1 - a[flip], 1 - b[flip]
+    t = triangles[chosen]
+    points = t[:, 0] + a[:, None] * (t[:, 1] - t[:, 0]) + b[:, None] * (t[:, 2] - t[:, 0])
+    points += normals[chosen] * random.normal(0.0, sigma_mm, count)[:, None]
+    return points, normals[chosen]
+
+
+class PicoScanDatumTest(unittest.TestCase):
+    """3-2-1 datum alignment of a scan of the demo part, seen turned 30 degrees and 400 mm away as a
+    camera would see it: its bottom, back and left faces fitted as planes put it into the part's own
+    frame (corner (-25, -18, 0) at the origin), and the model onto the scan."""
+
+    # Where the scanner saw the part: its frame -> scan coordinates.
+    POSE = FreeCAD.Placement(FreeCAD.Vector(20.0, -35.0, 400.0), FreeCAD.Rotation(FreeCAD.Vector(1, -2, 0.5), 30.0))
+    CORNER = FreeCAD.Vector(-25, -18, 0)
+
+    @classmethod
+    def setUpClass(cls):
+        cls.doc = FreeCAD.newDocument("PicoScanDatumTest")
+        points, normals = sampled_demo_part(60000, 0.02)
+        matrix = numpy.array(cls.POSE.toMatrix().A).reshape(4, 4)
+        cloud = picoscan.PointCloud()
+        cloud.points = (points @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
+        cloud.normals = (normals @ matrix[:3, :3].T).astype(numpy.float32)
+        cls.cloud = cloud
+        cls.group, created = primitives.fit_primitives(cls.doc, cloud, primitives.detection_options(epsilon_mm=0.1, min_points=300))
+        # The fitted planes whose outward normal is the part's -z, -y, -x, +z (the top, for a parallel pair).
+        cls.planes = {}
+        for obj, shape in created:
+            if obj.TypeId != "Part::Plane":
+                continue
+            normal = cls.POSE.Rotation.inverted().multVec(obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)))
+            for name, axis in (("bottom", (0, 0, -1)), ("back", (0, -1, 0)), ("left", (-1, 0, 0)), ("top", (0, 0, 1))):
+                if normal.dot(FreeCAD.Vector(*axis)) > 0.99 and name not in cls.planes:
+                    cls.planes[name] = obj
+        cls.cylinders = [obj for obj, _ in created if obj.TypeId == "Part::Cylinder"]
+
+    @classmethod
+    def tearDownClass(cls):
+        FreeCAD.closeDocument(cls.doc.Name)
+
+    def scan_object(self):
+        scan = self.doc.addObject("Points::Feature", "DemoScan")
+        scan.Points = Points.Points([tuple(p) for p in self.cloud.points.tolist()])
+        return scan
+
+    def restore(self, objects, placements):
+        for obj, placement in zip(objects, placements):
+            obj.Placement = placement
+
+    def test_scan_into_the_part_frame(self):
+        self.assertEqual(sorted(self.planes), ["back", "bottom", "left", "top"], [o.Label for o in self.group.Group])
+        scan = self.scan_object()
+        carried = list(self.group.Group)
+        before = [o.Placement for o in carried]
+        features = [(self.planes["bottom"], ""), (self.planes["back"], ""), (self.planes["left"], "")]
+        frame, _, move = datum.align(scan, features, carried=carried)
+        FreeCAD.Console.PrintMessage("datum frame of the scan: %s\n" % datum.frame_report(frame))
+        # The move must be the true one: scan -> part frame -> shifted so the corner is the origin.
+        truth = FreeCAD.Placement(-self.CORNER, FreeCAD.Rotation()).multiply(self.POSE.inverse())
+        error = truth.inverse().multiply(move)
+        centre = move.multVec(self.POSE.multVec(FreeCAD.Vector(0, 0, 12))) - truth.multVec(self.POSE.multVec(FreeCAD.Vector(0, 0, 12)))
+        FreeCAD.Console.PrintMessage("datum alignment left %.5f deg, %.5f mm at the part's middle\n" % (
+            math.degrees(error.Rotation.Angle), centre.Length))
+        self.assertLess(math.degrees(error.Rotation.Angle), 0.02)
+        self.assertLess(centre.Length, 0.01)
+        self.assertAlmostEqual(frame.primary_secondary_deg, 90.0, delta=0.02)
+        box = scan.Points.BoundBox  # the part now spans [0, 50] x [0, 36] x [0, 32]
+        for low, high, size in ((box.XMin, box.XMax, 50), (box.YMin, box.YMax, 36), (box.ZMin, box.ZMax, 32)):
+            self.assertAlmostEqual(low, 0.0, delta=0.15)
+            self.assertAlmostEqual(high, size, delta=0.15)
+        # The fitted hole (10 mm, at (-11, 0) in the part's drawing) followed: vertical, at (14, 18).
+        holes = [c for c in self.cylinders if abs(c.Radius.Value - 5.0) < 0.05]
+        self.assertEqual(len(holes), 1, [c.Radius.Value for c in self.cylinders])
+        axis = holes[0].Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertGreater(abs(axis.z), math.cos(math.radians(0.05)))
+        self.assertAlmostEqual(holes[0].Placement.Base.x, 14.0, delta=0.02)
+        self.assertAlmostEqual(holes[0].Placement.Base.y, 18.0, delta=0.02)
+        self.restore(carried, before)
+        self.doc.removeObject(scan.Name)
+
+    def test_model_onto_the_scan_and_parallel_datums_refused(self):
+        scan = self.scan_object()
+        model = self.doc.addObject("Part::Box", "Model")
+        model.Length, model.Width, model.Height = 50, 36, 24
+        model.Placement.Base = self.CORNER
+        self.doc.recompute()
+        faces = {}
+        for index, face in enumerate(model.Shape.Faces):
+            normal = face.normalAt(0, 0)
+            for name, axis in (("bottom", (0, 0, -1)), ("back", (0, -1, 0)), ("left", (-1, 0, 0))):
+                if normal.dot(FreeCAD.Vector(*axis)) > 0.999:
+                    faces[name] = (model, "Face%d" % (index + 1))
+        scan_features = [(self.planes[n], "") for n in ("bottom", "back", "left")]
+        model_features = [faces[n] for n in ("bottom", "back", "left")]
+        datum.align(model, model_features, scan_features)
+        error = self.POSE.inverse().multiply(model.Placement)
+        FreeCAD.Console.PrintMessage("model onto scan: left %.5f deg, %.5f mm\n" % (
+            math.degrees(error.Rotation.Angle), (error.Base - self.CORNER).Length))
+        self.assertLess(math.degrees(error.Rotation.Angle), 0.02)
+        middle = self.POSE.inverse().multVec(model.Placement.multVec(FreeCAD.Vector(25, 18, 12)))  # the box's middle
+        self.assertLess((middle - FreeCAD.Vector(0, 0, 12)).Length, 0.01)
+        # The origin from a point: the model's corner vertex nearest the part's (-25, -18, 0).
+        corner = min(range(len(model.Shape.Vertexes)), key=lambda i: (model.Shape.Vertexes[i].Point -
+                                                                       model.Placement.multVec(FreeCAD.Vector())).Length)
+        by_point = datum.datum_frame(model_features[:2] + [(model, "Vertex%d" % (corner + 1))])
+        by_plane = datum.datum_frame(model_features)
+        self.assertLess(numpy.linalg.norm(numpy.asarray(by_point.origin) - numpy.asarray(by_plane.origin)), 1e-6)
+        # Parallel datums (bottom and top) fix no line: refused with the reason, nothing moves.
+        placements = (scan.Placement, model.Placement)
+        with self.assertRaisesRegex(picoscan.Error, r"secondary plane is 0\.\d+ degrees from parallel to the primary"):
+            datum.align(scan, [(self.planes["bottom"], ""), (self.planes["top"], ""), (self.planes["left"], "")])
+        with self.assertRaisesRegex(picoscan.Error, "is not planar"):
+            datum.align(scan, [(self.cylinders[0], "Face1"), (self.planes["back"], ""), (self.planes["left"], "")])
+        with self.assertRaisesRegex(picoscan.Error, "has 6 faces; pick one face"):
+            datum.align(scan, [(model, ""), (self.planes["back"], ""), (self.planes["left"], "")])
+        self.assertEqual((scan.Placement, model.Placement), placements)
+        self.doc.removeObject(scan.Name)
+        self.doc.removeObject(model.Name)
+
+    def test_measurements_between_fitted_features(self):
+        """Hole to boss, plane to plane and hole axis to base on the fitted demo part, against its
+        drawing; the table follows the features and is written as CSV."""
+        features = [o for o in self.group.Group if getattr(o, "FitKind", "") in ("Plane", "Cylinder")]
+
+        def in_part(obj):  # a feature's middle and direction in the part's drawing frame
+            inverse = self.POSE.inverse()
+            middle = obj.Shape.CenterOfMass if obj.TypeId == "Part::Plane" else obj.Placement.Base
+            return inverse.multVec(middle), inverse.Rotation.multVec(obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)))
+
+        def find(kind, test):
+            found = [o for o in features if o.FitKind == kind and test(*in_part(o))]
+            self.assertEqual(len(found), 1, [(o.Label, in_part(o)) for o in features if o.FitKind == kind])
+            return found[0]
+
+        hole = find("Cylinder", lambda m, d: abs(m.x + 11) < 0.5 and abs(m.y) < 0.5)
+        boss = find("Cylinder", lambda m, d: abs(m.x - 12) < 0.5 and abs(m.y + 2) < 0.5)
+        bottom = find("Plane", lambda m, d: abs(m.z) < 0.2 and abs(d.z) > 0.99)
+        block_top = find("Plane", lambda m, d: abs(m.z - 24) < 0.2 and abs(d.z) > 0.99)
+        left = find("Plane", lambda m, d: abs(m.x + 25) < 0.2 and abs(d.x) > 0.99)
+        right = find("Plane", lambda m, d: abs(m.x - 25) < 0.2 and abs(d.x) > 0.99)
+        back = find("Plane", lambda m, d: abs(m.y + 18) < 0.2 and abs(d.y) > 0.99)
+        csv_path = os.path.join(tempfile.gettempdir(), "picoscan_measurements_test.csv")
+        table = measurements.create(self.doc, features, csv_file=csv_path)
+        self.assertTrue(table.isValid(), table.getStatusString())
+        import csv as csv_module
+
+        with open(csv_path) as stream:
+            rows = list(csv_module.reader(stream))
+        os.remove(csv_path)
+        self.assertEqual(rows[0], ["Feature A", "Feature B", "Measure", "Value", "Unit", "Uncertainty"])
+        self.assertEqual(len(rows) - 1, len(table.Table))
+        values = {}
+        for a, b, what, value, unit, sigma in rows[1:]:
+            values[(a, b, what)] = values[(b, a, what)] = (float(value), float(sigma))
+        expectations = [
+            ((hole.Label, "", "diameter"), 10.0, 0.02),
+            ((boss.Label, "", "diameter"), 14.0, 0.02),
+            ((hole.Label, boss.Label, "axis distance"), math.hypot(23, 2), 0.02),
+            ((hole.Label, boss.Label, "axis angle"), 0.0, 0.1),
+            ((bottom.Label, block_top.Label, "distance"), 24.0, 0.02),
+            ((left.Label, right.Label, "distance"), 50.0, 0.02),
+            ((bottom.Label, left.Label, "angle"), 90.0, 0.02),
+            ((back.Label, left.Label, "angle"), 90.0, 0.02),
+            ((hole.Label, bottom.Label, "axis to plane angle"), 90.0, 0.1),
+        ]
+        for key, truth, tolerance in expectations:
+            self.assertIn(key, values, sorted(k for k in values if key[0] in k))
+            value, sigma = values[key]
+            FreeCAD.Console.PrintMessage("%s: %.4f (truth %.4f, error %+.4f, uncertainty %.4f)\n" % (
+                " / ".join(k for k in key if k), value, truth, value - truth, sigma))
+            self.assertAlmostEqual(value, truth, delta=tolerance)
+            self.assertGreater(sigma, 0.0)
+            self.assertLess(sigma, tolerance)
+        # Parametric: the boss moved 1 mm along x moves the hole-to-boss distance after recompute.
+        before = boss.Placement
+        boss.Placement = FreeCAD.Placement(self.POSE.Rotation.multVec(FreeCAD.Vector(1, 0, 0)), FreeCAD.Rotation()).multiply(boss.Placement)
+        self.doc.recompute()
+        moved = [row for row in table.Table if row.startswith("%s - %s: axis distance" % (hole.Label, boss.Label))]
+        self.assertEqual(len(moved), 1, table.Table)
+        self.assertAlmostEqual(float(moved[0].split("axis distance ")[1].split()[0]), math.hypot(24, 2), delta=0.02)
+        boss.Placement = before
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "needs two or more fitted features"):
+            measurements.create(self.doc, features[:1])
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
+        self.doc.removeObject(table.Name)

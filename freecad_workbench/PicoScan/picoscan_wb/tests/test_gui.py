@@ -20,7 +20,7 @@ from picoscan_wb.objects import scan_mesh, scan_view
 from picoscan_wb.operations import simulate
 
 ALWAYS_ACTIVE = {"PicoScan_Calibrate", "PicoScan_Scan", "PicoScan_ImportCaptures", "PicoScan_ShowRig"}
-FOR_SCAN_VIEWS = {"PicoScan_Clean", "PicoScan_Mesh", "PicoScan_FitPrimitives", "PicoScan_EncodingView"}
+FOR_SCAN_VIEWS = {"PicoScan_Clean", "PicoScan_Mesh", "PicoScan_FitPrimitives", "PicoScan_EncodingView", "PicoScan_PartFrame"}
 FOR_MESHES = {"PicoScan_MakeSolid", "PicoScan_CrossSection"}
 
 
@@ -344,6 +344,44 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(self.messages), 1)
         self.assertIn("JustPoints: the reference has no faces or triangles", self.messages[0][2])
         self.assertEqual(self.object_names(), before)
+
+    def test_j2_datum_alignment_command_moves_a_model_into_its_part_frame(self):
+        """Three faces of a turned box picked in the 3D view (bottom, back, left): the box's corner goes
+        to the origin with its edges along the axes, as one undo step; parallel faces give a message."""
+        model = self.doc.addObject("Part::Box", "TurnedBox")
+        model.Length, model.Width, model.Height = 50, 36, 24
+        turned = FreeCAD.Placement(FreeCAD.Vector(20, -35, 400), FreeCAD.Rotation(FreeCAD.Vector(1, -2, 0.5), 30))
+        model.Placement = turned
+        self.doc.recompute()
+
+        def face(outward):  # the box's face whose outward normal is `outward` in its own frame
+            for index, candidate in enumerate(model.Shape.Faces):
+                normal = turned.Rotation.inverted().multVec(candidate.normalAt(0, 0))
+                if normal.dot(FreeCAD.Vector(*outward)) > 0.999:
+                    return "Face%d" % (index + 1)
+
+        FreeCADGui.Selection.clearSelection()
+        for outward in ((0, 0, -1), (0, -1, 0), (-1, 0, 0)):
+            FreeCADGui.Selection.addSelection(model, face(outward))
+        self.assertTrue(COMMANDS["PicoScan_DatumAlign"].IsActive())
+        FreeCADGui.runCommand("PicoScan_DatumAlign")
+        process_events()
+        self.assertEqual(self.messages, [])
+        box = model.Shape.BoundBox
+        for value, expected in ((box.XMin, 0), (box.YMin, 0), (box.ZMin, 0), (box.XMax, 50), (box.YMax, 36), (box.ZMax, 24)):
+            self.assertAlmostEqual(value, expected, delta=1e-6)
+        self.doc.undo()
+        self.assertLess((model.Placement.Base - turned.Base).Length, 1e-9)  # one undo step
+        self.assertLess(abs(model.Placement.Rotation.Angle - turned.Rotation.Angle), 1e-9)
+        FreeCADGui.Selection.clearSelection()
+        for outward in ((0, 0, -1), (0, 0, 1), (-1, 0, 0)):
+            FreeCADGui.Selection.addSelection(model, face(outward))
+        FreeCADGui.runCommand("PicoScan_DatumAlign")
+        process_events()
+        self.assertEqual(len(self.messages), 1)
+        self.assertIn("degrees from parallel to the primary plane", self.messages[0][2])
+        self.assertNotIn("Traceback", self.messages[0][2])
+        self.assertLess((model.Placement.Base - turned.Base).Length, 1e-9)
 
     def screenshot(self, shown, name, report=None, orientation=FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215)):
         """The 3D view on `shown`, saved beside PICOSCAN_SCREENSHOT as `name` (and the report picture)."""
