@@ -292,7 +292,7 @@ class ShowRigCommand(Command):
             from PySide import QtGui
 
             calibration, _ = QtGui.QFileDialog.getOpenFileName(FreeCADGui.getMainWindow(), "Calibration of the rig",
-                                                               "", "Calibration (*.yml *.yaml *.xml)")
+                                                               "", "Calibration (*.yml *.yaml *.xml *.json)")
             if not calibration:
                 return None
         return rig.show_rig(FreeCAD.ActiveDocument, calibration)

@@ -54,7 +54,7 @@ def _ask_capture_set():
     else:
         calibration, _ = QtGui.QFileDialog.getOpenFileName(
             window, "Calibration of the rig (camera-projector, or stereo for two cameras)", folder,
-            "Calibration (*.yml *.yaml *.xml)")
+            "Calibration (*.yml *.yaml *.xml *.json)")
         if not calibration:
             return None
     second_folder = ""

@@ -59,8 +59,9 @@ class CalibrateTaskPanel:
         if not folders:
             raise picoscan.Error("Pose captures: add one capture folder per board pose")
         output = self.output.text().strip()
-        if not output.lower().endswith((".yml", ".yaml")):
-            raise picoscan.Error("%s: the calibration file must end in .yml or .yaml" % (output or "Output file"))
+        if not output.lower().endswith((".yml", ".yaml", ".xml", ".json")):
+            raise picoscan.Error("%s: the calibration file must end in .yml, .yaml, .xml or .json"
+                                 % (output or "Output file"))
         for folder in folders:
             if not os.path.isdir(folder):
                 raise picoscan.Error("%s: capture folder does not exist" % folder)
