@@ -7,6 +7,7 @@
 #include "picoscan/mesh.h"
 #include "picoscan/pipeline.h"
 #include "picoscan/preview.h"
+#include "support/test_support.h"
 #include "support/turntable_scan.h"
 
 #include <gtest/gtest.h>
@@ -70,38 +71,6 @@ cv::Vec3d plane_normal(const std::vector<cv::Vec3d>& points) {
 
 double angle_deg(const cv::Vec3d& a, const cv::Vec3d& b) {
     return std::acos(std::min(1.0, std::abs(a.dot(b)))) * 180 / CV_PI;
-}
-
-// Least-squares circle (algebraic fit, then Gauss-Newton on the distances).
-double circle_diameter(const std::vector<cv::Vec2d>& points) {
-    cv::Mat a(static_cast<int>(points.size()), 3, CV_64F), b(a.rows, 1, CV_64F);
-    for (int i = 0; i < a.rows; ++i) {
-        const cv::Vec2d& p = points[static_cast<size_t>(i)];
-        a.at<double>(i, 0) = p[0];
-        a.at<double>(i, 1) = p[1];
-        a.at<double>(i, 2) = 1;
-        b.at<double>(i) = p.dot(p);
-    }
-    cv::Mat x;
-    cv::solve(a, b, x, cv::DECOMP_SVD);
-    cv::Vec2d centre(x.at<double>(0) / 2, x.at<double>(1) / 2);
-    double radius = std::sqrt(x.at<double>(2) + centre.dot(centre));
-    for (int iteration = 0; iteration < 20; ++iteration) {
-        cv::Mat j(a.rows, 3, CV_64F), r(a.rows, 1, CV_64F);
-        for (int i = 0; i < a.rows; ++i) {
-            const cv::Vec2d d = points[static_cast<size_t>(i)] - centre;
-            const double length = cv::norm(d);
-            j.at<double>(i, 0) = -d[0] / length;
-            j.at<double>(i, 1) = -d[1] / length;
-            j.at<double>(i, 2) = -1;
-            r.at<double>(i) = length - radius;
-        }
-        cv::Mat step;
-        cv::solve(j, -r, step, cv::DECOMP_SVD);
-        centre += cv::Vec2d(step.at<double>(0), step.at<double>(1));
-        radius += step.at<double>(2);
-    }
-    return 2 * radius;
 }
 
 }  // namespace
@@ -170,7 +139,7 @@ TEST(MeshFill, TableCapClosesOnePlacementAtThePartsVolume) {
     const double right_to_front = angle_deg(plane_normal(right), plane_normal(front));
     const double top_to_front = angle_deg(plane_normal(top), plane_normal(front));
     const double top_to_right = angle_deg(plane_normal(top), plane_normal(right));
-    const double diameter = circle_diameter(hole_wall);
+    const double diameter = test_support::circle_diameter(hole_wall);
     std::printf("on the mesh: chamfer %.3f / %.3f deg to its sides (true 45), right-front %.3f deg, top-front %.3f deg, "
                 "top-right %.3f deg (true 90); hole %.4f mm from %zu vertices (true %.4f, %+.1f um)\n",
                 chamfer_to_right, chamfer_to_back, right_to_front, top_to_front, top_to_right, diameter,

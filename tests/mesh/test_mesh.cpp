@@ -4,6 +4,7 @@
 #include "picoscan/mesh.h"
 #include "picoscan/pipeline.h"
 #include "picoscan/register.h"
+#include "support/test_support.h"
 #include "support/turntable_scan.h"
 
 #include <gtest/gtest.h>
@@ -16,38 +17,6 @@
 using namespace picoscan;
 
 namespace {
-
-// Least-squares circle through 2D points (algebraic fit, then Gauss-Newton on the distances).
-double fit_circle_diameter(const std::vector<cv::Vec2d>& points) {
-    cv::Mat a(static_cast<int>(points.size()), 3, CV_64F), b(static_cast<int>(points.size()), 1, CV_64F);
-    for (int i = 0; i < a.rows; ++i) {
-        const cv::Vec2d& p = points[static_cast<size_t>(i)];
-        a.at<double>(i, 0) = p[0];
-        a.at<double>(i, 1) = p[1];
-        a.at<double>(i, 2) = 1;
-        b.at<double>(i) = p.dot(p);
-    }
-    cv::Mat x;
-    cv::solve(a, b, x, cv::DECOMP_SVD);
-    cv::Vec2d centre(x.at<double>(0) / 2, x.at<double>(1) / 2);
-    double radius = std::sqrt(x.at<double>(2) + centre.dot(centre));
-    for (int iteration = 0; iteration < 20; ++iteration) {
-        cv::Mat j(a.rows, 3, CV_64F), r(a.rows, 1, CV_64F);
-        for (int i = 0; i < a.rows; ++i) {
-            const cv::Vec2d d = points[static_cast<size_t>(i)] - centre;
-            const double length = cv::norm(d);
-            j.at<double>(i, 0) = -d[0] / length;
-            j.at<double>(i, 1) = -d[1] / length;
-            j.at<double>(i, 2) = -1;
-            r.at<double>(i) = length - radius;
-        }
-        cv::Mat step;
-        cv::solve(j, -r, step, cv::DECOMP_SVD);
-        centre += cv::Vec2d(step.at<double>(0), step.at<double>(1));
-        radius += step.at<double>(2);
-    }
-    return 2 * radius;
-}
 
 struct FusedPart {
     Mesh mesh;
@@ -201,7 +170,7 @@ TEST(Mesh, HoleDiameterIsRecovered) {
         wall.push_back(xy);
     }
     ASSERT_GT(wall.size(), 100u);
-    const double diameter = fit_circle_diameter(wall);
+    const double diameter = test_support::circle_diameter(wall);
     std::printf("hole: %zu wall points, diameter %.4f mm (true %.4f mm), error %+.1f um\n", wall.size(), diameter,
                 shape.hole_diameter_mm, 1000 * (diameter - shape.hole_diameter_mm));
     EXPECT_NEAR(diameter, shape.hole_diameter_mm, 0.050);

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -78,6 +79,37 @@ CliResult run_picoscan(const std::string& arguments) {
     CliResult result;
     result.exit_code = run_command(cli_path() + " " + arguments, &result.output);
     return result;
+}
+
+double circle_diameter(const std::vector<cv::Vec2d>& points) {
+    cv::Mat a(static_cast<int>(points.size()), 3, CV_64F), b(static_cast<int>(points.size()), 1, CV_64F);
+    for (int i = 0; i < a.rows; ++i) {
+        const cv::Vec2d& p = points[static_cast<size_t>(i)];
+        a.at<double>(i, 0) = p[0];
+        a.at<double>(i, 1) = p[1];
+        a.at<double>(i, 2) = 1;
+        b.at<double>(i) = p.dot(p);
+    }
+    cv::Mat x;
+    cv::solve(a, b, x, cv::DECOMP_SVD);
+    cv::Vec2d centre(x.at<double>(0) / 2, x.at<double>(1) / 2);
+    double radius = std::sqrt(x.at<double>(2) + centre.dot(centre));
+    for (int iteration = 0; iteration < 20; ++iteration) {
+        cv::Mat j(a.rows, 3, CV_64F), r(a.rows, 1, CV_64F);
+        for (int i = 0; i < a.rows; ++i) {
+            const cv::Vec2d d = points[static_cast<size_t>(i)] - centre;
+            const double length = cv::norm(d);
+            j.at<double>(i, 0) = -d[0] / length;
+            j.at<double>(i, 1) = -d[1] / length;
+            j.at<double>(i, 2) = -1;
+            r.at<double>(i) = length - radius;
+        }
+        cv::Mat step;
+        cv::solve(j, -r, step, cv::DECOMP_SVD);
+        centre += cv::Vec2d(step.at<double>(0), step.at<double>(1));
+        radius += step.at<double>(2);
+    }
+    return 2 * radius;
 }
 
 }  // namespace picoscan::test_support

@@ -1,8 +1,11 @@
 // Shared helpers for the test suites.
 #pragma once
 
+#include <opencv2/core.hpp>
+
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace picoscan::test_support {
 
@@ -24,6 +27,10 @@ CliResult run_picoscan(const std::string& arguments);
 
 // The message of the picoscan::Error that `action` throws, or "" when it throws none.
 std::string error_of(const std::function<void()>& action);
+
+// Diameter of the least-squares circle through 2D points (algebraic fit, then Gauss-Newton on
+// the distances): for judging holes and bosses measured on clouds and meshes.
+double circle_diameter(const std::vector<cv::Vec2d>& points);
 
 }  // namespace picoscan::test_support
 
