@@ -47,9 +47,12 @@ TEST(FuzzCorpus, EverySeedIsReadOrRefusedWithinOneSecond) {
     }
     std::printf("[fuzz corpus] %d seeds read, %d refused with an Error naming the file\n", seeds, refused);
     EXPECT_GE(seeds, 25);
-    // The regressions are refused, not read: deep nesting, 32-bit wraps, an unclosed list.
+    // The regressions are refused, not read: deep nesting, 32-bit wraps, an unclosed list, a
+    // YAML root that is not a mapping (OpenCV's parser loops forever on some).
     for (const char* regression : {"scene/regress_deep_json", "scene/regress_deep_yaml", "scene/regress_deep_yaml_dashes",
-                                   "scene/regress_int32_wrap", "manifest/regress_deep_json",
+                                   "scene/regress_int32_wrap", "scene/regress_yaml_root_sequence",
+                                   "scene/regress_yaml_root_sequence_found", "manifest/regress_yaml_root_sequence",
+                                   "manifest/regress_deep_json",
                                    "manifest/regress_int32_wrap", "calibration/regress_unclosed_list.yml"}) {
         const std::string path = (corpus / regression).string();
         const std::string reader = fs::path(regression).parent_path().string();

@@ -120,6 +120,29 @@ void screen_structure(const std::string& text, char first, const std::string& pa
     check_token();
 }
 
+// OpenCV's YAML parser loops forever on some documents whose root is not a mapping (an
+// indented "- a" followed by less indented items: found by fuzz_scene). Every file the project
+// reads is a mapping, so its first content line must be a key at the start of the line.
+void check_yaml_root_is_mapping(const std::string& text, const std::string& path, const std::string& what) {
+    int line = 0;
+    for (size_t start = 0; start < text.size();) {
+        size_t end = text.find('\n', start);
+        if (end == std::string::npos) end = text.size();
+        ++line;
+        const std::string row = text.substr(start, end - start);
+        start = end + 1;
+        const size_t content = row.find_first_not_of(" \t\r");
+        if (content == std::string::npos || row[content] == '#' || row.rfind("%YAML", 0) == 0 || row.rfind("---", 0) == 0)
+            continue;
+        const bool key = content == 0 && (std::isalpha(static_cast<unsigned char>(row[0])) || row[0] == '_') &&
+                         row.find(':') != std::string::npos;
+        if (!key)
+            throw Error(path, what + ": " + at_line(line) + "a YAML file must begin with a key at the start of the "
+                                  "line (\"name: value\"), not \"" + row.substr(content, 20) + "\"");
+        return;
+    }
+}
+
 std::string trimmed(const std::string& text) {
     const size_t first = text.find_first_not_of(" \t\r\n");
     if (first == std::string::npos) return "";
@@ -161,8 +184,9 @@ cv::FileStorage open_storage_file(const std::string& path, const std::string& wh
         const std::string closing = "</opencv_storage>";
         if (content.size() < closing.size() || content.compare(content.size() - closing.size(), closing.size(), closing) != 0)
             throw Error(path, what + " is not a complete OpenCV XML file (no closing </opencv_storage>)");
-    } else if (first != '{' && content.rfind("%YAML", 0) != 0) {
-        text = "%YAML:1.0\n" + text;
+    } else if (first != '{') {
+        check_yaml_root_is_mapping(text, path, what);
+        if (content.rfind("%YAML", 0) != 0) text = "%YAML:1.0\n" + text;
     }
 
     const std::string format_name = first == '{' ? "JSON" : first == '<' ? "XML" : "YAML";
