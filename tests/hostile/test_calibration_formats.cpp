@@ -17,13 +17,6 @@ using namespace picoscan;
 
 namespace {
 
-std::string read_text(const fs::path& path) {
-    std::ifstream file(path, std::ios::binary);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-}
-
 void expect_same(const cv::Mat& a, const cv::Mat& b, const std::string& what) {
     ASSERT_EQ(a.total(), b.total()) << what;
     cv::Mat a64, b64;
@@ -51,7 +44,7 @@ TEST(CalibrationFormats, EveryOutExtensionReadsBackExactly) {
         SCOPED_TRACE(extension);
         const fs::path path = folder / (std::string("rig") + extension);
         write_calibration(rig, path.string());
-        const std::string text = read_text(path);
+        const std::string text = test_support::read_file_bytes(path);
         const std::string ext = extension;
         const char first = text[text.find_first_not_of(" \r\n")];
         EXPECT_EQ(first, ext == ".xml" ? '<' : (ext == ".json" || ext == ".JSON") ? '{' : '%') << "written in the wrong format";
@@ -92,7 +85,7 @@ TEST(CalibrationFormats, MalformedJsonIsRefusedNamingTheFile) {
     const fs::path folder = test_support::make_temp_dir("calibration-json-bad");
     const fs::path good = folder / "good.json";
     write_calibration(seed_rig_calibration(), good.string());
-    const std::string text = read_text(good);
+    const std::string text = test_support::read_file_bytes(good);
     auto replaced = [&](const std::string& from, const std::string& to) {
         std::string copy = text;
         const size_t at = copy.find(from);
@@ -128,7 +121,7 @@ TEST(CalibrationFormats, TiltedSensorTermsNameTheFileAndKey) {
     rig.projector_distortion = cv::Mat::zeros(1, 14, CV_64F);
     const fs::path path = folder / "tilted.yml";
     write_calibration(rig, path.string());
-    std::string text = read_text(path);
+    std::string text = test_support::read_file_bytes(path);
     // The last two projector coefficients (tau_x, tau_y) made non-zero in the file.
     const size_t data = text.find("data", text.find("projector_distortion"));
     const size_t close = text.find(']', data);

@@ -16,13 +16,6 @@ using namespace picoscan;
 
 namespace {
 
-std::string read_text(const fs::path& path) {
-    std::ifstream file(path, std::ios::binary);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-}
-
 std::vector<std::string> leftovers(const fs::path& folder) {
     std::vector<std::string> found;
     for (const auto& entry : fs::recursive_directory_iterator(folder))
@@ -42,14 +35,14 @@ TEST(OutputBatch, FailedCommitLeavesTheOldSetWhole) {
         write_file_atomically((folder / "mesh.stl").string(), "new mesh");
         write_file_atomically((folder / "new.txt").string(), "a file that did not exist");
         write_file_atomically((folder / "preview.png").string(), "new preview");
-        EXPECT_EQ(read_text(folder / "cloud.ply"), old_cloud) << "replaced before the commit";
+        EXPECT_EQ(test_support::read_file_bytes(folder / "cloud.ply"), old_cloud) << "replaced before the commit";
         batch.commit();
         FAIL() << "the commit over a directory succeeded";
     } catch (const Error& error) {
         EXPECT_NE(std::string(error.what()).find("preview.png"), std::string::npos) << error.what();
     }
-    EXPECT_EQ(read_text(folder / "cloud.ply"), old_cloud);
-    EXPECT_EQ(read_text(folder / "mesh.stl"), old_mesh);
+    EXPECT_EQ(test_support::read_file_bytes(folder / "cloud.ply"), old_cloud);
+    EXPECT_EQ(test_support::read_file_bytes(folder / "mesh.stl"), old_mesh);
     EXPECT_FALSE(fs::exists(folder / "new.txt")) << "a new output of the failed set was left";
     EXPECT_TRUE(fs::is_directory(folder / "preview.png"));
     EXPECT_EQ(leftovers(folder), std::vector<std::string>{});
@@ -64,8 +57,8 @@ TEST(OutputBatch, CommitReplacesEveryOutput) {
         write_file_atomically((folder / "mesh.stl").string(), "new mesh");
         batch.commit();
     }
-    EXPECT_EQ(read_text(folder / "cloud.ply"), "new cloud");
-    EXPECT_EQ(read_text(folder / "mesh.stl"), "new mesh");
+    EXPECT_EQ(test_support::read_file_bytes(folder / "cloud.ply"), "new cloud");
+    EXPECT_EQ(test_support::read_file_bytes(folder / "mesh.stl"), "new mesh");
     EXPECT_EQ(leftovers(folder), std::vector<std::string>{});
 }
 
@@ -76,7 +69,7 @@ TEST(OutputBatch, AbandonedBatchWritesNothing) {
         OutputBatch batch;
         write_file_atomically((folder / "cloud.ply").string(), "new cloud");
     }
-    EXPECT_EQ(read_text(folder / "cloud.ply"), "old cloud");
+    EXPECT_EQ(test_support::read_file_bytes(folder / "cloud.ply"), "old cloud");
     EXPECT_EQ(leftovers(folder), std::vector<std::string>{});
 }
 

@@ -12,6 +12,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
+#include <fstream>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -110,6 +112,13 @@ double circle_diameter(const std::vector<cv::Vec2d>& points) {
         radius += step.at<double>(2);
     }
     return 2 * radius;
+}
+
+std::string read_file_bytes(const std::filesystem::path& path) {
+    std::ifstream file(path, std::ios::binary);
+    std::stringstream text;
+    text << file.rdbuf();
+    return text.str();
 }
 
 }  // namespace picoscan::test_support

@@ -3,6 +3,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
@@ -27,6 +28,9 @@ CliResult run_picoscan(const std::string& arguments);
 
 // The message of the picoscan::Error that `action` throws, or "" when it throws none.
 std::string error_of(const std::function<void()>& action);
+
+// The whole content of a file, byte for byte ("" when it cannot be read).
+std::string read_file_bytes(const std::filesystem::path& path);
 
 // Diameter of the least-squares circle through 2D points (algebraic fit, then Gauss-Newton on
 // the distances): for judging holes and bosses measured on clouds and meshes.
