@@ -132,7 +132,9 @@ void check_yaml_root_is_mapping(const std::string& text, const std::string& path
         const std::string row = text.substr(start, end - start);
         start = end + 1;
         const size_t content = row.find_first_not_of(" \t\r");
-        if (content == std::string::npos || row[content] == '#' || row.rfind("%YAML", 0) == 0 || row.rfind("---", 0) == 0)
+        // Only an exact "---" marks a document start: OpenCV loops forever on "----&\n----".
+        const bool document_start = row.find_last_not_of(" \t\r") == 2 && row.rfind("---", 0) == 0;
+        if (content == std::string::npos || row[content] == '#' || row.rfind("%YAML", 0) == 0 || document_start)
             continue;
         const bool key = content == 0 && (std::isalpha(static_cast<unsigned char>(row[0])) || row[0] == '_') &&
                          row.find(':') != std::string::npos;
