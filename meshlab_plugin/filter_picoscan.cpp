@@ -11,6 +11,7 @@
 
 #include <QDir>
 #include <QFileInfo>
+#include <QRegExp>
 #include <QTemporaryDir>
 
 #include <functional>
@@ -54,6 +55,8 @@ const char* const kOrbFeatures = "orbFeatures";
 const char* const kIcpMaxDistance = "icpMaxDistance";
 const char* const kAlignSpacing = "sampleSpacing";
 const char* const kMinOverlap = "minOverlap";
+const char* const kPlacements = "placements";
+const char* const kTurntableRound = "turntableRound";
 const char* const kMethod = "method";
 const char* const kMeshSpacing = "sampleSpacing";
 const char* const kPoissonTriangleSize = "poissonTriangleSize";
@@ -107,6 +110,7 @@ QString parameter_for_field(const std::string& field) {
         {"registration.icp_max_distance_mm", kIcpMaxDistance},
         {"registration.sample_spacing_mm", kAlignSpacing},
         {"registration.min_overlap", kMinOverlap},
+        {"placement_of_view", kPlacements},
         {"mesh.sample_spacing_mm", kMeshSpacing},
         {"mesh.poisson_triangle_size", kPoissonTriangleSize},
         {"mesh.poisson_distance", kPoissonDistance},
@@ -209,6 +213,25 @@ std::vector<MeshModel*> visible_scan_layers(MeshDocument& document) {
 
 std::string layer_name(const MeshModel& layer) { return layer.label().toStdString(); }
 
+// The "placements" parameter, layers per placement in layer order ("8 8"), as the core's
+// placement_of_view; empty (one placement) when it is empty or names one placement.
+std::vector<int> placement_of_layers(const QString& text, size_t layer_count) {
+    std::vector<int> placement_of_view;
+    const QStringList counts = text.split(QRegExp("[\\s,;]+"), QString::SkipEmptyParts);
+    for (int placement = 0; placement < counts.size(); ++placement) {
+        bool number = false;
+        const int count = counts[placement].toInt(&number);
+        if (!number || count < 1)
+            throw Error(kPlacements, "'" + counts[placement].toStdString() + "' is not a number of layers (1 or more)");
+        placement_of_view.insert(placement_of_view.end(), size_t(count), placement);
+    }
+    if (!placement_of_view.empty() && placement_of_view.size() != layer_count)
+        throw Error(kPlacements, "gives " + std::to_string(placement_of_view.size()) + " layers in all, but " +
+                                     std::to_string(layer_count) + " PicoScan layers are visible");
+    if (counts.size() < 2) placement_of_view.clear();
+    return placement_of_view;
+}
+
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
@@ -254,7 +277,12 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
         return "Registers all visible PicoScan layers into one model: ORB features on the white frames lifted to 3D, "
                "a RANSAC rigid fit, point-to-plane ICP, then a global refinement of all views together. The first "
                "visible layer stays where it is; each other layer's transform is set. The log gives each layer's "
-               "residual and overlap. If any layer cannot be aligned, no transform is changed.";
+               "residual and overlap. If any layer cannot be aligned, no transform is changed.<br>"
+               "Several placements (the part set down again between them, e.g. standing, then on its side to show "
+               "the face it stood on): give the number of layers of each placement, in layer order. Each placement "
+               "is aligned on its own, then the placements to each other by their shape alone; a placement that "
+               "does not fit one way only, within the scan's noise and without putting points where another "
+               "placement's camera saw through, is named with the reason and nothing is changed.";
     case Fuse:
         return "Merges the visible PicoScan layers (each through its transform) into one cloud and meshes it with "
                "CGAL: Poisson (watertight) or advancing front (open surfaces), fills small holes and checks the "
@@ -402,6 +430,14 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                       "Points are thinned to about this spacing for ICP."));
         parameters.addParam(RichFloat(kMinOverlap, float(defaults.min_overlap), "Min overlap (fraction)",
                                       "Views overlapping less than this are not registered to each other."));
+        parameters.addParam(RichString(kPlacements, "", "Layers per placement",
+                                       "For a part scanned in several placements (set down again between them): the "
+                                       "number of visible layers of each placement, in layer order, e.g. '8 8' for "
+                                       "8 layers standing, then 8 on its side. Empty: all layers are one placement."));
+        parameters.addParam(RichBool(kTurntableRound, defaults.turntable_round, "Turntable rounds",
+                                     "The layers of each placement are one full turntable round, in order, in equal "
+                                     "steps; the axis is estimated from them. Plain, unpainted parts need this: their "
+                                     "white frames have no features."));
         break;
     }
     case Fuse: {
@@ -625,9 +661,11 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
     options.registration.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
     options.registration.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
     options.registration.min_overlap = parameters.getFloat(kMinOverlap);
+    options.registration.turntable_round = parameters.getBool(kTurntableRound);
     validate(options.registration);
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
     if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
+    options.placement_of_view = placement_of_layers(parameters.getString(kPlacements), layers.size());
     std::vector<ScanView> views;
     std::vector<std::string> names;
     for (MeshModel* layer : layers) {
@@ -636,14 +674,26 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
         names.push_back(layer_name(*layer));
     }
     const StitchResult result = stitch_views(views, names, options, meshlab_progress(callback));
-    // Every layer's outcome in the log, aligned or not, with the reason.
+    // Every layer's and placement's outcome in the log, aligned or not, with the reason. A layer
+    // of a placement that did not join is named through its placement.
     std::string failures;
+    const std::vector<PlacementAlignment>& placements = result.alignment.placements;
     for (const ViewAlignment& view : result.alignment.views) {
         if (view.aligned)
             Log("PicoScan aligned %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(), view.rms_mm,
                 100 * view.overlap);
-        else
+        else if (placements.empty() || placements[size_t(view.placement)].aligned)
             failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
+    }
+    for (size_t p = 0; p < placements.size(); ++p) {
+        if (p == 0 && placements[p].aligned)
+            Log("PicoScan %s: the model frame", placements[p].name.c_str());
+        else if (placements[p].aligned)
+            Log("PicoScan %s aligned to the others: residual %.4f mm RMS (its layers' own %.4f mm), overlap %.1f %%",
+                placements[p].name.c_str(), placements[p].rms_mm, placements[p].noise_mm,
+                100 * std::min(1.0, placements[p].overlap));
+        else
+            failures += (failures.empty() ? "" : "; ") + placements[p].name + " NOT aligned: " + placements[p].problem;
     }
     // All or nothing: a partly aligned set would look aligned in the viewer, and no layer is forced in.
     if (!failures.empty())

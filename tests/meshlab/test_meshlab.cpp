@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -53,7 +54,9 @@ const Params kCleanDefaults{{"RichFloat", "minQuality", "0"},      {"RichFloat",
 const Params kAlignDefaults{{"RichInt", "orbFeatures", "6000"},
                             {"RichFloat", "icpMaxDistance", "3"},
                             {"RichFloat", "sampleSpacing", "0.7"},
-                            {"RichFloat", "minOverlap", "0.08"}};
+                            {"RichFloat", "minOverlap", "0.08"},
+                            {"RichString", "placements", ""},
+                            {"RichBool", "turntableRound", "false"}};
 const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichFloat", "sampleSpacing", "0.4"},
                            {"RichFloat", "poissonTriangleSize", "1"}, {"RichFloat", "poissonDistance", "0.1"},
                            {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
@@ -545,6 +548,16 @@ TEST(MeshlabPlugin, LayerSavedWithoutItsCameraIsRefused) {
     EXPECT_NE(run.log.find("scan.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
 }
 
+// A project (.mlp) of view PLYs in `directory`, in layer order, each labelled by its file name
+// and at the identity transform.
+void write_project(const std::string& path, const std::vector<std::string>& files) {
+    std::string project = "<!DOCTYPE MeshLabDocument>\n<MeshLabProject>\n <MeshGroup>\n";
+    for (const std::string& name : files)
+        project += "  <MLMesh label=\"" + name + "\" filename=\"" + name +
+                   "\" visible=\"1\">\n   <MLMatrix44>\n1 0 0 0 \n0 1 0 0 \n0 0 1 0 \n0 0 0 1 \n</MLMatrix44>\n  </MLMesh>\n";
+    write_file(path, project + " </MeshGroup>\n <RasterGroup/>\n</MeshLabProject>\n");
+}
+
 // A project of two turntable views (CLI view PLYs) reopened by meshlabserver aligns to the
 // true relative pose.
 TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
@@ -556,7 +569,7 @@ TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
                                       "");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     const std::string cli = test_support::cli_path();
-    std::string project = "<!DOCTYPE MeshLabDocument>\n<MeshLabProject>\n <MeshGroup>\n";
+    std::vector<std::string> files;
     for (int i = 0; i < 2; ++i) {
         const std::string name = "view_" + std::to_string(i) + ".ply", captures = directory + "/captures_" + std::to_string(i);
         std::string cli_log;
@@ -565,10 +578,9 @@ TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
                               &cli_log),
                   0)
             << cli_log;
-        project += "  <MLMesh label=\"" + name + "\" filename=\"" + name +
-                   "\" visible=\"1\">\n   <MLMatrix44>\n1 0 0 0 \n0 1 0 0 \n0 0 1 0 \n0 0 0 1 \n</MLMatrix44>\n  </MLMesh>\n";
+        files.push_back(name);
     }
-    write_file(directory + "/project.mlp", project + " </MeshGroup>\n <RasterGroup/>\n</MeshLabProject>\n");
+    write_project(directory + "/project.mlp", files);
     run = run_meshlabserver(directory, align(), "-p project.mlp -w aligned.mlp");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     const std::vector<ProjectLayer> layers = read_project(directory + "/aligned.mlp");
@@ -580,6 +592,81 @@ TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
     EXPECT_LT(error.rotation_deg, 0.15);
     EXPECT_LT(error.translation_mm, 0.1);
     EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
+}
+
+namespace {
+
+// A project of the views of two placements, as the register and CLI suites simulated them
+// (shared cache): the first placement's 8 views of `first`, then the second placement's of
+// `second`, linked into `directory`. Returns the layer labels (file names) in order.
+std::vector<std::string> two_placement_project(const std::string& directory, test_support::PlacementPart first,
+                                               test_support::PlacementPart second) {
+    const test_support::TurntableScan& standing = test_support::two_placement_scan(first);
+    test_support::two_placement_scan(second);  // makes its cached views if they are not there yet
+    const std::string cache = PICOSCAN_TEST_CACHE_DIR;
+    std::vector<std::string> files;
+    for (size_t i = 0; i < 2 * test_support::kViewsPerPlacement; ++i) {
+        const bool side = i >= test_support::kViewsPerPlacement;
+        const std::string folder = "half-v1-" + test_support::placement_part_name(side ? second : first) +
+                                   (side ? "-on-its-side" : "-standing");
+        const std::string view = "view_" + std::to_string(i % test_support::kViewsPerPlacement) + ".ply";
+        files.push_back((side ? "side_" : "standing_") + view);
+        std::filesystem::create_symlink(cache + "/" + folder + "/" + view, directory + "/" + files.back());
+    }
+    EXPECT_EQ(standing.views.size(), files.size());
+    write_project(directory + "/project.mlp", files);
+    return files;
+}
+
+}  // namespace
+
+// The plain grey part in two placements (standing, then on its side), 8 turntable layers each,
+// no paint and no axis given: Align Layers with "8 8" puts every layer on its true pose.
+TEST(MeshlabPlugin, AlignTwoPlacementsOfAPlainPart) {
+    const std::string directory = make_temp_dir("meshlab_placements");
+    const auto part = test_support::PlacementPart::GreyMechanical;
+    const std::vector<std::string> files = two_placement_project(directory, part, part);
+    const ServerRun run = run_meshlabserver(directory, align({{"placements", "8 8"}, {"turntableRound", "true"}}),
+                                            "-p project.mlp -w aligned.mlp");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_NE(run.log.find("PicoScan aligned 16 layers"), std::string::npos) << run.log;
+    const std::vector<double> placement = numbers_after(run.log, "placement 2 aligned to the others: residual", 1);
+    ASSERT_EQ(placement.size(), 1u) << run.log;
+    const std::vector<ProjectLayer> layers = read_project(directory + "/aligned.mlp");
+    ASSERT_EQ(layers.size(), files.size());
+    const test_support::TurntableScan& scan = test_support::two_placement_scan(part);
+    double worst_rotation = 0, worst_translation = 0;
+    for (size_t i = 0; i < layers.size(); ++i) {
+        const PoseDifference error = pose_difference(scan.true_view_to_model[i], layers[i].transform, scan.centroid(i));
+        worst_rotation = std::max(worst_rotation, error.rotation_deg);
+        worst_translation = std::max(worst_translation, error.translation_mm);
+    }
+    std::printf("two placements in MeshLab: placement 2 joined with residual %.4f mm; worst pose error of 16 layers "
+                "%.4f deg, %.4f mm\n", placement[0], worst_rotation, worst_translation);
+    EXPECT_LT(placement[0], 0.1);
+    EXPECT_LT(worst_rotation, 0.05);
+    EXPECT_LT(worst_translation, 0.05);
+}
+
+// Built to fool it: the second placement is another part (the stepped block on its side). Align
+// names the placement with the reason and changes no transform. A count that does not match
+// the layers is refused naming the parameter.
+TEST(MeshlabPlugin, AlignRefusesAPlacementOfAnotherPart) {
+    const std::string directory = make_temp_dir("meshlab_placement_other_part");
+    two_placement_project(directory, test_support::PlacementPart::GreyMechanical, test_support::PlacementPart::SteppedBlock);
+    ServerRun run = run_meshlabserver(directory, align({{"placements", "8 9"}, {"turntableRound", "true"}}),
+                                      "-p project.mlp -w never.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("placements: gives 17 layers in all, but 16 PicoScan layers are visible"), std::string::npos)
+        << run.log;
+    run = run_meshlabserver(directory, align({{"placements", "8 8"}, {"turntableRound", "true"}}),
+                            "-p project.mlp -w never.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    const size_t refused = run.log.find("placement 2 NOT aligned: ");
+    ASSERT_NE(refused, std::string::npos) << run.log;
+    std::printf("another part as placement 2: %s\n", run.log.substr(refused, run.log.find('\n', refused) - refused).c_str());
+    EXPECT_NE(run.log.find("8 of 16 layers could not be aligned, no transform changed"), std::string::npos) << run.log;
+    EXPECT_EQ(run.log.find("PicoScan aligned 16 layers"), std::string::npos) << run.log;
 }
 
 namespace {

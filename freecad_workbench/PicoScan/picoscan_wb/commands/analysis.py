@@ -32,17 +32,35 @@ def selected_clouds():
     return [obj for obj in FreeCADGui.Selection.getSelection() if is_scan_view(obj) or is_stitch(obj)]
 
 
+def selected_placements():
+    """The selected groups that hold ScanViews, each one placement of the part, as
+    (views, placement of each view from 1); empty when no such group is selected."""
+    groups = [obj for obj in FreeCADGui.Selection.getSelection() if obj.isDerivedFrom("App::DocumentObjectGroup")]
+    views, numbers = [], []
+    for number, group in enumerate([g for g in groups if any(is_scan_view(o) for o in g.Group)], start=1):
+        members = [o for o in group.Group if is_scan_view(o)]
+        views += members
+        numbers += [number] * len(members)
+    return views, numbers
+
+
 class StitchCommand(Command):
     icon = "picoscan_stitch"
     menu = "Stitch views"
-    tooltip = "Register the selected ScanViews into one model and merge their points"
+    tooltip = ("Register the selected ScanViews into one model and merge their points. For a part scanned in several "
+               "placements, put each placement's ScanViews in a group and select the groups, in order")
 
     def IsActive(self):
-        return len(selected_scan_views()) >= 2
+        return len(selected_scan_views()) >= 2 or len(selected_placements()[0]) >= 2
 
     def run(self):
-        views = selected_scan_views()
-        return stitch.create(views[0].Document, views)
+        views, placements = selected_placements()
+        if views and selected_scan_views():
+            raise picoscan.Error("Stitch views: select either ScanViews (one placement) or groups of ScanViews (one "
+                                 "placement each), not both")
+        if not views:
+            views, placements = selected_scan_views(), []
+        return stitch.create(views[0].Document, views, placement_of_view=placements)
 
 
 class MeshCommand(Command):

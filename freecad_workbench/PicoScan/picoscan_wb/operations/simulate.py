@@ -180,3 +180,42 @@ def simulate_turntable(folder, view_indices=(0, 1, 2), camera_scale=1.0, progres
         scans.append((view_folder, calibration_file))
         truth.append(first @ numpy.linalg.inv(numpy.asarray(part_to_camera[index])))
     return scans, truth
+
+
+def simulate_placements(folder, part, placements, camera_scale=0.5, part_albedo=None, progress=None):
+    """A part scanned in several placements, each one turntable round of the core's turntable
+    session (simulate_turntable_scan): `placements` lists (picoscan.PartPlacement, turn in degrees
+    about the table, first noise seed). Each view's captures go to FOLDER/placement_P/view_K with
+    its calibration.yml. Returns [(capture folder, calibration file, placement number from 1)] and
+    the true view -> model (first view) transforms."""
+    import numpy
+
+    calibration = scaled_calibration(picoscan.seed_rig_calibration(), camera_scale)
+    top = float(numpy.asarray(part.vertices)[:, 2].max())
+    scans, part_to_camera = [], []
+    for number, (placement, turn_deg, seed) in enumerate(placements, start=1):
+        options = picoscan.TurntableScanOptions()
+        plan = options.plan
+        plan.top_view = False  # one turntable round per placement
+        plan.part_middle_height_mm = top / 2
+        plan.placement = placement
+        plan.placement_turn_deg = turn_deg
+        options.plan = plan
+        camera = options.camera
+        camera.seed = seed
+        options.camera = camera
+        if part_albedo is not None:
+            options.part_albedo = part_albedo
+
+        def write(simulated, number=number):
+            view_folder = os.path.join(folder, "placement_%d" % number, simulated.name)
+            os.makedirs(view_folder, exist_ok=True)
+            picoscan.write_capture_set(simulated.captures, view_folder)
+            calibration_file = os.path.join(view_folder, "calibration.yml")
+            picoscan.write_calibration(calibration, calibration_file)
+            scans.append((view_folder, calibration_file, number))
+
+        part_to_camera += [numpy.asarray(pose) for pose in
+                           picoscan.simulate_turntable_scan(part, calibration, options, write, progress)]
+    first = part_to_camera[0]
+    return scans, [first @ numpy.linalg.inv(pose) for pose in part_to_camera]

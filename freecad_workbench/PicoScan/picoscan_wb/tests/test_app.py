@@ -594,6 +594,94 @@ class PicoScanStitchTest(unittest.TestCase):
         self.assertEqual([o.Name for o in self.doc.Objects], names)
 
 
+def plain_part(shape=None):
+    """The built-in test part (or another shape of it) in plain grey: no paint to find features on."""
+    part = picoscan.mechanical_part(shape or picoscan.MechanicalPartShape())
+    part.colours = numpy.zeros((0, 3), numpy.uint8)
+    return part
+
+
+class PicoScanPlacementsTest(unittest.TestCase):
+    """The plain grey part in two placements, one turntable round of 8 views each (half-resolution
+    camera): standing, then on its side turned 20 degrees. No paint, no axis given."""
+
+    PLACEMENTS = ((picoscan.PartPlacement.Standing, 0, 1), (picoscan.PartPlacement.OnItsSide, 20, 101))
+
+    @classmethod
+    def setUpClass(cls):
+        cls.folder = tempfile.mkdtemp(prefix="picoscan_placements_")
+        cls.scans, cls.truth = simulate.simulate_placements(os.path.join(cls.folder, "grey"), plain_part(),
+                                                            cls.PLACEMENTS, part_albedo=0.6)
+        # Another part (longer, taller, no chamfer, hole and boss elsewhere) on its side, given as if
+        # it were the grey part's second placement.
+        shape = picoscan.MechanicalPartShape()
+        shape.length_mm, shape.width_mm, shape.height_mm, shape.chamfer_mm = 56, 30, 28, 0
+        shape.hole_centre_mm, shape.boss_centre_mm = (14, 4), (-12, 0)
+        cls.other, _ = simulate.simulate_placements(os.path.join(cls.folder, "other"), plain_part(shape),
+                                                    cls.PLACEMENTS[1:], part_albedo=0.6)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder, ignore_errors=True)
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanPlacementsTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def scan_views(self, scans):
+        views = []
+        for folder, calibration, _ in scans:
+            view = scan_view.create(self.doc, folder, calibration, clean=True)
+            view.MinModulation = 15  # as the turntable session decodes
+            views.append(view)
+        self.doc.recompute()
+        return views
+
+    def test_two_placements_align_on_the_truth_and_a_wrong_placement_is_named(self):
+        views = self.scan_views(self.scans)
+        placements = [number for _, _, number in self.scans]
+        merged = stitch.create(self.doc, views, placement_of_view=placements, turntable_round=True)
+        self.assertTrue(merged.isValid(), merged.getStatusString())
+        FreeCAD.Console.PrintMessage("two placements: %s\n" % "; ".join(merged.PlacementReport))
+        self.assertEqual(merged.AlignedCount, 16, merged.Report)
+        self.assertEqual(len(merged.PlacementReport), 2)
+        self.assertTrue(merged.PlacementReport[1].startswith("placement 2: aligned to the others"), merged.PlacementReport)
+        self.assertEqual(merged.PointCount, sum(v.PointCount for v in views))
+        worst = (0.0, 0.0)
+        for view, placement, truth in zip(views, merged.ViewPoses, self.truth):
+            pose = numpy.array(placement.toMatrix().A).reshape(4, 4)
+            centroid = numpy.asarray(cloud_of(view).points).mean(axis=0)  # pose errors where the view's points are
+            error = picoscan.pose_difference(pose, truth, centroid)
+            worst = (max(worst[0], error.rotation_deg), max(worst[1], error.translation_mm))
+        FreeCAD.Console.PrintMessage("two placements: worst pose error of 16 views %.4f deg, %.4f mm\n" % worst)
+        self.assertLess(worst[0], 0.05)
+        self.assertLess(worst[1], 0.05)
+
+        # Parametric: the second placement's views replaced by another part's; recompute refuses that
+        # placement, names it with the reason and keeps the first placement's model.
+        others = self.scan_views(self.other)
+        merged.Views = views[:8] + others
+        self.doc.recompute()
+        self.assertTrue(merged.isValid(), merged.getStatusString())
+        FreeCAD.Console.PrintMessage("another part as placement 2: %s\n" % "; ".join(merged.PlacementReport))
+        self.assertTrue(merged.PlacementReport[1].startswith("placement 2: NOT aligned: "), merged.PlacementReport)
+        self.assertEqual(merged.AlignedCount, 8, merged.Report)
+        self.assertEqual(merged.PointCount, sum(v.PointCount for v in views[:8]))
+        for line in merged.Report[8:]:
+            self.assertIn("left out: aligned within placement 2, but that placement did not align", line)
+
+    def test_placement_numbers_must_match_the_views(self):
+        views = self.scan_views(self.scans[:2])
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "PlacementOfView has 3 entries for 2 views"):
+            stitch.create(self.doc, views, placement_of_view=[1, 2, 2])
+        with self.assertRaisesRegex(picoscan.Error, "PlacementOfView: .* has placement 3; number the placements 1, 2"):
+            stitch.create(self.doc, views, placement_of_view=[1, 3])
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
+
+
 class PicoScanSectionFitTest(unittest.TestCase):
     """The demo part's true mesh with scan-like noise on its vertices, cut at mid height: the fitted
     sketch must hold its outline (5 lines) and hole (1 circle) at the true sizes, and pad into a solid."""
