@@ -11,7 +11,7 @@
 
 #include <QDir>
 #include <QFileInfo>
-#include <QRegExp>
+#include <QRegularExpression>
 #include <QTemporaryDir>
 
 #include <functional>
@@ -217,7 +217,7 @@ std::string layer_name(const MeshModel& layer) { return layer.label().toStdStrin
 // placement_of_view; empty (one placement) when it is empty or names one placement.
 std::vector<int> placement_of_layers(const QString& text, size_t layer_count) {
     std::vector<int> placement_of_view;
-    const QStringList counts = text.split(QRegExp("[\\s,;]+"), QString::SkipEmptyParts);
+    const QStringList counts = text.split(QRegularExpression("[\\s,;]+"), Qt::SkipEmptyParts);
     for (int placement = 0; placement < counts.size(); ++placement) {
         bool number = false;
         const int count = counts[placement].toInt(&number);

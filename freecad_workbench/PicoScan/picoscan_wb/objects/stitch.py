@@ -69,6 +69,11 @@ def _placement_lines(placements):
     return lines
 
 
+def _placement(pose):
+    matrix = FreeCAD.Matrix(*[float(value) for value in numpy.asarray(pose).reshape(-1)])
+    return FreeCAD.Placement(matrix)
+
+
 class Stitch(DocumentObjectProxy):
     TYPE = TYPE
 

@@ -15,7 +15,7 @@ import FreeCADGui
 from PySide2 import QtWidgets
 
 import picoscan
-from picoscan_wb.commands import COMMANDS
+from picoscan_wb.commands import COMMANDS, analysis
 from picoscan_wb.objects import scan_mesh, scan_view
 from picoscan_wb.operations import simulate
 
@@ -109,6 +109,17 @@ class PicoScanGuiTest(unittest.TestCase):
         second = scan_view.create(self.doc, self.captures, self.calibration)
         FreeCADGui.Selection.addSelection(second)
         self.expect_active(ALWAYS_ACTIVE | FOR_SCAN_VIEWS | {"PicoScan_Stitch"})
+        # Several placements: a group of ScanViews per placement, the groups selected in order.
+        standing, side = self.doc.addObject("App::DocumentObjectGroup", "Standing"), self.doc.addObject(
+            "App::DocumentObjectGroup", "OnItsSide")
+        standing.addObject(view)
+        side.addObject(second)
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(standing)
+        FreeCADGui.Selection.addSelection(side)
+        self.assertTrue(COMMANDS["PicoScan_Stitch"].IsActive())
+        views, placements = analysis.selected_placements()
+        self.assertEqual(([v.Name for v in views], placements), ([view.Name, second.Name], [1, 2]))
         mesh = scan_mesh.create(self.doc, view, pixel_step=4)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(mesh)
