@@ -138,31 +138,40 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
 }  // namespace
 
 // The built-in part (plain grey), the demo's case. Issue 12's targets: volume within 0.5 %,
-// truth -> mesh mean 15 um, p95 40 um, max 150 um; mesh -> truth p95 40 um, max 150 um.
-// The limits below are the figures reached (docs/multiview.md), where short of the targets.
+// truth -> mesh mean 15 um, p95 40 um, max 150 um; mesh -> truth p95 40 um, max 150 um. The
+// volume is met; the distances are not (rounded edges and the hole's never-seen middle, see
+// docs/multiview.md): the limits below are the figures reached (21 / 118 / 981 um and 93 /
+// 1456 um) with a margin, so that a worse model fails.
 TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
     const ModelAccuracy model = complete_model(PlacementPart::GreyMechanical, true);
     EXPECT_EQ(model.views_merged, 16);
     ASSERT_TRUE(model.closed);
     EXPECT_LT(std::abs(model.volume_error()), 0.005);
-    EXPECT_LT(model.filled, 0.08);
-    EXPECT_LT(model.truth_to_mesh.mean_abs_mm, 1.0);
-    EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 1.0);
-    EXPECT_LT(model.truth_to_mesh.max_abs_mm, 10.0);
-    EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 1.0);
-    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 10.0);
+    EXPECT_LT(model.filled, 0.06);
+    EXPECT_LT(model.truth_to_mesh.mean_abs_mm, 0.030);
+    EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.160);
+    EXPECT_LT(model.truth_to_mesh.max_abs_mm, 1.5);
+    EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.130);
+    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 2.0);
 }
 
 // Beyond the demo part: a stepped block and a hexagon with a peg, meshed by the same recipe.
 // Their views are merged with the true poses (their stitching is judged in test_placements),
-// which keeps this suite's time down and judges the meshing alone.
+// which keeps this suite's time down and judges the meshing alone. Both placements see all of
+// them: nothing is filled in, and what is left is the rounding of their edges (reached:
+// truth -> mesh mean 13.9 / 12.8 um, p95 77 / 62 um, max 475 / 363 um; mesh -> truth p95
+// 35 / 43 um, max 309 / 257 um).
 TEST(PlacementModel, OtherPartsCompleteModelsAgainstTheTruth) {
     for (PlacementPart part : {PlacementPart::SteppedBlock, PlacementPart::HexWithPeg}) {
         const ModelAccuracy model = complete_model(part, false);
         EXPECT_EQ(model.views_merged, 16);
         ASSERT_TRUE(model.closed);
         EXPECT_LT(std::abs(model.volume_error()), 0.005);
-        EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 1.0);
-        EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 1.0);
+        EXPECT_LT(model.filled, 0.01);
+        EXPECT_LT(model.truth_to_mesh.mean_abs_mm, 0.020);
+        EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.100);
+        EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.700);
+        EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.060);
+        EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.450);
     }
 }
