@@ -7,7 +7,6 @@
 #include <opencv2/core.hpp>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <random>
 
 namespace picoscan {
