@@ -932,3 +932,158 @@ class PicoScanDatumTest(unittest.TestCase):
             measurements.create(self.doc, features[:1])
         self.assertEqual([o.Name for o in self.doc.Objects], names)
         self.doc.removeObject(table.Name)
+
+
+def noisy_demo_part_mesh(sigma_mm, scale=1.0, seed=5):
+    """The demo part's true mesh (143 300 facets at scale 1; edges of at most 0.6 mm, so the facets
+    grow with scale squared), every dimension times `scale`, with Gaussian noise of sigma_mm on every
+    vertex (shared corners keep the surface closed): a stand-in for a closed scan mesh of the part,
+    as a picoscan.Mesh."""
+    shape = picoscan.MechanicalPartShape()
+    for name in ("length_mm", "width_mm", "height_mm", "chamfer_mm", "hole_diameter_mm", "boss_diameter_mm", "boss_height_mm"):
+        setattr(shape, name, getattr(shape, name) * scale)
+    shape.hole_centre_mm = tuple(scale * v for v in shape.hole_centre_mm)
+    shape.boss_centre_mm = tuple(scale * v for v in shape.boss_centre_mm)
+    part = picoscan.mechanical_part(shape)
+    positions, corner_of = numpy.unique(numpy.array(part.vertices, dtype=numpy.float64), axis=0, return_inverse=True)
+    positions = positions + numpy.random.default_rng(seed).normal(0.0, sigma_mm, positions.shape)
+    mesh = picoscan.Mesh()
+    mesh.vertices = positions.astype(numpy.float32)
+    mesh.faces = corner_of.ravel()[numpy.array(part.faces)].astype(numpy.int32)
+    return mesh
+
+
+class PicoScanBigSolidTest(unittest.TestCase):
+    """Make solid merges coplanar facets: a noisy closed mesh of the demo part becomes a valid solid
+    whose big flat faces are one B-rep face each, with the mesh's volume."""
+
+    # The part's planar faces at scale 1: outward normal -> true area (mm2).
+    FLAT_FACES = {
+        (0, 0, -1): 50 * 36 - 32 - math.pi * 25, (0, 0, 1): 50 * 36 - 32 - math.pi * 25 - math.pi * 49,
+        (0, -1, 0): 50 * 24, (0, 1, 0): 42 * 24, (-1, 0, 0): 36 * 24, (1, 0, 0): 28 * 24,
+        (math.sqrt(0.5), math.sqrt(0.5), 0): 8 * math.sqrt(2) * 24,
+    }
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanBigSolidTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def test_noisy_demo_part_mesh_becomes_a_few_planar_faces(self):
+        scale = 0.5  # 36 k facets: OpenCASCADE's isValid() of the triangles left stays quick
+        for sigma in (0.0, 0.02):
+            obj = self.doc.addObject("Mesh::Feature", "DemoPartMesh")
+            obj.Mesh = scan_mesh.freecad_mesh(noisy_demo_part_mesh(sigma, scale))
+            facets = obj.Mesh.CountFacets
+            shape, model = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+            FreeCAD.Console.PrintMessage("demo part mesh, noise %.3f mm: %s; solid volume %.3f mm3, mesh %.3f mm3\n" % (
+                sigma, model.summary(), shape.Volume, obj.Mesh.Volume))
+            self.assertTrue(shape.isValid())
+            self.assertEqual(shape.ShapeType, "Solid")
+            self.assertAlmostEqual(shape.Volume, obj.Mesh.Volume, delta=1e-3 * obj.Mesh.Volume)
+            self.assertLess(len(shape.Faces), facets / 5)
+            for normal, area in self.FLAT_FACES.items():
+                area *= scale * scale
+                matching = [f for f in shape.Faces if f.Surface.TypeId == "Part::GeomPlane"
+                            and f.normalAt(0, 0).dot(FreeCAD.Vector(*normal)) > 0.9999 and f.Area > 0.5 * area]
+                self.assertEqual(len(matching), 1, (normal, [f.Area for f in matching]))
+                self.assertAlmostEqual(matching[0].Area, area, delta=0.01 * area)
+            # The make_solid feature reports how the faces were made; the document gains only it.
+            feature = solid.make_solid(self.doc, obj)
+            self.assertIn("planar regions", feature.SolidReport)
+            self.doc.removeObject(feature.Name)
+            self.doc.removeObject(obj.Name)
+
+    def test_without_merging_every_facet_is_a_face(self):
+        obj = self.doc.addObject("Mesh::Feature", "Sphere")
+        obj.Mesh = Mesh.createSphere(10.0, 30)
+        shape = solid.solid_of_mesh(obj.Mesh, "sphere", merge_planes=False)
+        self.assertEqual(len(shape.Faces), obj.Mesh.CountFacets)
+        self.assertTrue(shape.isValid())
+
+
+class PicoScanRegionFitTest(unittest.TestCase):
+    """Fitting where the user points, on 60 000 points spread over the demo part with 20 um noise:
+    the hole from a point picked on its wall, the chamfer as a plane (Fit primitives used to call it
+    a 22 m cylinder), constraints to a fitted bottom plane, nominal sizes."""
+
+    @classmethod
+    def setUpClass(cls):
+        from picoscan_wb.operations import region_fit
+        cls.region_fit = region_fit
+        cls.doc = FreeCAD.newDocument("PicoScanRegionFitTest")
+        points, normals = sampled_demo_part(60000, 0.02, seed=8)
+        cloud = picoscan.PointCloud()
+        cloud.points = points.astype(numpy.float32)
+        cloud.normals = normals.astype(numpy.float32)
+        cls.cloud = cloud
+
+    @classmethod
+    def tearDownClass(cls):
+        FreeCAD.closeDocument(cls.doc.Name)
+
+    def fit_at(self, seed, radius_mm=3.0, **options):
+        region = self.region_fit.pick_region(self.cloud, seed, radius_mm=radius_mm)
+        return self.region_fit.fit_region(self.doc, self.cloud, region, self.region_fit.region_options(**options))
+
+    def test_hole_from_a_picked_point(self):
+        hole, fit = self.fit_at((-16.0, 0.0, 12.0), radius_mm=4.0)
+        FreeCAD.Console.PrintMessage("hole picked at (-16, 0, 12): %s, diameter %.4f mm; %s\n" % (
+            fit.shape.kind, 2 * fit.shape.radius_mm, fit.report))
+        self.assertEqual(hole.TypeId, "Part::Cylinder")
+        self.assertAlmostEqual(2 * hole.Radius.Value, 10.0, delta=0.02)
+        axis = hole.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertLess(math.degrees(math.acos(min(1.0, abs(axis.z)))), 0.2)
+        base = hole.Placement.Base
+        self.assertLess(math.hypot(base.x + 11, base.y), 0.02)
+        # Snapped to a 0.5 mm nominal step: exactly 10 mm, only because the points allow it.
+        snapped, fit = self.fit_at((-16.0, 0.0, 12.0), radius_mm=4.0, snap_step_mm=0.5, snap_tolerance_mm=0.05)
+        self.assertTrue(fit.snapped, fit.report)
+        self.assertEqual(snapped.Radius.Value, 5.0)
+
+    def test_chamfer_is_a_plane_at_45_degrees(self):
+        chamfer, fit = self.fit_at((21.0, 14.0, 12.0))
+        normal = chamfer.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        angle = math.degrees(math.acos(min(1.0, abs(normal.x))))
+        FreeCAD.Console.PrintMessage("chamfer picked at (21, 14, 12): %s, %.4f deg to the right face; %s\n" % (
+            fit.shape.kind, angle, fit.report))
+        self.assertEqual(chamfer.TypeId, "Part::Plane", fit.report)
+        self.assertAlmostEqual(angle, 45.0, delta=0.05)
+        self.assertLess(abs(normal.z), 1e-3)
+        # Fit primitives on the whole scan no longer takes the chamfer for a huge cylinder.
+        group, created = primitives.fit_primitives(self.doc, self.cloud,
+                                                   primitives.detection_options(epsilon_mm=0.1, min_points=300))
+        radii = [obj.Radius.Value for obj, _ in created if obj.TypeId == "Part::Cylinder"]
+        FreeCAD.Console.PrintMessage("Fit primitives on the demo part: cylinder radii %s\n" % radii)
+        self.assertTrue(all(r < 10 for r in radii), radii)
+        chamfers = [obj for obj, _ in created if obj.TypeId == "Part::Plane" and abs(
+            obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)).dot(FreeCAD.Vector(1, 1, 0).normalize())) > 0.999]
+        self.assertEqual(len(chamfers), 1, [o.Label for o, _ in created])
+        for obj in group.Group:
+            self.doc.removeObject(obj.Name)
+        self.doc.removeObject(group.Name)
+
+    def test_constraints_to_a_fitted_bottom_plane(self):
+        bottom, _ = self.fit_at((0.0, 5.0, 0.0), radius_mm=5.0)
+        self.assertEqual(bottom.TypeId, "Part::Plane")
+        up = bottom.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        boss, fit = self.fit_at((12.0, -9.0, 28.0), constraint="parallel", reference=bottom)
+        self.assertEqual(boss.TypeId, "Part::Cylinder", fit.report)
+        axis = boss.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertAlmostEqual(abs(axis.dot(up)), 1.0, delta=1e-9)
+        self.assertAlmostEqual(2 * boss.Radius.Value, 14.0, delta=0.02)
+        chamfer, fit = self.fit_at((21.0, 14.0, 12.0), constraint="perpendicular", reference=bottom)
+        normal = chamfer.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertAlmostEqual(normal.dot(up), 0.0, delta=1e-9)
+        # Coaxial with the boss: the hole's wall cannot be (23 mm away): the fit says so in its RMS.
+        hole, fit = self.fit_at((-16.0, 0.0, 12.0), radius_mm=4.0, kind="cylinder", constraint="coaxial", reference=boss)
+        self.assertGreater(fit.shape.rms_mm, 1.0)
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "cannot be coaxial"):
+            self.fit_at((21.0, 14.0, 12.0), kind="plane", constraint="coaxial", reference=boss)
+        # Two faces at once, with the noise known: no single primitive fits; nothing added.
+        with self.assertRaisesRegex(picoscan.Error, "pick one surface only"):
+            self.region_fit.fit_region(self.doc, self.cloud, self.region_fit.pick_region(
+                self.cloud, (0.0, -18.0, 24.0), radius_mm=3.0, grow=False), self.region_fit.region_options(noise_mm=0.02))
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
