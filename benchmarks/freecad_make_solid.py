@@ -2,9 +2,10 @@
 # FreeCAD's Python:
 #   freecadcmd benchmarks/freecad_make_solid.py   (PICOSCAN_WORKBENCH=build/freecad_workbench/PicoScan;
 #   PICOSCAN_CHECK_VALID=1 times OpenCASCADE's isValid() of every solid as well)
-# Two series: the demo part's mesh (scaled so that it has about 50 k, 100 k and 200 k facets) with
-# 20 um of vertex noise, a stand-in for a closed scan mesh (coplanar facets merge into planar
-# faces); and FreeCAD's UV spheres, where nothing is flat and every facet stays a face.
+# Two series: the demo part's block (outline with the chamfer and a rounded edge, tests/test_app.py's
+# outline_block_mesh) meshed at about 50 k, 100 k and 200 k facets with 20 um of vertex noise, a
+# stand-in for a closed scan mesh (coplanar facets merge into planar faces); and FreeCAD's UV
+# spheres, where almost nothing is flat and every facet stays a face.
 import os
 import sys
 import time
@@ -14,7 +15,7 @@ import Mesh  # noqa: E402
 
 from picoscan_wb.objects import scan_mesh  # noqa: E402
 from picoscan_wb.operations import solid  # noqa: E402
-from picoscan_wb.tests.test_app import noisy_demo_part_mesh  # noqa: E402
+from picoscan_wb.tests.test_app import outline_block_mesh  # noqa: E402
 
 check = bool(os.environ.get("PICOSCAN_CHECK_VALID"))
 
@@ -33,8 +34,8 @@ def run(name, mesh):
                                   valid), flush=True)
 
 
-for scale in (0.6, 0.85, 1.2):
-    run("demo part x%.2f, 20 um noise" % scale, scan_mesh.freecad_mesh(noisy_demo_part_mesh(0.02, scale)))
+for spacing in (0.54, 0.38, 0.27):
+    run("block, %.2f mm facets, 20 um noise" % spacing, scan_mesh.freecad_mesh(outline_block_mesh(0.02, spacing)))
 for sampling in (180, 250, 320):
     run("UV sphere", Mesh.createSphere(10.0, sampling))
 sys.stdout.flush()

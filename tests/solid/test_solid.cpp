@@ -166,9 +166,20 @@ TEST(PlanarFaces, MeshesThatBoundNoSolidAreRefused) {
             throw;
         },
         Error);
-    Mesh flat = grid_box(4, 4, 4, 1.0, 0.0);
-    flat.faces.emplace_back(0, 0, 1);
-    EXPECT_THROW(planar_face_model(flat), Error);
+    // A facet collapsed onto two corners bounds nothing: it is left out.
+    Mesh collapsed = grid_box(4, 4, 4, 1.0, 0.0);
+    collapsed.faces.emplace_back(0, 0, 1);
+    EXPECT_EQ(planar_face_model(collapsed).facet_count, collapsed.faces.size() - 1);
+    // Two facets back to back on three points in a line: closed, but of zero area.
+    Mesh line;
+    line.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+    line.faces = {{0, 1, 2}, {0, 2, 1}};
+    EXPECT_THROW(
+        try { planar_face_model(line); } catch (const Error& error) {
+            EXPECT_NE(std::string(error.what()).find("degenerate"), std::string::npos) << error.what();
+            throw;
+        },
+        Error);
     EXPECT_THROW(planar_face_model(Mesh{}), Error);
     PlanarFaceOptions bad;
     bad.max_normal_deg = 95;

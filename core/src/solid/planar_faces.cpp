@@ -288,6 +288,40 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     }
     report(0.7, "solid: boundaries");
 
+    // Vertices on planar regions move onto them: onto the plane, the line where two planes meet,
+    // or the corner of three (the point nearest to the vertex that satisfies the planes, in the
+    // least-squares sense with a heavy weight). The faces then meet exactly, without gaps of
+    // the noise's size. A move longer than a few noise widths (planes meeting at a glancing
+    // angle) is not made; the edges' tolerances cover that vertex instead.
+    if (!region_planes.empty()) {
+        std::vector<std::vector<int>> regions_at(vertex_count);
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0)
+                for (int k = 0; k < 3; ++k) {
+                    std::vector<int>& around = regions_at[facets[f][k]];
+                    if (std::find(around.begin(), around.end(), region[f]) == around.end()) around.push_back(region[f]);
+                }
+        const double weight = 1e8;
+        for (int v = 0; v < vertex_count; ++v) {
+            if (regions_at[v].empty()) continue;
+            cv::Matx33d system = cv::Matx33d::eye();
+            cv::Vec3d right = model.vertices[v];
+            for (int r : regions_at[v]) {
+                const Plane& plane = region_planes[r];
+                system += weight * (plane.normal * plane.normal.t());
+                right += weight * plane.normal.dot(plane.origin) * plane.normal;
+            }
+            cv::Vec3d moved;
+            if (!cv::solve(system, right, moved, cv::DECOMP_CHOLESKY)) continue;
+            if (cv::norm(moved - model.vertices[v]) <= 3 * distance_limit) model.vertices[v] = moved;
+        }
+        for (int f = 0; f < facet_count; ++f) {
+            const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
+            const cv::Vec3d cross = (b - a).cross(c - a);
+            if (cv::norm(cross) > 0) normals[f] = cv::normalize(cross);
+        }
+    }
+
     // Faces: the regions, then one per remaining facet.
     const int region_count = int(region_planes.size());
     std::vector<int> face_of(facet_count);

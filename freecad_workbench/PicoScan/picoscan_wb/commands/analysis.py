@@ -96,7 +96,8 @@ class FitRegionCommand(Command):
     icon = "picoscan_fit_region"
     menu = "Fit at picked point"
     tooltip = ("Fit a plane, cylinder, sphere or cone to the surface around the point picked on the selected "
-               "ScanView or Stitch (3 mm around it, grown over the smooth surface); the kind follows the scan's noise")
+               "ScanView or Stitch (the face it is on, grown over the smooth surface up to its edges); the kind follows the "
+               "scan's noise")
 
     def IsActive(self):
         return any(is_scan_view(s.Object) or is_stitch(s.Object) for s in FreeCADGui.Selection.getSelectionEx()

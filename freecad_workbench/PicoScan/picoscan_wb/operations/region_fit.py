@@ -52,9 +52,11 @@ def region_options(kind=None, noise_mm=0.0, constraint=None, reference=None, pla
     return options
 
 
-def pick_region(cloud, seed, radius_mm=3.0, grow=True, placement=None, max_gap_mm=1.0):
+def pick_region(cloud, seed, radius_mm=30.0, grow=True, placement=None, max_gap_mm=1.0):
     """Indices of the cloud's points around `seed` (document coordinates; `placement` is the scan
-    object's): within radius_mm of it and, with grow, reached over the smooth surface from it."""
+    object's): within radius_mm of it and, with grow, reached over the smooth surface from it
+    (neighbours within max_gap_mm whose normals turn by less than 20 degrees): by default the face
+    the point is on, up to its edges."""
     selection = picoscan.RegionSelection()
     selection.radius_mm = radius_mm
     selection.grow = grow
