@@ -1,7 +1,8 @@
 # Make solid from closed meshes of growing size, timed, to show how the time grows. Run with
 # FreeCAD's Python:
 #   freecadcmd benchmarks/freecad_make_solid.py   (PICOSCAN_WORKBENCH=build/freecad_workbench/PicoScan;
-#   PICOSCAN_CHECK_VALID=1 times OpenCASCADE's isValid() of every solid as well)
+#   PICOSCAN_CHECK_VALID=1 times OpenCASCADE's isValid() of the block solids as well; on the
+#   spheres' 100 k+ triangle faces it takes minutes)
 # Two series: the demo part's block (outline with the chamfer and a rounded edge, tests/test_app.py's
 # outline_block_mesh) meshed at about 50 k, 100 k and 200 k facets with 20 um of vertex noise, a
 # stand-in for a closed scan mesh (coplanar facets merge into planar faces); and FreeCAD's UV
@@ -20,7 +21,7 @@ from picoscan_wb.tests.test_app import outline_block_mesh  # noqa: E402
 check = bool(os.environ.get("PICOSCAN_CHECK_VALID"))
 
 
-def run(name, mesh):
+def run(name, mesh, check=False):
     start = time.perf_counter()
     shape, model = solid.solid_with_model(mesh, name, check_valid=False)
     elapsed = time.perf_counter() - start
@@ -35,7 +36,7 @@ def run(name, mesh):
 
 
 for spacing in (0.54, 0.38, 0.27):
-    run("block, %.2f mm facets, 20 um noise" % spacing, scan_mesh.freecad_mesh(outline_block_mesh(0.02, spacing)))
+    run("block, %.2f mm facets, 20 um noise" % spacing, scan_mesh.freecad_mesh(outline_block_mesh(0.02, spacing)), check)
 for sampling in (180, 250, 320):
     run("UV sphere", Mesh.createSphere(10.0, sampling))
 sys.stdout.flush()

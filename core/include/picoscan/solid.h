@@ -16,6 +16,7 @@ struct PlanarFaceOptions {
     double noise_mm = 0;             // the scan's noise (sigma); 0: estimated from the mesh
     double distance_factor = 4;      // a region's vertices lie within this many sigma of its plane
     double max_normal_deg = 30;      // a facet joins a region when its normal is within this of the plane's
+                                     // (plus 3 x its normal's noise: 2 sigma over its shortest altitude)
     double max_rms_factor = 1.5;     // a region's RMS residual must stay below this many sigma
                                      // (a strip of a cylinder is flat within 4 sigma, not within 1.5)
     int min_facets = 30;             // smaller regions stay triangles

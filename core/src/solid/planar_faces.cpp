@@ -191,7 +191,16 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     // A boundary between two planes is straight when its vertices stray less than this from the
     // line: they carry the noise across the line as well as along the normal (2-D, so more).
     const double straight_limit = 1.5 * distance_limit;
-    const double min_cosine = std::cos(options.max_normal_deg * kPi / 180);
+    // A small facet's normal is only known to about 2 sigma over its shortest altitude: its
+    // normal may stray from the plane's by max_normal_deg plus three times that.
+    std::vector<double> min_cosine(facet_count);
+    for (int f = 0; f < facet_count; ++f) {
+        const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
+        const double twice_area = cv::norm((b - a).cross(c - a));
+        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+        const double spread_deg = 3 * std::atan(2 * model.noise_mm / (twice_area / longest)) * 180 / kPi;
+        min_cosine[f] = std::cos(std::min(options.max_normal_deg + spread_deg, 80.0) * kPi / 180);
+    }
 
     std::vector<int> region(facet_count, -1);
     std::vector<Plane> region_planes;
@@ -229,7 +238,22 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
                     moments.add(positions[v]);
                 }
             };
+            // The first plane: through the corners of the seed's two rings of neighbours (one
+            // small facet's own plane may tilt by many degrees in the noise).
             Plane plane{positions[facets[seed][0]], normals[seed]};
+            {
+                PlaneMoments start;
+                start.reference = positions[facets[seed][0]];
+                for (int k = 0; k < 3; ++k) {
+                    const int near_facet = twin[seed * 3 + k] / 3;
+                    for (int j = 0; j < 3; ++j) {
+                        const int far_facet = twin[near_facet * 3 + j] / 3;
+                        for (int c = 0; c < 3; ++c) start.add(positions[facets[far_facet][c]]);
+                    }
+                }
+                const Plane fitted = start.plane();
+                plane = {fitted.origin, fitted.normal.dot(normals[seed]) < 0 ? -fitted.normal : fitted.normal};
+            }
             size_t fitted_at = 3;
             queue.clear();
             take(seed);
@@ -237,7 +261,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
                 const int f = queue[next];
                 for (int k = 0; k < 3; ++k) {
                     const int g = twin[f * 3 + k] / 3;
-                    if (claim[g] == attempt || region[g] >= 0 || normals[g].dot(plane.normal) < min_cosine) continue;
+                    if (claim[g] == attempt || region[g] >= 0 || normals[g].dot(plane.normal) < min_cosine[g]) continue;
                     bool near = true;
                     for (int c = 0; c < 3 && near; ++c) near = std::abs(plane.distance(positions[facets[g][c]])) <= distance_limit;
                     if (!near) continue;
@@ -258,11 +282,28 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
                 rms = std::sqrt(rms / double(region_vertices.size()));
                 accepted = rms <= rms_limit;
             }
-            if (accepted) {  // a region that touches itself at a vertex would make a pinched wire
+            // Where a region touches itself at a vertex its wire would pinch: the region's facets
+            // at that vertex stay triangles, until no such vertex is left.
+            for (int pass = 0; accepted && pass < 20; ++pass) {
                 for (int v : region_vertices) outgoing[v] = 0;
+                bool pinched = false;
                 for (int f : members)
-                    for (int k = 0; k < 3 && accepted; ++k)
-                        if (claim[twin[f * 3 + k] / 3] != attempt && ++outgoing[facets[f][k]] > 1) accepted = false;
+                    for (int k = 0; k < 3; ++k)
+                        if (claim[twin[f * 3 + k] / 3] != attempt && ++outgoing[facets[f][k]] > 1) pinched = true;
+                if (!pinched) break;
+                std::vector<int> kept_members;
+                for (int f : members) {
+                    bool at_pinch = false;
+                    for (int k = 0; k < 3; ++k) at_pinch = at_pinch || outgoing[facets[f][k]] > 1;
+                    if (at_pinch) {
+                        claim[f] = -1;
+                        tried[f] = 1;
+                    } else {
+                        kept_members.push_back(f);
+                    }
+                }
+                members.swap(kept_members);
+                accepted = int(members.size()) >= options.min_facets;
             }
             if (!accepted) {
                 for (int f : members) tried[f] = 1;
