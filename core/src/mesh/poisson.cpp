@@ -97,9 +97,11 @@ constexpr double kEvaluationsPerFace = 250;
 struct ReportingVisitor {
     const StageReport* report;
     size_t total;
+    const char* stage;
+    double from, to;  // the fractions of the whole reported at the first and the last point
     mutable size_t inserted = 0;
     void before_insertion() const {
-        if (++inserted % 4096 == 0) (*report)(0.05 * std::min(1.0, double(inserted) / double(total)), "Poisson: triangulating the points");
+        if (++inserted % 4096 == 0) (*report)(from + (to - from) * std::min(1.0, double(inserted) / double(total)), stage);
     }
 };
 
@@ -167,12 +169,16 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     using Surface = CGAL::Implicit_surface_3<Kernel, std::function<Kernel::FT(Point3)>>;
 
     report(0.0, "Poisson: triangulating the points");
-    Function function(points.begin(), points.end(), PointMap(), NormalMap(), ReportingVisitor{&report, points.size()});
-    report(0.05, "Poisson: solving the implicit function");
+    Function function(points.begin(), points.end(), PointMap(), NormalMap(),
+                      ReportingVisitor{&report, points.size(), "Poisson: triangulating the points", 0.0, 0.04});
+    // CGAL's refinement and the assembly of the linear system report nothing (and cannot be
+    // cancelled) but for the points it inserts again; the solve that follows reports as it goes.
+    const char* refining = "Poisson: refining and assembling the system";
+    report(0.04, refining);
     ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
     ReportingSolver solver;
     solver.report = &report;
-    if (!function.compute_implicit_function(solver, ReportingVisitor{&report, points.size()}, 0, 5))
+    if (!function.compute_implicit_function(solver, ReportingVisitor{&report, points.size(), refining, 0.04, 0.05}, 0, 5))
         throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
                                                   attached(cgal.text(), "CGAL"));
     // The surface mesher's triangles: about the point spacing, but larger when the data's

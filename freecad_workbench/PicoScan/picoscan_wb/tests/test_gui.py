@@ -465,14 +465,15 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertLess(gaps.max(), 2.0)
         self.assertLess(ended - record["pressed"], 3.0)
 
-    # The Poisson mesh of the shaft's ScanView (462 k points) at this spacing runs for about 30 s
-    # on this machine (docs/freecad.md gives the command that measured it).
-    LONG_POISSON_SPACING_MM = 0.4
+    # The Poisson mesh of the shaft's ScanView (462 613 points) at this spacing runs for minutes on
+    # the shared 2-core machine (benchmarks/poisson_cancel.py; docs/freecad.md has the figures).
+    LONG_POISSON_SPACING_MM = 1.0
 
     def test_k2_long_poisson_answers_events_and_cancel_leaves_the_document_as_it_was(self):
         """The issue's target: while a long Poisson runs from the Mesh panel, a 50 ms GUI timer keeps
-        firing; Cancel, pressed while the core solves its implicit function (the longest stage),
-        stops it within 1 s, and the document is as it was."""
+        firing; Cancel, pressed while the core solves its implicit function (conjugate gradients,
+        reporting every 16 iterations), stops it within 1 s, and the document is as it was. (CGAL's
+        refinement and assembly before the solve have no cancel point: their time is printed.)"""
         from PySide2 import QtCore
 
         view = scan_view.create(self.doc, self.captures, self.calibration, name="BigView")
@@ -495,7 +496,7 @@ class PicoScanGuiTest(unittest.TestCase):
         started = time.monotonic()
 
         def watch():
-            # The user watches the dialog and presses Cancel 1 s into the solve (or at 25 s).
+            # The user watches the dialog and presses Cancel 1 s into the solve (or at 240 s).
             shown = [d for d in FreeCADGui.getMainWindow().findChildren(QtWidgets.QProgressDialog, "PicoScanProgress")
                      if d.isVisible()]
             if not shown or "pressed" in record:
@@ -504,7 +505,7 @@ class PicoScanGuiTest(unittest.TestCase):
             if not record["stages"] or record["stages"][-1][0] != label:
                 record["stages"].append((label, time.monotonic()))
             solving = [t for text, t in record["stages"] if "solving" in text]
-            if (solving and time.monotonic() - solving[0] > 1.0) or time.monotonic() - started > 25:
+            if (solving and time.monotonic() - solving[0] > 1.0) or time.monotonic() - started > 240:
                 record["pressed"] = time.monotonic()
                 record["label"] = label
                 record["fraction"] = shown[0].value() / 1000.0
