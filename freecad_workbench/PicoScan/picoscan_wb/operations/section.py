@@ -44,7 +44,7 @@ def section_polylines(mesh_object, axis, offset_mm=None):
     return placement, result
 
 
-def parallel_cuts(mesh_object, axis, offset_mm, band_mm, count=32):
+def parallel_cuts(mesh_object, axis, offset_mm, band_mm, count=16):
     """The section's 2D points at `count` other positions spread over +- band_mm around the plane
     (the same 2D frame: the plane only moves along its normal); empty when band_mm is 0."""
     if band_mm < 0:
@@ -206,7 +206,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     """Adds a Sketch of the section, placed in the cutting plane: lines, arcs and circles fitted to
     the cut within tolerance_mm (0: from the scan's noise), joined and constrained, ready to edit in
     Sketcher and to pad. With band_mm > 0 the outline is taken as prismatic within +- band_mm of the
-    plane (a pad's sides): each element is refitted with the points of 32 parallel cuts there
+    plane (a pad's sides): each element is refitted with the points of 16 parallel cuts there
     (picoscan.fit_extruded_section). Raises picoscan.Error (document unchanged) when the plane
     misses the mesh."""
     placement, polylines = section_polylines(mesh_object, axis, offset_mm)

@@ -42,7 +42,7 @@ class CrossSectionTaskPanel:
         self.band.setDecimals(3)
         self.band.setSuffix(" mm")
         self.band.setSpecialValueText("one cut")
-        self.band.setToolTip("For a prismatic outline (a pad's sides): refit each line and arc with 32 more cuts "
+        self.band.setToolTip("For a prismatic outline (a pad's sides): refit each line and arc with 16 more cuts "
                              "within +- this distance of the plane; 0: the one cut")
         layout.addRow("Band (+-)", self.band)
         self.preview = None

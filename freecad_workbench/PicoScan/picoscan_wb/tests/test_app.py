@@ -745,7 +745,7 @@ class PicoScanSectionFitTest(unittest.TestCase):
         started = time.monotonic()
         outline = section.cross_section(self.doc, scan, axis="Z", offset_mm=12.0, name="Outline", band_mm=10.0)
         boss_section = section.cross_section(self.doc, scan, axis="Z", offset_mm=28.0, name="BossSection", band_mm=3.0)
-        FreeCAD.Console.PrintMessage("two fitted sections with 32 parallel cuts each: %.1f s\n" % (time.monotonic() - started))
+        FreeCAD.Console.PrintMessage("two fitted sections with 16 parallel cuts each: %.1f s\n" % (time.monotonic() - started))
         self.assertEqual(outline.FitBand.Value, 10.0)
         lines = [g for g in outline.Geometry if g.TypeId == "Part::GeomLineSegment"]
         circles = [g for g in outline.Geometry if g.TypeId == "Part::GeomCircle"]
