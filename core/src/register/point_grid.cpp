@@ -7,29 +7,50 @@
 
 namespace picoscan::detail {
 
+cv::Rect measured_bounds(const ScanView& view) {
+    int left = view.points.cols, top = view.points.rows, right = -1, bottom = -1;
+    for (int y = 0; y < view.points.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < view.points.cols; ++x) {
+            if (!is_finite_point(row[x])) continue;
+            left = std::min(left, x);
+            right = std::max(right, x);
+            top = std::min(top, y);
+            bottom = std::max(bottom, y);
+        }
+    }
+    return right < 0 ? cv::Rect() : cv::Rect(left, top, right - left + 1, bottom - top + 1);
+}
+
 SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
     SurfaceSamples samples;
     if (view.points.empty()) return samples;
     const bool has_normals = !view.normals.empty();
     // Paint only: the white frame divided by its local mean (over measured pixels), so that
     // shading, which any two faces share, does not count as texture.
-    cv::Mat paint;
-    if (!view.colours.empty()) {
-        cv::Mat grey, measured(view.points.size(), CV_32F);
-        cv::cvtColor(view.colours, grey, cv::COLOR_BGR2GRAY);
-        grey.convertTo(grey, CV_32F);
-        for (int y = 0; y < measured.rows; ++y)
-            for (int x = 0; x < measured.cols; ++x)
-                measured.at<float>(y, x) = is_finite_point(view.points.at<cv::Vec3f>(y, x)) ? 1.f : 0.f;
+    cv::Mat paint;  // over `measured_area` only
+    const cv::Rect measured_area = measured_bounds(view);
+    if (!view.colours.empty() && !measured_area.empty()) {
         // The local mean spans about 1.3 mm of surface at the working distance whatever the
         // camera's resolution (8 pixels of the seed camera, fx 2500): wider, the shading near
         // an edge would count as paint on a lower-resolution camera.
         const double fx = view.camera_matrix(0, 0);
         const double sigma_px = fx > 0 ? std::clamp(8.0 * fx / 2500.0, 1.0, 32.0) : 8.0;
+        // Filtered over the measured area and a margin wider than the kernel, not the whole
+        // frame: outside the measured pixels the weights are zero, so the result is the same.
+        const int margin = static_cast<int>(std::ceil(4 * sigma_px)) + 2;
+        const cv::Rect area = (measured_area + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
+                              cv::Rect(0, 0, view.points.cols, view.points.rows);
+        cv::Mat grey, measured(area.size(), CV_32F);
+        cv::cvtColor(view.colours(area), grey, cv::COLOR_BGR2GRAY);
+        grey.convertTo(grey, CV_32F);
+        for (int y = 0; y < measured.rows; ++y)
+            for (int x = 0; x < measured.cols; ++x)
+                measured.at<float>(y, x) = is_finite_point(view.points.at<cv::Vec3f>(y + area.y, x + area.x)) ? 1.f : 0.f;
         cv::Mat local_sum, local_count;
         cv::GaussianBlur(grey.mul(measured), local_sum, cv::Size(), sigma_px);
         cv::GaussianBlur(measured, local_count, cv::Size(), sigma_px);
-        paint = grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0);
+        paint = cv::Mat(grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0))(measured_area - area.tl());
     }
     std::unordered_map<long long, int> taken;
     auto cell = [&](double value) { return static_cast<long long>(std::floor(value / spacing_mm)); };
@@ -48,7 +69,7 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
             if (!taken.emplace(key, 0).second) continue;
             samples.points.emplace_back(row[x]);
             samples.normals.push_back(normal);
-            if (!paint.empty()) samples.grey.push_back(paint.at<float>(y, x));
+            if (!paint.empty()) samples.grey.push_back(paint.at<float>(y - measured_area.y, x - measured_area.x));
         }
     }
     return samples;

@@ -16,6 +16,9 @@ struct SurfaceSamples {
     std::vector<float> grey;         // white frame / its local mean (paint, not shading); empty without colours
 };
 
+// The smallest pixel rectangle holding every valid point of the view (empty when none).
+cv::Rect measured_bounds(const ScanView& view);
+
 // One valid point (with a finite normal) per spacing_mm cube, in the view's own frame.
 SurfaceSamples sample_view(const ScanView& view, double spacing_mm);
 
