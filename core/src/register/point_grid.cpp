@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 namespace picoscan::detail {
 
@@ -89,33 +90,71 @@ SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& tra
     return out;
 }
 
-PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : points_(points), cell_mm_(cell_mm) {
-    cells_.reserve(points.size() / 4 + 1);
+namespace {
+
+size_t table_slot(long long key, size_t mask) {
+    return static_cast<size_t>((static_cast<unsigned long long>(key) * 0x9E3779B97F4A7C15ULL) >> 20) & mask;
+}
+
+}  // namespace
+
+cv::Vec<long long, 3> PointGrid::cell_of(const cv::Vec3d& p) const {
+    return {static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
+            static_cast<long long>(std::floor(p[2] / cell_mm_))};
+}
+
+PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cell_mm_(cell_mm) {
+    std::vector<std::pair<long long, int>> keyed(points.size());
     for (size_t i = 0; i < points.size(); ++i) {
-        const cv::Vec3d& p = points[i];
-        cells_[key(static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
-                   static_cast<long long>(std::floor(p[2] / cell_mm_)))]
-            .push_back(static_cast<int>(i));
+        const cv::Vec<long long, 3> c = cell_of(points[i]);
+        keyed[i] = {key(c[0], c[1], c[2]), static_cast<int>(i)};
+    }
+    std::sort(keyed.begin(), keyed.end());  // by key, then index: each cell's points in input order
+    sorted_.reserve(points.size());
+    index_.reserve(points.size());
+    size_t cells = 0;
+    for (size_t i = 0; i < keyed.size(); ++i) {
+        if (i == 0 || keyed[i].first != keyed[i - 1].first) ++cells;
+        sorted_.push_back(points[static_cast<size_t>(keyed[i].second)]);
+        index_.push_back(keyed[i].second);
+    }
+    size_t size = 16;
+    while (size < 2 * cells) size *= 2;
+    table_.assign(size, Cell{});
+    mask_ = size - 1;
+    for (size_t i = 0; i < keyed.size();) {
+        size_t end = i;
+        while (end < keyed.size() && keyed[end].first == keyed[i].first) ++end;
+        size_t slot = table_slot(keyed[i].first, mask_);
+        while (table_[slot].begin >= 0) slot = (slot + 1) & mask_;
+        table_[slot] = {keyed[i].first, static_cast<int>(i), static_cast<int>(end)};
+        i = end;
+    }
+}
+
+const PointGrid::Cell* PointGrid::find(long long key) const {
+    for (size_t slot = table_slot(key, mask_);; slot = (slot + 1) & mask_) {
+        const Cell& cell = table_[slot];
+        if (cell.begin < 0) return nullptr;
+        if (cell.key == key) return &cell;
     }
 }
 
 int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
-    const long long cx = static_cast<long long>(std::floor(query[0] / cell_mm_));
-    const long long cy = static_cast<long long>(std::floor(query[1] / cell_mm_));
-    const long long cz = static_cast<long long>(std::floor(query[2] / cell_mm_));
+    const cv::Vec<long long, 3> c = cell_of(query);
     double best = max_distance_mm * max_distance_mm;
     int best_index = -1;
-    for (long long dx = -1; dx <= 1; ++dx)
-        for (long long dy = -1; dy <= 1; ++dy)
-            for (long long dz = -1; dz <= 1; ++dz) {
-                const auto found = cells_.find(key(cx + dx, cy + dy, cz + dz));
-                if (found == cells_.end()) continue;
-                for (int index : found->second) {
-                    const cv::Vec3d d = points_[static_cast<size_t>(index)] - query;
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                const Cell* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz));
+                if (!cell) continue;
+                for (int k = cell->begin; k < cell->end; ++k) {
+                    const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
                     const double distance = d.dot(d);
                     if (distance < best) {
                         best = distance;
-                        best_index = index;
+                        best_index = index_[static_cast<size_t>(k)];
                     }
                 }
             }
@@ -124,18 +163,16 @@ int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
 
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
-    const long long cx = static_cast<long long>(std::floor(query[0] / cell_mm_));
-    const long long cy = static_cast<long long>(std::floor(query[1] / cell_mm_));
-    const long long cz = static_cast<long long>(std::floor(query[2] / cell_mm_));
+    const cv::Vec<long long, 3> c = cell_of(query);
     const double limit = radius_mm * radius_mm;
-    for (long long dx = -1; dx <= 1; ++dx)
-        for (long long dy = -1; dy <= 1; ++dy)
-            for (long long dz = -1; dz <= 1; ++dz) {
-                const auto cell = cells_.find(key(cx + dx, cy + dy, cz + dz));
-                if (cell == cells_.end()) continue;
-                for (int index : cell->second) {
-                    const cv::Vec3d d = points_[static_cast<size_t>(index)] - query;
-                    if (d.dot(d) <= limit) found.push_back(index);
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                const Cell* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz));
+                if (!cell) continue;
+                for (int k = cell->begin; k < cell->end; ++k) {
+                    const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
+                    if (d.dot(d) <= limit) found.push_back(index_[static_cast<size_t>(k)]);
                 }
             }
 }
