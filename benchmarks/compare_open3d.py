@@ -23,6 +23,7 @@ the whole true surface, the unseen bottom included) and mesh -> truth.
 
 Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
+        [--baseline OLD/picoscan]  (an earlier build on the same pairs, global registration: before and after)
 """
 import argparse
 import os
@@ -202,9 +203,11 @@ def right_views(truth, poses, centroids):
 
 def model_row(name, mesh, truth, true_volume, merged, seconds):
     to_mesh, to_truth = distances(truth, mesh)
+    closed = mesh.is_watertight()  # a volume means something only for a closed surface
     volume = mesh_volume(mesh)
-    return ("| %s | %s | %.2f (%+.1f %%) | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | %.1f |" % (
-        name, merged, volume / 1000, 100 * (volume / true_volume - 1), to_mesh.mean(), np.percentile(to_mesh, 95),
+    volume_text = "%.2f (%+.1f %%)" % (volume / 1000, 100 * (volume / true_volume - 1)) if closed else "not closed"
+    return ("| %s | %s | %s | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | %.1f |" % (
+        name, merged, volume_text, to_mesh.mean(), np.percentile(to_mesh, 95),
         to_mesh.max(), to_truth.mean(), np.percentile(to_truth, 95), to_truth.max(), seconds))
 
 
@@ -217,7 +220,9 @@ def picoscan_model(picoscan, views, work):
         return None, [], time.perf_counter() - start
     subprocess.run([picoscan, "mesh", merged, "--out", model], capture_output=True, text=True, check=True)
     seconds = time.perf_counter() - start
-    return o3d.io.read_triangle_mesh(model), read_poses(merged.replace(".ply", ".poses.txt")), seconds
+    mesh = o3d.io.read_triangle_mesh(model)
+    mesh.merge_close_vertices(1e-6)
+    return mesh, read_poses(merged.replace(".ply", ".poses.txt")), seconds
 
 
 def open3d_model(views, pair_results):
@@ -255,12 +260,13 @@ def open3d_model(views, pair_results):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--build", default="build", help="the build tree (core/picoscan, the picoscan module)")
+    parser.add_argument("--picoscan", help="the picoscan binary (default: BUILD/core/picoscan)")
     parser.add_argument("--data", default="build/bench-compare", help="simulated views (made when missing)")
     parser.add_argument("--parts", default=",".join(PARTS), help="speckled,plain")
     parser.add_argument("--no-model", action="store_true", help="registration of the pairs only")
     parser.add_argument("--baseline", help="another picoscan binary (an earlier build) run on the same pairs")
     args = parser.parse_args()
-    picoscan = os.path.abspath(os.path.join(args.build, "core", "picoscan"))
+    picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
     registration_table, model_table = [], []
     for part in args.parts.split(","):
         directory = os.path.join(args.data, part)
@@ -273,7 +279,8 @@ def main():
         pairs = [(k, (k + 1) % count) for k in range(count)]
         rng = np.random.default_rng(1)
         tools = ("PicoScan", "Open3D") + (("PicoScan before",) if args.baseline else ())
-        rows = {(kind, tool): ([], []) for kind in ("global", "icp") for tool in tools}
+        rows = {(kind, tool): ([], []) for kind in ("global", "icp") for tool in tools
+                if kind == "global" or tool != "PicoScan before"}
         open3d_found = []
         with tempfile.TemporaryDirectory() as work:
             for a, b in pairs:
@@ -288,7 +295,6 @@ def main():
                 }
                 if args.baseline:
                     runs[("global", "PicoScan before")] = picoscan_pair(args.baseline, views[a], views[b], work)
-                    runs[("icp", "PicoScan before")] = picoscan_pair(args.baseline, views[a], views[b], work, initial)
                 open3d_found.append(runs[("global", "Open3D")][0])
                 for key, (found, seconds) in runs.items():
                     error = None if found is None else pose_error(true_relative, np.asarray(found), centroid)
@@ -297,7 +303,7 @@ def main():
                     print("%s view_%d <- view_%d %-6s %-15s %s  %.2f s (CPU %.2f s)" % (part, a, b, key[0], key[1],
                           "refused" if error is None else "%.4f deg %.4f mm" % error, *seconds), file=sys.stderr)
             for kind, label in (("global", "global, no guess"), ("icp", "ICP from 2 deg / 2 mm off")):
-                for tool in tools:
+                for tool in [t for t in tools if (kind, t) in rows]:
                     registration_table.append(summary("%s, %s: %s" % (part, label, tool), *rows[(kind, tool)]))
             if args.no_model:
                 continue
