@@ -264,6 +264,7 @@ def main():
     parser.add_argument("--data", default="build/bench-compare", help="simulated views (made when missing)")
     parser.add_argument("--parts", default=",".join(PARTS), help="speckled,plain")
     parser.add_argument("--no-model", action="store_true", help="registration of the pairs only")
+    parser.add_argument("--model-only", action="store_true", help="the models only (Open3D's global pairs still feed its pose graph)")
     parser.add_argument("--baseline", help="another picoscan binary (an earlier build) run on the same pairs")
     args = parser.parse_args()
     picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
@@ -287,6 +288,9 @@ def main():
                 true_relative = np.linalg.inv(truth[a]) @ truth[b]
                 centroid = np.asarray(o3d.io.read_point_cloud(views[b]).get_center())
                 initial = disturbed(true_relative, centroid, 2.0, 2.0, rng)
+                if args.model_only:
+                    open3d_found.append(open3d_global(views[a], views[b])[0])
+                    continue
                 runs = {
                     ("global", "PicoScan"): picoscan_pair(picoscan, views[a], views[b], work),
                     ("global", "Open3D"): open3d_global(views[a], views[b]),
@@ -303,7 +307,7 @@ def main():
                     print("%s view_%d <- view_%d %-6s %-15s %s  %.2f s (CPU %.2f s)" % (part, a, b, key[0], key[1],
                           "refused" if error is None else "%.4f deg %.4f mm" % error, *seconds), file=sys.stderr)
             for kind, label in (("global", "global, no guess"), ("icp", "ICP from 2 deg / 2 mm off")):
-                for tool in [t for t in tools if (kind, t) in rows]:
+                for tool in [t for t in tools if (kind, t) in rows and rows[(kind, t)][0]]:
                     registration_table.append(summary("%s, %s: %s" % (part, label, tool), *rows[(kind, tool)]))
             if args.no_model:
                 continue
@@ -315,9 +319,11 @@ def main():
             if mesh is not None:
                 placed = "%d merged, %d right" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
                 model_table.append(model_row("%s: PicoScan stitch + mesh" % part, mesh, true_mesh, true_volume, placed, seconds))
+                print(model_table[-1], file=sys.stderr)
             mesh, poses, seconds = open3d_model(views, open3d_found)
             placed = "%d merged, %d right" % (count, right_views(truth, poses, centroids))
             model_table.append(model_row("%s: Open3D pose graph + Poisson" % part, mesh, true_mesh, true_volume, placed, seconds))
+            print(model_table[-1], file=sys.stderr)
             print("%s: true volume %.2f cm3" % (part, true_volume / 1000), file=sys.stderr)
     print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
           "shift error median / max (mm) | median time per pair, wall / CPU (s) |")
