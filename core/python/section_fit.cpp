@@ -68,6 +68,17 @@ void bind_section_fit(py::module_& m) {
         },
         py::arg("polyline"), py::arg("closed"), py::arg("options") = SectionFitOptions(),
         "Lines, arcs and circles fitted to an N x 2 polyline (mm), with their joints and snapped constraints");
+    m.def(
+        "fit_extruded_section",
+        [](const py::array& polyline, bool closed, const std::vector<py::array>& parallel_cuts, const SectionFitOptions& options) {
+            const std::vector<cv::Vec2d> points = array_to_vector<cv::Vec2d>(polyline, "polyline");
+            std::vector<std::vector<cv::Vec2d>> cuts;
+            for (const py::array& cut : parallel_cuts) cuts.push_back(array_to_vector<cv::Vec2d>(cut, "parallel_cuts"));
+            py::gil_scoped_release release;
+            return fit_extruded_section(points, closed, cuts, options);
+        },
+        py::arg("polyline"), py::arg("closed"), py::arg("parallel_cuts"), py::arg("options") = SectionFitOptions(),
+        "fit_section of a prismatic outline, each element refitted with the points of parallel cuts (N x 2 arrays)");
 }
 
 }  // namespace picoscan::python

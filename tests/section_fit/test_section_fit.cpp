@@ -227,3 +227,74 @@ TEST(SectionFit, RefusesBadInput) {
     EXPECT_EQ(message({{0, 0}, {1, 0}, {NAN, 1}, {0, 1}}, 0), "polyline: has a non-finite point");
     EXPECT_EQ(message({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, -1), "tolerance_mm: must be 0 (from the noise) or positive");
 }
+
+// A prismatic outline cut 33 times (independent noise per cut): refitted with the 32 parallel
+// cuts, every side's direction is within 0.05 degrees up to 40 um of noise, where one cut of the
+// 11 mm chamfer is not; a hole stays one circle, its radius within 5 um; a 3 mm fillet within 0.1 mm.
+// A parallel cut of another profile (the outline 0.5 mm higher: where a part is not prismatic)
+// adds nothing but the points that lie on the outline's own sides.
+TEST(SectionFit, ExtrudedOutlineRefitsEveryElementWithTheParallelCuts) {
+    const auto outline_with_fillet_and_hole = [](double sigma, unsigned seed, double raise) {
+        Outline outline(sigma, 0.3);
+        outline.random.seed(seed);
+        const double r = 3;  // the fillet at (-25, -18)
+        outline.line({-25 + r, -18}, {25, -18});
+        outline.line({25, -18}, {25, 10});
+        outline.line({25, 10}, {17, 18});
+        outline.line({17, 18}, {-25, 18});
+        outline.line({-25, 18}, {-25, -18 + r});
+        outline.arc({-25 + r, -18 + r}, r, 180, 270);
+        Outline hole(sigma, 0.3);
+        hole.random.seed(seed + 1000);
+        hole.arc({-11, 0}, 5, 0, 360);
+        for (auto& p : outline.points) p[1] += raise;
+        for (auto& p : hole.points) p[1] += raise;
+        return std::pair{outline.points, hole.points};
+    };
+    const std::vector<std::pair<cv::Vec2d, cv::Vec2d>> sides = {
+        {{-22, -18}, {25, -18}}, {{25, -18}, {25, 10}}, {{25, 10}, {17, 18}}, {{17, 18}, {-25, 18}}, {{-25, 18}, {-25, -15}}};
+    double single_chamfer_error = 0;
+    for (const double sigma : {0.01, 0.02, 0.04}) {
+        SCOPED_TRACE("sigma " + std::to_string(sigma));
+        const auto [outline, hole] = outline_with_fillet_and_hole(sigma, 1, 0);
+        std::vector<std::vector<cv::Vec2d>> parallel;
+        for (unsigned cut = 2; cut <= 33; ++cut) {
+            const auto [other_outline, other_hole] = outline_with_fillet_and_hole(sigma, cut, 0);
+            parallel.push_back(other_outline);
+            parallel.push_back(other_hole);
+        }
+        const auto [raised_outline, raised_hole] = outline_with_fillet_and_hole(sigma, 99, 0.5);
+        parallel.push_back(raised_outline);
+        parallel.push_back(raised_hole);
+        const SectionFit fit = fit_extruded_section(outline, true, parallel);
+        ASSERT_EQ(fit.elements.size(), 6u);
+        EXPECT_EQ(count(fit, SectionElementKind::Line), 5);
+        EXPECT_EQ(count(fit, SectionElementKind::Arc), 1);
+        for (const auto& e : fit.elements) {
+            if (e.kind == SectionElementKind::Arc) {
+                // Weak point, not asserted to 20 um: the fillet's 16 points per cut share its ends
+                // with the tangent lines, and where the split falls biases the radius (one cut: -60 um
+                // at 20 um of noise; refitted: +20 to +70 um here). A joint fit of the arc with its
+                // tangent lines would fix it.
+                EXPECT_NEAR(e.radius_mm, 3.0, 0.1);
+                continue;
+            }
+            double error = HUGE_VAL;
+            for (const auto& [a, b] : sides)
+                if (cv::norm(e.end - b) < 0.5) error = angle_error_deg(direction_deg(e.start, e.end), direction_deg(a, b));
+            ASSERT_LT(error, HUGE_VAL) << "no side ends at " << e.end;
+            EXPECT_LT(error, 0.05) << "line from " << e.start << " to " << e.end;
+        }
+        const SectionFit circle = fit_extruded_section(hole, true, parallel);
+        ASSERT_EQ(circle.elements.size(), 1u);
+        EXPECT_EQ(circle.elements[0].kind, SectionElementKind::Circle);
+        EXPECT_NEAR(circle.elements[0].radius_mm, 5.0, 0.005);
+        if (sigma == 0.04) {
+            for (const auto& e : fit_section(outline, true).elements)
+                if (e.kind == SectionElementKind::Line && cv::norm(e.end - cv::Vec2d(17, 18)) < 0.5)
+                    single_chamfer_error = angle_error_deg(direction_deg(e.start, e.end), 135.0);
+        }
+    }
+    // The reason for the parallel cuts: one cut alone misses 0.05 degrees on the chamfer at 40 um.
+    EXPECT_GT(single_chamfer_error, 0.05);
+}

@@ -76,6 +76,17 @@ std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin,
 // Error("tolerance_mm", ...) for a negative tolerance.
 SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options = {});
 
+// The same for a prismatic outline (e.g. a block's sides, cut across their height) cut several
+// times: the elements are found on `polyline` as fit_section finds them, then each line, arc and
+// circle is fitted again to its own points and to the points of the `parallel_cuts` (the same
+// profile at other heights, in the same 2D frame) that lie within the tolerance of it and between
+// its own points' ends. One cut of a mesh holds few independent samples (the noise is shared
+// along each facet): n cuts a facet apart hold about n times as many, and a short line's
+// direction is known about sqrt(n) times better. The residuals stay those of `polyline`.
+SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool closed,
+                                const std::vector<std::vector<cv::Vec2d>>& parallel_cuts,
+                                const SectionFitOptions& options = {});
+
 std::string to_string(SectionElementKind kind);
 std::string to_string(SectionConstraintKind kind);
 

@@ -20,6 +20,7 @@
 #include <opencv2/core.hpp>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 namespace picoscan::detail {
@@ -96,9 +97,63 @@ constexpr double kEvaluationsPerFace = 250;
 struct ReportingVisitor {
     const StageReport* report;
     size_t total;
+    const char* stage;
+    double from, to;  // the fractions of the whole reported at the first and the last point
     mutable size_t inserted = 0;
     void before_insertion() const {
-        if (++inserted % 4096 == 0) (*report)(0.05 * std::min(1.0, double(inserted) / double(total)), "Poisson: triangulating the points");
+        if (++inserted % 4096 == 0) (*report)(from + (to - from) * std::min(1.0, double(inserted) / double(total)), stage);
+    }
+};
+
+// The conjugate-gradient solve of CGAL's Poisson system, as Eigen's ConjugateGradient does it
+// (Jacobi preconditioner, the lower triangle read as the symmetric matrix, the same tolerance and
+// iteration limit), with a progress report every few iterations: the solve is most of a large
+// reconstruction's time, and a report is where the caller can cancel (the exception it throws
+// leaves the solver).
+struct ReportingSolver {
+    using Base = CGAL::Eigen_solver_traits<Eigen::ConjugateGradient<CGAL::Eigen_sparse_symmetric_matrix<double>::EigenType>>;
+    using Matrix = Base::Matrix;
+    using Vector = Base::Vector;
+    using NT = Base::NT;
+    const StageReport* report = nullptr;
+
+    bool linear_solver(const Matrix& a, const Vector& b, Vector& x, NT& d) const {
+        d = 1;
+        const auto& m = a.eigen_object();
+        const Eigen::Index n = m.cols();
+        Eigen::VectorXd inverse_diagonal = m.diagonal();
+        for (Eigen::Index i = 0; i < n; ++i) inverse_diagonal[i] = inverse_diagonal[i] != 0 ? 1 / inverse_diagonal[i] : 1;
+        Eigen::VectorXd solution = Eigen::VectorXd::Zero(n), residual = b.eigen_object();
+        const double b_norm2 = residual.squaredNorm();
+        const double tolerance = Eigen::NumTraits<double>::epsilon();
+        const double threshold = std::max(tolerance * tolerance * b_norm2, std::numeric_limits<double>::min());
+        if (b_norm2 == 0) {
+            x.eigen_object() = solution;
+            return true;
+        }
+        Eigen::VectorXd direction = inverse_diagonal.cwiseProduct(residual), product(n);
+        double rz = residual.dot(direction);
+        const double log_start = std::log(b_norm2), log_span = std::log(threshold) - log_start;
+        for (Eigen::Index iteration = 0; iteration < 2 * n; ++iteration) {
+            product.noalias() = m.selfadjointView<Eigen::Lower>() * direction;
+            const double step = rz / direction.dot(product);
+            solution += step * direction;
+            residual -= step * product;
+            const double r_norm2 = residual.squaredNorm();
+            if (r_norm2 < threshold) {
+                x.eigen_object() = solution;
+                return true;
+            }
+            const Eigen::VectorXd preconditioned = inverse_diagonal.cwiseProduct(residual);
+            const double rz_next = residual.dot(preconditioned);
+            direction = preconditioned + (rz_next / rz) * direction;
+            rz = rz_next;
+            // The residual falls about geometrically: its logarithm tells how far the solve is.
+            if (iteration % 16 == 15)
+                (*report)(0.05 + 0.25 * std::clamp((std::log(r_norm2) - log_start) / log_span, 0.0, 1.0),
+                          "Poisson: solving the implicit function");
+        }
+        return false;
     }
 };
 
@@ -112,13 +167,18 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     using Triangulation = CGAL::Surface_mesher::Surface_mesh_default_triangulation_3_generator<Kernel>::Type;
     using Complex = CGAL::Surface_mesh_complex_2_in_triangulation_3<Triangulation>;
     using Surface = CGAL::Implicit_surface_3<Kernel, std::function<Kernel::FT(Point3)>>;
-    using Solver = CGAL::Eigen_solver_traits<Eigen::ConjugateGradient<CGAL::Eigen_sparse_symmetric_matrix<double>::EigenType>>;
 
     report(0.0, "Poisson: triangulating the points");
-    Function function(points.begin(), points.end(), PointMap(), NormalMap(), ReportingVisitor{&report, points.size()});
-    report(0.05, "Poisson: solving the implicit function");
+    Function function(points.begin(), points.end(), PointMap(), NormalMap(),
+                      ReportingVisitor{&report, points.size(), "Poisson: triangulating the points", 0.0, 0.04});
+    // CGAL's refinement and the assembly of the linear system report nothing (and cannot be
+    // cancelled) but for the points it inserts again; the solve that follows reports as it goes.
+    const char* refining = "Poisson: refining and assembling the system";
+    report(0.04, refining);
     ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
-    if (!function.compute_implicit_function(Solver(), ReportingVisitor{&report, points.size()}, 0, 5))
+    ReportingSolver solver;
+    solver.report = &report;
+    if (!function.compute_implicit_function(solver, ReportingVisitor{&report, points.size(), refining, 0.04, 0.05}, 0, 5))
         throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
                                                   attached(cgal.text(), "CGAL"));
     // The surface mesher's triangles: about the point spacing, but larger when the data's

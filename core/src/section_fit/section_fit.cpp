@@ -465,7 +465,62 @@ std::string to_string(SectionConstraintKind kind) {
     return "?";
 }
 
-SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const SectionFitOptions& options) {
+namespace {
+
+// The points of the parallel cuts within the tolerance of `shape` and between the extremes of
+// its own points pts[first, first + count) (along a line, or in angle around a circle's centre;
+// a whole circle takes all within the tolerance).
+std::vector<cv::Vec2d> parallel_points(const Shape& shape, const Points& pts, long first, long count,
+                                       const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double tolerance,
+                                       bool whole_circle) {
+    // Lines: the position along the direction. Arcs: the angle from the middle point, in (-pi, pi].
+    const cv::Vec2d middle = shape.circle ? pts[first + count / 2] - shape.centre : cv::Vec2d();
+    const auto position = [&](const cv::Vec2d& p) {
+        if (!shape.circle) return (p - shape.point).dot(shape.direction);
+        const cv::Vec2d r = p - shape.centre;
+        return std::atan2(middle[0] * r[1] - middle[1] * r[0], middle.dot(r));
+    };
+    double low = HUGE_VAL, high = -HUGE_VAL;
+    for (long i = first; i < first + count; ++i) {
+        low = std::min(low, position(pts[i]));
+        high = std::max(high, position(pts[i]));
+    }
+    // A cut is used only where it follows the element: of its points near it (within 10 x the
+    // tolerance, in its range), 90 % within the tolerance. A cut of another profile (where the part
+    // is not prismatic) may cross the element, and its few points on it would pull the fit away.
+    std::vector<cv::Vec2d> near;
+    for (const auto& cut : parallel_cuts) {
+        std::vector<cv::Vec2d> within;
+        size_t candidates = 0;
+        for (const cv::Vec2d& p : cut) {
+            if (!std::isfinite(p[0]) || !std::isfinite(p[1])) continue;
+            const double distance = shape.distance(p), t = position(p);
+            if (distance > 10 * tolerance || !(whole_circle || (t >= low && t <= high))) continue;
+            ++candidates;
+            if (distance <= tolerance) within.push_back(p);
+        }
+        if (double(within.size()) >= 0.9 * double(candidates)) near.insert(near.end(), within.begin(), within.end());
+    }
+    return near;
+}
+
+// `shape` fitted again to pts[first, first + count) and its points of the parallel cuts.
+Shape refit_with_parallel_cuts(const Shape& shape, const Points& pts, long first, long count,
+                               const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double tolerance,
+                               bool whole_circle = false) {
+    std::vector<cv::Vec2d> all = parallel_points(shape, pts, first, count, parallel_cuts, tolerance, whole_circle);
+    if (all.empty()) return shape;
+    for (long i = first; i < first + count; ++i) all.push_back(pts[i]);
+    const Points joined{all, false};
+    Shape refitted = shape.circle ? fit_circle(joined, 0, long(all.size())) : fit_line(joined, 0, long(all.size()));
+    if (!refitted.ok) return shape;
+    // fit_line orients along the joined points' first and last: keep the element's direction.
+    if (!refitted.circle && refitted.direction.dot(shape.direction) < 0) refitted.direction = -refitted.direction;
+    return refitted;
+}
+
+SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, const SectionFitOptions& options,
+                            const std::vector<std::vector<cv::Vec2d>>& parallel_cuts) {
     if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
         throw Error("tolerance_mm", "must be 0 (from the noise) or positive");
     std::vector<cv::Vec2d> polyline;
@@ -485,8 +540,9 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const S
     SectionFitter fitter(polyline, closed, options, result.tolerance_mm);
     const long n = long(polyline.size());
 
-    const Shape whole = fit_circle(pts, 0, n);
+    Shape whole = fit_circle(pts, 0, n);
     if (closed && fitter.fits(whole, 0, n)) {
+        whole = refit_with_parallel_cuts(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true);
         SectionElement circle;
         circle.kind = SectionElementKind::Circle;
         circle.centre = whole.centre;
@@ -527,6 +583,13 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const S
             if (spans[j].count - head - tail < minimum || head + tail == 0) continue;
             const Shape shape = fitter.fit(spans[j].shape.circle, spans[j].first + head, spans[j].count - head - tail);
             if (shape.ok) trimmed[j].shape = shape;
+        }
+        for (size_t j = 0; j < count && !parallel_cuts.empty(); ++j) {
+            const bool smooth_before = closed || j > 0 ? smooth_after[(j + count - 1) % count] : false;
+            const long trim = spans[j].count / 10;
+            const long head = smooth_before ? 0 : trim, tail = smooth_after[j] ? 0 : trim;
+            trimmed[j].shape = refit_with_parallel_cuts(trimmed[j].shape, pts, spans[j].first + head,
+                                                        spans[j].count - head - tail, parallel_cuts, result.tolerance_mm);
         }
         spans = trimmed;
     }
@@ -574,6 +637,17 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& input, bool closed, const S
     }
     find_constraints(result, pts, options);
     return result;
+}
+
+}  // namespace
+
+SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options) {
+    return fit_section_with(polyline, closed, options, {});
+}
+
+SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool closed,
+                                const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options) {
+    return fit_section_with(polyline, closed, options, parallel_cuts);
 }
 
 }  // namespace picoscan

@@ -150,8 +150,9 @@ class CrossSectionCommand(Command):
         FreeCADGui.Control.showDialog(self.panel)
 
     @staticmethod
-    def section(mesh, axis, position_mm, tolerance_mm):
-        sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position_mm, tolerance_mm=tolerance_mm)
+    def section(mesh, axis, position_mm, tolerance_mm, band_mm=0.0):
+        sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position_mm, tolerance_mm=tolerance_mm,
+                                       band_mm=band_mm)
         source = getattr(mesh, "Source", None)
         if is_scan_view(source):
             path = os.path.join(output_folder(mesh.Document, "sections"), sketch.Name + "_profile.png")

@@ -44,6 +44,29 @@ def section_polylines(mesh_object, axis, offset_mm=None):
     return placement, result
 
 
+def parallel_cuts(mesh_object, axis, offset_mm, band_mm, count=16):
+    """The section's 2D points at `count` other positions spread over +- band_mm around the plane
+    (the same 2D frame: the plane only moves along its normal); empty when band_mm is 0."""
+    if band_mm < 0:
+        raise picoscan.Error("Band: must be 0 (one cut) or positive, is %g mm" % band_mm)
+    if band_mm == 0:
+        return []
+    from picoscan_wb.objects.scan_mesh import core_mesh
+
+    mesh = core_mesh(mesh_object.Mesh)
+    base, _ = section_plane(mesh_object.Mesh, axis, offset_mm)
+    placement = Placement(base, Rotation(Vector(0, 0, 1), AXES[axis]))
+    u_axis, v_axis = placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
+    cuts = []
+    for step in range(count + 1):
+        shift = band_mm * (2.0 * step / count - 1.0)
+        if step == count // 2:
+            continue  # the section itself
+        origin = base + AXES[axis] * shift
+        cuts += [line.points for line in picoscan.cut_mesh(mesh, tuple(origin), tuple(u_axis), tuple(v_axis))]
+    return cuts
+
+
 def fit_options(tolerance_mm=0.0):
     options = picoscan.SectionFitOptions()
     if tolerance_mm < 0:
@@ -179,12 +202,18 @@ def add_fitted_geometry(sketch, fit):
     return report
 
 
-def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", tolerance_mm=0.0):
+def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", tolerance_mm=0.0, band_mm=0.0):
     """Adds a Sketch of the section, placed in the cutting plane: lines, arcs and circles fitted to
     the cut within tolerance_mm (0: from the scan's noise), joined and constrained, ready to edit in
-    Sketcher and to pad. Raises picoscan.Error (document unchanged) when the plane misses the mesh."""
+    Sketcher and to pad. With band_mm > 0 the outline is taken as prismatic within +- band_mm of the
+    plane (a pad's sides): each element is refitted with the points of 16 parallel cuts there
+    (picoscan.fit_extruded_section). Raises picoscan.Error (document unchanged) when the plane
+    misses the mesh."""
     placement, polylines = section_polylines(mesh_object, axis, offset_mm)
-    fits = [picoscan.fit_section(points, closed, fit_options(tolerance_mm)) for points, closed in polylines]
+    others = parallel_cuts(mesh_object, axis, offset_mm, band_mm)
+    options = fit_options(tolerance_mm)
+    fits = [picoscan.fit_extruded_section(points, closed, others, options) if others else
+            picoscan.fit_section(points, closed, options) for points, closed in polylines]
     sketch = doc.addObject("Sketcher::SketchObject", name)
     try:
         sketch.Placement = placement
@@ -196,11 +225,13 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")
         sketch.addProperty("App::PropertyLength", "FitNoise", "Section", "Noise of the section estimated from its points")
         sketch.addProperty("App::PropertyStringList", "FitReport", "Section", "Per element: kind, size, points, residuals")
+        sketch.addProperty("App::PropertyLength", "FitBand", "Section", "Elements refitted with parallel cuts within +- this (0: one cut)")
         sketch.SourceMesh = mesh_object
         sketch.FitTolerance = max(fit.tolerance_mm for fit in fits)
         sketch.FitNoise = max(fit.noise_mm for fit in fits)
         sketch.FitReport = report
-        for name in ("FitTolerance", "FitNoise", "FitReport"):
+        sketch.FitBand = band_mm
+        for name in ("FitTolerance", "FitNoise", "FitReport", "FitBand"):
             sketch.setEditorMode(name, 1)  # shown, not edited: they describe the fit
         doc.recompute()
         if not sketch.isValid():

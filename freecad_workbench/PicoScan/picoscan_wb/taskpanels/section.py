@@ -13,7 +13,7 @@ class CrossSectionTaskPanel:
 
     def __init__(self, mesh_object, make_section):
         self.mesh_object = mesh_object
-        self.make_section = make_section  # (mesh, axis, position_mm, tolerance_mm) -> sketch
+        self.make_section = make_section  # (mesh, axis, position_mm, tolerance_mm, band_mm) -> sketch
         self.created = None
         self.form = QtGui.QWidget()
         self.form.setWindowTitle("PicoScan cross-section")
@@ -37,6 +37,14 @@ class CrossSectionTaskPanel:
         self.tolerance.setToolTip("Largest distance of a section point to its fitted line or arc; "
                                   "0: five times the noise measured on the section")
         layout.addRow("Tolerance", self.tolerance)
+        self.band = QtGui.QDoubleSpinBox()
+        self.band.setRange(0, 1000)
+        self.band.setDecimals(3)
+        self.band.setSuffix(" mm")
+        self.band.setSpecialValueText("one cut")
+        self.band.setToolTip("For a prismatic outline (a pad's sides): refit each line and arc with 16 more cuts "
+                             "within +- this distance of the plane; 0: the one cut")
+        layout.addRow("Band (+-)", self.band)
         self.preview = None
         self.axis.currentTextChanged.connect(self.centre_position)
         self.position.valueChanged.connect(self.show_plane)
@@ -87,7 +95,8 @@ class CrossSectionTaskPanel:
             self.preview = None
 
     def accept(self):
-        arguments = (self.mesh_object, self.axis.currentText(), self.position.value(), self.tolerance.value())
+        arguments = (self.mesh_object, self.axis.currentText(), self.position.value(), self.tolerance.value(),
+                     self.band.value())
         self.created = run_guarded("Cross-section", lambda: self.make_section(*arguments))
         if self.created is None:
             return False  # the message is shown; the panel stays open for corrections

@@ -5,6 +5,7 @@ import math
 import os
 import shutil
 import tempfile
+import time
 import unittest
 
 import numpy
@@ -818,6 +819,76 @@ class PicoScanSectionFitTest(unittest.TestCase):
         self.assertAlmostEqual(result.MaxDeviation.Value, 1.0, delta=0.1)
         self.assertLess(result.MeanDeviation.Value, -0.01)  # the boss top, about 2 % of the points, 1 mm inside
         self.assertLessEqual(result.WithinTolerance, within - 2)
+
+    def test_rebuild_from_sections_refitted_with_parallel_cuts(self):
+        """The issue's targets for the rebuilt demo part: the outline and the boss refitted with
+        parallel cuts over their prismatic heights (Band), every dimension of the sketches within
+        20 um, each line's direction within 0.05 degrees, and the deviation of the scan from the
+        rebuilt body next to its deviation from the true part (the noise floor). The heights are typed,
+        as in the walkthrough: a section across Y of this mesh falls apart into fragments (its top and
+        bottom faces are tessellated with T-junctions), so it gives no height."""
+        sigma = 0.02
+        scan = self.noisy_part(sigma)
+        bottom, top, boss_top = 0.0, 24.0, 32.0
+        started = time.monotonic()
+        outline = section.cross_section(self.doc, scan, axis="Z", offset_mm=12.0, name="Outline", band_mm=10.0)
+        boss_section = section.cross_section(self.doc, scan, axis="Z", offset_mm=28.0, name="BossSection", band_mm=3.0)
+        FreeCAD.Console.PrintMessage("two fitted sections with 16 parallel cuts each: %.1f s\n" % (time.monotonic() - started))
+        self.assertEqual(outline.FitBand.Value, 10.0)
+        lines = [g for g in outline.Geometry if g.TypeId == "Part::GeomLineSegment"]
+        circles = [g for g in outline.Geometry if g.TypeId == "Part::GeomCircle"]
+        self.assertEqual((len(lines), len(circles)), (5, 1), outline.FitReport)
+        truth = self.true_directions()
+        worst_angle = 0.0
+        for line in lines:
+            direction = math.degrees(math.atan2(line.EndPoint.y - line.StartPoint.y, line.EndPoint.x - line.StartPoint.x))
+            error = min(min(abs(direction - t) % 360, 360 - abs(direction - t) % 360) for t in truth)
+            FreeCAD.Console.PrintMessage("  outline line of %.3f mm: direction error %.4f deg\n" % (line.length(), error))
+            worst_angle = max(worst_angle, error)
+        body = self.doc.addObject("PartDesign::Body", "Body")
+        body.addObject(outline)
+        body.addObject(boss_section)
+        block = body.newObject("PartDesign::Pad", "Block")
+        block.Profile, block.Midplane, block.Length = outline, True, top - bottom
+        boss = body.newObject("PartDesign::Pad", "Boss")
+        boss.Profile, boss.Midplane, boss.Length = boss_section, True, boss_top - top
+        self.doc.recompute()
+        self.assertTrue(body.Shape.isValid())
+        box = body.Shape.BoundBox
+        hole = circles[0]
+        hole_centre = outline.Placement.multVec(hole.Center)
+        boss_circle = [g for g in boss_section.Geometry if g.TypeId == "Part::GeomCircle"][0]
+        boss_centre = boss_section.Placement.multVec(boss_circle.Center)
+        ends = [outline.Placement.multVec(p) for line in lines for p in (line.StartPoint, line.EndPoint)]
+        chamfer_x = box.XMax - max(p.x for p in ends if abs(p.y - box.YMax) < 1e-4)  # the chamfer's leg along x
+        chamfer_y = box.YMax - max(p.y for p in ends if abs(p.x - box.XMax) < 1e-4)  # and along y
+        measured = [("length", box.XLength, 50.0), ("width", box.YLength, 36.0), ("hole diameter", 2 * hole.Radius, 10.0),
+                    ("hole x", hole_centre.x, -11.0), ("hole y", hole_centre.y, 0.0),
+                    ("boss diameter", 2 * boss_circle.Radius, 14.0), ("boss x", boss_centre.x, 12.0),
+                    ("boss y", boss_centre.y, -2.0), ("chamfer along x", chamfer_x, 8.0), ("chamfer along y", chamfer_y, 8.0)]
+        for name, value, true in measured:
+            FreeCAD.Console.PrintMessage("  rebuilt %s: %.4f mm (truth %.1f, error %+.1f um)\n" % (
+                name, value, true, 1000 * (value - true)))
+        # The deviation of the scan's visible vertices from the rebuilt body, and from the true part:
+        # the vertex noise alone gives the second (mean |d| = 0.8 sigma).
+        vertices = numpy.array([(p.x, p.y, p.z) for p in scan.Mesh.Topology[0]])
+        from_boss_axis = numpy.hypot(vertices[:, 0] - 12, vertices[:, 1] + 2)
+        hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
+        seen = self.doc.addObject("Points::Feature", "ScanPoints")
+        seen.Points = Points.Points([tuple(p) for p in vertices[~hidden]])
+        true_part = self.doc.addObject("Mesh::Feature", "TruePart")
+        true_part.Mesh = scan_mesh.freecad_mesh(picoscan.mechanical_part())
+        against_body = deviation_map.create(self.doc, seen, body, tolerance_mm=0.05)
+        against_truth = deviation_map.create(self.doc, seen, true_part, tolerance_mm=0.05)
+        FreeCAD.Console.PrintMessage("scan against the rebuilt body: %s\nscan against the true part: %s\n" % (
+            against_body.Summary, against_truth.Summary))
+        # Asserted: the issue's 20 um and 0.05 degrees, and the rebuilt body adding at most 1 um of
+        # mean |d| to the noise floor. (The 15 um target of mean |d| is below this scan's floor of 16 um.)
+        for name, value, true in measured:
+            self.assertAlmostEqual(value, true, delta=0.02, msg=name)
+        self.assertLess(worst_angle, 0.05)
+        self.assertLess(against_body.MeanAbsDeviation.Value, against_truth.MeanAbsDeviation.Value + 0.001)
+        self.assertAlmostEqual(against_truth.MeanAbsDeviation.Value, 0.8 * sigma, delta=0.15 * sigma)
 
 
 def sampled_demo_part(count, sigma_mm, seed=3):
