@@ -14,6 +14,7 @@
 #include <CGAL/Implicit_surface_3.h>
 #include <CGAL/Poisson_reconstruction_function.h>
 #include <CGAL/Surface_mesh_default_triangulation_3.h>
+#include <CGAL/Surface_mesher/Standard_criteria.h>
 #include <CGAL/make_surface_mesh.h>
 #include <CGAL/property_map.h>
 
@@ -21,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <unordered_set>
 
 namespace picoscan::detail {
 
@@ -29,12 +31,29 @@ using PointMap = CGAL::First_of_pair_property_map<PointWithNormal>;
 using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
 }  // namespace
 
+namespace {
+
+struct Cell {
+    long long x, y, z;
+    bool operator==(const Cell& other) const { return x == other.x && y == other.y && z == other.z; }
+};
+struct CellHash {
+    size_t operator()(const Cell& c) const {
+        return std::hash<long long>()(c.x * 73856093LL ^ c.y * 19349663LL ^ c.z * 83492791LL);
+    }
+};
+
+}  // namespace
+
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
-                                            double& average_spacing_mm) {
+                                            double& average_spacing_mm, const StageReport& report) {
+    // The first point of each spacing_mm cube is kept (as CGAL's grid_simplify_point_set does),
+    // while reading the cloud: millions of merged points are never copied whole.
+    std::unordered_set<Cell, CellHash> occupied;
     std::vector<PointWithNormal> points;
-    points.reserve(cloud.points.size());
+    if (spacing_mm <= 0) points.reserve(cloud.points.size());
     const bool has_normals = cloud.normals.size() == cloud.points.size();
-    size_t without_normal = 0;
+    size_t without_normal = 0, usable = 0;
     for (size_t i = 0; i < cloud.points.size(); ++i) {
         const cv::Vec3f& p = cloud.points[i];
         if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
@@ -44,15 +63,18 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
             ++without_normal;
             continue;
         }
+        ++usable;
+        if (spacing_mm > 0) {
+            const Cell cell{static_cast<long long>(std::floor(double(p[0]) / spacing_mm)),
+                            static_cast<long long>(std::floor(double(p[1]) / spacing_mm)),
+                            static_cast<long long>(std::floor(double(p[2]) / spacing_mm))};
+            if (!occupied.insert(cell).second) continue;
+        }
         points.emplace_back(Point3(p[0], p[1], p[2]), Vector3(n[0], n[1], n[2]));
     }
-    if (has_normals && without_normal * 10 > points.size() + without_normal)
-        throw Error("point cloud", std::to_string(without_normal) + " of " +
-                                       std::to_string(points.size() + without_normal) +
+    if (has_normals && without_normal * 10 > usable + without_normal)
+        throw Error("point cloud", std::to_string(without_normal) + " of " + std::to_string(usable + without_normal) +
                                        " points have no valid normal (NaN or zero): their outside is unknown");
-    if (spacing_mm > 0) {
-        points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
-    }
     // The budget: a coarser grid until at most max_points remain (the count falls with the
     // square of the spacing on a surface).
     for (double coarser = spacing_mm; max_points > 0 && points.size() > size_t(max_points);) {
@@ -68,6 +90,7 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
                      points.end());
     }
     if (points.size() < 20) return points;
+    report(0.0, "estimating normals");
     // Re-estimated normals are smoother than per-pixel ones; the sensor's side says which way.
     std::vector<Vector3> sensor_side;
     sensor_side.reserve(points.size());
@@ -90,6 +113,8 @@ namespace {
 // Evaluations of the implicit function per face of the result, allowed before an attempt is
 // given up (measured: about 165 on the demo part).
 constexpr double kEvaluationsPerFace = 250;
+// Relative residual at which the Poisson equation counts as solved.
+constexpr double kSolverTolerance = 1e-7;
 
 // Called by CGAL before each point enters the Delaunay refinement: reports progress and stops
 // the reconstruction (by the exception report throws) when the caller cancels.
@@ -100,6 +125,95 @@ struct ReportingVisitor {
     void before_insertion() const {
         if (++inserted % 4096 == 0) (*report)(0.05 * std::min(1.0, double(inserted) / double(total)), "Poisson: triangulating the points");
     }
+};
+
+// Where the data is: the occupied cells of a fine grid (about two triangles wide) and of a
+// coarse one (four times wider). A point near no data lies on the surface Poisson invents to
+// close the shape, which needs no finer triangles than its smooth bulge.
+class DataProximity {
+public:
+    DataProximity(const std::vector<PointWithNormal>& points, double fine_cell_mm)
+        : fine_(fine_cell_mm), coarse_(4 * fine_cell_mm) {
+        for (const PointWithNormal& p : points) {
+            fine_cells_.insert(key(p.first, fine_, 0, 0, 0));
+            coarse_cells_.insert(key(p.first, coarse_, 0, 0, 0));
+        }
+    }
+    // 0 beside the data (an occupied fine cell or a neighbour of one), 1 within the coarse
+    // neighbourhood, 2 farther.
+    int level(const Point3& p) const {
+        if (near(fine_cells_, p, fine_)) return 0;
+        return near(coarse_cells_, p, coarse_) ? 1 : 2;
+    }
+
+private:
+    static long long key(const Point3& p, double cell, int dx, int dy, int dz) {
+        // 21 bits per axis around the origin: +-1 million cells.
+        const auto axis = [&](double v, int d) { return (static_cast<long long>(std::floor(v / cell)) + d + (1 << 20)) & 0x1FFFFF; };
+        return (axis(p.x(), dx) << 42) | (axis(p.y(), dy) << 21) | axis(p.z(), dz);
+    }
+    static bool near(const std::unordered_set<long long>& cells, const Point3& p, double cell) {
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz)
+                    if (cells.count(key(p, cell, dx, dy, dz))) return true;
+        return false;
+    }
+    double fine_, coarse_;
+    std::unordered_set<long long> fine_cells_, coarse_cells_;
+};
+
+// The surface mesher's criteria of Boissonnat & Oudot (minimum angle, Delaunay-ball radius,
+// distance to the surface), with the radius and distance bounds graded by the distance to
+// the data: as given beside the points, kCoarseScale times larger a little away, kFarScale
+// times larger far away. A single open view closes into a bubble many times the data's area;
+// at the data's resolution that bubble cost minutes.
+template <class Tr>
+class GradedCriteria {
+public:
+    using Criterion = CGAL::Surface_mesher::Refine_criterion<Tr>;
+    using Quality = typename CGAL::Surface_mesher::Standard_criteria<Criterion>::Quality;
+    using Facet = typename Tr::Facet;
+    static constexpr double kCoarseScale = 2.5, kFarScale = 6.0;
+
+    GradedCriteria(double angle_deg, double radius_mm, double distance_mm, const DataProximity& proximity)
+        : angle_(angle_deg), size_(radius_mm, distance_mm, proximity) {
+        criteria_.set_criteria({&angle_, &size_});
+    }
+    GradedCriteria(const GradedCriteria&) = delete;
+    GradedCriteria& operator=(const GradedCriteria&) = delete;
+    bool is_bad(const Facet& facet, Quality& quality) const { return criteria_.is_bad(facet, quality); }
+
+private:
+    class GradedSize : public Criterion {
+    public:
+        GradedSize(double radius, double distance, const DataProximity& proximity)
+            : radius_(radius), distance_(distance), proximity_(proximity) {}
+        bool is_bad(const Facet& facet, typename Criterion::Quality& quality) const override {
+            const typename Tr::Geom_traits traits;
+            const auto& p1 = facet.first->vertex((facet.second + 1) & 3)->point();
+            const auto& p2 = facet.first->vertex((facet.second + 2) & 3)->point();
+            const auto& p3 = facet.first->vertex((facet.second + 3) & 3)->point();
+            const auto& on_surface = facet.first->get_facet_surface_center(facet.second);
+            const int level = proximity_.level(on_surface);
+            const double scale = level == 0 ? 1.0 : level == 1 ? kCoarseScale : kFarScale;
+            const double radius = scale * radius_, distance = scale * distance_;
+            const double ball = CGAL::to_double(traits.compute_squared_distance_3_object()(p1, on_surface));
+            quality = radius * radius / ball;
+            if (quality < 1) return true;
+            const auto centre = traits.construct_circumcenter_3_object()(p1, p2, p3);
+            const double gap = CGAL::to_double(traits.compute_squared_distance_3_object()(centre, on_surface));
+            if (gap > 0) quality = std::min(quality, distance * distance / gap);
+            return quality < 1;
+        }
+
+    private:
+        double radius_, distance_;
+        const DataProximity& proximity_;
+    };
+    CGAL::Surface_mesher::Aspect_ratio_criterion<Tr> angle_;
+    GradedSize size_;
+    CGAL::Surface_mesher::Standard_criteria<Criterion> criteria_;
 };
 
 }  // namespace
@@ -118,7 +232,12 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     Function function(points.begin(), points.end(), PointMap(), NormalMap(), ReportingVisitor{&report, points.size()});
     report(0.05, "Poisson: solving the implicit function");
     ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
-    if (!function.compute_implicit_function(Solver(), ReportingVisitor{&report, points.size()}, 0, 5))
+    // Eigen's conjugate gradient stops by default at machine precision (or 2n iterations):
+    // most of the solve then refines digits far below the surface's placement. A relative
+    // residual of kSolverTolerance moves the zero level by far less than the point noise.
+    Solver solver;
+    solver.solver().setTolerance(kSolverTolerance);
+    if (!function.compute_implicit_function(solver, ReportingVisitor{&report, points.size()}, 0, 5))
         throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
                                                   attached(cgal.text(), "CGAL"));
     // The surface mesher's triangles: about the point spacing, but larger when the data's
@@ -132,6 +251,7 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     const double sphere_radius = 5 * std::sqrt(bounds.squared_radius());
     const size_t evaluation_cap = static_cast<size_t>(kEvaluationsPerFace * faces);
     struct OverBudget {};
+    const DataProximity proximity(points, 2 * triangle_size);
     for (int attempt = 0;; ++attempt) {
         report(0.3, "Poisson: meshing the surface");
         size_t evaluations = 0;
@@ -145,7 +265,7 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
         const double distance = settings.distance * std::max(settings.spacing_mm, triangle_size / settings.triangle_size);
         const Surface surface(level, Kernel::Sphere_3(function.get_inner_point(), sphere_radius * sphere_radius),
                               distance / 1000.0 / sphere_radius);
-        const CGAL::Surface_mesh_default_criteria_3<Triangulation> criteria(20.0, triangle_size, distance);
+        const GradedCriteria<Triangulation> criteria(20.0, triangle_size, distance, proximity);
         Triangulation triangulation;
         Complex complex(triangulation);
         try {
