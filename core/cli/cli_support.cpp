@@ -80,13 +80,4 @@ void refuse_overwriting(const std::string& output, const std::vector<std::string
     }
 }
 
-void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encoding) {
-    const std::string extension = lowercase_extension(path);
-    if (extension == ".stl") write_stl(mesh, path, encoding);
-    else if (extension == ".ply") write_ply(mesh, path, encoding);
-    else if (extension == ".obj") write_obj(mesh, path);
-    else if (extension == ".3mf") write_3mf(mesh, path);
-    else throw Error(path, "mesh file must end in .stl, .ply, .obj or .3mf");
-}
-
 }  // namespace picoscan::cli

@@ -31,7 +31,5 @@ void check_output_name(const std::string& path, const std::string& subject);
 // folders, or when its name is too long (check_output_name).
 void refuse_overwriting(const std::string& output, const std::vector<std::string>& input_files,
                         const std::vector<std::string>& input_folders = {});
-// A mesh written by its extension: .stl, .ply or .obj.
-void write_mesh_file(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
 
 }  // namespace picoscan::cli

@@ -383,7 +383,7 @@ int run_mesh(const Arguments& arguments) {
     if (mesh.faces.empty()) throw Error(input, "meshing produced no triangles: nothing to write");
     report_mesh(mesh, out);
     OutputBatch outputs;  // the mesh and its preview appear together
-    write_mesh_file(mesh, out);
+    write_mesh(mesh, out);
     if (!preview.empty()) write_contact_sheet_png(mesh, preview);
     outputs.commit();
     std::printf("%zu triangles -> %s (%.1f s)\n", mesh.faces.size(), out.c_str(), seconds_since(start));
@@ -484,7 +484,7 @@ int run_demo_360(const fs::path& directory) {
     report_mesh(mesh, stl);
     OutputBatch outputs;  // the model in every format and its contact sheet appear together
     for (const char* extension : {".stl", ".3mf", ".ply"})
-        write_mesh_file(mesh, (directory / (std::string("part") + extension)).string());
+        write_mesh(mesh, (directory / (std::string("part") + extension)).string());
     write_contact_sheet_png(mesh, (directory / "part.png").string());
     outputs.commit();
     std::printf("%zu triangles -> %s (also part.3mf, part.ply with colours), contact sheet -> %s\n",

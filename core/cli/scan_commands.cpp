@@ -83,7 +83,7 @@ void write_view_products(const ScanView& view, const ReconstructRequest& request
     if (!request.mesh.empty()) {
         const Mesh mesh = mesh_view(view, mesh_options);
         if (mesh.faces.empty()) throw Error(request.captures, "the grid mesh has no triangles: nothing to write");
-        write_mesh_file(mesh, request.mesh, request.encoding);
+        write_mesh(mesh, request.mesh, request.encoding);
         std::printf("%zu triangles -> %s\n", mesh.faces.size(), request.mesh.c_str());
     }
     if (!request.preview.empty()) {

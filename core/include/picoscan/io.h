@@ -18,9 +18,9 @@ void write_stl(const Mesh& mesh, const std::string& path, Encoding encoding = En
 void write_obj(const Mesh& mesh, const std::string& path);
 // 3MF for printing: one mesh object, units millimetres (lib3mf).
 void write_3mf(const Mesh& mesh, const std::string& path);
-// Any writer by extension (.stl binary, .ply binary with colours and quality, .obj, .3mf);
-// throws Error naming the file for another extension.
-void write_mesh(const Mesh& mesh, const std::string& path);
+// Any writer by extension (.stl, .ply with colours and quality, .obj, .3mf; the encoding applies
+// to STL and PLY); throws Error naming the file for another extension.
+void write_mesh(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
 
 // PLY with or without faces (a point cloud reads as a Mesh with no faces).
 Mesh read_ply(const std::string& path);

@@ -136,7 +136,7 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
         std::string problems;
         for (const auto& pose : report.poses)
             if (!pose.used) problems += "; " + pose.name + ": " + pose.reason;
-        throw Error("--captures", "only " + std::to_string(pose_of.size()) + " usable board poses " + stage +
+        throw Error("--captures", "only " + std::to_string(pose_of.size()) + " usable board poses" + stage +
                                       " (at least " + std::to_string(options.min_views) + " needed)" + problems);
     };
     require_enough("");
@@ -157,7 +157,7 @@ CalibrationReport calibrate_rig(const std::vector<PoseObservation>& poses, const
             camera_with_projector.erase(camera_with_projector.begin() + long(index));
             pose_of.erase(pose_of.begin() + long(index));
         },
-        [&] { require_enough("after dropping poses with large errors"); });
+        [&] { require_enough(" after dropping poses with large errors"); });
     reporter.advance();
 
     detail::require_pose_spread(camera_fit.rotations, options.min_pose_spread_deg);

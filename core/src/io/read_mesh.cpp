@@ -15,10 +15,10 @@ Mesh read_mesh(const std::string& path) {
     throw Error(path, "unsupported mesh format '" + extension + "' (expected .ply, .stl or .3mf)");
 }
 
-void write_mesh(const Mesh& mesh, const std::string& path) {
+void write_mesh(const Mesh& mesh, const std::string& path, Encoding encoding) {
     const std::string extension = detail::lower_case(std::filesystem::path(path).extension().string());
-    if (extension == ".stl") return write_stl(mesh, path);
-    if (extension == ".ply") return write_ply(mesh, path);
+    if (extension == ".stl") return write_stl(mesh, path, encoding);
+    if (extension == ".ply") return write_ply(mesh, path, encoding);
     if (extension == ".obj") return write_obj(mesh, path);
     if (extension == ".3mf") return write_3mf(mesh, path);
     throw Error(path, "unsupported mesh format '" + extension + "' (expected .stl, .ply, .obj or .3mf)");
