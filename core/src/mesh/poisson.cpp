@@ -31,29 +31,12 @@ using PointMap = CGAL::First_of_pair_property_map<PointWithNormal>;
 using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
 }  // namespace
 
-namespace {
-
-struct Cell {
-    long long x, y, z;
-    bool operator==(const Cell& other) const { return x == other.x && y == other.y && z == other.z; }
-};
-struct CellHash {
-    size_t operator()(const Cell& c) const {
-        return std::hash<long long>()(c.x * 73856093LL ^ c.y * 19349663LL ^ c.z * 83492791LL);
-    }
-};
-
-}  // namespace
-
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
                                             double& average_spacing_mm, const StageReport& report) {
-    // The first point of each spacing_mm cube is kept (as CGAL's grid_simplify_point_set does),
-    // while reading the cloud: millions of merged points are never copied whole.
-    std::unordered_set<Cell, CellHash> occupied;
     std::vector<PointWithNormal> points;
-    if (spacing_mm <= 0) points.reserve(cloud.points.size());
+    points.reserve(cloud.points.size());
     const bool has_normals = cloud.normals.size() == cloud.points.size();
-    size_t without_normal = 0, usable = 0;
+    size_t without_normal = 0;
     for (size_t i = 0; i < cloud.points.size(); ++i) {
         const cv::Vec3f& p = cloud.points[i];
         if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
@@ -63,18 +46,15 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
             ++without_normal;
             continue;
         }
-        ++usable;
-        if (spacing_mm > 0) {
-            const Cell cell{static_cast<long long>(std::floor(double(p[0]) / spacing_mm)),
-                            static_cast<long long>(std::floor(double(p[1]) / spacing_mm)),
-                            static_cast<long long>(std::floor(double(p[2]) / spacing_mm))};
-            if (!occupied.insert(cell).second) continue;
-        }
         points.emplace_back(Point3(p[0], p[1], p[2]), Vector3(n[0], n[1], n[2]));
     }
-    if (has_normals && without_normal * 10 > usable + without_normal)
-        throw Error("point cloud", std::to_string(without_normal) + " of " + std::to_string(usable + without_normal) +
+    if (has_normals && without_normal * 10 > points.size() + without_normal)
+        throw Error("point cloud", std::to_string(without_normal) + " of " +
+                                       std::to_string(points.size() + without_normal) +
                                        " points have no valid normal (NaN or zero): their outside is unknown");
+    if (spacing_mm > 0) {
+        points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
+    }
     // The budget: a coarser grid until at most max_points remain (the count falls with the
     // square of the spacing on a surface).
     for (double coarser = spacing_mm; max_points > 0 && points.size() > size_t(max_points);) {
