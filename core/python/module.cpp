@@ -60,6 +60,11 @@ cv::Mat array_to_mat(const py::array& input, const char* name) {
     return cv::Mat(int(array.shape(0)), int(array.shape(1)), type, const_cast<void*>(array.data()));
 }
 
+// Bound in their own files; declared here rather than in bindings.h so that adding them does not
+// recompile every binding file.
+void bind_solid(py::module_& m);
+void bind_region_fit(py::module_& m);
+
 }  // namespace picoscan::python
 
 PYBIND11_MODULE(picoscan, m) {
@@ -88,6 +93,8 @@ PYBIND11_MODULE(picoscan, m) {
     bind_shapes(m);
     bind_deviation(m);
     bind_section_fit(m);
+    bind_solid(m);
+    bind_region_fit(m);
     bind_capture(m);
     bind_virtual_camera(m);
     bind_multi_camera(m);

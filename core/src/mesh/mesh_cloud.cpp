@@ -182,6 +182,82 @@ std::vector<detail::PointWithNormal> walls_down_to_table(const std::vector<detai
     return added;
 }
 
+// Walls seen from two sides but not in between (a through hole seen into from each end, its
+// middle never): each wall continued straight across the gap, as a ruled surface, where the
+// straight line from its last seen points meets the same wall (a point facing the same way)
+// on the other side, or the face the wall ends on (a face turned the way the line goes: the
+// line leaves the part there, as a hole's wall ends at the face it opens on). Straight means
+// along the wall's own straight direction: the axis of a curved wall (across the way its
+// normals turn), or, on a flat wall, away from the seen points. A line that first meets
+// surface facing it (the far wall at a hole's mouth, a slot's side) or meets nothing within
+// max_gap_mm is dropped: Poisson closes that gap as before.
+// Without this, Poisson's smooth closure narrows a hole's unseen middle by millimetres.
+std::vector<detail::PointWithNormal> bridge_wall_gaps(const std::vector<detail::PointWithNormal>& points,
+                                                      double spacing, double max_gap_mm) {
+    std::vector<cv::Vec3d> positions, normals;
+    positions.reserve(points.size());
+    normals.reserve(points.size());
+    for (const auto& p : points) {
+        positions.emplace_back(p.first.x(), p.first.y(), p.first.z());
+        normals.emplace_back(p.second.x(), p.second.y(), p.second.z());
+    }
+    const double reach = 2 * spacing, neighbourhood = 4 * spacing;
+    const double same_wall = std::cos(20.0 * CV_PI / 180.0);
+    const double curved = std::pow(std::sin(3.0 * CV_PI / 180.0), 2);  // normals spread over more than ~3 degrees
+    const detail::PointGrid grid(positions, neighbourhood);
+    std::vector<int> near;
+    std::vector<detail::PointWithNormal> added;
+    for (size_t i = 0; i < points.size(); ++i) {
+        const cv::Vec3d p = positions[i], n = normals[i];
+        grid.within(p, neighbourhood, near);
+        cv::Vec3d centre(0, 0, 0), mean_normal(0, 0, 0);
+        size_t count = 0;
+        for (int k : near)
+            if (normals[k].dot(n) > same_wall) {
+                centre += positions[k];
+                mean_normal += normals[k];
+                ++count;
+            }
+        if (count < 8) continue;
+        centre *= 1.0 / double(count);
+        mean_normal *= 1.0 / double(count);
+        cv::Matx33d spread = cv::Matx33d::zeros();
+        for (int k : near)
+            if (normals[k].dot(n) > same_wall) spread += (normals[k] - mean_normal) * (normals[k] - mean_normal).t();
+        cv::Matx31d values;
+        cv::Matx33d vectors;
+        cv::eigen(spread * (1.0 / double(count)), values, vectors);
+        const cv::Vec3d outward = p - centre;  // from the seen points towards the gap (if any)
+        cv::Vec3d along;
+        if (values(0) > curved) {
+            along = n.cross(cv::Vec3d(vectors(0, 0), vectors(0, 1), vectors(0, 2)));
+        } else {
+            along = outward - n * n.dot(outward);
+        }
+        if (cv::norm(along) < 1e-9) continue;
+        along = cv::normalize(along);
+        if (along.dot(outward) < 0) along = -along;
+        if (along.dot(outward) < 0.5 * spacing) continue;  // the seen surface goes on this way: no edge here
+        if (grid.nearest(p + 2.5 * spacing * along, reach) >= 0) continue;
+        std::vector<detail::PointWithNormal> line;
+        bool bridged = false;
+        std::vector<int> met;
+        for (double t = spacing; t <= max_gap_mm; t += spacing) {
+            const cv::Vec3d c = p + t * along;
+            if (t > 2.5 * spacing) {
+                grid.within(c, reach, met);
+                if (!met.empty()) {
+                    for (int k : met) bridged = bridged || normals[k].dot(n) > same_wall || normals[k].dot(along) > same_wall;
+                    break;
+                }
+            }
+            line.emplace_back(detail::Point3(c[0], c[1], c[2]), points[i].second);
+        }
+        if (bridged) added.insert(added.end(), line.begin(), line.end());
+    }
+    return added;
+}
+
 // Poisson's surface moved onto the points (undoing its smoothing); where that folded
 // triangles through each other (at tight concave edges), those vertices go back.
 void onto_points(Mesh& mesh, const std::vector<detail::PointWithNormal>& points, double spacing) {
@@ -219,6 +295,8 @@ void colour_from_points(Mesh& mesh, const PointCloud& cloud, double reach_mm) {
 // the surface must cover this share of the points.
 constexpr double kCoverageReach = 5.0;
 constexpr double kLeastCoverage = 0.95;
+// Walls are continued across gaps up to this long (a through hole's unseen middle).
+constexpr double kLongestBridgeMm = 30;
 
 }  // namespace
 
@@ -260,7 +338,12 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         report(0.1, "Poisson reconstruction");
         const detail::PoissonSettings settings{spacing, options.poisson_triangle_size, options.poisson_distance,
                                                options.max_faces};
-        mesh = detail::poisson_mesh(points, settings, [&](double fraction, const char* stage) {
+        // The surface Poisson is built on: the points, and walls continued across gaps seen
+        // on both sides (those stay marked filled: only `points` are measured).
+        std::vector<detail::PointWithNormal> surface = points;
+        const std::vector<detail::PointWithNormal> bridges = bridge_wall_gaps(points, spacing, kLongestBridgeMm);
+        surface.insert(surface.end(), bridges.begin(), bridges.end());
+        mesh = detail::poisson_mesh(surface, settings, [&](double fraction, const char* stage) {
             report(0.1 + fraction * 0.6 / 0.7, stage);
         });
         // CGAL's mesher grows the surface from one seed: a separate part of the cloud is left
@@ -271,7 +354,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
                                            "% of the points: a separate part was left out (mesh each part on its "
                                            "own, or use --method advancing-front)");
         report(0.7, "projecting onto the points");
-        onto_points(mesh, points, spacing);
+        onto_points(mesh, surface, spacing);
         mark_measured(mesh, points, measured_reach);
         if (options.fill == MeshFill::Open) {
             mesh = without_filled_faces(mesh);
@@ -280,7 +363,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
             const TablePlane table = find_table(mesh, points, options.table_axis, spacing);
             const std::vector<detail::PointWithNormal> walls = walls_down_to_table(points, table, spacing);
             if (!walls.empty()) {
-                std::vector<detail::PointWithNormal> extended = points;
+                std::vector<detail::PointWithNormal> extended = surface;
                 extended.insert(extended.end(), walls.begin(), walls.end());
                 mesh = detail::poisson_mesh(extended, settings, [&](double fraction, const char* stage) {
                     report(0.75 + fraction * 0.1 / 0.7, stage);

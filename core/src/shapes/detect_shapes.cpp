@@ -4,6 +4,7 @@
 
 #include "picoscan/error.h"
 #include "picoscan/fit.h"
+#include "shape_math.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Random.h>
@@ -18,6 +19,8 @@
 #include <utility>
 
 namespace picoscan {
+
+using namespace shape_math;
 
 namespace {
 
@@ -34,78 +37,9 @@ using RansacCylinder = CGAL::Shape_detection::Cylinder<Traits>;
 using RansacSphere = CGAL::Shape_detection::Sphere<Traits>;
 using RansacCone = CGAL::Shape_detection::Cone<Traits>;
 
-constexpr double kPi = 3.14159265358979323846;
 
 cv::Vec3d to_vec(const Kernel::Point_3& p) { return {p.x(), p.y(), p.z()}; }
 cv::Vec3d to_vec(const Kernel::Vector_3& v) { return {v.x(), v.y(), v.z()}; }
-
-// Two unit vectors perpendicular to `axis` and to each other.
-std::pair<cv::Vec3d, cv::Vec3d> perpendicular_basis(const cv::Vec3d& axis) {
-    const cv::Vec3d helper = std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
-    const cv::Vec3d first = cv::normalize(axis.cross(helper));
-    return {first, axis.cross(first)};
-}
-
-double radial_distance(const cv::Vec3d& point, const cv::Vec3d& axis_point, const cv::Vec3d& axis) {
-    const cv::Vec3d offset = point - axis_point;
-    return cv::norm(offset - offset.dot(axis) * axis);
-}
-
-double cone_distance(const cv::Vec3d& point, const cv::Vec3d& apex, const cv::Vec3d& axis, double half_angle_rad) {
-    const cv::Vec3d offset = point - apex;
-    const double along = offset.dot(axis);
-    const double across = cv::norm(offset - along * axis);
-    return across * std::cos(half_angle_rad) - along * std::sin(half_angle_rad);
-}
-
-// Levenberg-Marquardt with a forward-difference Jacobian. The model is re-linearised around its
-// current state at each step: `residuals(delta, out)` evaluates the model moved by `delta`,
-// `apply(delta)` makes that move permanent. Small parameter counts (<= 6) only.
-void least_squares(int parameter_count, const std::function<void(const std::vector<double>&, std::vector<double>&)>& residuals,
-                   const std::function<void(const std::vector<double>&)>& apply, int iterations = 30) {
-    std::vector<double> delta(parameter_count, 0.0), current, moved;
-    residuals(delta, current);
-    const int count = int(current.size());
-    auto cost_of = [](const std::vector<double>& r) {
-        double sum = 0;
-        for (double value : r) sum += value * value;
-        return sum;
-    };
-    double cost = cost_of(current), damping = 1e-4;
-    const double step = 1e-7;
-    for (int iteration = 0; iteration < iterations; ++iteration) {
-        cv::Mat jacobian(count, parameter_count, CV_64F);
-        for (int p = 0; p < parameter_count; ++p) {
-            std::fill(delta.begin(), delta.end(), 0.0);
-            delta[p] = step;
-            residuals(delta, moved);
-            for (int i = 0; i < count; ++i) jacobian.at<double>(i, p) = (moved[i] - current[i]) / step;
-        }
-        const cv::Mat normal = jacobian.t() * jacobian;
-        const cv::Mat gradient = jacobian.t() * cv::Mat(current);
-        bool improved = false;
-        for (int attempt = 0; attempt < 10 && !improved; ++attempt) {
-            cv::Mat damped = normal.clone();
-            for (int p = 0; p < parameter_count; ++p) damped.at<double>(p, p) *= 1.0 + damping;
-            cv::Mat solution;
-            if (!cv::solve(damped, -gradient, solution, cv::DECOMP_SVD)) break;
-            for (int p = 0; p < parameter_count; ++p) delta[p] = solution.at<double>(p);
-            residuals(delta, moved);
-            const double moved_cost = cost_of(moved);
-            if (moved_cost < cost) {
-                apply(delta);
-                residuals(std::vector<double>(parameter_count, 0.0), current);
-                improved = cost - moved_cost > 1e-12 * cost;
-                cost = cost_of(current);
-                damping = std::max(damping * 0.1, 1e-9);
-                if (!improved) return;  // converged
-            } else {
-                damping *= 10;
-            }
-        }
-        if (!improved) return;
-    }
-}
 
 std::vector<cv::Vec3d> inlier_points(const PointCloud& cloud, const std::vector<int>& inliers) {
     std::vector<cv::Vec3d> points;
@@ -121,74 +55,6 @@ void refine_plane(DetectedShape& shape, const PointCloud& cloud) {
     const double sign = fit.normal.dot(shape.direction) < 0 ? -1.0 : 1.0;
     shape.direction = sign * fit.normal;
     shape.point = shape.point + (fit.offset_mm * sign - shape.direction.dot(shape.point)) * shape.direction;
-}
-
-void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
-    cv::Vec3d axis_point = shape.point, axis = shape.direction;
-    double radius = shape.radius_mm;
-    // Moves: axis tilt (2), axis shift perpendicular to it (2), radius (1).
-    auto moved = [&](const std::vector<double>& d, cv::Vec3d& p, cv::Vec3d& a, double& r) {
-        const auto [first, second] = perpendicular_basis(axis);
-        a = cv::normalize(axis + d[0] * first + d[1] * second);
-        p = axis_point + d[2] * first + d[3] * second;
-        r = radius + d[4];
-    };
-    least_squares(
-        5,
-        [&](const std::vector<double>& d, std::vector<double>& out) {
-            cv::Vec3d p, a;
-            double r;
-            moved(d, p, a, r);
-            out.resize(points.size());
-            for (size_t i = 0; i < points.size(); ++i) out[i] = radial_distance(points[i], p, a) - r;
-        },
-        [&](const std::vector<double>& d) { moved(d, axis_point, axis, radius); });
-    shape.point = axis_point;
-    shape.direction = axis;
-    shape.radius_mm = radius;
-}
-
-void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
-    cv::Vec3d centre = shape.point;
-    double radius = shape.radius_mm;
-    least_squares(
-        4,
-        [&](const std::vector<double>& d, std::vector<double>& out) {
-            const cv::Vec3d c = centre + cv::Vec3d(d[0], d[1], d[2]);
-            out.resize(points.size());
-            for (size_t i = 0; i < points.size(); ++i) out[i] = cv::norm(points[i] - c) - (radius + d[3]);
-        },
-        [&](const std::vector<double>& d) {
-            centre += cv::Vec3d(d[0], d[1], d[2]);
-            radius += d[3];
-        });
-    shape.point = centre;
-    shape.radius_mm = radius;
-}
-
-void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points) {
-    cv::Vec3d apex = shape.point, axis = shape.direction;
-    double half_angle = shape.half_angle_deg * kPi / 180;
-    // Moves: apex (3), axis tilt (2), half angle (1).
-    auto moved = [&](const std::vector<double>& d, cv::Vec3d& p, cv::Vec3d& a, double& angle) {
-        const auto [first, second] = perpendicular_basis(axis);
-        p = apex + cv::Vec3d(d[0], d[1], d[2]);
-        a = cv::normalize(axis + d[3] * first + d[4] * second);
-        angle = half_angle + d[5];
-    };
-    least_squares(
-        6,
-        [&](const std::vector<double>& d, std::vector<double>& out) {
-            cv::Vec3d p, a;
-            double angle;
-            moved(d, p, a, angle);
-            out.resize(points.size());
-            for (size_t i = 0; i < points.size(); ++i) out[i] = cone_distance(points[i], p, a, angle);
-        },
-        [&](const std::vector<double>& d) { moved(d, apex, axis, half_angle); });
-    shape.point = apex;
-    shape.direction = axis;
-    shape.half_angle_deg = half_angle * 180 / kPi;
 }
 
 // Cylinders and cones: axis extent of the inliers; the cylinder's axis point moves to the lowest one.
@@ -326,6 +192,20 @@ std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDet
         double squares = 0;
         for (const cv::Vec3d& point : points) squares += std::pow(shape_distance(shape, point), 2);
         shape.rms_mm = std::sqrt(squares / double(points.size()));
+        // A flat patch fits a cylinder, sphere or cone of huge radius as well as a plane (the demo
+        // part's chamfer came out as a 22 m cylinder): when a plane fits within 10 % of its RMS, it is a plane.
+        if (shape.kind != ShapeKind::Plane && options.planes) {
+            std::vector<cv::Vec3f> inliers(points.begin(), points.end());
+            const PlaneFit plane = fit_plane(inliers);
+            if (plane.rms_mm <= 1.1 * shape.rms_mm) {
+                cv::Vec3d mean_normal(0, 0, 0), centroid(0, 0, 0);
+                for (int index : shape.inliers) mean_normal += cv::Vec3d(cloud.normals[index]);
+                for (const cv::Vec3d& point : points) centroid += point;
+                shape = DetectedShape{ShapeKind::Plane, centroid / double(points.size()),
+                                      plane.normal.dot(mean_normal) < 0 ? -plane.normal : plane.normal,
+                                      0, 0, 0, plane.rms_mm, std::move(shape.inliers)};
+            }
+        }
         shapes.push_back(std::move(shape));
     }
     std::sort(shapes.begin(), shapes.end(),

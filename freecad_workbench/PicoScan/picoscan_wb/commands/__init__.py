@@ -12,6 +12,7 @@ COMMANDS = {
     "PicoScan_Mesh": analysis.MeshCommand(),
     "PicoScan_MakeSolid": analysis.MakeSolidCommand(),
     "PicoScan_FitPrimitives": analysis.FitPrimitivesCommand(),
+    "PicoScan_FitRegion": analysis.FitRegionCommand(),
     "PicoScan_CrossSection": analysis.CrossSectionCommand(),
     "PicoScan_DeviationMap": analysis.DeviationMapCommand(),
     "PicoScan_BestFit": analysis.BestFitCommand(),

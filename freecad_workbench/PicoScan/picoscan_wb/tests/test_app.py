@@ -932,3 +932,215 @@ class PicoScanDatumTest(unittest.TestCase):
             measurements.create(self.doc, features[:1])
         self.assertEqual([o.Name for o in self.doc.Objects], names)
         self.doc.removeObject(table.Name)
+
+
+def outline_block_mesh(sigma_mm, spacing_mm=0.5, seed=5):
+    """A closed mesh of the demo part's block, 24 mm high: its outline (50 x 36 mm, the 8 mm
+    chamfer) with the (-25, -18) vertical edge rounded to a 5 mm radius, facets about spacing_mm
+    across, Gaussian noise of sigma_mm on every vertex: a stand-in for a closed scan mesh. (The
+    demo part's own mesh is not watertight, and a Poisson mesh of it has 0.2 mm lumps.) Returns a
+    picoscan.Mesh."""
+    corners = [(25, -18), (25, 10), (17, 18), (-25, 18), (-25, -13)]
+    outline = []  # counter-clockwise seen from +z, about spacing_mm apart
+    for a, b in zip(corners, corners[1:]):
+        steps = max(1, int(round(math.dist(a, b) / spacing_mm)))
+        outline += [(a[0] + (b[0] - a[0]) * i / steps, a[1] + (b[1] - a[1]) * i / steps) for i in range(steps)]
+    steps = int(round(5 * math.pi / 2 / spacing_mm))
+    outline += [(-20 + 5 * math.cos(math.pi + math.pi / 2 * i / steps), -13 + 5 * math.sin(math.pi + math.pi / 2 * i / steps))
+                for i in range(steps)]
+    steps = int(round(45 / spacing_mm))
+    outline += [(-20 + 45 * i / steps, -18) for i in range(steps)]
+    outline = numpy.array(outline)
+    count = len(outline)
+    # Arc-length parameter of the outline, for rings of fewer points nearer the centre.
+    lengths = numpy.linalg.norm(numpy.roll(outline, -1, axis=0) - outline, axis=1)
+    along = numpy.concatenate([[0], numpy.cumsum(lengths)[:-1]]) / lengths.sum()
+    centre = numpy.array([0.0, 0.0])
+    rings = max(2, int(round(20 / spacing_mm)))
+    height_steps = max(1, int(round(24 / spacing_mm)))
+    vertices, faces = [], []
+
+    def add(point):
+        vertices.append(point)
+        return len(vertices) - 1
+
+    def at(t, scale):  # the outline point at parameter t, scaled towards the centre
+        i = numpy.searchsorted(along, t, side="right") - 1
+        f = (t - along[i]) / (lengths[i] / lengths.sum())
+        p = outline[i] + f * (outline[(i + 1) % count] - outline[i])
+        return centre + scale * (p - centre)
+
+    # Sides: the outline lifted in height_steps rows.
+    side = [[add((x, y, 24.0 * k / height_steps)) for x, y in outline] for k in range(height_steps + 1)]
+    for k in range(height_steps):
+        for i in range(count):
+            j = (i + 1) % count
+            faces += [(side[k][i], side[k][j], side[k + 1][j]), (side[k][i], side[k + 1][j], side[k + 1][i])]
+    # Caps: rings scaled towards the centre, their points spread by arc length, zipped together.
+    for z, top in ((0.0, False), (24.0, True)):
+        ring_rows = [list(zip(along, side[-1 if top else 0]))]
+        for r in range(rings - 1, 0, -1):
+            n = max(6, int(round(count * r / rings)))
+            ts = numpy.arange(n) / n
+            ring_rows.append([(t, add((*at(t, r / rings), z))) for t in ts])
+        middle = add((centre[0], centre[1], z))
+        for outer, inner in zip(ring_rows, ring_rows[1:]):
+            i = j = 0
+            while i < len(outer) or j < len(inner):
+                a, b = outer[i % len(outer)][1], inner[j % len(inner)][1]
+                t_outer = outer[i + 1][0] if i + 1 < len(outer) else 1.0
+                t_inner = inner[j + 1][0] if j + 1 < len(inner) else 1.0
+                if (t_outer <= t_inner and i < len(outer)) or j >= len(inner):
+                    tri = (a, outer[(i + 1) % len(outer)][1], b)
+                    i += 1
+                else:
+                    tri = (a, inner[(j + 1) % len(inner)][1], b)
+                    j += 1
+                faces.append(tri if top else tri[::-1])
+        inner = ring_rows[-1]
+        for k in range(len(inner)):
+            tri = (inner[k][1], inner[(k + 1) % len(inner)][1], middle)
+            faces.append(tri if top else tri[::-1])
+    positions = numpy.array(vertices) + numpy.random.default_rng(seed).normal(0.0, sigma_mm, (len(vertices), 3))
+    mesh = picoscan.Mesh()
+    mesh.vertices = positions.astype(numpy.float32)
+    mesh.faces = numpy.array(faces, dtype=numpy.int32)
+    return mesh
+
+
+class PicoScanBigSolidTest(unittest.TestCase):
+    """Make solid merges coplanar facets: a noisy closed mesh of the demo part's block becomes a valid
+    solid whose flat faces are one B-rep face each, with the mesh's volume."""
+
+    # The block's planar faces: outward normal -> true area (mm2).
+    FLAT_FACES = {
+        (0, 0, -1): 50 * 36 - 32 - 25 * (1 - math.pi / 4), (0, 0, 1): 50 * 36 - 32 - 25 * (1 - math.pi / 4),
+        (0, -1, 0): 45 * 24, (0, 1, 0): 42 * 24, (-1, 0, 0): 31 * 24, (1, 0, 0): 28 * 24,
+        (math.sqrt(0.5), math.sqrt(0.5), 0): 8 * math.sqrt(2) * 24,
+    }
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanBigSolidTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def test_noisy_block_mesh_becomes_a_few_planar_faces(self):
+        for sigma in (0.0, 0.02, 0.05):
+            obj = self.doc.addObject("Mesh::Feature", "BlockMesh")
+            obj.Mesh = scan_mesh.freecad_mesh(outline_block_mesh(sigma, spacing_mm=1.0))
+            facets = obj.Mesh.CountFacets
+            shape, model = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+            FreeCAD.Console.PrintMessage("block mesh, noise %.3f mm: %s; solid volume %.3f mm3, mesh %.3f mm3\n" % (
+                sigma, model.summary(), shape.Volume, obj.Mesh.Volume))
+            self.assertTrue(shape.isValid())
+            self.assertEqual(shape.ShapeType, "Solid")
+            self.assertAlmostEqual(shape.Volume, obj.Mesh.Volume, delta=1e-3 * obj.Mesh.Volume)
+            self.assertLess(len(shape.Faces), facets / 20)
+            for normal, area in self.FLAT_FACES.items():
+                matching = [f for f in shape.Faces if f.Surface.TypeId == "Part::GeomPlane"
+                            and f.normalAt(0, 0).dot(FreeCAD.Vector(*normal)) > 0.9999 and f.Area > 0.5 * area]
+                self.assertEqual(len(matching), 1, (sigma, normal, [f.Area for f in matching]))
+                # The faces beside the rounded edge may take in its first strips (the polygon's facets
+                # there turn by 3 degrees, within the noise of the plane): up to 1.5 mm x 24 mm more.
+                self.assertGreater(matching[0].Area, 0.99 * area)
+                self.assertLess(matching[0].Area, area + 36)
+            # The feature reports how the faces were made.
+            feature = solid.make_solid(self.doc, obj)
+            self.assertIn("planar regions", feature.SolidReport)
+            self.doc.removeObject(feature.Name)
+            self.doc.removeObject(obj.Name)
+
+    def test_without_merging_every_facet_is_a_face(self):
+        obj = self.doc.addObject("Mesh::Feature", "Sphere")
+        obj.Mesh = Mesh.createSphere(10.0, 30)
+        shape = solid.solid_of_mesh(obj.Mesh, "sphere", merge_planes=False)
+        self.assertEqual(len(shape.Faces), obj.Mesh.CountFacets)
+        self.assertTrue(shape.isValid())
+
+
+class PicoScanRegionFitTest(unittest.TestCase):
+    """Fitting where the user points, on 60 000 points spread over the demo part with 20 um noise:
+    the hole from a point picked on its wall, the chamfer as a plane (Fit primitives used to call it
+    a 22 m cylinder), constraints to a fitted bottom plane, nominal sizes."""
+
+    @classmethod
+    def setUpClass(cls):
+        from picoscan_wb.operations import region_fit
+        cls.region_fit = region_fit
+        cls.doc = FreeCAD.newDocument("PicoScanRegionFitTest")
+        points, normals = sampled_demo_part(60000, 0.02, seed=8)
+        cloud = picoscan.PointCloud()
+        cloud.points = points.astype(numpy.float32)
+        cloud.normals = normals.astype(numpy.float32)
+        cls.cloud = cloud
+
+    @classmethod
+    def tearDownClass(cls):
+        FreeCAD.closeDocument(cls.doc.Name)
+
+    def fit_at(self, seed, radius_mm=30.0, **options):
+        """The face around a picked point, grown over the surface up to its edges, fitted."""
+        region = self.region_fit.pick_region(self.cloud, seed, radius_mm=radius_mm)
+        return self.region_fit.fit_region(self.doc, self.cloud, region, self.region_fit.region_options(**options))
+
+    def test_hole_from_a_picked_point(self):
+        hole, fit = self.fit_at((-16.0, 0.0, 12.0))
+        FreeCAD.Console.PrintMessage("hole picked at (-16, 0, 12): %s, diameter %.4f mm; %s\n" % (
+            fit.shape.kind, 2 * fit.shape.radius_mm, fit.report))
+        self.assertEqual(hole.TypeId, "Part::Cylinder")
+        self.assertAlmostEqual(2 * hole.Radius.Value, 10.0, delta=0.02)
+        axis = hole.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertLess(math.degrees(math.acos(min(1.0, abs(axis.z)))), 0.2)
+        base = hole.Placement.Base
+        self.assertLess(math.hypot(base.x + 11, base.y), 0.02)
+        # Snapped to a 0.5 mm nominal step: exactly 10 mm, only because the points allow it.
+        snapped, fit = self.fit_at((-16.0, 0.0, 12.0), snap_step_mm=0.5, snap_tolerance_mm=0.05)
+        self.assertTrue(fit.snapped, fit.report)
+        self.assertEqual(snapped.Radius.Value, 5.0)
+
+    def test_chamfer_is_a_plane_at_45_degrees(self):
+        chamfer, fit = self.fit_at((21.0, 14.0, 12.0))
+        normal = chamfer.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        angle = math.degrees(math.acos(min(1.0, abs(normal.x))))
+        FreeCAD.Console.PrintMessage("chamfer picked at (21, 14, 12): %s, %.4f deg to the right face; %s\n" % (
+            fit.shape.kind, angle, fit.report))
+        self.assertEqual(chamfer.TypeId, "Part::Plane", fit.report)
+        self.assertAlmostEqual(angle, 45.0, delta=0.05)
+        self.assertLess(abs(normal.z), 1e-3)
+        # Fit primitives on the whole scan no longer takes the chamfer for a huge cylinder.
+        group, created = primitives.fit_primitives(self.doc, self.cloud,
+                                                   primitives.detection_options(epsilon_mm=0.1, min_points=300))
+        radii = [obj.Radius.Value for obj, _ in created if obj.TypeId == "Part::Cylinder"]
+        FreeCAD.Console.PrintMessage("Fit primitives on the demo part: cylinder radii %s\n" % radii)
+        self.assertTrue(all(r < 10 for r in radii), radii)
+        chamfers = [obj for obj, _ in created if obj.TypeId == "Part::Plane" and abs(
+            obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)).dot(FreeCAD.Vector(1, 1, 0).normalize())) > 0.999]
+        self.assertEqual(len(chamfers), 1, [o.Label for o, _ in created])
+        for obj in group.Group:
+            self.doc.removeObject(obj.Name)
+        self.doc.removeObject(group.Name)
+
+    def test_constraints_to_a_fitted_bottom_plane(self):
+        bottom, _ = self.fit_at((0.0, 5.0, 0.0))
+        self.assertEqual(bottom.TypeId, "Part::Plane")
+        up = bottom.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        boss, fit = self.fit_at((12.0, -9.0, 28.0), constraint="parallel", reference=bottom)
+        self.assertEqual(boss.TypeId, "Part::Cylinder", fit.report)
+        axis = boss.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertAlmostEqual(abs(axis.dot(up)), 1.0, delta=1e-9)
+        self.assertAlmostEqual(2 * boss.Radius.Value, 14.0, delta=0.02)
+        chamfer, fit = self.fit_at((21.0, 14.0, 12.0), constraint="perpendicular", reference=bottom)
+        normal = chamfer.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertAlmostEqual(normal.dot(up), 0.0, delta=1e-9)
+        # Coaxial with the boss: the hole's wall cannot be (23 mm away): the fit says so in its RMS.
+        hole, fit = self.fit_at((-16.0, 0.0, 12.0), kind="cylinder", constraint="coaxial", reference=boss)
+        self.assertGreater(fit.shape.rms_mm, 1.0)
+        names = [o.Name for o in self.doc.Objects]
+        with self.assertRaisesRegex(picoscan.Error, "cannot be coaxial"):
+            self.fit_at((21.0, 14.0, 12.0), kind="plane", constraint="coaxial", reference=boss)
+        # Two faces at once, with the noise known: no single primitive fits; nothing added.
+        with self.assertRaisesRegex(picoscan.Error, "pick one surface only"):
+            self.region_fit.fit_region(self.doc, self.cloud, self.region_fit.pick_region(
+                self.cloud, (0.0, -18.0, 24.0), radius_mm=3.0, grow=False), self.region_fit.region_options(noise_mm=0.02))
+        self.assertEqual([o.Name for o in self.doc.Objects], names)

@@ -1,0 +1,70 @@
+// Fitting where the user points: a plane, cylinder, sphere or cone fitted by least squares to a
+// picked region of a scan (point indices, or a seed point with a radius, optionally grown over the
+// smooth surface), the kind chosen from the residuals against the scan's noise, with optional
+// constraints to another feature (parallel, perpendicular, coaxial) and sizes snapped to nominal.
+#pragma once
+
+#include "picoscan/cloud.h"
+#include "picoscan/shapes.h"
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+struct RegionSelection {
+    double radius_mm = 5;            // points within this distance of the seed's nearest point
+    bool grow = false;               // true: only those reached over the surface from the seed
+    double max_gap_mm = 1.0;         // growing: neighbours nearer than this
+    double max_normal_step_deg = 20; // growing: normals of neighbours agree within this (stops at edges)
+};
+
+// Indices of the cloud's points in the region picked at `seed` (the nearest point to it starts
+// it). Throws Error("seed", ...) when the cloud is empty, Error("cloud", ...) when growing needs
+// normals it lacks, Error("radius_mm"/"max_gap_mm", ...) for bad options.
+std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection = {});
+
+enum class FitConstraint { Free, Parallel, Perpendicular, Coaxial };
+
+struct RegionFitOptions {
+    bool automatic = true;           // choose the kind from the residuals; false: fit `kind`
+    ShapeKind kind = ShapeKind::Plane;
+    bool planes = true, cylinders = true, spheres = true, cones = true;  // kinds the automatic choice may take
+    // The scan's noise (sigma). 0: the best fit's RMS stands for it.
+    double noise_mm = 0;
+    // The simplest kind (plane, sphere, cylinder, cone) whose RMS is within max(accept_factor x
+    // noise, (1 + margin) x the best RMS) is chosen: a curved shape must fit clearly better.
+    double accept_factor = 1.5, margin = 0.1;
+    // With a given noise, a region no kind fits within reject_factor x noise is refused.
+    double reject_factor = 3;
+    double min_cone_half_angle_deg = 2;  // a narrower cone is a cylinder
+    // A constraint to a reference feature: its direction (a plane's normal, an axis) and, for
+    // Coaxial, a point on its axis. Plane: Parallel (normal along it), Perpendicular (normal square
+    // to it). Cylinder: Parallel, Perpendicular (axis), Coaxial. Cone: Parallel, Coaxial. Sphere:
+    // Coaxial (centre on the axis).
+    FitConstraint constraint = FitConstraint::Free;
+    cv::Vec3d reference_point{0, 0, 0}, reference_direction{0, 0, 1};
+    // > 0: a cylinder's or sphere's diameter within snap_tolerance_mm of a multiple of this is
+    // set to it and the rest refitted; kept only when the RMS stays within the accept threshold.
+    double snap_step_mm = 0, snap_tolerance_mm = 0.05;
+};
+
+struct RegionFit {
+    DetectedShape shape;             // the chosen fit; shape.inliers is the region
+    double noise_mm = 0;             // the noise used (given, or the best RMS)
+    // RMS of each kind's fit (negative: not tried).
+    double plane_rms_mm = -1, sphere_rms_mm = -1, cylinder_rms_mm = -1, cone_rms_mm = -1;
+    bool snapped = false;
+    double fitted_radius_mm = 0;     // before snapping
+    std::string report;              // one line: the kinds' RMS and why this one
+};
+
+// Throws Error("region", ...) for fewer than 10 points or when no kind fits within
+// reject_factor x noise, Error("constraint", ...) for a constraint the kind cannot take,
+// Error("reference_direction", ...) for a zero direction.
+RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options = {});
+
+std::string to_string(FitConstraint constraint);
+
+}  // namespace picoscan

@@ -1,0 +1,64 @@
+// A closed triangle mesh as a boundary representation: facets that lie on one plane (within the
+// scan's noise) merged into one planar face, the rest kept as triangles, written in
+// OpenCASCADE's BREP text format so that a CAD host (FreeCAD) only reads the solid back.
+#pragma once
+
+#include "picoscan/cloud.h"
+#include "picoscan/progress.h"
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace picoscan {
+
+struct PlanarFaceOptions {
+    double noise_mm = 0;             // the scan's noise (sigma); 0: estimated from the mesh
+    double distance_factor = 4;      // a region's vertices lie within this many sigma of its plane
+    double max_normal_deg = 30;      // a facet joins a region when its normal is within this of the plane's
+                                     // (plus 3 x its normal's noise: 2 sigma over its shortest altitude)
+    double max_rms_factor = 1.5;     // a region's RMS residual must stay below this many sigma
+                                     // (a strip of a cylinder is flat within 4 sigma, not within 1.5)
+    int min_facets = 30;             // smaller regions stay triangles
+    bool merge = true;               // false: one face per facet
+};
+
+struct BrepEdge {
+    int start = 0, end = 0;          // vertex indices; a straight line between them
+    double tolerance_mm = 1e-7;      // how far the line may be from the faces' planes
+};
+
+struct BrepFace {
+    cv::Vec3d origin, normal;        // the face's plane; normal points out of the solid
+    bool merged = false;             // true: a region of facets; false: one facet
+    int facet_count = 1;
+    double rms_mm = 0;               // merged: RMS distance of its vertices to the plane
+    // Closed loops of signed edge references (edge index + 1, negative when run backwards):
+    // the outer boundary first, counter-clockwise seen from outside, then the holes.
+    std::vector<std::vector<int>> wires;
+};
+
+struct PlanarFaceModel {
+    std::vector<cv::Vec3d> vertices;
+    std::vector<double> vertex_tolerance_mm;
+    std::vector<BrepEdge> edges;
+    std::vector<BrepFace> faces;
+    double noise_mm = 0;             // the noise used (given or estimated)
+    double mesh_volume_mm3 = 0;      // enclosed by the (outward-turned) mesh
+    size_t facet_count = 0;          // facets used (without those collapsed by joining vertices)
+    size_t merged_faces = 0, merged_facets = 0;  // planar regions and the facets they hold
+    std::string summary() const;
+};
+
+// Builds the faces of the solid bounded by `mesh`. Vertices at the same position are joined
+// first; facets left with two corners at one position are dropped. Throws Error("mesh", ...) saying why the mesh bounds no solid: empty, open (border
+// edges), non-manifold edges, inconsistently oriented facets, zero-area facets. Facets turned
+// inwards are turned outwards. Self-intersections are check_mesh's (mesh.h).
+PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options = {},
+                                  const ProgressCallback& progress = nullptr);
+
+// Writes the model as an OpenCASCADE BREP solid (vertices, straight edges, planar faces, one
+// shell). Written to a temporary file and renamed.
+void write_brep(const PlanarFaceModel& model, const std::string& path);
+
+}  // namespace picoscan

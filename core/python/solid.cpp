@@ -1,0 +1,49 @@
+#include "bindings.h"
+
+#include "picoscan/solid.h"
+
+namespace picoscan::python {
+
+void bind_solid(py::module_& m) {
+    py::class_<PlanarFaceOptions>(m, "PlanarFaceOptions")
+        .def(py::init<>())
+        .def_readwrite("noise_mm", &PlanarFaceOptions::noise_mm)
+        .def_readwrite("distance_factor", &PlanarFaceOptions::distance_factor)
+        .def_readwrite("max_normal_deg", &PlanarFaceOptions::max_normal_deg)
+        .def_readwrite("max_rms_factor", &PlanarFaceOptions::max_rms_factor)
+        .def_readwrite("min_facets", &PlanarFaceOptions::min_facets)
+        .def_readwrite("merge", &PlanarFaceOptions::merge);
+    py::class_<BrepEdge>(m, "BrepEdge")
+        .def_readonly("start", &BrepEdge::start)
+        .def_readonly("end", &BrepEdge::end)
+        .def_readonly("tolerance_mm", &BrepEdge::tolerance_mm);
+    py::class_<BrepFace>(m, "BrepFace")
+        .def_readonly("origin", &BrepFace::origin)
+        .def_readonly("normal", &BrepFace::normal)
+        .def_readonly("merged", &BrepFace::merged)
+        .def_readonly("facet_count", &BrepFace::facet_count)
+        .def_readonly("rms_mm", &BrepFace::rms_mm)
+        .def_readonly("wires", &BrepFace::wires);
+    py::class_<PlanarFaceModel>(m, "PlanarFaceModel")
+        .def_readonly("vertices", &PlanarFaceModel::vertices)
+        .def_readonly("vertex_tolerance_mm", &PlanarFaceModel::vertex_tolerance_mm)
+        .def_readonly("edges", &PlanarFaceModel::edges)
+        .def_readonly("faces", &PlanarFaceModel::faces)
+        .def_readonly("noise_mm", &PlanarFaceModel::noise_mm)
+        .def_readonly("mesh_volume_mm3", &PlanarFaceModel::mesh_volume_mm3)
+        .def_readonly("facet_count", &PlanarFaceModel::facet_count)
+        .def_readonly("merged_faces", &PlanarFaceModel::merged_faces)
+        .def_readonly("merged_facets", &PlanarFaceModel::merged_facets)
+        .def("summary", &PlanarFaceModel::summary);
+    m.def(
+        "planar_face_model",
+        [](const Mesh& mesh, const PlanarFaceOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return planar_face_model(mesh, options, callback);
+        },
+        py::arg("mesh"), py::arg("options") = PlanarFaceOptions(), py::arg("progress") = py::none());
+    m.def("write_brep", &write_brep, py::arg("model"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
+}
+
+}  // namespace picoscan::python

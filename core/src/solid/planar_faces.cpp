@@ -1,0 +1,526 @@
+// Closed triangle mesh -> planar B-rep faces: coplanar facets grown into regions (normals within
+// an angle, vertices within the noise of one least-squares plane), region boundaries simplified to
+// straight edges where two planar faces meet (Douglas-Peucker within the same noise).
+#include "picoscan/solid.h"
+
+#include "picoscan/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+namespace picoscan {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Plane {
+    cv::Vec3d origin, normal;
+    double distance(const cv::Vec3d& p) const { return (p - origin).dot(normal); }
+};
+
+// Least-squares plane from the moments of points taken relative to `reference`.
+struct PlaneMoments {
+    cv::Vec3d reference, sum{0, 0, 0};
+    cv::Matx33d products = cv::Matx33d::zeros();
+    size_t count = 0;
+    void add(const cv::Vec3d& point) {
+        const cv::Vec3d p = point - reference;
+        sum += p;
+        products += p * p.t();
+        ++count;
+    }
+    Plane plane() const {
+        const cv::Vec3d mean = sum / double(count);
+        const cv::Matx33d covariance = products * (1.0 / double(count)) - mean * mean.t();
+        cv::Mat values, vectors;
+        cv::eigen(cv::Mat(covariance), values, vectors);  // descending: the last is the normal
+        const cv::Vec3d normal(vectors.at<double>(2, 0), vectors.at<double>(2, 1), vectors.at<double>(2, 2));
+        return {reference + mean, cv::normalize(normal)};
+    }
+};
+
+uint64_t edge_key(int a, int b) { return (uint64_t(uint32_t(a)) << 32) | uint32_t(b); }
+
+// Indices of the points of `chain` (first and last included) that a Douglas-Peucker
+// simplification within `tolerance` keeps.
+void douglas_peucker(const std::vector<cv::Vec3d>& positions, const std::vector<int>& chain, size_t first, size_t last,
+                     double tolerance, std::vector<size_t>& kept) {
+    if (last <= first + 1) return;
+    const cv::Vec3d a = positions[chain[first]], b = positions[chain[last]];
+    const cv::Vec3d direction = b - a;
+    const double length = cv::norm(direction);
+    double worst = -1;
+    size_t worst_index = first;
+    for (size_t i = first + 1; i < last; ++i) {
+        const cv::Vec3d offset = positions[chain[i]] - a;
+        const double distance = length > 0 ? cv::norm(offset.cross(direction)) / length : cv::norm(offset);
+        if (distance > worst) worst = distance, worst_index = i;
+    }
+    if (worst <= tolerance) return;
+    douglas_peucker(positions, chain, first, worst_index, tolerance, kept);
+    kept.push_back(worst_index);
+    douglas_peucker(positions, chain, worst_index, last, tolerance, kept);
+}
+
+}  // namespace
+
+std::string PlanarFaceModel::summary() const {
+    std::ostringstream text;
+    text << faces.size() << " faces from " << facet_count << " facets: " << merged_faces << " planar regions holding "
+         << merged_facets << " facets, " << faces.size() - merged_faces << " triangles; noise " << noise_mm << " mm";
+    return text.str();
+}
+
+PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options, const ProgressCallback& progress) {
+    if (!(options.noise_mm >= 0)) throw Error("noise_mm", "must be 0 (estimate) or positive");
+    if (!(options.distance_factor > 0) || !(options.max_rms_factor > 0))
+        throw Error("distance_factor", "distance and RMS factors must be positive");
+    if (!(options.max_normal_deg > 0 && options.max_normal_deg < 90)) throw Error("max_normal_deg", "must be in (0, 90)");
+    if (options.min_facets < 2) throw Error("min_facets", "must be at least 2");
+    if (mesh.faces.empty()) throw Error("mesh", "the mesh is empty");
+    auto report = [&](double fraction, const char* stage) {
+        if (progress && !progress(fraction, stage)) throw Error("cancelled", "make solid was stopped");
+    };
+
+    // Join vertices at the same position (meshes whose triangles repeat their corners).
+    std::vector<int> order(mesh.vertices.size()), vertex_of(mesh.vertices.size());
+    std::iota(order.begin(), order.end(), 0);
+    auto less = [&](int a, int b) {
+        const cv::Vec3f &p = mesh.vertices[a], &q = mesh.vertices[b];
+        return std::tie(p[0], p[1], p[2]) < std::tie(q[0], q[1], q[2]);
+    };
+    std::sort(order.begin(), order.end(), less);
+    PlanarFaceModel model;
+    for (size_t i = 0; i < order.size(); ++i) {
+        if (i == 0 || less(order[i - 1], order[i])) model.vertices.emplace_back(mesh.vertices[order[i]]);
+        vertex_of[order[i]] = int(model.vertices.size()) - 1;
+    }
+    const std::vector<cv::Vec3d>& positions = model.vertices;
+    const int vertex_count = int(positions.size());
+    // Facets with two corners at one position (collapsed by the join) bound nothing: they are left
+    // out, and the facets on either side of them become neighbours.
+    std::vector<cv::Vec3i> facets;
+    facets.reserve(mesh.faces.size());
+    double signed_volume = 0;
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+        cv::Vec3i facet;
+        for (int k = 0; k < 3; ++k) {
+            const int index = mesh.faces[f][k];
+            if (index < 0 || index >= int(mesh.vertices.size()))
+                throw Error("mesh", "facet " + std::to_string(f) + " refers to vertex " + std::to_string(index) + ", out of range");
+            facet[k] = vertex_of[index];
+        }
+        if (facet[0] == facet[1] || facet[1] == facet[2] || facet[2] == facet[0]) continue;
+        facets.push_back(facet);
+        const cv::Vec3d &a = positions[facet[0]], &b = positions[facet[1]], &c = positions[facet[2]];
+        signed_volume += a.dot(b.cross(c)) / 6;
+    }
+    const int facet_count = int(facets.size());
+    if (facet_count == 0) throw Error("mesh", "every facet has two corners at one position");
+    model.facet_count = size_t(facet_count);
+    if (signed_volume < 0)  // facets turned inwards: turn them outwards
+        for (cv::Vec3i& facet : facets) std::swap(facet[1], facet[2]);
+    model.mesh_volume_mm3 = std::abs(signed_volume);
+
+    cv::Vec3d low = positions[0], high = positions[0];
+    for (const cv::Vec3d& p : positions)
+        for (int k = 0; k < 3; ++k) low[k] = std::min(low[k], p[k]), high[k] = std::max(high[k], p[k]);
+    const double size = cv::norm(high - low);
+    std::vector<cv::Vec3d> normals(facet_count);
+    size_t degenerate = 0;
+    for (int f = 0; f < facet_count; ++f) {
+        const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
+        const cv::Vec3d cross = (b - a).cross(c - a);
+        const double length = cv::norm(cross);
+        if (!(length > 1e-12 * size * size)) ++degenerate;
+        normals[f] = length > 0 ? cross / length : cv::Vec3d(0, 0, 0);
+    }
+    if (degenerate)
+        throw Error("mesh", "the mesh has " + std::to_string(degenerate) + " degenerate (zero-area) facets; repair it first");
+
+    // Half-edge k of facet f runs from corner k to corner k+1; its twin runs back in the neighbour.
+    std::vector<std::pair<uint64_t, int>> half_edges(size_t(facet_count) * 3);
+    for (int f = 0; f < facet_count; ++f)
+        for (int k = 0; k < 3; ++k) half_edges[f * 3 + k] = {edge_key(facets[f][k], facets[f][(k + 1) % 3]), f * 3 + k};
+    std::sort(half_edges.begin(), half_edges.end());
+    for (size_t i = 1; i < half_edges.size(); ++i)
+        if (half_edges[i].first == half_edges[i - 1].first)
+            throw Error("mesh", "an edge is run the same way by two facets: the facets are not consistently oriented, "
+                                "or more than two meet at an edge (non-manifold); repair it first");
+    std::vector<int> twin(half_edges.size());
+    size_t border = 0;
+    for (int f = 0; f < facet_count; ++f)
+        for (int k = 0; k < 3; ++k) {
+            const uint64_t key = edge_key(facets[f][(k + 1) % 3], facets[f][k]);
+            const auto found = std::lower_bound(half_edges.begin(), half_edges.end(), std::make_pair(key, -1));
+            if (found == half_edges.end() || found->first != key) {
+                ++border;
+                twin[f * 3 + k] = -1;
+            } else {
+                twin[f * 3 + k] = found->second;
+            }
+        }
+    if (border)
+        throw Error("mesh", "the mesh is not closed (" + std::to_string(border) +
+                                " border edges; a single scan is a surface): mesh stitched views with Poisson to get a closed one");
+    report(0.2, "solid: mesh topology");
+
+    // The noise: across each edge, the far corner of one facet against the other facet's plane.
+    // On a flat mesh with vertex noise sigma that height has a spread of about 2 sigma.
+    model.noise_mm = options.noise_mm;
+    if (model.noise_mm == 0) {
+        std::vector<double> heights;
+        heights.reserve(half_edges.size() / 2);
+        for (int f = 0; f < facet_count; ++f)
+            for (int k = 0; k < 3; ++k) {
+                const int h = twin[f * 3 + k];
+                if (h / 3 < f) continue;
+                const int far_corner = facets[h / 3][(h % 3 + 2) % 3];
+                heights.push_back(std::abs((positions[far_corner] - positions[facets[f][0]]).dot(normals[f])));
+            }
+        std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+        model.noise_mm = std::max(heights[heights.size() / 2] / 0.6745 / 2, 1e-7 * size);
+    }
+    const double distance_limit = options.distance_factor * model.noise_mm;
+    const double rms_limit = options.max_rms_factor * model.noise_mm;
+    // A boundary between two planes is straight when its vertices stray less than this from the
+    // line: they carry the noise across the line as well as along the normal (2-D, so more).
+    const double straight_limit = 1.5 * distance_limit;
+    // A small facet's normal is only known to about 2 sigma over its shortest altitude: its
+    // normal may stray from the plane's by max_normal_deg plus three times that.
+    std::vector<double> min_cosine(facet_count);
+    for (int f = 0; f < facet_count; ++f) {
+        const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
+        const double twice_area = cv::norm((b - a).cross(c - a));
+        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+        const double spread_deg = 3 * std::atan(2 * model.noise_mm / (twice_area / longest)) * 180 / kPi;
+        min_cosine[f] = std::cos(std::min(options.max_normal_deg + spread_deg, 80.0) * kPi / 180);
+    }
+
+    std::vector<int> region(facet_count, -1);
+    std::vector<Plane> region_planes;
+    std::vector<double> region_rms;
+    if (options.merge) {
+        // Seeds: the flattest facets first (least normal change to their neighbours).
+        std::vector<float> bend(facet_count, 0);
+        for (int f = 0; f < facet_count; ++f)
+            for (int k = 0; k < 3; ++k) bend[f] = std::max(bend[f], float(1 - normals[f].dot(normals[twin[f * 3 + k] / 3])));
+        std::vector<int> seeds(facet_count);
+        std::iota(seeds.begin(), seeds.end(), 0);
+        std::stable_sort(seeds.begin(), seeds.end(), [&](int a, int b) { return bend[a] < bend[b]; });
+
+        std::vector<int> claim(facet_count, -1), vertex_stamp(vertex_count, -1), outgoing(vertex_count, 0);
+        std::vector<char> tried(facet_count, 0);
+        std::vector<int> members, region_vertices, queue;
+        int attempt = 0;
+        for (size_t s = 0; s < seeds.size(); ++s) {
+            const int seed = seeds[s];
+            if (region[seed] >= 0 || tried[seed]) continue;
+            ++attempt;
+            members.clear();
+            region_vertices.clear();
+            PlaneMoments moments;
+            moments.reference = positions[facets[seed][0]];
+            auto take = [&](int f) {
+                claim[f] = attempt;
+                members.push_back(f);
+                queue.push_back(f);
+                for (int k = 0; k < 3; ++k) {
+                    const int v = facets[f][k];
+                    if (vertex_stamp[v] == attempt) continue;
+                    vertex_stamp[v] = attempt;
+                    region_vertices.push_back(v);
+                    moments.add(positions[v]);
+                }
+            };
+            // The first plane: through the corners of the seed's two rings of neighbours (one
+            // small facet's own plane may tilt by many degrees in the noise).
+            Plane plane{positions[facets[seed][0]], normals[seed]};
+            {
+                PlaneMoments start;
+                start.reference = positions[facets[seed][0]];
+                for (int k = 0; k < 3; ++k) {
+                    const int near_facet = twin[seed * 3 + k] / 3;
+                    for (int j = 0; j < 3; ++j) {
+                        const int far_facet = twin[near_facet * 3 + j] / 3;
+                        for (int c = 0; c < 3; ++c) start.add(positions[facets[far_facet][c]]);
+                    }
+                }
+                const Plane fitted = start.plane();
+                plane = {fitted.origin, fitted.normal.dot(normals[seed]) < 0 ? -fitted.normal : fitted.normal};
+            }
+            size_t fitted_at = 3;
+            queue.clear();
+            take(seed);
+            for (size_t next = 0; next < queue.size(); ++next) {
+                const int f = queue[next];
+                for (int k = 0; k < 3; ++k) {
+                    const int g = twin[f * 3 + k] / 3;
+                    if (claim[g] == attempt || region[g] >= 0 || normals[g].dot(plane.normal) < min_cosine[g]) continue;
+                    bool near = true;
+                    for (int c = 0; c < 3 && near; ++c) near = std::abs(plane.distance(positions[facets[g][c]])) <= distance_limit;
+                    if (!near) continue;
+                    take(g);
+                    if (moments.count >= 2 * fitted_at) {
+                        const Plane fitted = moments.plane();
+                        plane = {fitted.origin, fitted.normal.dot(plane.normal) < 0 ? -fitted.normal : fitted.normal};
+                        fitted_at = moments.count;
+                    }
+                }
+            }
+            bool accepted = int(members.size()) >= options.min_facets;
+            double rms = 0;
+            if (accepted) {
+                const Plane fitted = moments.plane();
+                plane = {fitted.origin, fitted.normal.dot(plane.normal) < 0 ? -fitted.normal : fitted.normal};
+                for (int v : region_vertices) rms += std::pow(plane.distance(positions[v]), 2);
+                rms = std::sqrt(rms / double(region_vertices.size()));
+                accepted = rms <= rms_limit;
+            }
+            // Where a region touches itself at a vertex its wire would pinch: the region's facets
+            // at that vertex stay triangles, until no such vertex is left.
+            for (int pass = 0; accepted && pass < 20; ++pass) {
+                for (int v : region_vertices) outgoing[v] = 0;
+                bool pinched = false;
+                for (int f : members)
+                    for (int k = 0; k < 3; ++k)
+                        if (claim[twin[f * 3 + k] / 3] != attempt && ++outgoing[facets[f][k]] > 1) pinched = true;
+                if (!pinched) break;
+                std::vector<int> kept_members;
+                for (int f : members) {
+                    bool at_pinch = false;
+                    for (int k = 0; k < 3; ++k) at_pinch = at_pinch || outgoing[facets[f][k]] > 1;
+                    if (at_pinch) {
+                        claim[f] = -1;
+                        tried[f] = 1;
+                    } else {
+                        kept_members.push_back(f);
+                    }
+                }
+                members.swap(kept_members);
+                accepted = int(members.size()) >= options.min_facets;
+            }
+            if (!accepted) {
+                for (int f : members) tried[f] = 1;
+                continue;
+            }
+            const int id = int(region_planes.size());
+            for (int f : members) region[f] = id;
+            region_planes.push_back(plane);
+            region_rms.push_back(rms);
+            if (s % 4096 == 0) report(0.2 + 0.5 * double(s) / double(facet_count), "solid: planar regions");
+        }
+        // Facets left alone inside a region (noise tipped their normal) join it.
+        for (int pass = 0; pass < 3; ++pass)
+            for (int f = 0; f < facet_count; ++f) {
+                if (region[f] >= 0) continue;
+                const int r = region[twin[f * 3] / 3];
+                if (r < 0 || region[twin[f * 3 + 1] / 3] != r || region[twin[f * 3 + 2] / 3] != r) continue;
+                bool near = true;
+                for (int c = 0; c < 3 && near; ++c)
+                    near = std::abs(region_planes[r].distance(positions[facets[f][c]])) <= distance_limit;
+                if (near) region[f] = r;
+            }
+    }
+    report(0.7, "solid: boundaries");
+
+    // Vertices on planar regions move onto them: onto the plane, the line where two planes meet,
+    // or the corner of three (the point nearest to the vertex that satisfies the planes, in the
+    // least-squares sense with a heavy weight). The faces then meet exactly, without gaps of
+    // the noise's size. A move longer than a few noise widths (planes meeting at a glancing
+    // angle) is not made; the edges' tolerances cover that vertex instead.
+    if (!region_planes.empty()) {
+        std::vector<std::vector<int>> regions_at(vertex_count);
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0)
+                for (int k = 0; k < 3; ++k) {
+                    std::vector<int>& around = regions_at[facets[f][k]];
+                    if (std::find(around.begin(), around.end(), region[f]) == around.end()) around.push_back(region[f]);
+                }
+        const double weight = 1e8;
+        for (int v = 0; v < vertex_count; ++v) {
+            if (regions_at[v].empty()) continue;
+            cv::Matx33d system = cv::Matx33d::eye();
+            cv::Vec3d right = model.vertices[v];
+            for (int r : regions_at[v]) {
+                const Plane& plane = region_planes[r];
+                system += weight * (plane.normal * plane.normal.t());
+                right += weight * plane.normal.dot(plane.origin) * plane.normal;
+            }
+            cv::Vec3d moved;
+            if (!cv::solve(system, right, moved, cv::DECOMP_CHOLESKY)) continue;
+            if (cv::norm(moved - model.vertices[v]) <= 3 * distance_limit) model.vertices[v] = moved;
+        }
+        for (int f = 0; f < facet_count; ++f) {
+            const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
+            const cv::Vec3d cross = (b - a).cross(c - a);
+            if (cv::norm(cross) > 0) normals[f] = cv::normalize(cross);
+        }
+    }
+
+    // Faces: the regions, then one per remaining facet.
+    const int region_count = int(region_planes.size());
+    std::vector<int> face_of(facet_count);
+    model.faces.resize(region_count);
+    for (int r = 0; r < region_count; ++r) {
+        model.faces[r].origin = region_planes[r].origin;
+        model.faces[r].normal = region_planes[r].normal;
+        model.faces[r].merged = true;
+        model.faces[r].facet_count = 0;
+        model.faces[r].rms_mm = region_rms[r];
+    }
+    for (int f = 0; f < facet_count; ++f) {
+        if (region[f] >= 0) {
+            face_of[f] = region[f];
+            ++model.faces[region[f]].facet_count;
+            ++model.merged_facets;
+            continue;
+        }
+        face_of[f] = int(model.faces.size());
+        BrepFace face;
+        face.origin = positions[facets[f][0]];
+        face.normal = normals[f];
+        model.faces.push_back(face);
+    }
+    model.merged_faces = size_t(region_count);
+
+    // A vertex stays a B-rep vertex when a triangle uses it or three or more faces meet there;
+    // between two planar faces the boundary runs straight through it.
+    std::vector<int> first_face(vertex_count, -1), second_face(vertex_count, -1);
+    std::vector<char> kept(vertex_count, 0);
+    for (int f = 0; f < facet_count; ++f)
+        for (int k = 0; k < 3; ++k) {
+            const int v = facets[f][k], face = face_of[f];
+            if (face >= region_count) kept[v] = 1;
+            if (first_face[v] < 0 || first_face[v] == face) first_face[v] = face;
+            else if (second_face[v] < 0 || second_face[v] == face) second_face[v] = face;
+            else kept[v] = 1;
+        }
+
+    // Boundary half-edges (their two facets on different faces), by start vertex.
+    std::vector<int> boundary_start(vertex_count + 1, 0), boundary;
+    auto on_boundary = [&](int h) { return face_of[h / 3] != face_of[twin[h] / 3]; };
+    for (int h = 0; h < 3 * facet_count; ++h)
+        if (on_boundary(h)) ++boundary_start[facets[h / 3][h % 3] + 1];
+    for (int v = 0; v < vertex_count; ++v) boundary_start[v + 1] += boundary_start[v];
+    boundary.resize(boundary_start[vertex_count]);
+    {
+        std::vector<int> fill(boundary_start.begin(), boundary_start.end() - 1);
+        for (int h = 0; h < 3 * facet_count; ++h)
+            if (on_boundary(h)) boundary[fill[facets[h / 3][h % 3]]++] = h;
+    }
+    auto head = [&](int h) { return facets[h / 3][(h % 3 + 1) % 3]; };
+    auto next_on_face = [&](int h) {  // the boundary half-edge of the same face leaving h's head
+        const int v = head(h), face = face_of[h / 3];
+        for (int i = boundary_start[v]; i < boundary_start[v + 1]; ++i)
+            if (face_of[boundary[i] / 3] == face) return boundary[i];
+        throw Error("mesh", "internal: a face's boundary is broken at vertex " + std::to_string(v));
+    };
+
+    // Chains of boundary half-edges between kept vertices become straight edges.
+    struct Piece {
+        int start, end;
+        std::vector<int> edges;  // signed references
+    };
+    std::vector<std::vector<Piece>> pieces(model.faces.size());
+    std::vector<char> visited(size_t(3 * facet_count), 0);
+    std::vector<int> chain, chain_edges;
+    auto emit_chain = [&](const std::vector<int>& vertices, int owner, int other) {
+        // vertices: the chain as run by `owner`'s boundary; split closed or self-ending chains in three.
+        std::vector<size_t> breaks{0};
+        const size_t last = vertices.size() - 1;
+        if (vertices.front() == vertices.back()) breaks.push_back(last / 3), breaks.push_back(2 * last / 3);
+        breaks.push_back(last);
+        std::vector<size_t> kept_points;
+        for (size_t b = 0; b + 1 < breaks.size(); ++b) {
+            kept_points.push_back(breaks[b]);
+            douglas_peucker(positions, vertices, breaks[b], breaks[b + 1], straight_limit, kept_points);
+        }
+        kept_points.push_back(last);
+        chain_edges.clear();
+        for (size_t i = 0; i + 1 < kept_points.size(); ++i) {
+            model.edges.push_back({vertices[kept_points[i]], vertices[kept_points[i + 1]], 1e-7});
+            chain_edges.push_back(int(model.edges.size()));
+        }
+        pieces[owner].push_back({vertices.front(), vertices.back(), chain_edges});
+        std::vector<int> reversed(chain_edges.rbegin(), chain_edges.rend());
+        for (int& e : reversed) e = -e;
+        pieces[other].push_back({vertices.back(), vertices.front(), reversed});
+    };
+    auto walk = [&](int h) {
+        chain.assign(1, facets[h / 3][h % 3]);
+        const int owner = face_of[h / 3], other = face_of[twin[h] / 3];
+        for (;;) {
+            visited[h] = visited[twin[h]] = 1;
+            chain.push_back(head(h));
+            if (kept[head(h)] || head(h) == chain.front()) break;
+            h = next_on_face(h);
+        }
+        emit_chain(chain, owner, other);
+    };
+    for (int v = 0; v < vertex_count; ++v)
+        if (kept[v])
+            for (int i = boundary_start[v]; i < boundary_start[v + 1]; ++i)
+                if (!visited[boundary[i]]) walk(boundary[i]);
+    for (int h = 0; h < 3 * facet_count; ++h)  // closed boundaries between two planar faces only
+        if (on_boundary(h) && !visited[h]) walk(h);
+    report(0.85, "solid: wires");
+
+    // Wires: each face's pieces joined end to start; a merged face's outer loop first.
+    for (size_t face = 0; face < model.faces.size(); ++face) {
+        std::vector<Piece>& own = pieces[face];
+        std::unordered_map<int, int> piece_at;
+        for (size_t i = 0; i < own.size(); ++i) piece_at[own[i].start] = int(i);
+        std::vector<char> used(own.size(), 0);
+        std::vector<double> areas;
+        for (size_t i = 0; i < own.size(); ++i) {
+            if (used[i]) continue;
+            std::vector<int> wire;
+            cv::Vec3d area(0, 0, 0);
+            for (size_t p = i; !used[p];) {
+                used[p] = 1;
+                for (int e : own[p].edges) {
+                    wire.push_back(e);
+                    const BrepEdge& edge = model.edges[std::abs(e) - 1];
+                    const cv::Vec3d &a = positions[e > 0 ? edge.start : edge.end], &b = positions[e > 0 ? edge.end : edge.start];
+                    area += a.cross(b);
+                }
+                const auto found = piece_at.find(own[p].end);
+                if (found == piece_at.end()) throw Error("mesh", "internal: a face's boundary does not close");
+                p = size_t(found->second);
+            }
+            model.faces[face].wires.push_back(wire);
+            areas.push_back(area.dot(model.faces[face].normal));
+        }
+        const size_t outer = size_t(std::max_element(areas.begin(), areas.end()) - areas.begin());
+        std::swap(model.faces[face].wires[0], model.faces[face].wires[outer]);
+    }
+
+    // Tolerances: how far each straight edge's ends are from the planes of the faces along it.
+    std::vector<std::vector<int>> faces_of_edge(model.edges.size());
+    for (size_t face = 0; face < model.faces.size(); ++face)
+        for (const auto& wire : model.faces[face].wires)
+            for (int e : wire) faces_of_edge[std::abs(e) - 1].push_back(int(face));
+    model.vertex_tolerance_mm.assign(vertex_count, 1e-7);
+    for (size_t e = 0; e < model.edges.size(); ++e) {
+        BrepEdge& edge = model.edges[e];
+        double distance = 0;
+        for (int face : faces_of_edge[e]) {
+            const Plane plane{model.faces[face].origin, model.faces[face].normal};
+            distance = std::max({distance, std::abs(plane.distance(positions[edge.start])),
+                                 std::abs(plane.distance(positions[edge.end]))});
+        }
+        edge.tolerance_mm = distance * 1.01 + 1e-7;
+        for (int v : {edge.start, edge.end})
+            model.vertex_tolerance_mm[v] = std::max(model.vertex_tolerance_mm[v], edge.tolerance_mm);
+    }
+    report(1.0, "solid: faces");
+    return model;
+}
+
+}  // namespace picoscan

@@ -1,0 +1,193 @@
+// Fitting where the user points: picked regions of synthetic scans (20 um noise) must get the
+// right kind (a flat chamfer is a plane, not a huge cylinder), the right size, the constraints
+// asked for, and nominal sizes only when the points allow them.
+#include "picoscan/error.h"
+#include "picoscan/region_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+using namespace picoscan;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Scan {
+    PointCloud cloud;
+    std::mt19937 random{11};
+    std::normal_distribution<double> noise;
+    explicit Scan(double sigma_mm) : noise(0.0, sigma_mm) {}
+    void add(const cv::Vec3d& point, const cv::Vec3d& normal) {
+        const cv::Vec3d unit = cv::normalize(normal);
+        cloud.points.emplace_back(point + noise(random) * unit);
+        cloud.normals.emplace_back(unit);
+    }
+};
+
+std::vector<int> all_of(const PointCloud& cloud) {
+    std::vector<int> indices(cloud.points.size());
+    for (size_t i = 0; i < indices.size(); ++i) indices[i] = int(i);
+    return indices;
+}
+
+// Part of a hole's wall (radius r, axis along `axis` through `centre`), the arc seen from one side.
+void add_hole_wall(Scan& scan, const cv::Vec3d& centre, const cv::Vec3d& axis, double radius, double from_deg, double to_deg) {
+    const cv::Vec3d u = cv::normalize(axis.cross(cv::Vec3d(0.3, 1, 0.2))), v = axis.cross(u);
+    for (int i = 0; i <= 60; ++i)
+        for (int j = 0; j <= 40; ++j) {
+            const double angle = (from_deg + (to_deg - from_deg) * i / 60.0) * kPi / 180;
+            const cv::Vec3d radial = std::cos(angle) * u + std::sin(angle) * v;
+            scan.add(centre + radius * radial + (j * 0.2 - 4) * axis, -radial);  // a hole: normals inwards
+        }
+}
+
+}  // namespace
+
+TEST(RegionFit, FlatChamferIsAPlaneAndItsAngleIsRight) {
+    for (double sigma : {0.005, 0.02, 0.04}) {
+        Scan scan(sigma);
+        const cv::Vec3d normal = cv::normalize(cv::Vec3d(1, 1, 0));  // a 45 degree chamfer
+        const cv::Vec3d along = cv::normalize(cv::Vec3d(1, -1, 0));
+        for (int i = 0; i <= 50; ++i)
+            for (int j = 0; j <= 100; ++j) scan.add(cv::Vec3d(21, 14, 0) + (i * 0.2 - 5) * along + cv::Vec3d(0, 0, j * 0.2), normal);
+        const RegionFit fit = fit_region(scan.cloud, all_of(scan.cloud));
+        SCOPED_TRACE(fit.report);
+        ASSERT_EQ(fit.shape.kind, ShapeKind::Plane);
+        EXPECT_LT(std::acos(std::min(1.0, fit.shape.direction.dot(normal))) * 180 / kPi, 0.1);
+        EXPECT_NEAR(fit.shape.rms_mm, sigma, 0.2 * sigma);
+        EXPECT_GT(fit.cylinder_rms_mm, 0);  // the cylinder was tried, and not taken
+    }
+}
+
+TEST(RegionFit, HoleWallIsACylinderOfTheRightDiameter) {
+    for (double sigma : {0.01, 0.02, 0.04}) {
+        for (double arc : {60.0, 120.0, 360.0}) {
+            Scan scan(sigma);
+            const cv::Vec3d axis = cv::normalize(cv::Vec3d(0.1, -0.2, 1));
+            add_hole_wall(scan, cv::Vec3d(-11, 0, 12), axis, 5.0, 10, 10 + arc);
+            const RegionFit fit = fit_region(scan.cloud, all_of(scan.cloud));
+            SCOPED_TRACE(fit.report);
+            ASSERT_EQ(fit.shape.kind, ShapeKind::Cylinder);
+            // A 60 degree arc fixes the radius less well: within 3 standard errors at 40 um noise.
+            EXPECT_NEAR(2 * fit.shape.radius_mm, 10.0, arc < 100 ? 0.06 : 0.02);
+            EXPECT_LT(std::acos(std::min(1.0, std::abs(fit.shape.direction.dot(axis)))) * 180 / kPi, 0.5);
+        }
+    }
+}
+
+TEST(RegionFit, SphereAndConeAreTold) {
+    Scan ball(0.02);
+    for (int i = 0; i <= 40; ++i)
+        for (int j = 0; j <= 40; ++j) {
+            const double theta = (20 + 50.0 * i / 40) * kPi / 180, phi = (90.0 * j / 40) * kPi / 180;
+            const cv::Vec3d n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+            ball.add(cv::Vec3d(3, 4, 400) + 12.5 * n, n);
+        }
+    const RegionFit sphere = fit_region(ball.cloud, all_of(ball.cloud));
+    SCOPED_TRACE(sphere.report);
+    ASSERT_EQ(sphere.shape.kind, ShapeKind::Sphere);
+    EXPECT_NEAR(sphere.shape.radius_mm, 12.5, 0.02);
+
+    Scan countersink(0.02);
+    const double half_angle = 45 * kPi / 180;
+    for (int i = 0; i <= 40; ++i)
+        for (int j = 0; j <= 90; ++j) {
+            const double along = 4 + 6.0 * i / 40, phi = 2 * kPi * j / 90;
+            const cv::Vec3d radial(std::cos(phi), std::sin(phi), 0);
+            const cv::Vec3d normal = std::cos(half_angle) * radial - std::sin(half_angle) * cv::Vec3d(0, 0, 1);
+            countersink.add(cv::Vec3d(0, 0, along) + along * std::tan(half_angle) * radial, normal);
+        }
+    const RegionFit cone = fit_region(countersink.cloud, all_of(countersink.cloud));
+    SCOPED_TRACE(cone.report);
+    ASSERT_EQ(cone.shape.kind, ShapeKind::Cone);
+    EXPECT_NEAR(cone.shape.half_angle_deg, 45, 0.1);
+}
+
+TEST(RegionFit, ConstraintsHoldAndSizesSnapOnlyWhenTheyFit) {
+    Scan scan(0.02);
+    const cv::Vec3d axis = cv::normalize(cv::Vec3d(0.02, 0, 1));  // 1.15 degrees off the reference z
+    add_hole_wall(scan, cv::Vec3d(0, 0, 0), axis, 4.99, 0, 200);
+    RegionFitOptions options;
+    options.constraint = FitConstraint::Parallel;
+    options.reference_direction = cv::Vec3d(0, 0, 1);
+    const RegionFit parallel = fit_region(scan.cloud, all_of(scan.cloud), options);
+    EXPECT_EQ(parallel.shape.kind, ShapeKind::Cylinder) << parallel.report;
+    EXPECT_NEAR(std::abs(parallel.shape.direction[2]), 1.0, 1e-12);
+
+    options.constraint = FitConstraint::Coaxial;
+    options.reference_point = cv::Vec3d(0.5, 0, 0);
+    const RegionFit coaxial = fit_region(scan.cloud, all_of(scan.cloud), options);
+    EXPECT_LT(cv::norm((coaxial.shape.point - cv::Vec3d(0.5, 0, 0)).cross(cv::Vec3d(0, 0, 1))), 1e-9);
+
+    options.constraint = FitConstraint::Perpendicular;
+    options.reference_direction = cv::Vec3d(1, 0, 0);
+    const RegionFit square = fit_region(scan.cloud, all_of(scan.cloud), options);
+    EXPECT_LT(std::abs(square.shape.direction[0]), 1e-9);
+
+    // Free fit: diameter 9.98. A 0.5 mm nominal step snaps it to 10.0 when the tolerance allows
+    // 20 um and the points stay within the noise; a 10 um tolerance does not snap it.
+    RegionFitOptions snap;
+    snap.snap_step_mm = 0.5;
+    snap.snap_tolerance_mm = 0.05;
+    const RegionFit snapped = fit_region(scan.cloud, all_of(scan.cloud), snap);
+    EXPECT_NEAR(2 * snapped.fitted_radius_mm, 9.98, 0.01);
+    EXPECT_TRUE(snapped.snapped) << snapped.report;
+    EXPECT_DOUBLE_EQ(snapped.shape.radius_mm, 5.0);
+    snap.snap_tolerance_mm = 0.01;
+    const RegionFit strict = fit_region(scan.cloud, all_of(scan.cloud), snap);
+    EXPECT_FALSE(strict.snapped) << strict.report;
+    EXPECT_NEAR(strict.shape.radius_mm, 4.99, 0.005);
+    // A whole 9.8 mm hole forced to 10 mm would leave 0.1 mm residuals (5 x the noise): refused.
+    Scan whole(0.02);
+    add_hole_wall(whole, cv::Vec3d(0, 0, 0), axis, 4.9, 0, 360);
+    snap.snap_step_mm = 1.0;
+    snap.snap_tolerance_mm = 0.3;
+    const RegionFit forced = fit_region(whole.cloud, all_of(whole.cloud), snap);
+    EXPECT_FALSE(forced.snapped) << forced.report;
+    EXPECT_NE(forced.report.find("would exceed"), std::string::npos) << forced.report;
+    EXPECT_NEAR(forced.shape.radius_mm, 4.9, 0.005);
+
+    RegionFitOptions plane_coaxial;
+    plane_coaxial.automatic = false;
+    plane_coaxial.kind = ShapeKind::Plane;
+    plane_coaxial.constraint = FitConstraint::Coaxial;
+    EXPECT_THROW(fit_region(scan.cloud, all_of(scan.cloud), plane_coaxial), Error);
+}
+
+TEST(RegionFit, TwoSurfacesAtOnceAreRefusedWhenTheNoiseIsKnown) {
+    Scan scan(0.02);
+    for (int i = 0; i <= 40; ++i)
+        for (int j = 0; j <= 40; ++j) {
+            scan.add(cv::Vec3d(i * 0.2, j * 0.2, 0), cv::Vec3d(0, 0, 1));
+            scan.add(cv::Vec3d(i * 0.2, 0, j * 0.2), cv::Vec3d(0, -1, 0));
+        }
+    RegionFitOptions options;
+    options.noise_mm = 0.02;
+    EXPECT_THROW(fit_region(scan.cloud, all_of(scan.cloud), options), Error);
+    EXPECT_THROW(fit_region(scan.cloud, {0, 1, 2}), Error);
+    EXPECT_THROW(fit_region(scan.cloud, std::vector<int>(20, 999999)), Error);
+}
+
+TEST(RegionFit, GrowingFromASeedStopsAtTheEdge) {
+    Scan scan(0.01);
+    for (int i = 0; i <= 50; ++i)
+        for (int j = 0; j <= 50; ++j) {
+            scan.add(cv::Vec3d(i * 0.2, j * 0.2, 0), cv::Vec3d(0, 0, 1));          // floor, 2601 points
+            if (j > 0) scan.add(cv::Vec3d(i * 0.2, 0, j * 0.2), cv::Vec3d(0, -1, 0));  // wall
+        }
+    RegionSelection selection;
+    selection.radius_mm = 100;
+    selection.grow = true;
+    selection.max_gap_mm = 0.5;
+    const std::vector<int> floor = select_region(scan.cloud, cv::Vec3d(5, 5, 0.1), selection);
+    EXPECT_EQ(floor.size(), 51u * 51u);
+    selection.grow = false;
+    selection.radius_mm = 1.0;
+    const std::vector<int> ball = select_region(scan.cloud, cv::Vec3d(5, 5, 0.1), selection);
+    EXPECT_GT(ball.size(), 60u);
+    EXPECT_LT(ball.size(), 90u);
+    EXPECT_THROW(select_region(PointCloud{}, cv::Vec3d(0, 0, 0)), Error);
+}

@@ -1,0 +1,187 @@
+// Closed meshes -> planar B-rep faces: a noisy box grid-meshed on every side must come out as its
+// six faces (each one wire of four straight edges), a curved surface must stay triangles, and
+// meshes that bound no solid are refused with the reason. (The BREP is read back by OpenCASCADE
+// in the freecad_headless suite.)
+#include "picoscan/error.h"
+#include "picoscan/solid.h"
+#include "support/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <random>
+#include <tuple>
+
+using namespace picoscan;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A box of cells x cells y cells z, spacing `step` mm, its surface meshed on the lattice (two
+// triangles per cell square, outward), every vertex moved by Gaussian noise.
+Mesh grid_box(int nx, int ny, int nz, double step, double sigma, unsigned seed = 3) {
+    Mesh mesh;
+    std::map<std::tuple<int, int, int>, int> index_of;
+    std::mt19937 random(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    auto vertex = [&](int i, int j, int k) {
+        const auto key = std::make_tuple(i, j, k);
+        const auto found = index_of.find(key);
+        if (found != index_of.end()) return found->second;
+        mesh.vertices.emplace_back(float(i * step + noise(random)), float(j * step + noise(random)), float(k * step + noise(random)));
+        return index_of[key] = int(mesh.vertices.size()) - 1;
+    };
+    const int size[3] = {nx, ny, nz};
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+            const int u_axis = (axis + 1) % 3, v_axis = (axis + 2) % 3;
+            for (int u = 0; u < size[u_axis]; ++u)
+                for (int v = 0; v < size[v_axis]; ++v) {
+                    int corner[4];
+                    const int du[4] = {0, 1, 1, 0}, dv[4] = {0, 0, 1, 1};
+                    for (int c = 0; c < 4; ++c) {
+                        int p[3];
+                        p[axis] = side * size[axis];
+                        p[u_axis] = u + du[c];
+                        p[v_axis] = v + dv[c];
+                        corner[c] = vertex(p[0], p[1], p[2]);
+                    }
+                    // (u, v, axis) is right-handed: counter-clockwise in (u, v) faces +axis.
+                    if (side == 1) {
+                        mesh.faces.emplace_back(corner[0], corner[1], corner[2]);
+                        mesh.faces.emplace_back(corner[0], corner[2], corner[3]);
+                    } else {
+                        mesh.faces.emplace_back(corner[0], corner[2], corner[1]);
+                        mesh.faces.emplace_back(corner[0], corner[3], corner[2]);
+                    }
+                }
+        }
+    return mesh;
+}
+
+// A closed UV sphere.
+Mesh sphere(double radius, int rings, int segments) {
+    Mesh mesh;
+    mesh.vertices.emplace_back(0.f, 0.f, float(radius));
+    for (int r = 1; r < rings; ++r)
+        for (int s = 0; s < segments; ++s) {
+            const double theta = kPi * r / rings, phi = 2 * kPi * s / segments;
+            mesh.vertices.emplace_back(float(radius * std::sin(theta) * std::cos(phi)),
+                                       float(radius * std::sin(theta) * std::sin(phi)), float(radius * std::cos(theta)));
+        }
+    mesh.vertices.emplace_back(0.f, 0.f, float(-radius));
+    const int bottom = int(mesh.vertices.size()) - 1;
+    auto at = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
+    for (int s = 0; s < segments; ++s) mesh.faces.emplace_back(0, at(1, s), at(1, s + 1));
+    for (int r = 1; r + 1 < rings; ++r)
+        for (int s = 0; s < segments; ++s) {
+            mesh.faces.emplace_back(at(r, s), at(r + 1, s), at(r + 1, s + 1));
+            mesh.faces.emplace_back(at(r, s), at(r + 1, s + 1), at(r, s + 1));
+        }
+    for (int s = 0; s < segments; ++s) mesh.faces.emplace_back(bottom, at(rings - 1, s + 1), at(rings - 1, s));
+    return mesh;
+}
+
+}  // namespace
+
+TEST(PlanarFaces, NoisyBoxBecomesSixFacesOfFourStraightEdges) {
+    for (double sigma : {0.0, 0.01, 0.03}) {
+        const Mesh box = grid_box(40, 30, 20, 1.0, sigma);
+        const PlanarFaceModel model = planar_face_model(box);
+        SCOPED_TRACE(model.summary());
+        EXPECT_EQ(model.faces.size(), 6u);
+        EXPECT_EQ(model.merged_facets, box.faces.size());
+        EXPECT_EQ(model.edges.size(), 12u);
+        EXPECT_NEAR(model.mesh_volume_mm3, 40 * 30 * 20, 40 * 30 * 20 * 1e-3);
+        if (sigma > 0) {
+            EXPECT_NEAR(model.noise_mm, sigma, 0.3 * sigma);
+        }
+        for (const BrepFace& face : model.faces) {
+            ASSERT_EQ(face.wires.size(), 1u);
+            EXPECT_EQ(face.wires[0].size(), 4u);
+            EXPECT_LT(face.rms_mm, 1.5 * sigma + 1e-5);
+            // Outward: the normal points away from the box's centre.
+            EXPECT_GT((face.origin - cv::Vec3d(20, 15, 10)).dot(face.normal), 0);
+        }
+        for (double tolerance : model.vertex_tolerance_mm) EXPECT_LT(tolerance, 6 * sigma + 1e-6);
+    }
+}
+
+TEST(PlanarFaces, CurvedSurfaceStaysTrianglesAndInwardFacetsTurn) {
+    // A UV sphere: only the fans at its poles are flat within the (curvature-sized) noise estimate.
+    Mesh ball = sphere(10, 60, 120);
+    const PlanarFaceModel model = planar_face_model(ball);
+    SCOPED_TRACE(model.summary());
+    EXPECT_LT(model.merged_facets, ball.faces.size() / 10);
+    for (const BrepFace& face : model.faces) {
+        if (!face.merged) continue;
+        EXPECT_GT(std::abs(face.normal[2]), 0.9);  // near the poles only
+    }
+    const double volume = model.mesh_volume_mm3;
+    for (cv::Vec3i& face : ball.faces) std::swap(face[1], face[2]);
+    const PlanarFaceModel inward = planar_face_model(ball);
+    EXPECT_DOUBLE_EQ(inward.mesh_volume_mm3, volume);
+    EXPECT_EQ(inward.faces.size(), model.faces.size());
+    for (const BrepFace& face : inward.faces) EXPECT_GT(face.origin.dot(face.normal), 0);  // still outward
+}
+
+TEST(PlanarFaces, OneFacePerFacetWhenNotMerging) {
+    const Mesh box = grid_box(6, 5, 4, 1.0, 0.0);
+    PlanarFaceOptions options;
+    options.merge = false;
+    const PlanarFaceModel model = planar_face_model(box, options);
+    EXPECT_EQ(model.faces.size(), box.faces.size());
+    EXPECT_EQ(model.merged_faces, 0u);
+}
+
+TEST(PlanarFaces, WritesABrepSolid) {
+    const PlanarFaceModel model = planar_face_model(grid_box(8, 6, 4, 1.0, 0.01));
+    const std::string path = test_support::make_temp_dir("planar_faces") + "/box.brep";
+    write_brep(model, path);
+    std::ifstream stream(path);
+    std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text.rfind("DBRep_DrawableShape\n", 0), 0u);
+    EXPECT_NE(text.find("Surfaces 6\n"), std::string::npos);
+    EXPECT_NE(text.find("Curves 12\n"), std::string::npos);
+    EXPECT_NE(text.find("\nSo\n"), std::string::npos);
+}
+
+TEST(PlanarFaces, MeshesThatBoundNoSolidAreRefused) {
+    Mesh open = grid_box(4, 4, 4, 1.0, 0.0);
+    open.faces.pop_back();
+    EXPECT_THROW(
+        try { planar_face_model(open); } catch (const Error& error) {
+            EXPECT_NE(std::string(error.what()).find("not closed"), std::string::npos) << error.what();
+            throw;
+        },
+        Error);
+    Mesh flipped = grid_box(4, 4, 4, 1.0, 0.0);
+    std::swap(flipped.faces[5][1], flipped.faces[5][2]);
+    EXPECT_THROW(
+        try { planar_face_model(flipped); } catch (const Error& error) {
+            EXPECT_NE(std::string(error.what()).find("not consistently oriented"), std::string::npos) << error.what();
+            throw;
+        },
+        Error);
+    // A facet collapsed onto two corners bounds nothing: it is left out.
+    Mesh collapsed = grid_box(4, 4, 4, 1.0, 0.0);
+    collapsed.faces.emplace_back(0, 0, 1);
+    EXPECT_EQ(planar_face_model(collapsed).facet_count, collapsed.faces.size() - 1);
+    // Two facets back to back on three points in a line: closed, but of zero area.
+    Mesh line;
+    line.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+    line.faces = {{0, 1, 2}, {0, 2, 1}};
+    EXPECT_THROW(
+        try { planar_face_model(line); } catch (const Error& error) {
+            EXPECT_NE(std::string(error.what()).find("degenerate"), std::string::npos) << error.what();
+            throw;
+        },
+        Error);
+    EXPECT_THROW(planar_face_model(Mesh{}), Error);
+    PlanarFaceOptions bad;
+    bad.max_normal_deg = 95;
+    EXPECT_THROW(planar_face_model(grid_box(2, 2, 2, 1.0, 0.0), bad), Error);
+}
