@@ -1,22 +1,33 @@
 #!/usr/bin/python3
-"""Registration side by side: PicoScan against Open3D 0.16 on the same views.
+"""PicoScan against Open3D 0.16, side by side on the same views.
 
-The views are the 360-degree turntable scan of 'picoscan demo' (8 views around the
-mechanical part plus one from above, each placed by hand to within a few degrees), with the
-simulation's true poses. For every neighbouring pair of views both tools get the same two
-PLY files and are timed from reading the files to the final pose:
+Two parts on a simulated turntable (the seed rig, 8 views 45 degrees apart at 25 degrees
+elevation, independent camera noise per view): the built-in mechanical part speckle-painted,
+and the same part in plain uniform grey. The views are simulated once through the picoscan
+Python module (cached under --data) with their true poses and the true part mesh.
 
-  global  no initial guess: PicoScan 'stitch' (ORB on the white frames, FPFH when needed,
-          RANSAC, point-to-plane ICP) against Open3D FPFH + RANSAC + point-to-plane ICP;
-  icp     start from the true pose disturbed by 2 degrees and 2 mm: PicoScan 'stitch
+Registration, for each of the 8 neighbouring pairs around the ring, both tools get the same
+two view PLY files and are timed from reading the files to the pose:
+  global  no initial guess: PicoScan 'stitch A B' (ORB on the white frames, FPFH, RANSAC,
+          point-to-plane ICP, the gates) against Open3D FPFH + RANSAC + point-to-plane ICP;
+  icp     from the true pose knocked by 2 degrees and 2 mm: PicoScan 'stitch A B
           --initial-poses' against Open3D point-to-plane ICP.
+Errors: the rotation angle and the shift of the moving view's centroid between the found
+and the true relative pose; a pair is right when both are under 1 degree and 1 mm.
 
-Errors are the rotation angle and the shift of the moving view's centroid between the
-found and the true relative pose. Run with Debian's python3 (it has open3d and numpy):
-    /usr/bin/python3 benchmarks/compare_open3d.py [--picoscan build/core/picoscan] [--data DIR]
+Model, all 8 views of each part: PicoScan 'stitch' (no guess) then 'mesh' (Poisson, its
+default fill), against Open3D's multiway registration (the neighbouring global results as a
+pose graph with the loop closed, optimised) then its screened Poisson (depth 9). Both
+meshes are judged against the true part: the volume, and the distances truth -> mesh (over
+the whole true surface, the unseen bottom included) and mesh -> truth.
+
+Run with Debian's python3 (it has open3d, numpy and the module's ABI):
+    /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
+        [--baseline OLD/picoscan]  (an earlier build on the same pairs, global registration: before and after)
 """
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -25,15 +36,16 @@ import time
 import numpy as np
 import open3d as o3d
 
+PARTS = ("speckled", "plain")
+
 
 def read_poses(path):
-    """Poses in the format 'picoscan stitch' writes: a name line, then 4 rows of 4 numbers."""
-    poses = []
+    """Poses in the format 'picoscan stitch' writes: a name line, then 4 rows of 4 numbers;
+    a view left out is marked NOT-ALIGNED on its name line and comes back as None."""
     with open(path) as f:
         lines = [line for line in f if line.strip() and not line.startswith("#")]
-    for k in range(0, len(lines), 5):
-        poses.append(np.array([[float(v) for v in lines[k + 1 + r].split()] for r in range(4)]))
-    return poses
+    return [None if "NOT-ALIGNED" in lines[k] else np.array([[float(v) for v in lines[k + 1 + r].split()] for r in range(4)])
+            for k in range(0, len(lines), 5)]
 
 
 def write_poses(path, poses):
@@ -42,6 +54,33 @@ def write_poses(path, poses):
             f.write("view_%d\n" % i)
             for row in pose:
                 f.write(" ".join("%.9f" % v for v in row) + "\n")
+
+
+def simulate(build, directory, part_kind):
+    """8 turntable views of the mechanical part (painted or plain), their truth, the true mesh."""
+    sys.path.insert(0, os.path.join(build, "freecad_workbench", "PicoScan"))  # where the build puts the module
+    import picoscan
+    os.makedirs(os.path.join(directory, "views"), exist_ok=True)
+    part = picoscan.mechanical_part()
+    options = picoscan.TurntableScanOptions()
+    options.plan.top_view = False
+    if part_kind == "plain":
+        part.colours = np.zeros((0, 3), np.uint8)  # no paint: uniform albedo
+        options.part_albedo = 0.6                  # grey plastic
+    written = []
+
+    def on_view(simulated):
+        path = os.path.join(directory, "views", simulated.name + ".ply")
+        picoscan.write_view_ply(simulated.view, path, False)
+        written.append(path)
+        print("  %s: %d points" % (path, simulated.cleaning.remaining), file=sys.stderr)
+
+    part_to_camera = [np.asarray(p) for p in picoscan.simulate_turntable_scan(
+        part, picoscan.seed_rig_calibration(), options, on_view)]
+    truth = picoscan.transformed(part, part_to_camera[0])  # model frame: view 0's camera
+    picoscan.write_stl(truth, os.path.join(directory, "truth.stl"), False)
+    write_poses(os.path.join(directory, "true_poses.txt"),
+                [part_to_camera[0] @ np.linalg.inv(p) for p in part_to_camera])
 
 
 def pose_error(truth, found, centroid):
@@ -65,27 +104,41 @@ def disturbed(pose, centroid, degrees, mm, rng):
     return knock @ pose
 
 
+def children_cpu():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+class Clock:
+    """Wall and CPU seconds (all threads; with child=True, of the child processes)."""
+    def __init__(self, child=False):
+        self.cpu_now = children_cpu if child else time.process_time
+        self.wall, self.cpu = time.perf_counter(), self.cpu_now()
+
+    def read(self):
+        return time.perf_counter() - self.wall, self.cpu_now() - self.cpu
+
+
 def picoscan_pair(picoscan, fixed, moving, work, initial=None):
     out = os.path.join(work, "pair.ply")
     command = [picoscan, "stitch", fixed, moving, "--out", out]
     if initial is not None:
         write_poses(os.path.join(work, "initial.txt"), [np.eye(4), initial])
         command += ["--initial-poses", os.path.join(work, "initial.txt")]
-    start = time.perf_counter()
+    clock = Clock(child=True)
     result = subprocess.run(command, capture_output=True, text=True)
-    seconds = time.perf_counter() - start
+    seconds = clock.read()
     if result.returncode != 0:
         return None, seconds
     return read_poses(os.path.join(work, "pair.poses.txt"))[1], seconds
 
 
 def open3d_load(path, voxel_mm):
-    cloud = o3d.io.read_point_cloud(path)
-    return cloud.voxel_down_sample(voxel_mm)
+    return o3d.io.read_point_cloud(path).voxel_down_sample(voxel_mm)
 
 
 def open3d_global(fixed, moving):
-    start = time.perf_counter()
+    clock = Clock()
     target, source = open3d_load(fixed, 0.7), open3d_load(moving, 0.7)
     target_coarse, source_coarse = target.voxel_down_sample(2.0), source.voxel_down_sample(2.0)
     search = o3d.geometry.KDTreeSearchParamHybrid(radius=6.0, max_nn=100)
@@ -99,71 +152,189 @@ def open3d_global(fixed, moving):
         reg.RANSACConvergenceCriteria(100000, 0.999))
     fine = reg.registration_icp(source, target, 1.5, coarse.transformation, reg.TransformationEstimationPointToPlane(),
                                 reg.ICPConvergenceCriteria(max_iteration=100))
-    return fine.transformation, time.perf_counter() - start
+    return fine.transformation, clock.read()
 
 
 def open3d_icp(fixed, moving, initial):
-    start = time.perf_counter()
+    clock = Clock()
     target, source = open3d_load(fixed, 0.7), open3d_load(moving, 0.7)
     reg = o3d.pipelines.registration
     fine = reg.registration_icp(source, target, 3.0, initial, reg.TransformationEstimationPointToPlane(),
                                 reg.ICPConvergenceCriteria(max_iteration=100))
-    return fine.transformation, time.perf_counter() - start
+    return fine.transformation, clock.read()
 
 
-def summary(name, errors, times, pairs):
+def summary(name, errors, times):
     good = [e for e in errors if e is not None and e[0] < 1.0 and e[1] < 1.0]
+    wrong = sum(1 for e in errors if e is not None and not (e[0] < 1.0 and e[1] < 1.0))
+    refused = sum(1 for e in errors if e is None)
     if good:
-        angles = [e[0] for e in good]
-        shifts = [e[1] for e in good]
+        angles, shifts = [e[0] for e in good], [e[1] for e in good]
         accuracy = "%.4f / %.4f | %.4f / %.4f" % (np.median(angles), max(angles), np.median(shifts), max(shifts))
     else:
         accuracy = "- | -"
-    return "| %s | %d of %d | %s | %.2f |" % (name, len(good), pairs, accuracy, np.median(times))
+    return "| %s | %d / %d / %d | %s | %.2f / %.2f |" % (name, len(good), wrong, refused, accuracy,
+                                                      np.median([t[0] for t in times]), np.median([t[1] for t in times]))
+
+
+def mesh_volume(mesh):
+    """Signed volume by the divergence theorem (meaningful for a closed, outward mesh)."""
+    v, f = np.asarray(mesh.vertices), np.asarray(mesh.triangles)
+    return float(np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])).sum() / 6.0)
+
+
+def distances(truth, mesh):
+    """truth -> mesh over 200 000 random points spread over the true surface, and mesh -> truth per vertex (mm)."""
+    def scene_of(m):
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(m))
+        return scene
+    on_truth = np.asarray(truth.sample_points_uniformly(200000).points, np.float32)
+    to_mesh = scene_of(mesh).compute_distance(o3d.core.Tensor(on_truth)).numpy()
+    to_truth = scene_of(truth).compute_distance(o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))).numpy()
+    return to_mesh, to_truth
+
+
+def right_views(truth, poses, centroids):
+    """Views placed within 1 degree and 1 mm (at their centroid) of the truth."""
+    return sum(1 for k, pose in enumerate(poses)
+               if pose is not None and all(e < 1.0 for e in pose_error(truth[k], pose, centroids[k])))
+
+
+def model_row(name, mesh, truth, true_volume, merged, seconds):
+    to_mesh, to_truth = distances(truth, mesh)
+    closed = mesh.is_watertight()  # a volume means something only for a closed surface
+    volume = mesh_volume(mesh)
+    volume_text = "%.2f (%+.1f %%)" % (volume / 1000, 100 * (volume / true_volume - 1)) if closed else "not closed"
+    return ("| %s | %s | %s | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | %.1f |" % (
+        name, merged, volume_text, to_mesh.mean(), np.percentile(to_mesh, 95),
+        to_mesh.max(), to_truth.mean(), np.percentile(to_truth, 95), to_truth.max(), seconds))
+
+
+def picoscan_model(picoscan, views, work):
+    merged, model = os.path.join(work, "merged.ply"), os.path.join(work, "model.ply")
+    start = time.perf_counter()
+    result = subprocess.run([picoscan, "stitch"] + views + ["--out", merged], capture_output=True, text=True)
+    if not os.path.exists(merged):
+        print(result.stdout + result.stderr, file=sys.stderr)
+        return None, [], time.perf_counter() - start
+    subprocess.run([picoscan, "mesh", merged, "--out", model], capture_output=True, text=True, check=True)
+    seconds = time.perf_counter() - start
+    mesh = o3d.io.read_triangle_mesh(model)
+    mesh.merge_close_vertices(1e-6)
+    return mesh, read_poses(merged.replace(".ply", ".poses.txt")), seconds
+
+
+def open3d_model(views, pair_results):
+    """Open3D's multiway registration: neighbouring global fits as odometry, the last one closing
+    the loop, optimised as a pose graph; then screened Poisson of the merged cloud."""
+    start = time.perf_counter()
+    reg = o3d.pipelines.registration
+    clouds = [open3d_load(v, 0.7) for v in views]
+    graph = reg.PoseGraph()
+    pose = np.eye(4)
+    graph.nodes.append(reg.PoseGraphNode(pose))
+    count = len(views)
+    for k in range(count):
+        fixed, moving = k, (k + 1) % count
+        transform = np.asarray(pair_results[k])  # moving -> fixed
+        information = reg.get_information_matrix_from_point_clouds(clouds[moving], clouds[fixed], 1.5, transform)
+        if moving != 0:
+            pose = pose @ transform
+            graph.nodes.append(reg.PoseGraphNode(pose))
+            graph.edges.append(reg.PoseGraphEdge(moving, fixed, transform, information, uncertain=False))
+        else:
+            graph.edges.append(reg.PoseGraphEdge(moving, fixed, transform, information, uncertain=True))
+    reg.global_optimization(graph, reg.GlobalOptimizationLevenbergMarquardt(),
+                            reg.GlobalOptimizationConvergenceCriteria(),
+                            reg.GlobalOptimizationOption(max_correspondence_distance=1.5, edge_prune_threshold=0.25,
+                                                         reference_node=0))
+    merged = o3d.geometry.PointCloud()
+    for k, cloud in enumerate(clouds):
+        merged += o3d.geometry.PointCloud(cloud).transform(graph.nodes[k].pose)
+    merged = merged.voxel_down_sample(0.4)
+    mesh, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
+    return mesh, [np.asarray(node.pose) for node in graph.nodes], time.perf_counter() - start
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--picoscan", default="build/core/picoscan")
-    parser.add_argument("--data", default="build/bench-turntable", help="picoscan demo output (made when missing)")
+    parser.add_argument("--build", default="build", help="the build tree (core/picoscan, the picoscan module)")
+    parser.add_argument("--picoscan", help="the picoscan binary (default: BUILD/core/picoscan)")
+    parser.add_argument("--data", default="build/bench-compare", help="simulated views (made when missing)")
+    parser.add_argument("--parts", default=",".join(PARTS), help="speckled,plain")
+    parser.add_argument("--no-model", action="store_true", help="registration of the pairs only")
+    parser.add_argument("--model-only", action="store_true", help="the models only (Open3D's global pairs still feed its pose graph)")
+    parser.add_argument("--baseline", help="another picoscan binary (an earlier build) run on the same pairs")
     args = parser.parse_args()
-    picoscan = os.path.abspath(args.picoscan)
-    views_dir = os.path.join(args.data, "views")
-    if not os.path.exists(os.path.join(args.data, "true_poses.txt")):
-        print("making the views: picoscan demo --out %s" % args.data, file=sys.stderr)
-        subprocess.run([picoscan, "demo", "--out", args.data], check=True, stdout=subprocess.DEVNULL)
-    truth = read_poses(os.path.join(args.data, "true_poses.txt"))
-    count = len(truth)
-    ring = count - 1
-    pairs = [(i, (i + 1) % ring) for i in range(ring)] + [(0, ring)]  # neighbours around, and the top view
-    rng = np.random.default_rng(1)
-    rows = {"global": {"PicoScan": ([], []), "Open3D": ([], [])}, "icp": {"PicoScan": ([], []), "Open3D": ([], [])}}
-    with tempfile.TemporaryDirectory() as work:
-        for a, b in pairs:
-            fixed = os.path.join(views_dir, "view_%d.ply" % a)
-            moving = os.path.join(views_dir, "view_%d.ply" % b)
-            true_relative = np.linalg.inv(truth[a]) @ truth[b]
-            centroid = np.asarray(o3d.io.read_point_cloud(moving).get_center())
-            initial = disturbed(true_relative, centroid, 2.0, 2.0, rng)
-            runs = {
-                ("global", "PicoScan"): picoscan_pair(picoscan, fixed, moving, work),
-                ("global", "Open3D"): open3d_global(fixed, moving),
-                ("icp", "PicoScan"): picoscan_pair(picoscan, fixed, moving, work, initial),
-                ("icp", "Open3D"): open3d_icp(fixed, moving, initial),
-            }
-            for (kind, tool), (found, seconds) in runs.items():
-                error = None if found is None else pose_error(true_relative, np.asarray(found), centroid)
-                rows[kind][tool][0].append(error)
-                rows[kind][tool][1].append(seconds)
-                print("view_%d <- view_%d %-6s %-8s %s  %.2f s" % (a, b, kind, tool,
-                      "failed" if error is None else "%.4f deg %.4f mm" % error, seconds), file=sys.stderr)
-    print("| registration | pairs within 1 deg / 1 mm | rotation error median / max (deg) | "
-          "shift error median / max (mm) | median time (s) |")
+    picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
+    registration_table, model_table = [], []
+    for part in args.parts.split(","):
+        directory = os.path.join(args.data, part)
+        if not os.path.exists(os.path.join(directory, "true_poses.txt")):
+            print("simulating the %s part's views into %s" % (part, directory), file=sys.stderr)
+            simulate(os.path.abspath(args.build), directory, part)
+        truth = read_poses(os.path.join(directory, "true_poses.txt"))
+        count = len(truth)
+        views = [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(count)]
+        pairs = [(k, (k + 1) % count) for k in range(count)]
+        rng = np.random.default_rng(1)
+        tools = ("PicoScan", "Open3D") + (("PicoScan before",) if args.baseline else ())
+        rows = {(kind, tool): ([], []) for kind in ("global", "icp") for tool in tools
+                if kind == "global" or tool != "PicoScan before"}
+        open3d_found = []
+        with tempfile.TemporaryDirectory() as work:
+            for a, b in pairs:
+                true_relative = np.linalg.inv(truth[a]) @ truth[b]
+                centroid = np.asarray(o3d.io.read_point_cloud(views[b]).get_center())
+                initial = disturbed(true_relative, centroid, 2.0, 2.0, rng)
+                if args.model_only:
+                    open3d_found.append(open3d_global(views[a], views[b])[0])
+                    continue
+                runs = {
+                    ("global", "PicoScan"): picoscan_pair(picoscan, views[a], views[b], work),
+                    ("global", "Open3D"): open3d_global(views[a], views[b]),
+                    ("icp", "PicoScan"): picoscan_pair(picoscan, views[a], views[b], work, initial),
+                    ("icp", "Open3D"): open3d_icp(views[a], views[b], initial),
+                }
+                if args.baseline:
+                    runs[("global", "PicoScan before")] = picoscan_pair(args.baseline, views[a], views[b], work)
+                open3d_found.append(runs[("global", "Open3D")][0])
+                for key, (found, seconds) in runs.items():
+                    error = None if found is None else pose_error(true_relative, np.asarray(found), centroid)
+                    rows[key][0].append(error)
+                    rows[key][1].append(seconds)
+                    print("%s view_%d <- view_%d %-6s %-15s %s  %.2f s (CPU %.2f s)" % (part, a, b, key[0], key[1],
+                          "refused" if error is None else "%.4f deg %.4f mm" % error, *seconds), file=sys.stderr)
+            for kind, label in (("global", "global, no guess"), ("icp", "ICP from 2 deg / 2 mm off")):
+                for tool in [t for t in tools if (kind, t) in rows and rows[(kind, t)][0]]:
+                    registration_table.append(summary("%s, %s: %s" % (part, label, tool), *rows[(kind, tool)]))
+            if args.no_model:
+                continue
+            true_mesh = o3d.io.read_triangle_mesh(os.path.join(directory, "truth.stl"))
+            true_mesh.merge_close_vertices(1e-6)
+            true_volume = mesh_volume(true_mesh)
+            centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
+            mesh, poses, seconds = picoscan_model(picoscan, views, work)
+            if mesh is not None:
+                placed = "%d merged, %d right" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
+                model_table.append(model_row("%s: PicoScan stitch + mesh" % part, mesh, true_mesh, true_volume, placed, seconds))
+                print(model_table[-1], file=sys.stderr)
+            mesh, poses, seconds = open3d_model(views, open3d_found)
+            placed = "%d merged, %d right" % (count, right_views(truth, poses, centroids))
+            model_table.append(model_row("%s: Open3D pose graph + Poisson" % part, mesh, true_mesh, true_volume, placed, seconds))
+            print(model_table[-1], file=sys.stderr)
+            print("%s: true volume %.2f cm3" % (part, true_volume / 1000), file=sys.stderr)
+    print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
+          "shift error median / max (mm) | median time per pair, wall / CPU (s) |")
     print("|---|---|---|---|---|")
-    for kind, label in (("global", "global, no guess"), ("icp", "ICP from 2 deg / 2 mm off")):
-        for tool in ("PicoScan", "Open3D"):
-            errors, times = rows[kind][tool]
-            print(summary("%s: %s" % (label, tool), errors, times, len(pairs)))
+    print("\n".join(registration_table))
+    if model_table:
+        print()
+        print("| model | views of 8 | volume cm3 (vs true) | truth -> mesh mean / p95 / max (mm) | "
+              "mesh -> truth mean / p95 / max (mm) | time (s) |")
+        print("|---|---|---|---|---|---|")
+        print("\n".join(model_table))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 // Registering pairs of views and aligning a whole set: pairwise edges (features or turntable
 // guesses, then ICP), a maximum spanning tree over the accepted edges for initial poses, and
 // a simultaneous multi-view point-to-plane refinement that spreads the error over all loops.
+#include "common/parallel.h"
 #include "picoscan/error.h"
 #include "picoscan/register.h"
 #include "register/registration_steps.h"
@@ -141,15 +142,22 @@ PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, co
 // Coarse starting poses from features: ORB on the white frames where both are painted, then
 // shape histograms (FPFH). Several of each, because a nearly symmetric part offers several
 // good-looking fits.
-std::vector<detail::CoarseAlignment> feature_starts(const ViewData& fixed, const ViewData& moving, const RegistrationOptions& options) {
-    const int hypotheses = 15;
-    std::vector<detail::CoarseAlignment> starts;
-    if (!fixed.features.points.empty() && !moving.features.points.empty())
-        starts = detail::match_features(fixed.features, moving.features, options, hypotheses);
+constexpr int kFeatureHypotheses = 15;
+
+std::vector<detail::CoarseAlignment> texture_starts(const ViewData& fixed, const ViewData& moving, const RegistrationOptions& options) {
+    if (fixed.features.points.empty() || moving.features.points.empty()) return {};
+    return detail::match_features(fixed.features, moving.features, options, kFeatureHypotheses);
+}
+
+std::vector<detail::CoarseAlignment> shape_starts(const ViewData& fixed, const ViewData& moving, const RegistrationOptions& options) {
     const double spacing = 2.0, radius = 6.0;
-    const std::vector<detail::CoarseAlignment> shape = detail::match_features(
-        detail::geometric_features(fixed.samples, spacing, radius), detail::geometric_features(moving.samples, spacing, radius),
-        options, hypotheses);
+    return detail::match_features(detail::geometric_features(fixed.samples, spacing, radius),
+                                  detail::geometric_features(moving.samples, spacing, radius), options, kFeatureHypotheses);
+}
+
+std::vector<detail::CoarseAlignment> feature_starts(const ViewData& fixed, const ViewData& moving, const RegistrationOptions& options) {
+    std::vector<detail::CoarseAlignment> starts = texture_starts(fixed, moving, options);
+    const std::vector<detail::CoarseAlignment> shape = shape_starts(fixed, moving, options);
     starts.insert(starts.end(), shape.begin(), shape.end());
     return starts;
 }
@@ -165,33 +173,37 @@ PairRegistration register_samples(const ViewData& fixed, const ViewData& moving,
                        std::to_string(std::min(fixed.samples.points.size(), moving.samples.points.size())) + " samples)";
         return pair;
     }
-    const std::vector<detail::CoarseAlignment> starts =
-        initial_guess ? std::vector<detail::CoarseAlignment>{{*initial_guess, 0, options.min_ransac_inliers}}
-                      : feature_starts(fixed, moving, options);
     std::vector<PairRegistration> accepted;
     PairRegistration best_refused;
     bool tried = false;
     const bool painted = fixed.textured && moving.textured;
-    for (const detail::CoarseAlignment& start : starts) {
-        if (start.inliers < options.min_ransac_inliers) continue;
-        // A start that lands where an accepted fit already is adds nothing.
-        const bool known = std::any_of(accepted.begin(), accepted.end(), [&](const PairRegistration& a) {
-            return same_pose(a.transform, start.transform, moving, 2.0, 2.0);
-        });
-        if (known) continue;
-        const PairRegistration candidate = icp_candidate(fixed, moving, start, options, initial_guess.has_value());
-        tried = true;
-        if (!candidate.problem.empty()) {
-            if (best_refused.problem.empty() || candidate.overlap > best_refused.overlap) best_refused = candidate;
-            continue;
+    // Refines and judges each start; true once paint that lines up well settles the pair.
+    auto settled_by = [&](const std::vector<detail::CoarseAlignment>& starts) {
+        for (const detail::CoarseAlignment& start : starts) {
+            if (start.inliers < options.min_ransac_inliers) continue;
+            // A start that lands where an accepted fit already is adds nothing.
+            const bool known = std::any_of(accepted.begin(), accepted.end(), [&](const PairRegistration& a) {
+                return same_pose(a.transform, start.transform, moving, 2.0, 2.0);
+            });
+            if (known) continue;
+            const PairRegistration candidate = icp_candidate(fixed, moving, start, options, initial_guess.has_value());
+            tried = true;
+            if (!candidate.problem.empty()) {
+                if (best_refused.problem.empty() || candidate.overlap > best_refused.overlap) best_refused = candidate;
+                continue;
+            }
+            if (std::none_of(accepted.begin(), accepted.end(), [&](const PairRegistration& a) {
+                    return same_pose(a.transform, candidate.transform, moving, 0.5, 0.5);
+                }))
+                accepted.push_back(candidate);
+            if (painted && candidate.texture_agreement > 0.6) return true;
         }
-        if (std::none_of(accepted.begin(), accepted.end(), [&](const PairRegistration& a) {
-                return same_pose(a.transform, candidate.transform, moving, 0.5, 0.5);
-            }))
-            accepted.push_back(candidate);
-        // Paint that lines up well settles it: no need to look further.
-        if (painted && candidate.texture_agreement > 0.6) break;
-    }
+        return false;
+    };
+    if (initial_guess)
+        settled_by({{*initial_guess, 0, options.min_ransac_inliers}});
+    else if (!settled_by(texture_starts(fixed, moving, options)))  // shape histograms only when the paint did not settle it
+        settled_by(shape_starts(fixed, moving, options));
     if (accepted.empty()) {
         if (!tried) {
             best_refused = pair;
@@ -454,8 +466,12 @@ int Alignment::aligned_count() const {
 
 PairRegistration register_pair(const ScanView& fixed, const ScanView& moving, const RegistrationOptions& options,
                                const std::optional<cv::Matx44d>& initial_guess) {
-    return register_samples(view_data(fixed, options, !initial_guess), view_data(moving, options, !initial_guess), options,
-                            initial_guess);
+    ViewData data[2];
+    const ScanView* views[2] = {&fixed, &moving};
+    detail::parallel_rows(2, [&](int begin, int end) {
+        for (int i = begin; i < end; ++i) data[i] = view_data(*views[i], options, !initial_guess);
+    });
+    return register_samples(data[0], data[1], options, initial_guess);
 }
 
 cv::Matx44d turntable_pose(const TurntableAxis& axis, int step) {
@@ -539,10 +555,11 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
         if (progress && !progress(fraction, stage)) throw Error("cancelled", "alignment cancelled");
     };
     std::vector<ViewData> data(n);
-    for (size_t i = 0; i < n; ++i) {
-        report(0.1 * i / n, "sampling and finding features");
-        data[i] = view_data(views[i], options, !guessed);
-    }
+    report(0.0, "sampling and finding features");
+    // The views are independent: prepared side by side on all cores.
+    detail::parallel_rows(static_cast<int>(n), [&](int begin, int end) {
+        for (int i = begin; i < end; ++i) data[static_cast<size_t>(i)] = view_data(views[static_cast<size_t>(i)], options, !guessed);
+    });
 
     // The motion that guesses each pair, and how far ICP may move away from it.
     std::function<cv::Matx44d(size_t, size_t)> guess_of;

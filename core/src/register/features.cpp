@@ -13,13 +13,19 @@ namespace picoscan::detail {
 ViewFeatures view_features(const ScanView& view, int max_features) {
     ViewFeatures features;
     if (view.points.empty() || view.colours.empty()) return features;
+    // Only the measured area and a margin are searched (the part is small in the frame).
+    const cv::Rect measured_area = measured_bounds(view);
+    if (measured_area.empty()) return features;
+    const int margin = 32;
+    const cv::Rect area = (measured_area + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
+                          cv::Rect(0, 0, view.points.cols, view.points.rows);
     cv::Mat grey;
-    cv::cvtColor(view.colours, grey, cv::COLOR_BGR2GRAY);
-    cv::Mat measured(view.points.size(), CV_8U);
-    for (int y = 0; y < view.points.rows; ++y) {
-        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+    cv::cvtColor(view.colours(area), grey, cv::COLOR_BGR2GRAY);
+    cv::Mat measured(area.size(), CV_8U);
+    for (int y = 0; y < measured.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y + area.y) + area.x;
         uchar* out = measured.ptr<uchar>(y);
-        for (int x = 0; x < view.points.cols; ++x) out[x] = is_finite_point(row[x]) ? 255 : 0;
+        for (int x = 0; x < measured.cols; ++x) out[x] = is_finite_point(row[x]) ? 255 : 0;
     }
     // Keypoints near the edge of the measured area sit on depth jumps or on unmeasured
     // background texture: keep away from it.
@@ -39,7 +45,7 @@ ViewFeatures view_features(const ScanView& view, int max_features) {
         cv::Mat descriptors;
         orb->detectAndCompute(image, mask, keypoints, descriptors);
         for (size_t i = 0; i < keypoints.size(); ++i) {
-            const int x = cvRound(keypoints[i].pt.x / sx), y = cvRound(keypoints[i].pt.y / sy);
+            const int x = cvRound(keypoints[i].pt.x / sx) + area.x, y = cvRound(keypoints[i].pt.y / sy) + area.y;
             if (x < 0 || y < 0 || x >= view.points.cols || y >= view.points.rows) continue;
             const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
             if (!is_finite_point(p)) continue;
@@ -97,21 +103,28 @@ ViewFeatures geometric_features(const SurfaceSamples& samples, double spacing_mm
             for (int k = 0; k < 3 * bins; ++k) histogram[k] *= 100.0f / static_cast<float>(counted);
     }
     ViewFeatures features;
+    std::vector<std::vector<float>> descriptor_rows;
     for (size_t i = 0; i < points.size(); ++i) {
         if (neighbours[i].size() < 8) continue;  // too sparse to describe
-        cv::Mat descriptor = simple.row(static_cast<int>(i)).clone();
+        // Plain loops, not matrix expressions: this runs for every neighbour of every point.
         double weights = 0;
-        cv::Mat spread(1, 3 * bins, CV_32F, cv::Scalar(0));
+        float spread[3 * bins] = {};
         for (int j : neighbours[i]) {
             if (static_cast<size_t>(j) == i) continue;
             const double weight = 1.0 / std::max(cv::norm(points[static_cast<size_t>(j)] - points[i]), 1e-3);
-            spread += simple.row(j) * weight;
+            const float* theirs = simple.ptr<float>(j);
+            for (int k = 0; k < 3 * bins; ++k) spread[k] += static_cast<float>(theirs[k] * weight);
             weights += weight;
         }
-        if (weights > 0) descriptor += spread * (1.0 / weights);
+        const float* own = simple.ptr<float>(static_cast<int>(i));
+        std::vector<float> row(3 * bins);
+        for (int k = 0; k < 3 * bins; ++k) row[k] = weights > 0 ? own[k] + static_cast<float>(spread[k] * (1.0 / weights)) : own[k];
         features.points.push_back(points[i]);
-        features.descriptors.push_back(descriptor);
+        descriptor_rows.push_back(std::move(row));
     }
+    features.descriptors.create(static_cast<int>(descriptor_rows.size()), 3 * bins, CV_32F);
+    for (size_t r = 0; r < descriptor_rows.size(); ++r)
+        std::copy(descriptor_rows[r].begin(), descriptor_rows[r].end(), features.descriptors.ptr<float>(static_cast<int>(r)));
     return features;
 }
 
@@ -126,13 +139,13 @@ cv::Matx44d rigid_fit(const std::vector<cv::Vec3d>& from, const std::vector<cv::
     mean_to *= 1.0 / static_cast<double>(n);
     cv::Matx33d covariance = cv::Matx33d::zeros();
     for (size_t i = 0; i < n; ++i) covariance += (to[i] - mean_to) * (from[i] - mean_from).t();
-    cv::Mat w, u, vt;
-    cv::SVD::compute(cv::Mat(covariance), w, u, vt);
-    cv::Matx33d rotation = cv::Matx33d(cv::Mat(u * vt));
+    cv::Matx31d w;
+    cv::Matx33d u, vt;
+    cv::SVD::compute(covariance, w, u, vt);  // fixed-size: no heap matrices in the RANSAC loop
+    cv::Matx33d rotation = u * vt;
     if (cv::determinant(rotation) < 0) {  // a reflection: flip the weakest axis
-        cv::Mat flip = cv::Mat::eye(3, 3, CV_64F);
-        flip.at<double>(2, 2) = -1;
-        rotation = cv::Matx33d(cv::Mat(u * flip * vt));
+        const cv::Matx33d flip(1, 0, 0, 0, 1, 0, 0, 0, -1);
+        rotation = u * flip * vt;
     }
     return rigid_transform(rotation, mean_to - rotation * mean_from);
 }

@@ -4,8 +4,24 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 namespace picoscan::detail {
+
+cv::Rect measured_bounds(const ScanView& view) {
+    int left = view.points.cols, top = view.points.rows, right = -1, bottom = -1;
+    for (int y = 0; y < view.points.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < view.points.cols; ++x) {
+            if (!is_finite_point(row[x])) continue;
+            left = std::min(left, x);
+            right = std::max(right, x);
+            top = std::min(top, y);
+            bottom = std::max(bottom, y);
+        }
+    }
+    return right < 0 ? cv::Rect() : cv::Rect(left, top, right - left + 1, bottom - top + 1);
+}
 
 SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
     SurfaceSamples samples;
@@ -13,23 +29,29 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
     const bool has_normals = !view.normals.empty();
     // Paint only: the white frame divided by its local mean (over measured pixels), so that
     // shading, which any two faces share, does not count as texture.
-    cv::Mat paint;
-    if (!view.colours.empty()) {
-        cv::Mat grey, measured(view.points.size(), CV_32F);
-        cv::cvtColor(view.colours, grey, cv::COLOR_BGR2GRAY);
-        grey.convertTo(grey, CV_32F);
-        for (int y = 0; y < measured.rows; ++y)
-            for (int x = 0; x < measured.cols; ++x)
-                measured.at<float>(y, x) = is_finite_point(view.points.at<cv::Vec3f>(y, x)) ? 1.f : 0.f;
+    cv::Mat paint;  // over `measured_area` only
+    const cv::Rect measured_area = measured_bounds(view);
+    if (!view.colours.empty() && !measured_area.empty()) {
         // The local mean spans about 1.3 mm of surface at the working distance whatever the
         // camera's resolution (8 pixels of the seed camera, fx 2500): wider, the shading near
         // an edge would count as paint on a lower-resolution camera.
         const double fx = view.camera_matrix(0, 0);
         const double sigma_px = fx > 0 ? std::clamp(8.0 * fx / 2500.0, 1.0, 32.0) : 8.0;
+        // Filtered over the measured area and a margin wider than the kernel, not the whole
+        // frame: outside the measured pixels the weights are zero, so the result is the same.
+        const int margin = static_cast<int>(std::ceil(4 * sigma_px)) + 2;
+        const cv::Rect area = (measured_area + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
+                              cv::Rect(0, 0, view.points.cols, view.points.rows);
+        cv::Mat grey, measured(area.size(), CV_32F);
+        cv::cvtColor(view.colours(area), grey, cv::COLOR_BGR2GRAY);
+        grey.convertTo(grey, CV_32F);
+        for (int y = 0; y < measured.rows; ++y)
+            for (int x = 0; x < measured.cols; ++x)
+                measured.at<float>(y, x) = is_finite_point(view.points.at<cv::Vec3f>(y + area.y, x + area.x)) ? 1.f : 0.f;
         cv::Mat local_sum, local_count;
         cv::GaussianBlur(grey.mul(measured), local_sum, cv::Size(), sigma_px);
         cv::GaussianBlur(measured, local_count, cv::Size(), sigma_px);
-        paint = grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0);
+        paint = cv::Mat(grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0))(measured_area - area.tl());
     }
     std::unordered_map<long long, int> taken;
     auto cell = [&](double value) { return static_cast<long long>(std::floor(value / spacing_mm)); };
@@ -48,7 +70,7 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
             if (!taken.emplace(key, 0).second) continue;
             samples.points.emplace_back(row[x]);
             samples.normals.push_back(normal);
-            if (!paint.empty()) samples.grey.push_back(paint.at<float>(y, x));
+            if (!paint.empty()) samples.grey.push_back(paint.at<float>(y - measured_area.y, x - measured_area.x));
         }
     }
     return samples;
@@ -68,33 +90,71 @@ SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& tra
     return out;
 }
 
-PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : points_(points), cell_mm_(cell_mm) {
-    cells_.reserve(points.size() / 4 + 1);
+namespace {
+
+size_t table_slot(long long key, size_t mask) {
+    return static_cast<size_t>((static_cast<unsigned long long>(key) * 0x9E3779B97F4A7C15ULL) >> 20) & mask;
+}
+
+}  // namespace
+
+cv::Vec<long long, 3> PointGrid::cell_of(const cv::Vec3d& p) const {
+    return {static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
+            static_cast<long long>(std::floor(p[2] / cell_mm_))};
+}
+
+PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cell_mm_(cell_mm) {
+    std::vector<std::pair<long long, int>> keyed(points.size());
     for (size_t i = 0; i < points.size(); ++i) {
-        const cv::Vec3d& p = points[i];
-        cells_[key(static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
-                   static_cast<long long>(std::floor(p[2] / cell_mm_)))]
-            .push_back(static_cast<int>(i));
+        const cv::Vec<long long, 3> c = cell_of(points[i]);
+        keyed[i] = {key(c[0], c[1], c[2]), static_cast<int>(i)};
+    }
+    std::sort(keyed.begin(), keyed.end());  // by key, then index: each cell's points in input order
+    sorted_.reserve(points.size());
+    index_.reserve(points.size());
+    size_t cells = 0;
+    for (size_t i = 0; i < keyed.size(); ++i) {
+        if (i == 0 || keyed[i].first != keyed[i - 1].first) ++cells;
+        sorted_.push_back(points[static_cast<size_t>(keyed[i].second)]);
+        index_.push_back(keyed[i].second);
+    }
+    size_t size = 16;
+    while (size < 2 * cells) size *= 2;
+    table_.assign(size, Cell{});
+    mask_ = size - 1;
+    for (size_t i = 0; i < keyed.size();) {
+        size_t end = i;
+        while (end < keyed.size() && keyed[end].first == keyed[i].first) ++end;
+        size_t slot = table_slot(keyed[i].first, mask_);
+        while (table_[slot].begin >= 0) slot = (slot + 1) & mask_;
+        table_[slot] = {keyed[i].first, static_cast<int>(i), static_cast<int>(end)};
+        i = end;
+    }
+}
+
+const PointGrid::Cell* PointGrid::find(long long key) const {
+    for (size_t slot = table_slot(key, mask_);; slot = (slot + 1) & mask_) {
+        const Cell& cell = table_[slot];
+        if (cell.begin < 0) return nullptr;
+        if (cell.key == key) return &cell;
     }
 }
 
 int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
-    const long long cx = static_cast<long long>(std::floor(query[0] / cell_mm_));
-    const long long cy = static_cast<long long>(std::floor(query[1] / cell_mm_));
-    const long long cz = static_cast<long long>(std::floor(query[2] / cell_mm_));
+    const cv::Vec<long long, 3> c = cell_of(query);
     double best = max_distance_mm * max_distance_mm;
     int best_index = -1;
-    for (long long dx = -1; dx <= 1; ++dx)
-        for (long long dy = -1; dy <= 1; ++dy)
-            for (long long dz = -1; dz <= 1; ++dz) {
-                const auto found = cells_.find(key(cx + dx, cy + dy, cz + dz));
-                if (found == cells_.end()) continue;
-                for (int index : found->second) {
-                    const cv::Vec3d d = points_[static_cast<size_t>(index)] - query;
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                const Cell* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz));
+                if (!cell) continue;
+                for (int k = cell->begin; k < cell->end; ++k) {
+                    const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
                     const double distance = d.dot(d);
                     if (distance < best) {
                         best = distance;
-                        best_index = index;
+                        best_index = index_[static_cast<size_t>(k)];
                     }
                 }
             }
@@ -103,18 +163,16 @@ int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
 
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
-    const long long cx = static_cast<long long>(std::floor(query[0] / cell_mm_));
-    const long long cy = static_cast<long long>(std::floor(query[1] / cell_mm_));
-    const long long cz = static_cast<long long>(std::floor(query[2] / cell_mm_));
+    const cv::Vec<long long, 3> c = cell_of(query);
     const double limit = radius_mm * radius_mm;
-    for (long long dx = -1; dx <= 1; ++dx)
-        for (long long dy = -1; dy <= 1; ++dy)
-            for (long long dz = -1; dz <= 1; ++dz) {
-                const auto cell = cells_.find(key(cx + dx, cy + dy, cz + dz));
-                if (cell == cells_.end()) continue;
-                for (int index : cell->second) {
-                    const cv::Vec3d d = points_[static_cast<size_t>(index)] - query;
-                    if (d.dot(d) <= limit) found.push_back(index);
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                const Cell* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz));
+                if (!cell) continue;
+                for (int k = cell->begin; k < cell->end; ++k) {
+                    const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
+                    if (d.dot(d) <= limit) found.push_back(index_[static_cast<size_t>(k)]);
                 }
             }
 }

@@ -5,7 +5,6 @@
 #include "picoscan/cloud.h"
 
 #include <opencv2/core.hpp>
-#include <unordered_map>
 #include <vector>
 
 namespace picoscan::detail {
@@ -15,6 +14,9 @@ struct SurfaceSamples {
     std::vector<cv::Vec3d> normals;  // unit
     std::vector<float> grey;         // white frame / its local mean (paint, not shading); empty without colours
 };
+
+// The smallest pixel rectangle holding every valid point of the view (empty when none).
+cv::Rect measured_bounds(const ScanView& view);
 
 // One valid point (with a finite normal) per spacing_mm cube, in the view's own frame.
 SurfaceSamples sample_view(const ScanView& view, double spacing_mm);
@@ -32,10 +34,17 @@ public:
     void within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const;
 
 private:
-    long long key(long long ix, long long iy, long long iz) const { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
-    const std::vector<cv::Vec3d>& points_;
+    static long long key(long long ix, long long iy, long long iz) { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
+    cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
+    // The points of one cell key: a run of sorted_, in index order. Cells live in an
+    // open-addressed table (no node allocations, few cache misses: ICP asks 27 per query).
+    struct Cell { long long key = 0; int begin = -1, end = -1; };
+    const Cell* find(long long key) const;
     double cell_mm_;
-    std::unordered_map<long long, std::vector<int>> cells_;
+    std::vector<cv::Vec3d> sorted_;  // the points grouped by cell
+    std::vector<int> index_;         // their indices in the input
+    std::vector<Cell> table_;
+    size_t mask_ = 0;
 };
 
 }  // namespace picoscan::detail
