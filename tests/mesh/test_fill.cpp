@@ -265,3 +265,34 @@ TEST(MeshBudget, CancelStopsPoissonInEachStage) {
         EXPECT_EQ(calls_after, 0) << stop_at;
     }
 }
+
+// Poisson then simplification to a few thousand faces (the FreeCAD case: spacing 1 mm, 4000
+// faces) on two parts of different shapes, the views merged with their true poses: the simplified
+// surface must not cross itself (edge collapses near the through hole and the boss folded
+// faces through each other).
+TEST(MeshBudget, SimplifiedPoissonMeshDoesNotCrossItself) {
+    struct Case {
+        std::string name;
+        PointCloud merged;
+    };
+    std::vector<Case> cases{{"mechanical part", one_placement().merged}};
+    for (test_support::PlainPart part : {test_support::PlainPart::SteppedBlock}) {
+        const test_support::TurntableScan& scan = test_support::plain_turntable_scan(part);
+        std::vector<ScanView> views = scan.views;
+        for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.true_view_to_model[i];
+        cases.push_back({test_support::plain_part_name(part), merge_views(views)});
+    }
+    for (const Case& c : cases) {
+        for (int target : {4000, 1500}) {
+            MeshOptions options;
+            options.sample_spacing_mm = 1.0;
+            options.target_faces = target;
+            const MeshCheck check = check_mesh(mesh_points(c.merged, options));
+            std::printf("%s, spacing 1 mm, target %d faces: %s\n", c.name.c_str(), target, check.summary().c_str());
+            EXPECT_FALSE(check.self_intersecting) << c.name << ", target " << target;
+            EXPECT_TRUE(check.watertight()) << c.name << ", target " << target;
+            EXPECT_LE(check.faces, size_t(target) * 2) << c.name;
+            EXPECT_GE(check.faces, size_t(target) / 2) << c.name;
+        }
+    }
+}

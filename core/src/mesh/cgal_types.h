@@ -64,7 +64,7 @@ Mesh advancing_front_mesh(const std::vector<PointWithNormal>& points, double spa
 // Points thinned to the spacing (coarser when more than max_points would remain), normals
 // re-estimated by PCA and flipped to agree with the given ones.
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
-                                            double& average_spacing_mm);
+                                            double& average_spacing_mm, const StageReport& report);
 // Moves each vertex onto the plane fitted to its nearest input points (undoes Poisson's smoothing).
 void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
 // The fraction of the points within reach_mm of a mesh vertex (what the surface covers).

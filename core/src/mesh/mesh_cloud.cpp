@@ -309,10 +309,10 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     if (cloud.points.empty()) throw Error("point cloud", "is empty: nothing to mesh");
     if (cloud.normals.size() != cloud.points.size())
         throw Error("point cloud", "has no normals; mesh a cloud written by picoscan (reconstruct or stitch)");
-    report(0.0, "estimating normals");
+    report(0.0, "thinning the points");
     double spacing = 0;
-    const std::vector<detail::PointWithNormal> points =
-        detail::prepare_points(cloud, options.sample_spacing_mm, options.max_points, spacing);
+    const std::vector<detail::PointWithNormal> points = detail::prepare_points(
+        cloud, options.sample_spacing_mm, options.max_points, spacing, [&](double, const char* stage) { report(0.05, stage); });
     if (points.size() < 100)
         throw Error("point cloud", "has only " + std::to_string(points.size()) + " usable points; at least 100 are needed");
     // Degenerate: all points on a line or (for a closed surface) a plane.

@@ -14,6 +14,7 @@
 #include <CGAL/Implicit_surface_3.h>
 #include <CGAL/Poisson_reconstruction_function.h>
 #include <CGAL/Surface_mesh_default_triangulation_3.h>
+#include <CGAL/Surface_mesher/Standard_criteria.h>
 #include <CGAL/make_surface_mesh.h>
 #include <CGAL/property_map.h>
 
@@ -22,6 +23,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <unordered_set>
 
 namespace picoscan::detail {
 
@@ -31,7 +33,7 @@ using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
 }  // namespace
 
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
-                                            double& average_spacing_mm) {
+                                            double& average_spacing_mm, const StageReport& report) {
     std::vector<PointWithNormal> points;
     points.reserve(cloud.points.size());
     const bool has_normals = cloud.normals.size() == cloud.points.size();
@@ -69,6 +71,7 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
                      points.end());
     }
     if (points.size() < 20) return points;
+    report(0.0, "estimating normals");
     // Re-estimated normals are smoother than per-pixel ones; the sensor's side says which way.
     std::vector<Vector3> sensor_side;
     sensor_side.reserve(points.size());
@@ -91,6 +94,8 @@ namespace {
 // Evaluations of the implicit function per face of the result, allowed before an attempt is
 // given up (measured: about 165 on the demo part).
 constexpr double kEvaluationsPerFace = 250;
+// Relative residual at which the Poisson equation counts as solved.
+constexpr double kSolverTolerance = 1e-7;
 
 // Called by CGAL before each point enters the Delaunay refinement: reports progress and stops
 // the reconstruction (by the exception report throws) when the caller cancels.
@@ -106,10 +111,11 @@ struct ReportingVisitor {
 };
 
 // The conjugate-gradient solve of CGAL's Poisson system, as Eigen's ConjugateGradient does it
-// (Jacobi preconditioner, the lower triangle read as the symmetric matrix, the same tolerance and
-// iteration limit), with a progress report every few iterations: the solve is most of a large
-// reconstruction's time, and a report is where the caller can cancel (the exception it throws
-// leaves the solver).
+// (Jacobi preconditioner, the lower triangle read as the symmetric matrix, 2n iterations at most),
+// with a progress report every few iterations: the solve is most of a large reconstruction's
+// time, and a report is where the caller can cancel (the exception it throws leaves the solver).
+// It stops at a relative residual of kSolverTolerance, not Eigen's machine precision: the digits
+// beyond move the zero level by far less than the point noise.
 struct ReportingSolver {
     using Base = CGAL::Eigen_solver_traits<Eigen::ConjugateGradient<CGAL::Eigen_sparse_symmetric_matrix<double>::EigenType>>;
     using Matrix = Base::Matrix;
@@ -125,8 +131,7 @@ struct ReportingSolver {
         for (Eigen::Index i = 0; i < n; ++i) inverse_diagonal[i] = inverse_diagonal[i] != 0 ? 1 / inverse_diagonal[i] : 1;
         Eigen::VectorXd solution = Eigen::VectorXd::Zero(n), residual = b.eigen_object();
         const double b_norm2 = residual.squaredNorm();
-        const double tolerance = Eigen::NumTraits<double>::epsilon();
-        const double threshold = std::max(tolerance * tolerance * b_norm2, std::numeric_limits<double>::min());
+        const double threshold = std::max(kSolverTolerance * kSolverTolerance * b_norm2, std::numeric_limits<double>::min());
         if (b_norm2 == 0) {
             x.eigen_object() = solution;
             return true;
@@ -155,6 +160,95 @@ struct ReportingSolver {
         }
         return false;
     }
+};
+
+// Where the data is: the occupied cells of a fine grid (about two triangles wide) and of a
+// coarse one (four times wider). A point near no data lies on the surface Poisson invents to
+// close the shape, which needs no finer triangles than its smooth bulge.
+class DataProximity {
+public:
+    DataProximity(const std::vector<PointWithNormal>& points, double fine_cell_mm)
+        : fine_(fine_cell_mm), coarse_(4 * fine_cell_mm) {
+        for (const PointWithNormal& p : points) {
+            fine_cells_.insert(key(p.first, fine_, 0, 0, 0));
+            coarse_cells_.insert(key(p.first, coarse_, 0, 0, 0));
+        }
+    }
+    // 0 beside the data (an occupied fine cell or a neighbour of one), 1 within the coarse
+    // neighbourhood, 2 farther.
+    int level(const Point3& p) const {
+        if (near(fine_cells_, p, fine_)) return 0;
+        return near(coarse_cells_, p, coarse_) ? 1 : 2;
+    }
+
+private:
+    static long long key(const Point3& p, double cell, int dx, int dy, int dz) {
+        // 21 bits per axis around the origin: +-1 million cells.
+        const auto axis = [&](double v, int d) { return (static_cast<long long>(std::floor(v / cell)) + d + (1 << 20)) & 0x1FFFFF; };
+        return (axis(p.x(), dx) << 42) | (axis(p.y(), dy) << 21) | axis(p.z(), dz);
+    }
+    static bool near(const std::unordered_set<long long>& cells, const Point3& p, double cell) {
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz)
+                    if (cells.count(key(p, cell, dx, dy, dz))) return true;
+        return false;
+    }
+    double fine_, coarse_;
+    std::unordered_set<long long> fine_cells_, coarse_cells_;
+};
+
+// The surface mesher's criteria of Boissonnat & Oudot (minimum angle, Delaunay-ball radius,
+// distance to the surface), with the radius and distance bounds graded by the distance to
+// the data: as given beside the points, kCoarseScale times larger a little away, kFarScale
+// times larger far away. A single open view closes into a bubble many times the data's area;
+// at the data's resolution that bubble cost minutes.
+template <class Tr>
+class GradedCriteria {
+public:
+    using Criterion = CGAL::Surface_mesher::Refine_criterion<Tr>;
+    using Quality = typename CGAL::Surface_mesher::Standard_criteria<Criterion>::Quality;
+    using Facet = typename Tr::Facet;
+    static constexpr double kCoarseScale = 2.5, kFarScale = 6.0;
+
+    GradedCriteria(double angle_deg, double radius_mm, double distance_mm, const DataProximity& proximity)
+        : angle_(angle_deg), size_(radius_mm, distance_mm, proximity) {
+        criteria_.set_criteria({&angle_, &size_});
+    }
+    GradedCriteria(const GradedCriteria&) = delete;
+    GradedCriteria& operator=(const GradedCriteria&) = delete;
+    bool is_bad(const Facet& facet, Quality& quality) const { return criteria_.is_bad(facet, quality); }
+
+private:
+    class GradedSize : public Criterion {
+    public:
+        GradedSize(double radius, double distance, const DataProximity& proximity)
+            : radius_(radius), distance_(distance), proximity_(proximity) {}
+        bool is_bad(const Facet& facet, typename Criterion::Quality& quality) const override {
+            const typename Tr::Geom_traits traits;
+            const auto& p1 = facet.first->vertex((facet.second + 1) & 3)->point();
+            const auto& p2 = facet.first->vertex((facet.second + 2) & 3)->point();
+            const auto& p3 = facet.first->vertex((facet.second + 3) & 3)->point();
+            const auto& on_surface = facet.first->get_facet_surface_center(facet.second);
+            const int level = proximity_.level(on_surface);
+            const double scale = level == 0 ? 1.0 : level == 1 ? kCoarseScale : kFarScale;
+            const double radius = scale * radius_, distance = scale * distance_;
+            const double ball = CGAL::to_double(traits.compute_squared_distance_3_object()(p1, on_surface));
+            quality = radius * radius / ball;
+            if (quality < 1) return true;
+            const auto centre = traits.construct_circumcenter_3_object()(p1, p2, p3);
+            const double gap = CGAL::to_double(traits.compute_squared_distance_3_object()(centre, on_surface));
+            if (gap > 0) quality = std::min(quality, distance * distance / gap);
+            return quality < 1;
+        }
+
+    private:
+        double radius_, distance_;
+        const DataProximity& proximity_;
+    };
+    CGAL::Surface_mesher::Aspect_ratio_criterion<Tr> angle_;
+    GradedSize size_;
+    CGAL::Surface_mesher::Standard_criteria<Criterion> criteria_;
 };
 
 }  // namespace
@@ -192,6 +286,7 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     const double sphere_radius = 5 * std::sqrt(bounds.squared_radius());
     const size_t evaluation_cap = static_cast<size_t>(kEvaluationsPerFace * faces);
     struct OverBudget {};
+    const DataProximity proximity(points, 2 * triangle_size);
     for (int attempt = 0;; ++attempt) {
         report(0.3, "Poisson: meshing the surface");
         size_t evaluations = 0;
@@ -205,7 +300,7 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
         const double distance = settings.distance * std::max(settings.spacing_mm, triangle_size / settings.triangle_size);
         const Surface surface(level, Kernel::Sphere_3(function.get_inner_point(), sphere_radius * sphere_radius),
                               distance / 1000.0 / sphere_radius);
-        const CGAL::Surface_mesh_default_criteria_3<Triangulation> criteria(20.0, triangle_size, distance);
+        const GradedCriteria<Triangulation> criteria(20.0, triangle_size, distance, proximity);
         Triangulation triangulation;
         Complex complex(triangulation);
         try {

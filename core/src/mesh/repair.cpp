@@ -10,6 +10,7 @@
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Bounded_normal_change_filter.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 
@@ -99,13 +100,22 @@ Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double 
 }
 
 Mesh simplify(const Mesh& mesh, int target_faces) {
-    SurfaceMesh surface = to_surface_mesh(mesh);
-    // A closed triangle mesh has 3/2 edges per face.
-    const CGAL::Surface_mesh_simplification::Count_stop_predicate<SurfaceMesh> stop(
-        static_cast<std::size_t>(target_faces) * 3 / 2);
-    CGAL::Surface_mesh_simplification::edge_collapse(surface, stop);
-    surface.collect_garbage();
-    return to_mesh(surface);
+    // Edge collapse checks only that the faces around the collapsed edge keep their
+    // orientation: faces farther away may end up crossing them (seen at the through hole
+    // and the boss of the mechanical part at a few thousand faces). Collapses that turn a
+    // face by more than 90 degrees are refused, and the result is checked; one that crosses
+    // itself is made again with more faces, up to the mesh as it was.
+    namespace SMS = CGAL::Surface_mesh_simplification;
+    for (size_t target = static_cast<size_t>(target_faces); target < mesh.faces.size(); target = target * 3 / 2) {
+        SurfaceMesh surface = to_surface_mesh(mesh);
+        // A closed triangle mesh has 3/2 edges per face.
+        const SMS::Count_stop_predicate<SurfaceMesh> stop(target * 3 / 2);
+        SMS::edge_collapse(surface, stop, CGAL::parameters::filter(SMS::Bounded_normal_change_filter<>()));
+        surface.collect_garbage();
+        Mesh simplified = to_mesh(surface);
+        if (self_intersecting_faces(simplified).empty()) return simplified;
+    }
+    return mesh;
 }
 
 }  // namespace detail

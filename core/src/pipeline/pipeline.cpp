@@ -197,10 +197,12 @@ FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& opt
     validate(options);
     if (views.empty()) throw Error("views", "fusing needs at least one view");
     FuseResult result;
+    if (progress && !progress(0.0, "merging the views")) throw Error("cancelled", "fusing cancelled");
     result.merged = merge_views(views);
     if (result.merged.points.empty()) throw Error("views", "the views hold no valid point");
     result.mesh = mesh_cloud(result.merged, options, progress);
     if (result.mesh.faces.empty()) throw Error("views", "meshing the merged views produced no triangles");
+    if (progress && !progress(1.0, "checking the mesh")) throw Error("cancelled", "fusing cancelled");
     result.check = check_mesh(result.mesh);
     return result;
 }
