@@ -23,7 +23,7 @@ check = bool(os.environ.get("PICOSCAN_CHECK_VALID"))
 
 def run(name, mesh, check=False):
     start = time.perf_counter()
-    shape, model = solid.solid_with_model(mesh, name, check_valid=False)
+    shape, model, _ = solid.solid_with_model(mesh, name, check_valid=False)
     elapsed = time.perf_counter() - start
     valid = ""
     if check:

@@ -34,8 +34,25 @@ def face_options(merge_planes=True, noise_mm=0.0):
 
 
 def solid_with_model(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=None, check_valid=None):
-    """(Part.Solid, picoscan.PlanarFaceModel) of a closed FreeCAD mesh. Raises picoscan.Error saying
-    why not. check_valid: run OpenCASCADE's isValid() (default: up to CHECK_FACES faces)."""
+    """(Part.Solid, picoscan.PlanarFaceModel, note) of a closed FreeCAD mesh. Raises picoscan.Error
+    saying why not. check_valid: run OpenCASCADE's isValid() (default: up to CHECK_FACES faces).
+    When merging planar faces moves the volume beyond the tolerance (regions of a coarse, curved
+    mesh taken for planes), the solid is made of the mesh's own triangles instead, and the note
+    says so."""
+    try:
+        return _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid) + ("",)
+    except _VolumeChanged as change:
+        if not merge_planes:
+            raise picoscan.Error(str(change)) from None
+        shape, model = _solid_with_model(mesh, label, False, noise_mm, progress, check_valid)
+        return shape, model, "planar faces not merged: %s" % change
+
+
+class _VolumeChanged(Exception):
+    pass
+
+
+def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid):
     if mesh.CountFacets == 0:
         raise picoscan.Error("%s: the mesh is empty" % label)
     if mesh.CountFacets > MAX_FACETS:
@@ -54,7 +71,7 @@ def solid_with_model(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progre
         shape.read(path)
     volume = model.mesh_volume_mm3
     if shape.ShapeType != "Solid" or abs(shape.Volume - volume) > VOLUME_TOLERANCE * volume:
-        raise picoscan.Error("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
+        raise _VolumeChanged("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
             label, shape.Volume, volume))
     if check_valid is None:
         check_valid = len(model.faces) <= CHECK_FACES
@@ -71,10 +88,10 @@ def solid_of_mesh(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=
 def make_solid(doc, mesh_object, merge_planes=True, noise_mm=0.0):
     """Adds a Part::Feature holding the solid. Raises picoscan.Error (document unchanged) when the
     mesh cannot bound one; the message says why and what to do instead."""
-    solid, model = solid_with_model(mesh_object.Mesh, mesh_object.Label, merge_planes, noise_mm)
+    solid, model, note = solid_with_model(mesh_object.Mesh, mesh_object.Label, merge_planes, noise_mm)
     feature = doc.addObject("Part::Feature", mesh_object.Name + "Solid")
     feature.Label = mesh_object.Label + " solid"
     feature.Shape = solid
     feature.addProperty("App::PropertyString", "SolidReport", "Solid", "How the faces were made", 1)
-    feature.SolidReport = model.summary()
+    feature.SolidReport = model.summary() + ("; " + note if note else "")
     return feature

@@ -551,12 +551,15 @@ class PicoScanStitchTest(unittest.TestCase):
         self.assertIn("watertight", mesh.Check)
         self.assertNotIn("NOT watertight", mesh.Check)
         self.assertTrue(mesh.Mesh.isSolid())
-        # Closed, but folded into itself where the simplified surface crosses over (the core's check
-        # says so too): it bounds no proper solid, and Make solid refuses it rather than make a bad one.
-        names = [o.Name for o in self.doc.Objects]
-        with self.assertRaisesRegex(picoscan.Error, "the mesh intersects itself"):
-            solid.make_solid(self.doc, mesh)
-        self.assertEqual([o.Name for o in self.doc.Objects], names)
+        # Simplified without crossing itself, it bounds a solid of the mesh's volume. Planar regions
+        # grown on this coarse, mostly curved mesh moved its volume by 0.3 % in one run; Make solid
+        # then keeps the mesh's own triangles and says so in SolidReport.
+        self.assertNotIn("self-intersecting", mesh.Check)
+        made = solid.make_solid(self.doc, mesh)
+        FreeCAD.Console.PrintMessage("solid of the stitched mesh: %s\n" % made.SolidReport)
+        self.assertTrue(made.Shape.isValid())
+        self.assertLess(abs(made.Shape.Volume - mesh.Mesh.Volume), 1e-3 * mesh.Mesh.Volume)
+        self.doc.removeObject(made.Name)
         stl = os.path.join(self.folder, "stitched.stl")
         Mesh.export([mesh], stl)
         self.assertEqual(Mesh.Mesh(stl).CountFacets, mesh.Mesh.CountFacets)
@@ -1189,7 +1192,8 @@ class PicoScanBigSolidTest(unittest.TestCase):
             obj = self.doc.addObject("Mesh::Feature", "BlockMesh")
             obj.Mesh = scan_mesh.freecad_mesh(outline_block_mesh(sigma, spacing_mm=1.0))
             facets = obj.Mesh.CountFacets
-            shape, model = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+            shape, model, note = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+            self.assertEqual(note, "")  # the planar faces kept the volume
             FreeCAD.Console.PrintMessage("block mesh, noise %.3f mm: %s; solid volume %.3f mm3, mesh %.3f mm3\n" % (
                 sigma, model.summary(), shape.Volume, obj.Mesh.Volume))
             self.assertTrue(shape.isValid())
