@@ -95,10 +95,11 @@ Outcome run_cli(const std::vector<std::string>& arguments, const fs::path& direc
         const pid_t done = ::waitpid(child, &status, WNOHANG);
         outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (done == child) break;
-        // The signal goes in while a temporary file exists (or at interrupt_after_s at the latest).
-        if (interrupt && !interrupted &&
-            (outcome.seconds >= interrupt_after_s || !temporary_files(directory).empty())) {
-            outcome.temporary_file_at_signal = !temporary_files(directory).empty();
+        // The signal goes in while a temporary file exists (or at interrupt_after_s at the latest);
+        // one look at the folder decides both, as a file seen once may be renamed by the next look.
+        const bool temporary_file_now = interrupt && !interrupted && !temporary_files(directory).empty();
+        if (interrupt && !interrupted && (outcome.seconds >= interrupt_after_s || temporary_file_now)) {
+            outcome.temporary_file_at_signal = temporary_file_now;
             ::kill(child, interrupt);
             interrupted = true;
         }
