@@ -98,7 +98,11 @@ TEST(MeshCli, PoissonOfStitchedViewsIsWatertightAndBadCloudsAreRefused) {
     EXPECT_NE(meshed.output.find("; watertight;"), std::string::npos) << meshed.output;
     const MeshCheck check = check_mesh(read_stl(stl));
     EXPECT_TRUE(check.watertight()) << check.summary();
-    EXPECT_NEAR(static_cast<double>(check.faces), 20000.0, 2000.0) << check.summary();
+    // The target, or 1.5 or 2.25 times it where the simplified surface crossed itself and was
+    // simplified again with more faces (27 258 faces in one run of three).
+    EXPECT_GE(check.faces, 18000u) << check.summary();
+    EXPECT_LE(check.faces, 45000u) << check.summary();
+    EXPECT_FALSE(check.self_intersecting) << check.summary();
 
     const std::string empty = (dir / "empty.ply").string();
     write_ply(PointCloud{}, empty);
