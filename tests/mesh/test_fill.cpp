@@ -267,19 +267,19 @@ TEST(MeshBudget, CancelStopsPoissonInEachStage) {
 }
 
 // The points' preparation (PCA normals, then the average spacing) reports from inside CGAL and
-// stops there on cancel: 2 to 8 s on a 462 613-point view had no cancel point. 320 000 points
+// stops there on cancel: 2 to 8 s on a 462 613-point view had no cancel point. 120 000 points
 // kept (no thinning): the normals stage reports many times before it is cancelled in its middle.
 TEST(MeshBudget, CancelStopsTheNormalsAndSpacingEstimation) {
     const PointCloud dense = dense_ball();
-    PointCloud ball;  // every sixth point: 320 000
-    for (size_t i = 0; i < dense.points.size(); i += 6) {
+    PointCloud ball;  // every 16th point: 120 000
+    for (size_t i = 0; i < dense.points.size(); i += 16) {
         ball.points.push_back(dense.points[i]);
         ball.normals.push_back(dense.normals[i]);
     }
     for (const std::string stop_at : {"estimating normals", "estimating the point spacing"}) {
         MeshOptions options;
         options.sample_spacing_mm = 0;
-        options.max_points = 400000;  // above the 320 000: nothing thinned
+        options.max_points = 200000;  // above the 120 000: nothing thinned
         std::vector<double> fractions;  // reported in the stopped stage
         int calls_after = 0;
         bool cancelled = false;

@@ -38,6 +38,8 @@ using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
 // when CGAL runs sequentially): passes a report on every 4096 points, mapped to [from, to] of
 // the preparation. A cancel (report throws) is not thrown through CGAL, which may call from its
 // own thread: CGAL is told to stop, and the exception is thrown again once it has returned.
+// CGAL 5.5 keeps a reference to a copy of the callback that is gone when it calls it: give it a
+// std::cref of a std::function that outlives the call.
 class CgalProgress {
 public:
     CgalProgress(const StageReport& report, const char* stage, double from, double to, size_t total)
@@ -119,9 +121,9 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     sensor_side.reserve(points.size());
     for (const PointWithNormal& p : points) sensor_side.push_back(p.second);
     const CgalProgress normals_progress(report, "estimating normals", 0.0, 0.8, points.size());
+    const std::function<bool(double)> normals_callback(normals_progress);
     CGAL::pca_estimate_normals<CGAL::Parallel_if_available_tag>(
-        points, 18,
-        CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()).callback(std::function<bool(double)>(normals_progress)));
+        points, 18, CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()).callback(std::cref(normals_callback)));
     normals_progress.rethrow();
     for (size_t i = 0; i < points.size(); ++i) {
         Vector3& n = points[i].second;
@@ -130,8 +132,9 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
         if (has_normals && n * sensor_side[i] < 0) n = -n;
     }
     const CgalProgress spacing_progress(report, "estimating the point spacing", 0.8, 1.0, points.size());
+    const std::function<bool(double)> spacing_callback(spacing_progress);
     average_spacing_mm = CGAL::compute_average_spacing<CGAL::Parallel_if_available_tag>(
-        points, 6, CGAL::parameters::point_map(PointMap()).callback(std::function<bool(double)>(spacing_progress)));
+        points, 6, CGAL::parameters::point_map(PointMap()).callback(std::cref(spacing_callback)));
     spacing_progress.rethrow();
     return points;
 }
