@@ -680,10 +680,13 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const MeshCheck first_check = check_mesh(first), second_check = check_mesh(second);
     const double first_area = mesh_area(first), second_area = mesh_area(second);
     const double first_volume = mesh_volume(first), second_volume = mesh_volume(second);
-    std::printf("reopened project: cleaning removed %.0f points, %zu kept (the CLI keeps %zu); pose error %.4f deg, %.4f mm; fused mesh %s, area %.1f "
-                "mm^2, volume %.1f mm^3 (first session: %s, area %.1f mm^2, volume %.1f mm^3)\n",
-                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(), error.rotation_deg, error.translation_mm, second_check.summary().c_str(), second_area,
-                second_volume, first_check.summary().c_str(), first_area, first_volume);
+    std::printf("reopened project: cleaning removed %.0f points, %zu kept (the CLI keeps %zu, max distance %.2g mm); "
+                "pose error %.4f deg, %.4f mm; fused mesh %s, area %.1f mm^2, volume %.1f mm^3 (first session: %s, "
+                "area %.1f mm^2, volume %.1f mm^3)\n",
+                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(),
+                max_distance(by_plugin.vertices, by_cli.vertices), error.rotation_deg, error.translation_mm,
+                second_check.summary().c_str(), second_area, second_volume, first_check.summary().c_str(), first_area,
+                first_volume);
     EXPECT_GT(by_plugin.vertices.size(), 10000u);
     EXPECT_LT(error.rotation_deg, 0.15);
     EXPECT_LT(error.translation_mm, 0.1);
