@@ -174,6 +174,7 @@ QString adopt_view_file(MeshModel& layer, std::string& problem) {
     }
     candidates << others;
     CMeshO& mesh = layer.cm;
+    bool own_file_has_no_camera = false;
     for (const QString& candidate : candidates) {
         if (view_file_vertex_count(candidate) < mesh.vn) continue;
         picoscan::ScanView view;
@@ -182,15 +183,22 @@ QString adopt_view_file(MeshModel& layer, std::string& problem) {
         } catch (const std::exception&) {
             continue;
         }
-        if (view.camera_matrix(0, 0) <= 0) continue;  // a view of an older PicoScan, without its camera
+        if (view.camera_matrix(0, 0) <= 0) {  // a view of an older PicoScan, without its camera
+            own_file_has_no_camera = own_file_has_no_camera || candidate == file;
+            continue;
+        }
         const std::vector<std::pair<int, int>> pixels = pixels_in_view(mesh, view);
         if (pixels.empty()) continue;
         adopt_view(layer, view, pixels);
         return candidate;
     }
     const std::string folder = info.absolutePath().toStdString();
-    problem = own_file_is_view ? "it no longer holds points of its file, and no other PicoScan view in " + folder + " holds them"
-                               : "its file is not a PicoScan view, and no PicoScan view in " + folder + " holds its points";
+    if (own_file_has_no_camera)
+        problem = "its file is a PicoScan view without a camera (an older file)";
+    else if (own_file_is_view)
+        problem = "it no longer holds points of its file, and no other PicoScan view in " + folder + " holds them";
+    else
+        problem = "its file is not a PicoScan view, and no PicoScan view in " + folder + " holds its points";
     return {};
 }
 

@@ -644,9 +644,11 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     }
 
     // A new process on the saved project: the first session's fused layer goes, then Align and
-    // Fuse (the first session's inputs: the same result expected), then Clean of the first layer.
+    // Fuse (the first session's inputs: the same result expected), then Clean of the first layer,
+    // and the views saved again, by default into the project's folder.
     run = run_meshlabserver(directory,
-                            std::string(kDeleteCurrentLayer) + align() + fuse({{"sampleSpacing", "0.6"}}) + make_current(0) + clean(),
+                            std::string(kDeleteCurrentLayer) + align() + fuse({{"sampleSpacing", "0.6"}}) +
+                                make_current(0) + clean() + save_views(""),
                             "-p project.mlp -w reopened.mlp -o fused_reopened.ply -l 2 -o cleaned_reopened.ply -l 0 -m vn");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     for (int i = 0; i < 2; ++i) {
@@ -667,6 +669,10 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const Mesh by_plugin = read_ply(directory + "/cleaned_reopened.ply"), by_cli = read_ply(directory + "/cli_clean.ply");
     ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
     EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
+    // The cleaned view saved again beside the project; the fused mesh is no view and stays as it is.
+    EXPECT_NE(run.log.find("PicoScan saved 2 views in " + directory), std::string::npos) << run.log;
+    EXPECT_NE(run.log.find("Fused mesh (Poisson) is not a PicoScan view, left as it is"), std::string::npos) << run.log;
+    EXPECT_EQ(size_t(read_view_ply(directory + "/Part_view_0_out.ply").valid_count()), by_cli.vertices.size());
     const std::vector<ProjectLayer> reopened = read_project(directory + "/reopened.mlp");
     ASSERT_EQ(reopened.size(), 3u);
     const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[1]);
