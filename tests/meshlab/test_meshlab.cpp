@@ -703,7 +703,7 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     EXPECT_TRUE(first_check.watertight()) << first_check.summary();
     EXPECT_TRUE(second_check.watertight()) << second_check.summary();
     EXPECT_GT(first_volume, 1000.0);
-    // Same inputs, same recipe: over six runs within 0.030 % (volume) and 0.062 % (area); the
+    // Same inputs, same recipe: over seven runs within 0.030 % (volume) and 0.065 % (area); the
     // alignment's small run-to-run differences move the Poisson surface a little.
     EXPECT_NEAR(second_volume, first_volume, 0.005 * first_volume);
     EXPECT_NEAR(second_area, first_area, 0.005 * first_area);
