@@ -35,6 +35,8 @@ constexpr double kWeightWidth = 1.0;
 constexpr double kSameSheet = 0.5;
 // Triangles with a corner farther than this many voxels from every point are cut.
 constexpr double kKeptReach = 1.5;
+// Pieces of fewer faces than this are crumbs of noise (a few stray points), not surface.
+constexpr size_t kLeastPieceFaces = 12;
 // Corners and cubes handled between two progress reports.
 constexpr size_t kBlock = 1 << 15;
 
@@ -95,6 +97,7 @@ public:
         contour();
         cut_far_faces();
         keep_manifold_fans();
+        drop_crumbs();
         return compact();
     }
 
@@ -312,6 +315,27 @@ private:
                 if (!dropped[f]) kept.push_back(mesh_.faces[f]);
             mesh_.faces.swap(kept);
         }
+    }
+
+    // Pieces (faces joined through vertices) of fewer than kLeastPieceFaces faces go.
+    void drop_crumbs() {
+        std::vector<int> parent(mesh_.vertices.size());
+        for (size_t v = 0; v < parent.size(); ++v) parent[v] = int(v);
+        auto root = [&](int v) {
+            while (parent[size_t(v)] != v) v = parent[size_t(v)] = parent[size_t(parent[size_t(v)])];
+            return v;
+        };
+        for (const cv::Vec3i& f : mesh_.faces) {
+            parent[size_t(root(f[1]))] = root(f[0]);
+            parent[size_t(root(f[2]))] = root(f[0]);
+        }
+        std::vector<size_t> faces_in(parent.size(), 0);
+        for (const cv::Vec3i& f : mesh_.faces) ++faces_in[size_t(root(f[0]))];
+        std::vector<cv::Vec3i> kept;
+        kept.reserve(mesh_.faces.size());
+        for (const cv::Vec3i& f : mesh_.faces)
+            if (faces_in[size_t(root(f[0]))] >= kLeastPieceFaces) kept.push_back(f);
+        mesh_.faces.swap(kept);
     }
 
     bool shares_edge_at(int f, int g, int v) const {
