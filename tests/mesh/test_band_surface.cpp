@@ -89,8 +89,8 @@ MeshOptions open_options(double spacing_mm) {
 
 // One simulated view of the mechanical part (seed rig, 1600 x 1200, sigma = 1 DN): every
 // vertex near the true surface, every face on measured points, a manifold open surface.
-// Poisson with fill open on the same view (the path this replaced): mean 18.3 um, see
-// docs/multiview.md and the disabled test below.
+// Poisson with fill open on the same view (the path this replaced) gave mean 35.7 um, p95
+// 272 um (the disabled test below; docs/multiview.md): the bounds here are tighter.
 TEST(BandSurface, OneViewMatchesTheTruthAndStaysOnThePoints) {
     const test_support::TurntableScan& scan = test_support::turntable_scan();
     const ScanView& view = scan.views[0];
@@ -105,7 +105,7 @@ TEST(BandSurface, OneViewMatchesTheTruthAndStaysOnThePoints) {
                 mesh.vertices.size(), 1000 * error.mean, 1000 * error.p95, 1000 * error.max, farthest);
     expect_manifold(check);
     EXPECT_LT(check.filled_fraction, 0.01);
-    EXPECT_LT(error.mean, 0.0183);
+    EXPECT_LT(error.mean, 0.020);
     EXPECT_LT(error.p95, 0.060);
     EXPECT_LT(farthest, 1.0);
     // The whole view is meshed: the faces cover the points.
