@@ -19,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
 #include <limits>
 #include <unordered_map>
 
@@ -37,6 +38,8 @@ constexpr double kSameSheet = 0.5;
 constexpr double kKeptReach = 1.5;
 // Pieces of fewer faces than this are crumbs of noise (a few stray points), not surface.
 constexpr size_t kLeastPieceFaces = 12;
+// Edges shorter than this many voxels (crossings bunched near one grid corner) are collapsed.
+constexpr double kShortEdge = 0.3;
 // Corners and cubes handled between two progress reports.
 constexpr size_t kBlock = 1 << 15;
 
@@ -98,6 +101,7 @@ public:
         cut_far_faces();
         keep_manifold_fans();
         drop_crumbs();
+        collapse_short_edges();
         return compact();
     }
 
@@ -336,6 +340,109 @@ private:
         for (const cv::Vec3i& f : mesh_.faces)
             if (faces_in[size_t(root(f[0]))] >= kLeastPieceFaces) kept.push_back(f);
         mesh_.faces.swap(kept);
+    }
+
+    // Marching tetrahedra leave the crossing points bunched around grid corners near the zero
+    // set (slivers): each edge shorter than kShortEdge voxels is collapsed to its middle, in order
+    // of length, when that keeps the mesh a manifold (the two ends share no neighbour but the
+    // corners opposite the edge, neither end on a border) and turns no face by more than 60
+    // degrees.
+    void collapse_short_edges() {
+        report(0.97, "band surface: collapsing short edges");
+        const double shortest = kShortEdge * voxel_;
+        std::vector<std::vector<int>> faces_of(mesh_.vertices.size());
+        for (size_t f = 0; f < mesh_.faces.size(); ++f)
+            for (int k = 0; k < 3; ++k) faces_of[size_t(mesh_.faces[f][k])].push_back(int(f));
+        std::vector<uint8_t> border(mesh_.vertices.size(), 0);
+        for (size_t v = 0; v < faces_of.size(); ++v) border[v] = on_border(int(v), faces_of[v]);
+        std::vector<std::pair<float, std::pair<int, int>>> edges;
+        for (const cv::Vec3i& f : mesh_.faces)
+            for (int k = 0; k < 3; ++k) {
+                const int a = f[k], b = f[(k + 1) % 3];
+                const float length = float(cv::norm(mesh_.vertices[size_t(a)] - mesh_.vertices[size_t(b)]));
+                if (a < b && length < shortest) edges.push_back({length, {a, b}});
+            }
+        std::sort(edges.begin(), edges.end());
+        std::vector<uint8_t> removed(mesh_.faces.size(), 0);
+        std::vector<int> merged_into(mesh_.vertices.size(), -1);
+        for (const auto& [length, edge] : edges) {
+            const int a = edge.first, b = edge.second;
+            if (merged_into[size_t(a)] >= 0 || merged_into[size_t(b)] >= 0 || border[size_t(a)] || border[size_t(b)]) continue;
+            std::vector<int> around_a, around_b, shared_faces;
+            for (int f : faces_of[size_t(a)]) {
+                bool has_b = false;
+                for (int k = 0; k < 3; ++k) {
+                    has_b = has_b || mesh_.faces[size_t(f)][k] == b;
+                    if (mesh_.faces[size_t(f)][k] != a) around_a.push_back(mesh_.faces[size_t(f)][k]);
+                }
+                if (has_b) shared_faces.push_back(f);
+            }
+            if (shared_faces.size() != 2) continue;  // the edge is gone or on a border
+            for (int f : faces_of[size_t(b)])
+                for (int k = 0; k < 3; ++k)
+                    if (mesh_.faces[size_t(f)][k] != b) around_b.push_back(mesh_.faces[size_t(f)][k]);
+            std::sort(around_a.begin(), around_a.end());
+            around_a.erase(std::unique(around_a.begin(), around_a.end()), around_a.end());
+            std::sort(around_b.begin(), around_b.end());
+            around_b.erase(std::unique(around_b.begin(), around_b.end()), around_b.end());
+            std::vector<int> common;
+            std::set_intersection(around_a.begin(), around_a.end(), around_b.begin(), around_b.end(), std::back_inserter(common));
+            if (common.size() != 2) continue;  // the link condition: only the two opposite corners
+            const cv::Vec3f middle = 0.5f * (mesh_.vertices[size_t(a)] + mesh_.vertices[size_t(b)]);
+            bool turns = false;
+            for (int end : {a, b})
+                for (int f : faces_of[size_t(end)]) {
+                    if (f == shared_faces[0] || f == shared_faces[1]) continue;
+                    cv::Vec3i face = mesh_.faces[size_t(f)];
+                    std::array<cv::Vec3d, 3> before, after;
+                    for (int k = 0; k < 3; ++k) {
+                        before[k] = cv::Vec3d(mesh_.vertices[size_t(face[k])]);
+                        after[k] = face[k] == end ? cv::Vec3d(middle) : before[k];
+                    }
+                    const cv::Vec3d n0 = (before[1] - before[0]).cross(before[2] - before[0]);
+                    const cv::Vec3d n1 = (after[1] - after[0]).cross(after[2] - after[0]);
+                    turns = turns || n0.dot(n1) <= 0.5 * cv::norm(n0) * cv::norm(n1);
+                }
+            if (turns) continue;
+            mesh_.vertices[size_t(a)] = middle;
+            merged_into[size_t(b)] = a;
+            for (int f : shared_faces) removed[size_t(f)] = 1;
+            for (int f : faces_of[size_t(b)]) {
+                if (removed[size_t(f)]) continue;
+                for (int k = 0; k < 3; ++k)
+                    if (mesh_.faces[size_t(f)][k] == b) mesh_.faces[size_t(f)][k] = a;
+                faces_of[size_t(a)].push_back(f);
+            }
+            faces_of[size_t(b)].clear();
+            std::vector<int>& list = faces_of[size_t(a)];
+            list.erase(std::remove_if(list.begin(), list.end(), [&](int f) { return removed[size_t(f)] != 0; }), list.end());
+            for (int c : common) {
+                std::vector<int>& around = faces_of[size_t(c)];
+                around.erase(std::remove_if(around.begin(), around.end(), [&](int f) { return removed[size_t(f)] != 0; }),
+                             around.end());
+            }
+        }
+        std::vector<cv::Vec3i> kept;
+        kept.reserve(mesh_.faces.size());
+        for (size_t f = 0; f < mesh_.faces.size(); ++f)
+            if (!removed[f]) kept.push_back(mesh_.faces[f]);
+        mesh_.faces.swap(kept);
+    }
+
+    // Whether one of the edges from v is used by one face only.
+    bool on_border(int v, const std::vector<int>& around) const {
+        std::vector<int> others;
+        for (int f : around)
+            for (int k = 0; k < 3; ++k)
+                if (mesh_.faces[size_t(f)][k] != v) others.push_back(mesh_.faces[size_t(f)][k]);
+        std::sort(others.begin(), others.end());
+        for (size_t i = 0; i < others.size();) {
+            size_t j = i;
+            while (j < others.size() && others[j] == others[i]) ++j;
+            if (j - i != 2) return true;
+            i = j;
+        }
+        return false;
     }
 
     bool shares_edge_at(int f, int g, int v) const {
