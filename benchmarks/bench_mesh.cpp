@@ -5,6 +5,7 @@
 // outside the timing.
 //
 //   build/benchmarks/bench_mesh
+#include "picoscan/error.h"
 #include "picoscan/mesh.h"
 #include "picoscan/pipeline.h"
 #include "picoscan/simulate.h"
@@ -31,7 +32,13 @@ void mesh_full_view(benchmark::State& state, MeshMethod method, MeshFill fill, d
     options.sample_spacing_mm = spacing_mm;
     size_t faces = 0;
     for (auto _ : state) {
-        Mesh mesh = mesh_view(view, options);
+        Mesh mesh;
+        try {
+            mesh = mesh_view(view, options);
+        } catch (const Error& e) {
+            state.SkipWithError(e.what());  // a refusal is a result too
+            break;
+        }
         if (fill == MeshFill::Poisson) {
             // Poisson's closure cut away: the faces with fewer than two measured corners go.
             std::vector<cv::Vec3i> measured;
