@@ -225,7 +225,6 @@ TEST(MeshBudget, PointAndFaceBudgetsBoundTheMesh) {
     options.sample_spacing_mm = 0;  // keep every point: only the budget thins
     options.max_points = 20000;
     options.max_faces = 60000;
-    options.fill = MeshFill::Open;
     std::vector<std::string> stages;
     const Mesh mesh = mesh_points(ball, options, [&](double, const std::string& stage) {
         if (stages.empty() || stages.back() != stage) stages.push_back(stage);

@@ -81,6 +81,23 @@ class PicoScanAppTest(unittest.TestCase):
         self.doc.recompute()
         self.assertLess(mesh.Mesh.CountFacets, read_back.CountFacets / 3)
 
+    def test_open_fill_meshes_one_view_on_its_points(self):
+        """Poisson with Fill Open on one ScanView: the band surface, open, nothing filled in, and no
+        Poisson bubble past the measured depths (the shaft and the background plane)."""
+        view = self.scan()
+        mesh = scan_mesh.create(self.doc, view, method="Poisson", fill="Open", sample_spacing_mm=0.5)
+        self.assertTrue(mesh.isValid(), mesh.getStatusString())
+        FreeCAD.Console.PrintMessage("Poisson, fill open, one view: %s\n" % mesh.Check)
+        self.assertIn("NOT watertight", mesh.Check)
+        self.assertIn("0 non-manifold edges, 0 non-manifold vertices", mesh.Check)
+        self.assertIn("0.0 % of the surface filled in", mesh.Check)
+        self.assertGreater(mesh.Mesh.CountFacets, 10000)
+        box = mesh.Mesh.BoundBox
+        self.assertLess(box.ZMax, BACKGROUND_Z_MM + 1.0)
+        self.assertGreater(box.ZMin, 400.0 - SHAFT_RADIUS_MM - 1.0)
+        with self.assertRaisesRegex(picoscan.Error, "fill must be one of"):
+            scan_mesh.create(self.doc, view, method="Poisson", fill="Bubble")
+
     def test_make_solid(self):
         view = self.scan()
         open_mesh = scan_mesh.create(self.doc, view, pixel_step=8)
