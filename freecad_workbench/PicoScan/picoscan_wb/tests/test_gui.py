@@ -282,7 +282,8 @@ class PicoScanGuiTest(unittest.TestCase):
 
         def open_panel(point):
             FreeCADGui.Selection.clearSelection()
-            FreeCADGui.Selection.addSelection(self.doc.Name, view.Name, "", *point)
+            # FreeCAD keeps the picked point (PickedPoints) only with a sub-element name.
+            FreeCADGui.Selection.addSelection(self.doc.Name, view.Name, "Point", *point)
             self.assertTrue(COMMANDS["PicoScan_FitRegion"].IsActive())
             FreeCADGui.runCommand("PicoScan_FitRegion")
             process_events()
@@ -344,8 +345,9 @@ class PicoScanGuiTest(unittest.TestCase):
         angle, offset = axis_error(shaft)
         self.assertLess(angle, 0.2)
         self.assertLess(offset, 0.05)
+        shaft_name = shaft.Name
         self.doc.undo()  # one undo step removes it
-        self.assertNotIn(shaft.Name, self.object_names())
+        self.assertNotIn(shaft_name, self.object_names())
 
         # A lasso over the shaft's front, drawn in the 3D view looking along +z like the camera.
         FreeCADGui.Selection.clearSelection()
@@ -354,9 +356,9 @@ class PicoScanGuiTest(unittest.TestCase):
         view3d.viewBottom()
         view3d.fitAll()
         process_events()
-        corners = [view3d.getPointOnScreen(FreeCAD.Vector(x, y, 387.5)) for x, y in ((-8, -20), (8, -20), (8, 20), (-8, 20))]
-        height = view3d.getSize()[1]
-        polygon = [(x, height - 1 - y) for x, y in corners]  # getPointOnScreen counts y down, the lasso up
+        # FreeCAD's own projection of the corners (pixels, y up like Coin's mouse events) against the
+        # panel's, from the camera's view volume.
+        polygon = [view3d.getPointOnScreen(FreeCAD.Vector(x, y, 387.5)) for x, y in ((-8, -20), (8, -20), (8, 20), (-8, 20))]
         panel.set_lasso(polygon)
         lasso_count = int(panel.region_count.text())
         self.assertGreater(lasso_count, 2000)
