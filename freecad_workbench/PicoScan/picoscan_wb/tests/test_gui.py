@@ -298,6 +298,7 @@ class PicoScanGuiTest(unittest.TestCase):
             offset = numpy.hypot(base.x - 0.0, base.z - 400.0)  # a point on the axis, off the true axis
             return angle, offset
 
+        started = time.monotonic()
         names, undo_count = self.object_names(), self.doc.UndoCount
         panel = open_panel((0.0, 0.0, 387.5))  # the shaft's front
         panel.update_preview()
@@ -364,7 +365,9 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertGreater(lasso_count, 2000)
         self.assertTrue(panel.accept(), self.messages)
         strip = panel.created
-        FreeCAD.Console.PrintMessage("fit at picked point panel: lasso of %d points: %s\n" % (lasso_count, strip.FitReport))
+        FreeCAD.Console.PrintMessage("fit at picked point panel: lasso of %d points: radius %.4f mm (truth 12.5), %s; "
+                                     "the panel's steps took %.1f s\n" % (lasso_count, strip.Radius.Value, strip.FitReport,
+                                                                         time.monotonic() - started))
         self.assertEqual(strip.TypeId, "Part::Cylinder", strip.FitReport)
         self.assertAlmostEqual(strip.Radius.Value, 12.5, delta=0.05)
         angle, offset = axis_error(strip)
