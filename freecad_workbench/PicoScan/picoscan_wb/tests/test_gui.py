@@ -316,8 +316,9 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertIsNone(panel.preview)
         self.assertFalse(FreeCADGui.Control.activeDialog())
 
-        # The wall, automatic: a plane with its normal along z (towards the camera).
+        # The wall, automatic, within 10 mm of the point: a plane with its normal along z (towards the camera).
         panel = open_panel((40.0, 0.0, 460.0))
+        panel.radius.setValue(10.0)
         self.assertTrue(panel.accept(), self.messages)
         wall = panel.created
         self.assertEqual(wall.TypeId, "Part::Plane", wall.FitReport)
