@@ -301,9 +301,9 @@ class FitRegionTaskPanel:
         return obj
 
     def finish(self):
-        self.timer.stop()
         if self.lasso_callback is not None:
             self.draw_lasso.setChecked(False)
+        self.timer.stop()  # after the lasso, which asks for a preview when it closes
         self.remove_preview()
         FreeCADGui.Control.closeDialog()
 
