@@ -204,22 +204,14 @@ class FitRegionTaskPanel:
         from pivy import coin
 
         event = callback_node.getEvent()
+        callback_node.setHandled()  # while drawing, clicks are the lasso's, not selection or navigation
         if event.getState() != coin.SoButtonEvent.DOWN:
             return
-        callback_node.setHandled()
         if event.getButton() == coin.SoMouseButtonEvent.BUTTON1:
             self.lasso.append(tuple(float(v) for v in event.getPosition().getValue()))
             self.schedule_preview()
         elif event.getButton() == coin.SoMouseButtonEvent.BUTTON2:
             self.draw_lasso.setChecked(False)  # closes the lasso
-
-    def set_lasso(self, polygon, matrix=None):
-        """The lasso's corners in the 3D view's pixels (x right, y up), as drawn with the mouse; `matrix`
-        maps document coordinates to those pixels (by default the view's camera now)."""
-        self.set_region("lasso")
-        self.lasso = [tuple(map(float, p)) for p in polygon]
-        self.lasso_matrix = matrix if matrix is not None else document_to_screen(self.view())
-        self.update_preview()
 
     # ---- the preview ----
     def view(self):

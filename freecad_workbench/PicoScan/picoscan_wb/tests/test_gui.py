@@ -358,10 +358,27 @@ class PicoScanGuiTest(unittest.TestCase):
         view3d.viewBottom()
         view3d.fitAll()
         process_events()
-        # FreeCAD's own projection of the corners (pixels, y up like Coin's mouse events) against the
-        # panel's, from the camera's view volume.
-        polygon = [view3d.getPointOnScreen(FreeCAD.Vector(x, y, 387.5)) for x, y in ((-8, -20), (8, -20), (8, 20), (-8, 20))]
-        panel.set_lasso(polygon)
+        # Drawn as a user does: Draw lasso, a left click at each corner, a right click to close, sent
+        # as Coin mouse events through the viewer. The corners are placed with FreeCAD's own projection
+        # (pixels, y up like Coin's events), which the panel's projection (from the camera's view
+        # volume) must match for the fit to find the shaft.
+        from pivy import coin
+
+        panel.set_region("lasso")
+        panel.draw_lasso.click()
+        events = view3d.getViewer().getSoEventManager()
+        corners = [view3d.getPointOnScreen(FreeCAD.Vector(x, y, 387.5)) for x, y in ((-8, -20), (8, -20), (8, 20), (-8, 20))]
+        clicks = [(coin.SoMouseButtonEvent.BUTTON1, c, state) for c in corners
+                  for state in (coin.SoButtonEvent.DOWN, coin.SoButtonEvent.UP)]
+        for button, corner, state in clicks + [(coin.SoMouseButtonEvent.BUTTON2, corners[-1], coin.SoButtonEvent.DOWN)]:
+            event = coin.SoMouseButtonEvent()
+            event.setButton(button)
+            event.setState(state)
+            event.setPosition(coin.SbVec2s(int(corner[0]), int(corner[1])))
+            events.processEvent(event)
+        self.assertFalse(panel.draw_lasso.isChecked())  # the right click closed it
+        self.assertEqual(len(panel.lasso), 4)
+        panel.update_preview()
         lasso_count = int(panel.region_count.text())
         self.assertGreater(lasso_count, 2000)
         self.assertTrue(panel.accept(), self.messages)
