@@ -719,12 +719,16 @@ class PicoScanSectionFitTest(unittest.TestCase):
     def seen_points(self, scan):
         """What a scanner sees of the part: the mesh's vertices (with their normals) less those inside
         it (the boss is a separate cylinder sunk 1 mm into the block, so the block's top under it and
-        its foot are hidden)."""
+        its foot are hidden). Kept per scan: the heights and the deviation map both need them."""
+        cached = getattr(self, "_seen", {}).get(scan.Name)
+        if cached is not None:
+            return cached
         vertices = numpy.array([(p.x, p.y, p.z) for p in scan.Mesh.Topology[0]])
         normals = numpy.array([(n.x, n.y, n.z) for n in scan.Mesh.getPointNormals()])
         from_boss_axis = numpy.hypot(vertices[:, 0] - 12, vertices[:, 1] + 2)
         hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
-        return vertices[~hidden], normals[~hidden]
+        self._seen = {scan.Name: (vertices[~hidden], normals[~hidden])}
+        return self._seen[scan.Name]
 
     def fitted_heights(self, scan, sigma):
         """The heights measured on the scan as a user does with Fit at picked point: a plane fitted to
