@@ -646,7 +646,7 @@ class PicoScanPlacementsTest(unittest.TestCase):
     def test_two_placements_align_on_the_truth_and_a_wrong_placement_is_named(self):
         views = self.scan_views(self.scans)
         placements = [number for _, _, number in self.scans]
-        merged = stitch.create(self.doc, views, placement_of_view=placements, turntable_round=True)
+        merged = stitch.create(self.doc, views, placement_of_view=placements, mode="Turntable round")
         self.assertTrue(merged.isValid(), merged.getStatusString())
         FreeCAD.Console.PrintMessage("two placements: %s\n" % "; ".join(merged.PlacementReport))
         self.assertEqual(merged.AlignedCount, 16, merged.Report)
@@ -675,6 +675,60 @@ class PicoScanPlacementsTest(unittest.TestCase):
         self.assertEqual(merged.PointCount, sum(v.PointCount for v in views[:8]))
         for line in merged.Report[8:]:
             self.assertIn("left out: aligned within placement 2, but that placement did not align", line)
+
+    def pose_errors(self, views, merged):
+        """Worst rotation and shift of the Stitch's view poses against the truth, at each view's points."""
+        worst = (0.0, 0.0)
+        for view, placement, truth in zip(views, merged.ViewPoses, self.truth):
+            pose = numpy.array(placement.toMatrix().A).reshape(4, 4)
+            error = picoscan.pose_difference(pose, truth, numpy.asarray(cloud_of(view).points).mean(axis=0))
+            worst = (max(worst[0], error.rotation_deg), max(worst[1], error.translation_mm))
+        return worst
+
+    def test_plain_round_stitches_automatically_and_with_a_known_axis_and_a_wrong_axis_is_refused(self):
+        """The Stitch views command's path (stitch.create with the task panel's modes) on the standing
+        round of the plain part: Automatic (the panel's default) finds no features and falls back to the
+        turntable round; the true axis given as a known axis aligns too; an axis across the part is
+        refused with one line, the document unchanged."""
+        views = self.scan_views(self.scans[:8])
+        merged = stitch.create(self.doc, views)
+        self.assertEqual(merged.Mode, "Automatic")
+        FreeCAD.Console.PrintMessage("automatic stitch of a plain round: %s\n" % " | ".join(merged.AlignmentReport))
+        self.assertEqual(merged.AlignedCount, 8, merged.Report)
+        self.assertRegex(merged.AlignmentReport[0], r"^features aligned [0-7] of 8 views \(first left out: .+\); not kept$")
+        self.assertEqual(merged.AlignmentReport[1], "turntable round (axis estimated) aligned 8 of 8 views; kept")
+        self.assertTrue(merged.AlignmentReport[2].startswith("turntable axis found: point ("), merged.AlignmentReport)
+        for line in merged.Report:
+            self.assertIn(": turntable round (axis estimated), overlap", line)
+        worst = self.pose_errors(views, merged)
+        FreeCAD.Console.PrintMessage("automatic: worst pose error of 8 views %.4f deg, %.4f mm\n" % worst)
+        self.assertLess(worst[0], 0.05)
+        self.assertLess(worst[1], 0.05)
+        self.assertIn("turntable axis", merged.PartFrame)
+
+        axis = picoscan.fit_turntable_axis(self.truth[:8])  # as calibrated: the true axis in view 0's camera frame
+        known = stitch.create(self.doc, views, mode="Turntable axis", axis_point=tuple(axis.point_mm),
+                              axis_direction=tuple(axis.direction))
+        self.assertEqual(known.AlignedCount, 8, known.Report)
+        self.assertEqual(known.AlignmentReport, ["turntable axis (given) aligned 8 of 8 views; kept"])
+        self.assertEqual(known.getTypeIdOfProperty("TurntableAxisPoint"), "App::PropertyVectorDistance")  # in mm
+        worst = self.pose_errors(views, known)
+        FreeCAD.Console.PrintMessage("known axis: worst pose error of 8 views %.4f deg, %.4f mm\n" % worst)
+        self.assertLess(worst[0], 0.05)
+        self.assertLess(worst[1], 0.05)
+        self.assertIn("turntable axis", known.PartFrame)
+
+        names = [o.Name for o in self.doc.Objects]
+        direction = numpy.asarray(axis.direction)
+        across = (-direction[1], direction[0], 0.0)  # square to the axis and the camera's line of sight
+        with self.assertRaisesRegex(picoscan.Error, r"fewer than two views could be aligned: turntable axis \(given\) "
+                                                    r"aligned 1 of 8 views \(first left out: .*no turntable step fits") as refused:
+            stitch.create(self.doc, views, mode="Turntable axis", axis_point=tuple(axis.point_mm), axis_direction=across)
+        FreeCAD.Console.PrintMessage("axis across the part: %s\n" % refused.exception)
+        self.assertNotIn("\n", str(refused.exception))
+        with self.assertRaisesRegex(picoscan.Error, "TurntableAxisDirection must not be zero"):
+            stitch.create(self.doc, views, mode="Turntable axis", axis_point=tuple(axis.point_mm))
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
 
     def test_placement_numbers_must_match_the_views(self):
         views = self.scan_views(self.scans[:2])
