@@ -172,12 +172,12 @@ std::string method_name(PlacementMethod method) {
     return "";
 }
 
-// One alignment of all views, each placement by its method (align_views for one placement,
-// align_placements for several).
+// One alignment of all views, each placement by its method (align_views without placements,
+// else align_placements).
 Alignment align_by(const std::vector<ScanView>& views, const std::vector<std::string>& names,
                    const std::vector<std::vector<size_t>>& groups, const std::vector<PlacementMethod>& methods,
                    const StitchOptions& options, const ProgressCallback& progress) {
-    if (groups.size() == 1) {
+    if (options.placement_of_view.empty()) {
         RegistrationOptions registration = options.registration;
         registration.turntable_round = methods[0] == PlacementMethod::Round;
         return align_views(views, names, registration,
@@ -276,7 +276,8 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
         result.merged_views.push_back(i);
     }
     result.merged = merge_views(aligned);
-    if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3 && groups.size() == 1) {
+    if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3 &&
+        options.placement_of_view.empty()) {
         // Views of a turntable sequence calibrate its axis, for the next scan.
         std::vector<cv::Matx44d> poses;
         for (const ViewAlignment& view : result.alignment.views) poses.push_back(view.pose);
