@@ -95,15 +95,16 @@ def _turntable_axis(obj, groups):
     return axis
 
 
-def _attempt_lines(attempts, several):
-    """One line per way tried: what it aligned, the first view it left out and why, kept or not."""
+def _attempt_lines(attempts, several, outcome=True):
+    """One line per way tried: what it aligned, the first view it left out and why, and (outcome)
+    whether it was kept."""
     lines = []
     for attempt in attempts:
         where = "placement %d: " % (attempt.placement + 1) if several else ""
         line = "%s%s aligned %d of %d views" % (where, attempt.method, attempt.aligned_views, attempt.views)
         if attempt.problem:
             line += " (first left out: %s)" % attempt.problem
-        lines.append(line + ("; kept" if attempt.kept else "; not kept"))
+        lines.append(line + (("; kept" if attempt.kept else "; not kept") if outcome else ""))
     return lines
 
 
@@ -205,10 +206,11 @@ class Stitch(DocumentObjectProxy):
             report.append("%s: %s%s, overlap %.2f, rms %.3f mm" % (source.Label, where, method, result.overlap, result.rms_mm)
                           if result.aligned else "%s: %sleft out: %s" % (source.Label, where, result.problem))
         placement_report = _placement_lines(alignment.placements)
-        attempts = _attempt_lines(stitched.attempts, several)
         if alignment.aligned_count() < 2:
             raise picoscan.Error("%s: fewer than two views could be aligned: %s" % (obj.Label, "; ".join(
-                attempts + [line for line in placement_report if "NOT aligned" in line])))
+                _attempt_lines(stitched.attempts, several, outcome=False) +
+                [line for line in placement_report if "NOT aligned" in line])))
+        attempts = _attempt_lines(stitched.attempts, several)
         for placement in alignment.placements:  # a placement left out leaves the model incomplete: say so
             if not placement.aligned:
                 FreeCAD.Console.PrintWarning("%s: %s NOT aligned, its views are left out: %s\n" % (

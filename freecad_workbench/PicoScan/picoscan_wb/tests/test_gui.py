@@ -314,8 +314,9 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertLess(error.rotation_deg, 0.1)
         self.assertLess(error.translation_mm, 0.1)
         self.assertFalse(FreeCADGui.Control.activeDialog())
+        name = made.Name
         self.doc.undo()  # one step
-        self.assertIsNone(self.doc.getObject(made.Name))
+        self.assertIsNone(self.doc.getObject(name))
 
     @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
     def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
