@@ -568,6 +568,11 @@ class PicoScanStitchTest(unittest.TestCase):
         path = os.path.join(self.folder, "stitched.FCStd")
         count, name = merged.PointCount, merged.Name
         poses = [p.toMatrix() for p in merged.ViewPoses]
+        self.assertEqual(merged.AlignmentReport[0], "features aligned 3 of 3 views; kept")  # Automatic, the default
+        # Saved as a document from before Mode existed (a TurntableRound property instead).
+        merged.removeProperty("Mode")
+        merged.addProperty("App::PropertyBool", "TurntableRound", "Registration", "")
+        merged.TurntableRound = True
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
         # The capture folders are gone when the document is reopened: it stitches from the views kept in it.
@@ -577,6 +582,9 @@ class PicoScanStitchTest(unittest.TestCase):
             self.doc = FreeCAD.openDocument(path)
             merged = self.doc.getObject(name)
             self.assertEqual(merged.Points.CountPoints, count)
+            self.assertEqual(merged.Mode, "Turntable round")  # the old property became the mode
+            self.assertFalse(hasattr(merged, "TurntableRound"))
+            merged.Mode = "Automatic"  # three views 45 degrees apart are not a full round
             for view in merged.Views:
                 view.touch()
             merged.touch()
