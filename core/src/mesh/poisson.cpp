@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <map>
 #include <unordered_set>
@@ -35,6 +36,9 @@ using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
 // The progress callback of CGAL's point processing (called once per point here, CGAL being
 // built without TBB): reports every few thousand points. A cancel (the exception the report
 // throws) is kept and stops CGAL's loop, and thrown again once CGAL has returned.
+// CGAL 5.5 binds its reference to a temporary copy of a callback passed by value, gone before it
+// is called (a crash once the callable does not fit in std::function's own buffer): the callback
+// is passed as a std::cref of a std::function that outlives the call.
 class PointLoopReport {
 public:
     PointLoopReport(const StageReport& report, const char* stage, double from, double to)
@@ -109,8 +113,9 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     sensor_side.reserve(points.size());
     for (const PointWithNormal& p : points) sensor_side.push_back(p.second);
     PointLoopReport normals_report(report, "estimating normals", 0.0, 0.8);
+    const std::function<bool(double)> normals_callback = normals_report.callback();
     CGAL::pca_estimate_normals<CGAL::Parallel_if_available_tag>(
-        points, 18, CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()).callback(normals_report.callback()));
+        points, 18, CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()).callback(std::cref(normals_callback)));
     normals_report.throw_if_cancelled();
     for (size_t i = 0; i < points.size(); ++i) {
         Vector3& n = points[i].second;
@@ -119,8 +124,9 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
         if (has_normals && n * sensor_side[i] < 0) n = -n;
     }
     PointLoopReport spacing_report(report, "measuring the spacing", 0.8, 1.0);
+    const std::function<bool(double)> spacing_callback = spacing_report.callback();
     average_spacing_mm = CGAL::compute_average_spacing<CGAL::Parallel_if_available_tag>(
-        points, 6, CGAL::parameters::point_map(PointMap()).callback(spacing_report.callback()));
+        points, 6, CGAL::parameters::point_map(PointMap()).callback(std::cref(spacing_callback)));
     spacing_report.throw_if_cancelled();
     return points;
 }
