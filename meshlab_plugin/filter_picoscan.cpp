@@ -15,8 +15,10 @@
 #include <QRegularExpression>
 #include <QTemporaryDir>
 
+#include <algorithm>
 #include <functional>
 #include <map>
+#include <optional>
 
 using namespace picoscan;
 using namespace picoscan_meshlab;
@@ -58,6 +60,9 @@ const char* const kAlignSpacing = "sampleSpacing";
 const char* const kMinOverlap = "minOverlap";
 const char* const kPlacements = "placements";
 const char* const kTurntableRound = "turntableRound";
+const char* const kTurntableAxisPoint = "turntableAxisPoint";
+const char* const kTurntableAxisDirection = "turntableAxisDirection";
+const char* const kTurntableStep = "turntableStepDeg";
 const char* const kMethod = "method";
 const char* const kMeshSpacing = "sampleSpacing";
 const char* const kPoissonTriangleSize = "poissonTriangleSize";
@@ -113,6 +118,10 @@ QString parameter_for_field(const std::string& field) {
         {"registration.sample_spacing_mm", kAlignSpacing},
         {"registration.min_overlap", kMinOverlap},
         {"placement_of_view", kPlacements},
+        {"registration.turntable_round", kTurntableRound},
+        {"turntable.point_mm", kTurntableAxisPoint},
+        {"turntable.direction", kTurntableAxisDirection},
+        {"turntable.step_deg", kTurntableStep},
         {"mesh.sample_spacing_mm", kMeshSpacing},
         {"mesh.poisson_triangle_size", kPoissonTriangleSize},
         {"mesh.poisson_distance", kPoissonDistance},
@@ -215,6 +224,28 @@ std::vector<int> placement_of_layers(const QString& text, size_t layer_count) {
                                      std::to_string(layer_count) + " PicoScan layers are visible");
     if (counts.size() < 2) placement_of_view.clear();
     return placement_of_view;
+}
+
+// The known turntable axis of Align Layers, if its direction is not zero; the step defaults to one
+// full round of a placement's layers.
+std::optional<TurntableAxis> known_turntable_axis(const RichParameterList& parameters,
+                                                  const std::vector<int>& placement_of_view, size_t layer_count) {
+    const vcg::Point3f point = parameters.getPoint3f(kTurntableAxisPoint);
+    const vcg::Point3f direction = parameters.getPoint3f(kTurntableAxisDirection);
+    const double step = parameters.getFloat(kTurntableStep);
+    if (direction.Norm() == 0) {
+        if (step != 0) throw Error(kTurntableStep, "is used with a known axis only: give turntableAxisDirection too");
+        return std::nullopt;
+    }
+    TurntableAxis axis{{point[0], point[1], point[2]}, {direction[0], direction[1], direction[2]}, step};
+    if (step == 0) {
+        std::vector<size_t> sizes(size_t(placement_of_view.empty() ? 1 : placement_of_view.back() + 1), 0);
+        for (size_t i = 0; i < layer_count; ++i) ++sizes[placement_of_view.empty() ? 0 : size_t(placement_of_view[i])];
+        if (std::any_of(sizes.begin(), sizes.end(), [&](size_t size) { return size != sizes.front(); }))
+            throw Error(kTurntableStep, "give the step: the placements have different numbers of layers");
+        axis.step_deg = 360.0 / double(sizes.front());
+    }
+    return axis;
 }
 
 }  // namespace
@@ -433,6 +464,16 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                      "The layers of each placement are one full turntable round, in order, in equal "
                                      "steps; the axis is estimated from them. Plain, unpainted parts need this: their "
                                      "white frames have no features."));
+        parameters.addParam(RichPoint3f(kTurntableAxisPoint, vcg::Point3f(0, 0, 0), "Turntable axis point (mm)",
+                                        "A known turntable axis (e.g. as 'picoscan stitch' prints it): a point on it, "
+                                        "in the first layer's camera frame. Used when the direction is not zero."));
+        parameters.addParam(RichPoint3f(kTurntableAxisDirection, vcg::Point3f(0, 0, 0), "Turntable axis direction",
+                                        "The known axis' direction (any length; the part turns right-handed about it "
+                                        "from one layer to the next); each placement's layers are then turntable "
+                                        "steps about it. Zero: no known axis."));
+        parameters.addParam(RichFloat(kTurntableStep, 0.f, "Turntable step (degrees)",
+                                      "With a known axis: the turn between layers; 0: one full round (360 degrees / "
+                                      "the layers of a placement)."));
         break;
     }
     case Fuse: {
@@ -687,6 +728,8 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
     if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
     options.placement_of_view = placement_of_layers(parameters.getString(kPlacements), layers.size());
+    options.turntable = known_turntable_axis(parameters, options.placement_of_view, layers.size());
+    validate(options);
     std::vector<ScanView> views;
     std::vector<std::string> names;
     for (MeshModel* layer : layers) {
@@ -698,6 +741,10 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
     // Every layer's and placement's outcome in the log, aligned or not, with the reason. A layer
     // of a placement that did not join is named through its placement.
     std::string failures;
+    for (const StitchAttempt& attempt : result.attempts)
+        Log("PicoScan placement %d by %s: %d of %d layers aligned%s%s", attempt.placement + 1, attempt.method.c_str(),
+            attempt.aligned_views, attempt.views, attempt.problem.empty() ? "" : ", first left out: ",
+            attempt.problem.c_str());
     const std::vector<PlacementAlignment>& placements = result.alignment.placements;
     for (const ViewAlignment& view : result.alignment.views) {
         if (view.aligned)

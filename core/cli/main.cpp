@@ -66,6 +66,9 @@ std::string flag_for_field(const std::string& field) {
         {"mesh.max_faces", "--max-faces"},
         {"mesh.fill", "--fill"},
         {"mesh.table_axis", "--turntable"},
+        {"turntable.point_mm", "--turntable"},
+        {"turntable.direction", "--turntable"},
+        {"turntable.step_deg", "--step-deg"},
         {"preset", "--preset"},
         {"periods", "--periods"},  // manifest presets
         {"bits", "--bits"},

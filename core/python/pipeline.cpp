@@ -148,12 +148,22 @@ void bind_pipeline(py::module_& m) {
         .def(py::init<>())
         .def_readwrite("registration", &StitchOptions::registration)
         .def_readwrite("turntable", &StitchOptions::turntable)
-        .def_readwrite("placement_of_view", &StitchOptions::placement_of_view);
+        .def_readwrite("placement_of_view", &StitchOptions::placement_of_view)
+        .def_readwrite("automatic", &StitchOptions::automatic);
+    py::class_<StitchAttempt>(m, "StitchAttempt")
+        .def_readonly("placement", &StitchAttempt::placement)
+        .def_readonly("method", &StitchAttempt::method)
+        .def_readonly("aligned_views", &StitchAttempt::aligned_views)
+        .def_readonly("views", &StitchAttempt::views)
+        .def_readonly("problem", &StitchAttempt::problem)
+        .def_readonly("kept", &StitchAttempt::kept);
     py::class_<StitchResult>(m, "StitchResult")
         .def_readonly("alignment", &StitchResult::alignment)
         .def_readonly("merged", &StitchResult::merged)
         .def_readonly("merged_views", &StitchResult::merged_views)
-        .def_readonly("axis", &StitchResult::axis);
+        .def_readonly("axis", &StitchResult::axis)
+        .def_readonly("attempts", &StitchResult::attempts)
+        .def_readonly("method_of_view", &StitchResult::method_of_view);
     m.def(
         "stitch_views",
         [](const std::vector<ScanView>& views, const std::vector<std::string>& names, const StitchOptions& options,
@@ -238,6 +248,7 @@ void bind_pipeline(py::module_& m) {
     m.def("validate", py::overload_cast<const MeshOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const ReconstructOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const SimulateOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const StitchOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const CleanScanOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const PickedFitOptions&>(&validate), py::arg("options"));
 }

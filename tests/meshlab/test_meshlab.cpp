@@ -57,7 +57,10 @@ const Params kAlignDefaults{{"RichInt", "orbFeatures", "6000"},
                             {"RichFloat", "sampleSpacing", "0.7"},
                             {"RichFloat", "minOverlap", "0.08"},
                             {"RichString", "placements", ""},
-                            {"RichBool", "turntableRound", "false"}};
+                            {"RichBool", "turntableRound", "false"},
+                            {"RichPoint3f", "turntableAxisPoint", "0 0 0"},
+                            {"RichPoint3f", "turntableAxisDirection", "0 0 0"},
+                            {"RichFloat", "turntableStepDeg", "0"}};
 const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichFloat", "sampleSpacing", "0.4"},
                            {"RichFloat", "poissonTriangleSize", "1"}, {"RichFloat", "poissonDistance", "0.1"},
                            {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
@@ -75,6 +78,13 @@ std::string filter(const std::string& name, Params params, const std::map<std::s
     }
     std::string xml = " <filter name=\"" + name + "\">\n";
     for (const Param& param : params) {
+        if (param.type == "RichPoint3f") {  // value "x y z"
+            std::istringstream xyz(param.value);
+            std::string x, y, z;
+            xyz >> x >> y >> z;
+            xml += "  <Param type=\"RichPoint3f\" name=\"" + param.name + "\" x=\"" + x + "\" y=\"" + y + "\" z=\"" + z + "\"/>\n";
+            continue;
+        }
         xml += "  <Param type=\"" + param.type + "\" name=\"" + param.name + "\" value=\"" + param.value + "\"";
         if (param.type == "RichEnum") xml += " enum_cardinality=\"4\"";  // required by MeshLab's parser
         xml += "/>\n";
@@ -793,6 +803,49 @@ TEST(MeshlabPlugin, AlignTwoPlacementsOfAPlainPart) {
     EXPECT_LT(placement[0], 0.1);
     EXPECT_LT(worst_rotation, 0.05);
     EXPECT_LT(worst_translation, 0.05);
+}
+
+// A known turntable axis (as 'picoscan stitch' prints it, here the truth's) for the plain grey
+// part's standing round: every layer on its true pose. The same axis laid across the part (turned
+// 90 degrees about the camera's line of sight) is refused and no transform is changed.
+TEST(MeshlabPlugin, AlignPlainRoundWithAKnownAxisAndRefusesAWrongOne) {
+    const std::string directory = make_temp_dir("meshlab_known_axis");
+    const auto part = test_support::PlacementPart::GreyMechanical;
+    std::vector<std::string> files = two_placement_project(directory, part, part);
+    files.resize(test_support::kViewsPerPlacement);  // the standing round only
+    write_project(directory + "/project.mlp", files);
+    const test_support::TurntableScan& scan = test_support::two_placement_scan(part);
+    const std::vector<cv::Matx44d> truth(scan.true_view_to_model.begin(),
+                                         scan.true_view_to_model.begin() + test_support::kViewsPerPlacement);
+    const TurntableAxis axis = fit_turntable_axis(truth);
+    auto axis_parameters = [](const cv::Vec3d& point, const cv::Vec3d& direction) {
+        auto text = [](const cv::Vec3d& v) { return std::to_string(v[0]) + " " + std::to_string(v[1]) + " " + std::to_string(v[2]); };
+        return align({{"turntableAxisPoint", text(point)}, {"turntableAxisDirection", text(direction)}});
+    };
+    ServerRun run = run_meshlabserver(directory, axis_parameters(axis.point_mm, axis.direction), "-p project.mlp -w aligned.mlp");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_NE(run.log.find("placement 1 by turntable axis (given): 8 of 8 layers aligned"), std::string::npos) << run.log;
+    const std::vector<ProjectLayer> layers = read_project(directory + "/aligned.mlp");
+    ASSERT_EQ(layers.size(), files.size());
+    double worst_rotation = 0, worst_translation = 0;
+    for (size_t i = 0; i < layers.size(); ++i) {
+        const PoseDifference error = pose_difference(truth[i], nearest_rigid(layers[i].transform), scan.centroid(i));
+        worst_rotation = std::max(worst_rotation, error.rotation_deg);
+        worst_translation = std::max(worst_translation, error.translation_mm);
+    }
+    std::printf("known turntable axis in MeshLab: worst pose error of 8 layers %.4f deg, %.4f mm\n", worst_rotation,
+                worst_translation);
+    EXPECT_LT(worst_rotation, 0.05);
+    EXPECT_LT(worst_translation, 0.05);
+
+    const cv::Vec3d across(-axis.direction[1], axis.direction[0], 0);  // square to the axis and the line of sight
+    run = run_meshlabserver(directory, axis_parameters(axis.point_mm, cv::normalize(across)), "-p project.mlp -w never.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    const size_t refused = run.log.find("layers could not be aligned, no transform changed");
+    ASSERT_NE(refused, std::string::npos) << run.log;
+    EXPECT_NE(run.log.find("no turntable step fits the views"), std::string::npos) << run.log;
+    std::printf("wrong axis in MeshLab: %s\n", run.log.substr(refused, run.log.find('\n', refused) - refused).c_str());
+    EXPECT_FALSE(std::filesystem::exists(directory + "/never.mlp"));
 }
 
 // Built to fool it: the second placement is another part (the stepped block on its side). Align

@@ -201,6 +201,21 @@ struct StitchOptions {
     // where it is) and registration.turntable_round then apply to each placement on its own;
     // the placements are aligned to each other by shape (align_placements).
     std::vector<int> placement_of_view;
+    // What a user expects of a turntable scan, painted or plain: features first; a placement
+    // they leave incomplete (a plain part gives no features) is aligned again as one turntable
+    // round (axis estimated), and the way that aligns more of its views is kept. Not with
+    // `turntable`, registration.turntable_round or registration.initial_poses.
+    bool automatic = false;
+};
+
+// One way of aligning one placement's views that stitch_views tried.
+struct StitchAttempt {
+    int placement = 0;       // from 0
+    std::string method;      // "features", "turntable round (axis estimated)", "turntable axis (given)", "initial poses"
+    int aligned_views = 0;   // of the placement's views, aligned within it
+    int views = 0;
+    std::string problem;     // the first view it left out, with the reason; empty when it aligned all
+    bool kept = false;       // its poses are the result
 };
 
 struct StitchResult {
@@ -208,12 +223,15 @@ struct StitchResult {
     PointCloud merged;                     // the aligned views in the model frame
     std::vector<size_t> merged_views;      // indices of the views in `merged`
     std::optional<TurntableAxis> axis;     // the turntable the aligned views turn about, if any
+    std::vector<StitchAttempt> attempts;   // in the order tried, placement by placement
+    std::vector<std::string> method_of_view;  // the method that placed each view; empty when it was left out
 };
 
 // Aligns the views (features -> RANSAC -> ICP -> multi-view refinement; with placements,
 // each placement, then the placements by shape, then every view) and merges those that
 // aligned. Views that did not are left out, never forced in; their reason is in alignment
-// (and a placement's in alignment.placements).
+// (and a placement's in alignment.placements). Throws Error naming the field for bad options
+// (validate).
 StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<std::string>& names,
                           const StitchOptions& options = {}, const ProgressCallback& progress = nullptr);
 
@@ -301,5 +319,6 @@ void validate(const SimulateOptions& options);
 void validate(const CleanScanOptions& options);
 void validate(const PartFrameOptions& options);
 void validate(const PickedFitOptions& options);
+void validate(const StitchOptions& options);
 
 }  // namespace picoscan

@@ -4,6 +4,7 @@
 #include "picoscan/error.h"
 #include "picoscan/multi_camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <cstdio>
@@ -134,33 +135,140 @@ PatternSequence foreign_preset_sequence(const ForeignPresetOptions& options) {
     throw Error("preset", "unknown preset '" + options.preset + "' (" + names + ")");
 }
 
+namespace {
+
+// The placements of a stitch: each view's placement (0, 1, ...) checked, one group per placement.
+std::vector<std::vector<size_t>> placement_groups(const std::vector<std::string>& names, const std::vector<int>& placement_of_view) {
+    std::vector<std::vector<size_t>> groups;
+    if (placement_of_view.empty()) {
+        groups.emplace_back();
+        for (size_t i = 0; i < names.size(); ++i) groups.back().push_back(i);
+        return groups;
+    }
+    if (placement_of_view.size() != names.size())
+        throw Error("placement_of_view", std::to_string(placement_of_view.size()) + " placements given for " +
+                                             std::to_string(names.size()) + " views");
+    for (size_t i = 0; i < names.size(); ++i) {
+        const int placement = placement_of_view[i];
+        if (placement < 0 || placement > static_cast<int>(groups.size()))
+            throw Error("placement_of_view", "view " + names[i] + " has placement " + std::to_string(placement) +
+                                                 "; placements are numbered 0, 1, ... in the order of the views");
+        if (placement == static_cast<int>(groups.size())) groups.emplace_back();
+        groups[static_cast<size_t>(placement)].push_back(i);
+    }
+    return groups;
+}
+
+// How one placement's views are aligned.
+enum class PlacementMethod { Features, Round, GivenAxis, InitialPoses };
+
+std::string method_name(PlacementMethod method) {
+    switch (method) {
+    case PlacementMethod::Features: return "features";
+    case PlacementMethod::Round: return "turntable round (axis estimated)";
+    case PlacementMethod::GivenAxis: return "turntable axis (given)";
+    case PlacementMethod::InitialPoses: return "initial poses";
+    }
+    return "";
+}
+
+// One alignment of all views, each placement by its method (align_views without placements,
+// else align_placements).
+Alignment align_by(const std::vector<ScanView>& views, const std::vector<std::string>& names,
+                   const std::vector<std::vector<size_t>>& groups, const std::vector<PlacementMethod>& methods,
+                   const StitchOptions& options, const ProgressCallback& progress) {
+    if (options.placement_of_view.empty()) {
+        RegistrationOptions registration = options.registration;
+        registration.turntable_round = methods[0] == PlacementMethod::Round;
+        return align_views(views, names, registration,
+                           methods[0] == PlacementMethod::GivenAxis ? options.turntable : std::nullopt, progress);
+    }
+    std::vector<PlacementPlan> plans(groups.size());
+    for (size_t p = 0; p < groups.size(); ++p) {
+        plans[p].views = groups[p];
+        plans[p].turntable_round = methods[p] == PlacementMethod::Round;
+        if (methods[p] == PlacementMethod::GivenAxis) plans[p].turntable = options.turntable;
+    }
+    return align_placements(views, names, plans, options.registration, progress);
+}
+
+// Of a placement's views, those aligned within it, and the first left out with its reason.
+StitchAttempt attempt_of(const Alignment& alignment, const std::vector<size_t>& group, size_t placement,
+                         PlacementMethod method) {
+    StitchAttempt attempt;
+    attempt.placement = static_cast<int>(placement);
+    attempt.method = method_name(method);
+    attempt.views = static_cast<int>(group.size());
+    for (size_t v : group) {
+        const ViewAlignment& view = alignment.views[v];
+        if (view.aligned) ++attempt.aligned_views;
+        // A view of a placement that did not join the others was aligned within it all the same.
+        else if (attempt.problem.empty() && view.problem.rfind("aligned within ", 0) != 0)
+            attempt.problem = view.name + ": " + view.problem;
+    }
+    if (!alignment.placements.empty()) attempt.aligned_views = alignment.placements[placement].aligned_views;
+    return attempt;
+}
+
+}  // namespace
+
 StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<std::string>& names,
                           const StitchOptions& options, const ProgressCallback& progress) {
-    validate(options.registration);
+    validate(options);
     if (views.size() < 2) throw Error("views", "stitching needs at least two views (got " + std::to_string(views.size()) + ")");
+    if (names.size() != views.size()) throw Error("views", "one name per view is needed");
+    const std::vector<std::vector<size_t>> groups = placement_groups(names, options.placement_of_view);
+    const PlacementMethod chosen = options.turntable ? PlacementMethod::GivenAxis
+                                   : options.registration.turntable_round ? PlacementMethod::Round
+                                   : !options.registration.initial_poses.empty() ? PlacementMethod::InitialPoses
+                                                                                   : PlacementMethod::Features;
+    std::vector<PlacementMethod> methods(groups.size(), chosen);
     StitchResult result;
-    if (options.placement_of_view.empty()) {
-        result.alignment = align_views(views, names, options.registration, options.turntable, progress);
-    } else {
-        if (options.placement_of_view.size() != views.size())
-            throw Error("placement_of_view", std::to_string(options.placement_of_view.size()) + " placements given for " +
-                                                 std::to_string(views.size()) + " views");
-        std::vector<PlacementPlan> placements;
-        for (size_t i = 0; i < views.size(); ++i) {
-            const int placement = options.placement_of_view[i];
-            if (placement < 0 || placement > static_cast<int>(placements.size()))
-                throw Error("placement_of_view", "view " + names[i] + " has placement " + std::to_string(placement) +
-                                                     "; placements are numbered 0, 1, ... in the order of the views");
-            if (placement == static_cast<int>(placements.size())) {
-                placements.emplace_back();
-                placements.back().turntable = options.turntable;
-                placements.back().turntable_round = options.registration.turntable_round;
+    // Automatic: features for every placement, then the turntable round for the placements they
+    // left incomplete; progress is split between the two tries.
+    const double first_share = options.automatic ? 0.4 : 1.0;
+    const ProgressCallback first_progress = [&](double fraction, const std::string& stage) {
+        return !progress || progress(first_share * fraction, options.automatic ? "features: " + stage : stage);
+    };
+    result.alignment = align_by(views, names, groups, methods, options, progress ? first_progress : nullptr);
+    for (size_t p = 0; p < groups.size(); ++p) result.attempts.push_back(attempt_of(result.alignment, groups[p], p, methods[p]));
+    if (options.automatic) {
+        std::vector<StitchAttempt> by_features = result.attempts;
+        bool retry = false;
+        for (size_t p = 0; p < groups.size(); ++p)
+            if (by_features[p].aligned_views < by_features[p].views && groups[p].size() >= 3) {
+                methods[p] = PlacementMethod::Round;
+                retry = true;
             }
-            placements[static_cast<size_t>(placement)].views.push_back(i);
+        if (retry) {
+            const ProgressCallback round_progress = [&](double fraction, const std::string& stage) {
+                return !progress || progress(first_share + (1 - first_share) * fraction, "turntable round: " + stage);
+            };
+            Alignment by_round = align_by(views, names, groups, methods, options, progress ? round_progress : nullptr);
+            // Per placement, the way that aligned more of its views; features when they tie.
+            bool mixed = false;
+            for (size_t p = 0; p < groups.size(); ++p) {
+                if (methods[p] != PlacementMethod::Round) continue;
+                result.attempts.push_back(attempt_of(by_round, groups[p], p, PlacementMethod::Round));
+                if (result.attempts.back().aligned_views <= by_features[p].aligned_views) {
+                    methods[p] = PlacementMethod::Features;
+                    mixed = true;
+                }
+            }
+            const bool round_kept = std::any_of(methods.begin(), methods.end(), [](PlacementMethod m) { return m == PlacementMethod::Round; });
+            if (round_kept && mixed)  // some placements by features, others by their round: joined once more
+                by_round = align_by(views, names, groups, methods, options, progress ? round_progress : nullptr);
+            if (round_kept) result.alignment = std::move(by_round);
         }
-        result.alignment = align_placements(views, names, placements, options.registration, progress);
     }
+    for (StitchAttempt& attempt : result.attempts)
+        attempt.kept = attempt.method == method_name(methods[static_cast<size_t>(attempt.placement)]);
+
     std::vector<ScanView> aligned;
+    result.method_of_view.assign(views.size(), "");
+    for (size_t p = 0; p < groups.size(); ++p)
+        for (size_t i : groups[p])
+            if (result.alignment.views[i].aligned) result.method_of_view[i] = method_name(methods[p]);
     for (size_t i = 0; i < views.size(); ++i) {
         if (!result.alignment.views[i].aligned) continue;
         aligned.push_back(views[i]);
@@ -312,6 +420,26 @@ void validate(const CleanScanOptions& options) {
 void validate(const SimulateOptions& options) {
     validate(options.patterns);
     validate(options.camera);
+}
+
+void validate(const StitchOptions& options) {
+    validate(options.registration);
+    if (options.turntable) {
+        const TurntableAxis& axis = *options.turntable;
+        for (int k = 0; k < 3; ++k) {
+            require(std::isfinite(axis.point_mm[k]), "turntable.point_mm", "must be finite");
+            require(std::isfinite(axis.direction[k]), "turntable.direction", "must be finite");
+        }
+        require(cv::norm(axis.direction) > 1e-9, "turntable.direction", "must not be zero");
+        require(axis.step_deg > 0 && axis.step_deg < 360, "turntable.step_deg", "must be above 0 and below 360 degrees");
+        require(!options.registration.turntable_round, "registration.turntable_round",
+                "give either a known turntable axis or a turntable round (axis estimated), not both");
+    }
+    if (options.automatic) {
+        require(!options.turntable && !options.registration.turntable_round && options.registration.initial_poses.empty(),
+                "automatic", "chooses between features and the turntable round itself: give no turntable axis, "
+                             "turntable round or initial poses with it");
+    }
 }
 
 }  // namespace picoscan

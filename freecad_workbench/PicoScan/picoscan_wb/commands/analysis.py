@@ -8,8 +8,8 @@ import FreeCADGui
 
 import picoscan
 
-from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views
-from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch, stitch
+from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views, show_message
+from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
 from picoscan_wb.progress import FreeCADProgress
 
@@ -47,20 +47,25 @@ def selected_placements():
 class StitchCommand(Command):
     icon = "picoscan_stitch"
     menu = "Stitch views"
-    tooltip = ("Register the selected ScanViews into one model and merge their points. For a part scanned in several "
-               "placements, put each placement's ScanViews in a group and select the groups, in order")
+    tooltip = ("Register the selected ScanViews into one model and merge their points; a panel shows the views and "
+               "sets the mode (automatic, features, turntable round, known turntable axis) first. For a part scanned "
+               "in several placements, put each placement's ScanViews in a group and select the groups, in order")
 
     def IsActive(self):
         return len(selected_scan_views()) >= 2 or len(selected_placements()[0]) >= 2
 
-    def run(self):
+    def Activated(self):
+        from picoscan_wb.taskpanels.stitch import StitchTaskPanel
+
         views, placements = selected_placements()
         if views and selected_scan_views():
-            raise picoscan.Error("Stitch views: select either ScanViews (one placement) or groups of ScanViews (one "
-                                 "placement each), not both")
+            show_message("PicoScan: " + self.menu, "Stitch views: select either ScanViews (one placement) or groups of "
+                                                   "ScanViews (one placement each), not both")
+            return
         if not views:
             views, placements = selected_scan_views(), []
-        return stitch.create(views[0].Document, views, placement_of_view=placements)
+        self.panel = StitchTaskPanel(views, placements)  # the open panel, for tests and macros
+        FreeCADGui.Control.showDialog(self.panel)
 
 
 class MeshCommand(Command):

@@ -1,9 +1,11 @@
 """Stitch: ScanViews -> one merged cloud (Points) in the first view's frame. The core's recipe
-stitch_views registers the views (features on the white frames, RANSAC, trimmed point-to-plane
-ICP, then all views refined together) and merges them; views it cannot register are reported,
-not forced in. Views from several placements of the part (standing, then set down on its side)
-are aligned placement by placement, then the placements to each other by shape (the core's
-align_placements); a placement that does not join is named with the reason."""
+stitch_views aligns the views by the Mode: features on the white frames (RANSAC, trimmed
+point-to-plane ICP, then all views refined together), a turntable round with the axis estimated,
+a known turntable axis, or automatic (features, then the turntable round where they fall short).
+Views it cannot align are reported, not forced in. Views from several placements of the part
+(standing, then set down on its side) are aligned placement by placement, then the placements to
+each other by shape (the core's align_placements); a placement that does not join is named with
+the reason."""
 import numpy
 import FreeCAD
 
@@ -14,26 +16,102 @@ from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::Stitch"
 
+# How the views of each placement are aligned (the Mode property); the core's recipe does each.
+MODES = ("Automatic", "Features", "Turntable round", "Turntable axis")
+MODE_TIPS = {
+    "Automatic": "Features first; a placement they leave incomplete (a plain, unpainted part gives no features) "
+                 "is aligned again as one turntable round, and the way that aligns more views is kept",
+    "Features": "Features on the white frames (painted or textured parts), RANSAC, ICP",
+    "Turntable round": "Each placement's views are one full turntable round, in order, in equal steps; the axis is "
+                       "estimated from the views themselves",
+    "Turntable axis": "Each placement's views are turntable steps about a known axis (TurntableAxisPoint, "
+                      "TurntableAxisDirection, TurntableStep), e.g. the one a previous Stitch found",
+}
+
+
 def _parameters(obj):
     # A view's own parameters count too: a changed view makes the merged cloud stale.
-    return (obj.IcpMaxDistance, obj.MinOverlap, tuple(obj.PlacementOfView), obj.TurntableRound) + tuple(
+    return (obj.IcpMaxDistance, obj.MinOverlap, tuple(obj.PlacementOfView), obj.Mode, tuple(obj.TurntableAxisPoint),
+            tuple(obj.TurntableAxisDirection), float(obj.TurntableStep)) + tuple(
         (v.Name,) + scan_view_parameters(v) for v in obj.Views)
 
 
-def _add_placement_properties(obj):
-    """The several-placements properties (also added to Stitches of documents saved before they existed)."""
+def _add_placement_properties(obj, restored=False):
+    """The several-placements and mode properties (also added to Stitches of documents saved before
+    they existed; those keep the way they were computed: TurntableRound becomes the Mode)."""
     if not hasattr(obj, "PlacementOfView"):
         obj.addProperty("App::PropertyIntegerList", "PlacementOfView", "Stitch",
                         "How the part lay for each view in Views (the scan's placements, not FreeCAD's Placement): "
                         "1 for the views of the first placement (e.g. standing), 2 for those taken after the part was "
                         "set down again (e.g. on its side), ... Empty: all views are one placement")
-    if not hasattr(obj, "TurntableRound"):
-        obj.addProperty("App::PropertyBool", "TurntableRound", "Registration",
-                        "The views of each placement are one full turntable round, in order, in equal steps; the axis "
-                        "is found from the views themselves (plain, unpainted parts need this)")
+    if not hasattr(obj, "Mode"):
+        obj.addProperty("App::PropertyEnumeration", "Mode", "Registration",
+                        "How each placement's views are aligned: " + "; ".join(
+                            "%s: %s" % (mode, tip) for mode, tip in MODE_TIPS.items()))
+        obj.Mode = list(MODES)
+        obj.Mode = "Features" if restored else "Automatic"
+    if hasattr(obj, "TurntableRound"):  # documents saved before Mode existed
+        obj.Mode = "Turntable round" if obj.TurntableRound else "Features"
+        obj.removeProperty("TurntableRound")
+    if not hasattr(obj, "TurntableAxisPoint"):
+        obj.addProperty("App::PropertyVectorDistance", "TurntableAxisPoint", "Registration",
+                        "Mode 'Turntable axis': a point on the turntable's axis, in the first view's camera frame "
+                        "(as a Stitch's AlignmentReport or 'picoscan stitch' gives it)")
+        obj.addProperty("App::PropertyVector", "TurntableAxisDirection", "Registration",
+                        "Mode 'Turntable axis': the axis direction (any length); the part turns right-handed about it "
+                        "from one view to the next")
+        obj.addProperty("App::PropertyAngle", "TurntableStep", "Registration",
+                        "Mode 'Turntable axis': the turn between views; 0: one full round (360 degrees / the views "
+                        "of a placement)")
     if not hasattr(obj, "PlacementReport"):
         obj.addProperty("App::PropertyStringList", "PlacementReport", "Result",
                         "Per placement: how it joined the model, or why it was left out", 1)
+    if not hasattr(obj, "AlignmentReport"):
+        obj.addProperty("App::PropertyStringList", "AlignmentReport", "Result",
+                        "Per placement, each way tried (features, turntable round, turntable axis): the views it "
+                        "aligned, the first it left out and why, and which was kept; the turntable axis found", 1)
+
+
+def _turntable_axis(obj, groups):
+    """Mode 'Turntable axis': the core's TurntableAxis from the properties, checked."""
+    direction = obj.TurntableAxisDirection
+    if direction.Length < 1e-9:
+        raise picoscan.Error("%s: TurntableAxisDirection must not be zero for Mode 'Turntable axis'" % obj.Label)
+    step = float(getattr(obj.TurntableStep, "Value", obj.TurntableStep))
+    if step == 0:
+        sizes = set(len(group) for group in groups)
+        if len(sizes) > 1:
+            raise picoscan.Error("%s: TurntableStep: give the step between views: the placements have different "
+                                 "numbers of views" % obj.Label)
+        step = 360.0 / sizes.pop()
+    if not 0 < step < 360:
+        raise picoscan.Error("%s: TurntableStep must be above 0 and below 360 degrees (0: one full round)" % obj.Label)
+    axis = picoscan.TurntableAxis()
+    point = obj.TurntableAxisPoint
+    axis.point_mm = (point.x, point.y, point.z)
+    unit = FreeCAD.Vector(direction).normalize()
+    axis.direction = (unit.x, unit.y, unit.z)
+    axis.step_deg = step
+    return axis
+
+
+def _attempt_lines(attempts, several, outcome=True):
+    """One line per way tried: what it aligned, the first view it left out and why, and (outcome)
+    whether it was kept."""
+    lines = []
+    for attempt in attempts:
+        where = "placement %d: " % (attempt.placement + 1) if several else ""
+        line = "%s%s aligned %d of %d views" % (where, attempt.method, attempt.aligned_views, attempt.views)
+        if attempt.problem:
+            line += " (first left out: %s)" % attempt.problem
+        lines.append(line + (("; kept" if attempt.kept else "; not kept") if outcome else ""))
+    return lines
+
+
+def _axis_line(axis):
+    return ("turntable axis found: point (%.4f, %.4f, %.4f) mm, direction (%.6f, %.6f, %.6f), step %.3f deg "
+            "(Mode 'Turntable axis' with these for the next scan on this rig)" % (
+                tuple(axis.point_mm) + tuple(axis.direction) + (axis.step_deg,)))
 
 
 def _placement_of_view(obj, sources):
@@ -93,7 +171,7 @@ class Stitch(DocumentObjectProxy):
 
     def onDocumentRestored(self, obj):
         super().onDocumentRestored(obj)
-        _add_placement_properties(obj)
+        _add_placement_properties(obj, restored=True)
 
     @brief_input_errors
     def execute(self, obj):
@@ -105,38 +183,46 @@ class Stitch(DocumentObjectProxy):
         sources = list(obj.Views)
         if len(sources) < 2 or not all(is_scan_view(v) for v in sources):
             raise picoscan.Error("%s: Views must hold two or more ScanViews" % obj.Label)
-        views = [source.Proxy.scan_view(source)[0] for source in sources]
         options = picoscan.StitchOptions()
         registration = options.registration
         registration.icp_max_distance_mm = millimetres(obj.IcpMaxDistance)
         registration.min_overlap = obj.MinOverlap
-        registration.turntable_round = obj.TurntableRound
+        registration.turntable_round = obj.Mode == "Turntable round"
         options.registration = registration
         options.placement_of_view = _placement_of_view(obj, sources)
+        options.automatic = obj.Mode == "Automatic"
+        if obj.Mode == "Turntable axis":
+            numbers = list(options.placement_of_view) or [0] * len(sources)
+            options.turntable = _turntable_axis(obj, [[n for n in numbers if n == p] for p in sorted(set(numbers))])
+        views = [source.Proxy.scan_view(source)[0] for source in sources]
         names = [v.Label for v in sources]
         stitched = run_in_background("Stitching " + obj.Label,
                                      lambda progress: picoscan.stitch_views(views, names, options, progress))
         alignment = stitched.alignment
         several = bool(options.placement_of_view)
         report = []
-        for source, result in zip(sources, alignment.views):
+        for source, result, method in zip(sources, alignment.views, stitched.method_of_view):
             where = "placement %d, " % (result.placement + 1) if several else ""
-            report.append("%s: %soverlap %.2f, rms %.3f mm" % (source.Label, where, result.overlap, result.rms_mm)
+            report.append("%s: %s%s, overlap %.2f, rms %.3f mm" % (source.Label, where, method, result.overlap, result.rms_mm)
                           if result.aligned else "%s: %sleft out: %s" % (source.Label, where, result.problem))
         placement_report = _placement_lines(alignment.placements)
         if alignment.aligned_count() < 2:
-            raise picoscan.Error("%s: fewer than two views could be registered (%s)" % (obj.Label, "; ".join(
-                placement_report + report)))
+            raise picoscan.Error("%s: fewer than two views could be aligned: %s" % (obj.Label, "; ".join(
+                _attempt_lines(stitched.attempts, several, outcome=False) +
+                [line for line in placement_report if "NOT aligned" in line])))
+        attempts = _attempt_lines(stitched.attempts, several)
         for placement in alignment.placements:  # a placement left out leaves the model incomplete: say so
             if not placement.aligned:
                 FreeCAD.Console.PrintWarning("%s: %s NOT aligned, its views are left out: %s\n" % (
                     obj.Label, placement.name, placement.problem))
         cloud = stitched.merged
-        self.turntable = stitched.axis  # the axis the views turned about, if they did: the part frame's Z
+        # The axis the views turned about (found, or given): the part frame's Z.
+        self.turntable = stitched.axis or options.turntable
         self.cached = (_parameters(obj), cloud)  # on the proxy: goes with the object; not saved (see scan_view)
         obj.ViewPoses = [_placement(result.pose) for result in alignment.views]
         obj.Report = report
         obj.PlacementReport = placement_report
+        obj.AlignmentReport = attempts + ([_axis_line(stitched.axis)] if stitched.axis else [])
         obj.AlignedCount = alignment.aligned_count()
         obj.Points = points_of(cloud, obj.Placement)
         obj.PointCount = len(cloud)
@@ -150,19 +236,28 @@ class Stitch(DocumentObjectProxy):
         return cached[1]
 
 
-def create(doc, views, name="Stitch", part_frame=True, placement_of_view=(), turntable_round=False):
-    """Stitches the views; the result lands in its part frame (Z up on the turntable's axis or
-    its base plane) unless part_frame is False or none is found (then view 0's camera frame).
-    placement_of_view: for views from several placements of the part, each view's placement
-    (1, 2, ...); turntable_round: each placement's views are one turntable round."""
+def create(doc, views, name="Stitch", part_frame=True, placement_of_view=(), mode="Automatic", axis_point=None,
+           axis_direction=None, step_deg=0.0):
+    """Stitches the views (what the Stitch views task panel runs); the result lands in its part frame
+    (Z up on the turntable's axis or its base plane) unless part_frame is False or none is found (then
+    view 0's camera frame). placement_of_view: for views from several placements of the part, each
+    view's placement (1, 2, ...). mode: one of MODES; "Turntable axis" takes axis_point (mm) and
+    axis_direction in the first view's camera frame, and step_deg (0: one full round)."""
     if len(views) < 2 or not all(is_scan_view(v) for v in views):
         raise picoscan.Error("Stitch views: select two or more ScanViews")
+    if mode not in MODES:
+        raise picoscan.Error("Stitch views: mode must be one of %s, not %r" % (", ".join(MODES), mode))
 
     def setup(obj):
         Stitch(obj)
         obj.Views = list(views)
         obj.PlacementOfView = list(placement_of_view)
-        obj.TurntableRound = turntable_round
+        obj.Mode = mode
+        if axis_point is not None:
+            obj.TurntableAxisPoint = FreeCAD.Vector(*axis_point)
+        if axis_direction is not None:
+            obj.TurntableAxisDirection = FreeCAD.Vector(*axis_direction)
+        obj.TurntableStep = step_deg
         if FreeCAD.GuiUp:
             from picoscan_wb.viewproviders.view_provider import ViewProvider
             ViewProvider(obj.ViewObject, "picoscan_stitch")

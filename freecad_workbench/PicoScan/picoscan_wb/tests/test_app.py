@@ -586,6 +586,11 @@ class PicoScanStitchTest(unittest.TestCase):
         path = os.path.join(self.folder, "stitched.FCStd")
         count, name = merged.PointCount, merged.Name
         poses = [p.toMatrix() for p in merged.ViewPoses]
+        self.assertEqual(merged.AlignmentReport[0], "features aligned 3 of 3 views; kept")  # Automatic, the default
+        # Saved as a document from before Mode existed (a TurntableRound property instead).
+        merged.removeProperty("Mode")
+        merged.addProperty("App::PropertyBool", "TurntableRound", "Registration", "")
+        merged.TurntableRound = True
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
         # The capture folders are gone when the document is reopened: it stitches from the views kept in it.
@@ -595,6 +600,9 @@ class PicoScanStitchTest(unittest.TestCase):
             self.doc = FreeCAD.openDocument(path)
             merged = self.doc.getObject(name)
             self.assertEqual(merged.Points.CountPoints, count)
+            self.assertEqual(merged.Mode, "Turntable round")  # the old property became the mode
+            self.assertFalse(hasattr(merged, "TurntableRound"))
+            merged.Mode = "Automatic"  # three views 45 degrees apart are not a full round
             for view in merged.Views:
                 view.touch()
             merged.touch()
@@ -639,7 +647,7 @@ class PicoScanPlacementsTest(unittest.TestCase):
         shape = picoscan.MechanicalPartShape()
         shape.length_mm, shape.width_mm, shape.height_mm, shape.chamfer_mm = 56, 30, 28, 0
         shape.hole_centre_mm, shape.boss_centre_mm = (14, 4), (-12, 0)
-        cls.other, _ = simulate.simulate_placements(os.path.join(cls.folder, "other"), plain_part(shape),
+        cls.other, cls.other_truth = simulate.simulate_placements(os.path.join(cls.folder, "other"), plain_part(shape),
                                                     cls.PLACEMENTS[1:], part_albedo=0.6)
 
     @classmethod
@@ -661,25 +669,71 @@ class PicoScanPlacementsTest(unittest.TestCase):
         self.doc.recompute()
         return views
 
+    @staticmethod
+    def pose_errors(views, poses, truths):
+        """Worst rotation and shift of view poses (FreeCAD placements) against the truth, at each view's points."""
+        worst = (0.0, 0.0)
+        for view, placement, truth in zip(views, poses, truths):
+            pose = numpy.array(placement.toMatrix().A).reshape(4, 4)
+            error = picoscan.pose_difference(pose, truth, numpy.asarray(cloud_of(view).points).mean(axis=0))
+            worst = (max(worst[0], error.rotation_deg), max(worst[1], error.translation_mm))
+        return worst
+
     def test_two_placements_align_on_the_truth_and_a_wrong_placement_is_named(self):
+        """Also the Stitch views command's path (stitch.create with the task panel's modes) on single
+        rounds, sharing the views: the grey part's standing round with its true axis given as a known
+        axis, then with an axis across the part (refused: one line, document unchanged); and the other
+        part's round in Automatic mode (the panel's default)."""
         views = self.scan_views(self.scans)
         placements = [number for _, _, number in self.scans]
-        merged = stitch.create(self.doc, views, placement_of_view=placements, turntable_round=True)
+        merged = stitch.create(self.doc, views, placement_of_view=placements, mode="Turntable round")
         self.assertTrue(merged.isValid(), merged.getStatusString())
         FreeCAD.Console.PrintMessage("two placements: %s\n" % "; ".join(merged.PlacementReport))
         self.assertEqual(merged.AlignedCount, 16, merged.Report)
         self.assertEqual(len(merged.PlacementReport), 2)
         self.assertTrue(merged.PlacementReport[1].startswith("placement 2: aligned to the others"), merged.PlacementReport)
         self.assertEqual(merged.PointCount, sum(v.PointCount for v in views))
-        worst = (0.0, 0.0)
-        for view, placement, truth in zip(views, merged.ViewPoses, self.truth):
-            pose = numpy.array(placement.toMatrix().A).reshape(4, 4)
-            centroid = numpy.asarray(cloud_of(view).points).mean(axis=0)  # pose errors where the view's points are
-            error = picoscan.pose_difference(pose, truth, centroid)
-            worst = (max(worst[0], error.rotation_deg), max(worst[1], error.translation_mm))
+        worst = self.pose_errors(views, merged.ViewPoses, self.truth)
         FreeCAD.Console.PrintMessage("two placements: worst pose error of 16 views %.4f deg, %.4f mm\n" % worst)
         self.assertLess(worst[0], 0.05)
         self.assertLess(worst[1], 0.05)
+
+        # A known turntable axis (as calibrated: here the truth's, in view 0's camera frame).
+        started = time.monotonic()
+        standing = views[:8]
+        axis = picoscan.fit_turntable_axis(self.truth[:8])
+        known = stitch.create(self.doc, standing, mode="Turntable axis", axis_point=tuple(axis.point_mm),
+                              axis_direction=tuple(axis.direction))
+        self.assertEqual(known.AlignedCount, 8, known.Report)
+        self.assertEqual(list(known.AlignmentReport), ["turntable axis (given) aligned 8 of 8 views; kept"])
+        self.assertEqual(known.getTypeIdOfProperty("TurntableAxisPoint"), "App::PropertyVectorDistance")  # in mm
+        for line in known.Report:
+            self.assertIn(": turntable axis (given), overlap", line)
+        worst = self.pose_errors(standing, known.ViewPoses, self.truth)
+        FreeCAD.Console.PrintMessage("known turntable axis: worst pose error of 8 views %.4f deg, %.4f mm\n" % worst)
+        self.assertLess(worst[0], 0.05)
+        self.assertLess(worst[1], 0.05)
+        self.assertIn("turntable axis", known.PartFrame)
+        # The same axis laid across the part (square to it and to the camera's line of sight): refused.
+        names = [o.Name for o in self.doc.Objects]
+        direction = numpy.asarray(axis.direction)
+        across = (-direction[1], direction[0], 0.0)
+        with self.assertRaisesRegex(picoscan.Error, r"fewer than two views could be aligned: turntable axis \(given\) "
+                                                    r"aligned 1 of 8 views \(first left out: .*no turntable step fits") as refused:
+            stitch.create(self.doc, standing, mode="Turntable axis", axis_point=tuple(axis.point_mm), axis_direction=across)
+        FreeCAD.Console.PrintMessage("axis across the part: %s\n" % refused.exception)
+        self.assertNotIn("\n", str(refused.exception))
+        with self.assertRaisesRegex(picoscan.Error, "TurntableAxisDirection must not be zero"):
+            stitch.create(self.doc, standing, mode="Turntable axis", axis_point=tuple(axis.point_mm))
+        # Placement numbers that do not match the views (refused before any work; these views are shared
+        # to save reconstructing two more).
+        with self.assertRaisesRegex(picoscan.Error, "PlacementOfView has 3 entries for 2 views"):
+            stitch.create(self.doc, standing[:2], placement_of_view=[1, 2, 2])
+        with self.assertRaisesRegex(picoscan.Error, "PlacementOfView: .* has placement 3; number the placements 1, 2"):
+            stitch.create(self.doc, standing[:2], placement_of_view=[1, 3])
+        self.assertEqual([o.Name for o in self.doc.Objects], names)
+        self.doc.removeObject(known.Name)
+        known_seconds = time.monotonic() - started
 
         # Parametric: the second placement's views replaced by another part's; recompute refuses that
         # placement, names it with the reason and keeps the first placement's model.
@@ -694,14 +748,24 @@ class PicoScanPlacementsTest(unittest.TestCase):
         for line in merged.Report[8:]:
             self.assertIn("left out: aligned within placement 2, but that placement did not align", line)
 
-    def test_placement_numbers_must_match_the_views(self):
-        views = self.scan_views(self.scans[:2])
-        names = [o.Name for o in self.doc.Objects]
-        with self.assertRaisesRegex(picoscan.Error, "PlacementOfView has 3 entries for 2 views"):
-            stitch.create(self.doc, views, placement_of_view=[1, 2, 2])
-        with self.assertRaisesRegex(picoscan.Error, "PlacementOfView: .* has placement 3; number the placements 1, 2"):
-            stitch.create(self.doc, views, placement_of_view=[1, 3])
-        self.assertEqual([o.Name for o in self.doc.Objects], names)
+        # Automatic, the panel's default, on the other part's round (a plain block on its side).
+        started = time.monotonic()
+        automatic = stitch.create(self.doc, others)
+        FreeCAD.Console.PrintMessage("automatic stitch of the other part's round: %s\n" % " | ".join(automatic.AlignmentReport))
+        self.assertEqual(automatic.Mode, "Automatic")
+        self.assertEqual(automatic.AlignedCount, 8, automatic.Report)
+        # Its flat faces let feature fits slide (3 of 8 views aligned by features in our runs): the round takes over.
+        self.assertRegex(automatic.AlignmentReport[0], r"^features aligned [0-7] of 8 views \(first left out: .+\); not kept$")
+        self.assertEqual(automatic.AlignmentReport[1], "turntable round (axis estimated) aligned 8 of 8 views; kept")
+        self.assertTrue(automatic.AlignmentReport[2].startswith("turntable axis found: point ("), automatic.AlignmentReport)
+        for line in automatic.Report:
+            self.assertIn(": turntable round (axis estimated), overlap", line)
+        worst = self.pose_errors(others, automatic.ViewPoses, self.other_truth)
+        FreeCAD.Console.PrintMessage("automatic: worst pose error of 8 views %.4f deg, %.4f mm\n" % worst)
+        self.assertLess(worst[0], 0.05)
+        self.assertLess(worst[1], 0.05)
+        FreeCAD.Console.PrintMessage("stitch mode checks took %.1f s (known and wrong axis) and %.1f s (automatic)\n" % (
+            known_seconds, time.monotonic() - started))
 
 
 class PicoScanSectionFitTest(unittest.TestCase):

@@ -392,6 +392,52 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertLess(angle, 0.5)
         self.assertLess(offset, 0.1)
 
+    def test_h2_stitch_panel_shows_the_views_sets_the_mode_and_adds_the_stitch(self):
+        """Two half-resolution turntable views of the speckled part, 45 degrees apart: the Stitch views
+        panel lists them, a known axis without a direction is refused (message, panel open, document
+        unchanged), then Features aligns both off the GUI thread and the Stitch appears, one undo step."""
+        scans, truth = simulate.simulate_turntable(os.path.join(self.folder, "stitch"), (0, 1), camera_scale=0.5)
+        views = [scan_view.create(self.doc, folder, calibration, clean=True) for folder, calibration in scans]
+        for view in views:
+            view.MinModulation = 15  # the part is bright: reject its dim, grazing edges (as the headless stitch test)
+        self.doc.recompute()
+        for view in views:
+            FreeCADGui.Selection.addSelection(view)
+        FreeCADGui.runCommand("PicoScan_Stitch")
+        process_events()
+        panel = COMMANDS["PicoScan_Stitch"].panel
+        self.assertTrue(FreeCADGui.Control.activeDialog())
+        self.assertEqual(panel.found.text(), "Placement 1 (2 views): %s, %s" % (views[0].Label, views[1].Label))
+        self.assertEqual(panel.mode.currentText(), "Automatic")
+        self.assertFalse(panel.direction[0].isEnabled())  # the axis is for the known-axis mode only
+        panel.mode.setCurrentText("Turntable axis")
+        self.assertTrue(panel.direction[0].isEnabled())
+        self.assertEqual(panel.point[0].suffix(), " mm")
+        before, undo_before = self.object_names(), self.doc.UndoCount
+        self.assertFalse(panel.accept())
+        self.assertIn("TurntableAxisDirection must not be zero", self.messages[-1][2])
+        self.assertEqual(self.object_names(), before)
+        self.assertEqual(self.doc.UndoCount, undo_before)
+        self.assertTrue(FreeCADGui.Control.activeDialog())
+        self.messages.clear()
+        panel.mode.setCurrentText("Features")
+        self.assertTrue(panel.accept(), self.messages)
+        process_events()
+        made = panel.created
+        self.assertEqual(made.Mode, "Features")
+        self.assertEqual(made.AlignedCount, 2, made.Report)
+        self.assertEqual(list(made.AlignmentReport), ["features aligned 2 of 2 views; kept"])
+        error = picoscan.pose_difference(numpy.array(made.ViewPoses[1].toMatrix().A).reshape(4, 4), truth[1],
+                                         numpy.array([0.0, 0.0, 400.0]))
+        FreeCAD.Console.PrintMessage("Stitch panel (features, 2 half-resolution views): pose error %.4f deg, %.4f mm\n" % (
+            error.rotation_deg, error.translation_mm))
+        self.assertLess(error.rotation_deg, 0.1)
+        self.assertLess(error.translation_mm, 0.1)
+        self.assertFalse(FreeCADGui.Control.activeDialog())
+        name = made.Name
+        self.doc.undo()  # one step
+        self.assertIsNone(self.doc.getObject(name))
+
     @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
     def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
         calibration = os.path.join(self.folder, "seed_rig.yml")
