@@ -154,14 +154,14 @@ struct ReportingVisitor {
 
 // CGAL's Delaunay refinement of the Poisson triangulation offers no hook, but it asks the
 // geometric traits for the circumradius of every cell it tests. The traits below count those
-// requests (and the input points inserted again between refinements) and report every few
-// thousand, so that the refinement shows progress and can be cancelled.
+// requests (and the input points inserted again between refinements) and report every 4096,
+// so that the refinement shows progress and can be cancelled.
 struct RefinementReport {
     const StageReport* report = nullptr;
     size_t points = 1;  // the input, to scale the progress (about 10 cell tests per point)
     size_t steps = 0;
     void step() {
-        if (++steps % 8192 != 0) return;
+        if (++steps % 4096 != 0) return;
         const double work = double(steps) / double(10 * points);
         (*report)(0.03 + 0.09 * work / (1 + work), "Poisson: refining the triangulation");
     }
@@ -203,7 +203,7 @@ public:
         : CGAL::Eigen_sparse_symmetric_matrix<double>(dimension), rows_(std::max(dimension, 1)) {}
     void set_coef(std::size_t i, std::size_t j, double value, bool new_coef = false) {
         CGAL::Eigen_sparse_symmetric_matrix<double>::set_coef(i, j, value, new_coef);
-        if (i == j && ++rows_done_ % 8192 == 0 && refinement_report)
+        if (i == j && ++rows_done_ % 1024 == 0 && refinement_report)
             (*refinement_report->report)(0.12 + 0.03 * double(rows_done_) / double(rows_), "Poisson: assembling the system");
     }
 
