@@ -277,8 +277,8 @@ void sharpen(Mesh& mesh, const std::vector<detail::PointWithNormal>& points, dou
     if (std::getenv("PICOSCAN_SHARPEN_OFF")) return;
     const detail::SharpenReport r = detail::sharpen_edges(mesh, points, spacing);
     if (std::getenv("PICOSCAN_SHARPEN_DEBUG"))
-        std::fprintf(stderr, "sharpen: %zu planes, %zu edge vertices, %zu cut edges, %zu corners, %zu reverted\n", r.planes,
-                     r.edge_vertices, r.cut_edges, r.corners, r.reverted);
+        std::fprintf(stderr, "sharpen: %zu planes, %zu edge vertices, %zu cut edges, %zu corners, %zu hole, %zu reverted\n", r.planes,
+                     r.edge_vertices, r.cut_edges, r.corners, r.hole_vertices, r.reverted);
 }
 
 // Each vertex takes the white-frame colour of the nearest input point; vertices far from

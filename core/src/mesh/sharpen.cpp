@@ -21,11 +21,32 @@ namespace picoscan::detail {
 
 namespace {
 
+// A plane, or a cylinder (a hole's wall, a boss).
 struct Plane {
-    cv::Vec3d normal;  // unit, outwards (as the points' normals)
-    double offset = 0; // normal . x on the plane
-    double distance(const cv::Vec3d& x) const { return normal.dot(x) - offset; }
-    cv::Vec3d project(const cv::Vec3d& x) const { return x - distance(x) * normal; }
+    bool cylinder = false;
+    cv::Vec3d normal;   // plane: unit, outwards (as the points' normals)
+    double offset = 0;  // plane: normal . x on it
+    cv::Vec3d axis, centre;  // cylinder: unit axis, a point on it
+    double radius = 0;
+    int outwards = 1;        // cylinder: +1 when the outside is away from the axis (a boss), -1 (a hole)
+    double low = 0, high = 0;  // cylinder: the extent of its points along the axis
+    cv::Vec3d radial(const cv::Vec3d& x) const {
+        cv::Vec3d r = x - centre;
+        r -= axis * axis.dot(r);
+        const double length = cv::norm(r);
+        return length > 1e-12 ? r * (1.0 / length) : cv::Vec3d(0, 0, 0);
+    }
+    double distance(const cv::Vec3d& x) const {
+        if (!cylinder) return normal.dot(x) - offset;
+        cv::Vec3d r = x - centre;
+        r -= axis * axis.dot(r);
+        return outwards * (cv::norm(r) - radius);
+    }
+    cv::Vec3d project(const cv::Vec3d& x) const {
+        if (!cylinder) return x - distance(x) * normal;
+        return centre + axis * axis.dot(x - centre) + radius * radial(x);
+    }
+    cv::Vec3d normal_at(const cv::Vec3d& x) const { return cylinder ? outwards * radial(x) : normal; }
 };
 
 double degrees_between(const cv::Vec3d& a, const cv::Vec3d& b) {
@@ -69,6 +90,146 @@ struct Regions {
     std::vector<int> label;  // per point: plane index or -1
     double tolerance = 0;    // mm: a point within this of a plane lies on it
 };
+
+// A cylinder through points: its axis across the normals (they are all square to it), then a
+// circle fitted in the plane across the axis (Kasa's algebraic fit). False when the points are
+// not on one (normals not square to one direction, or too far from the circle).
+bool fit_cylinder(const std::vector<cv::Vec3d>& positions, const std::vector<cv::Vec3d>& normals,
+                  const std::vector<int>& members, double tolerance, Plane& out) {
+    cv::Matx33d spread = cv::Matx33d::zeros();
+    for (int i : members) spread += normals[i] * normals[i].t();
+    cv::Matx31d values;
+    cv::Matx33d vectors;
+    cv::eigen(spread * (1.0 / double(members.size())), values, vectors);
+    // Square to the axis: the smallest spread is nearly none; round it: the normals turn a good
+    // way (a strip of a plane is not a cylinder).
+    if (std::getenv("PICOSCAN_SHARPEN_DEBUG")) std::fprintf(stderr, "normal spread %.4f %.4f %.4f\n", values(0), values(1), values(2));
+    if (values(2) > 0.02 || values(1) < 0.05) return false;
+    const cv::Vec3d axis = cv::normalize(cv::Vec3d(vectors(2, 0), vectors(2, 1), vectors(2, 2)));
+    const cv::Vec3d u = cv::normalize(axis.cross(std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
+    const cv::Vec3d w = axis.cross(u);
+    cv::Matx33d normal_matrix = cv::Matx33d::zeros();
+    cv::Vec3d rhs(0, 0, 0);
+    const cv::Vec3d origin = positions[members[0]];
+    for (int i : members) {
+        const cv::Vec3d d = positions[i] - origin;
+        const double x = d.dot(u), y = d.dot(w);
+        const cv::Vec3d row(x, y, 1);
+        normal_matrix += row * row.t();
+        rhs += row * (-(x * x + y * y));
+    }
+    if (std::abs(cv::determinant(normal_matrix)) < 1e-12) return false;
+    const cv::Vec3d solution = normal_matrix.solve(rhs, cv::DECOMP_LU);
+    const double cx = -solution[0] / 2, cy = -solution[1] / 2, r2 = cx * cx + cy * cy - solution[2];
+    if (!(r2 > 0)) return false;
+    out = Plane{};
+    out.cylinder = true;
+    out.axis = axis;
+    out.centre = origin + cx * u + cy * w;
+    out.radius = std::sqrt(r2);
+    out.outwards = 1;
+    double facing = 0;
+    size_t near = 0;
+    // Kasa's fit is biased by noise on a partly seen wall: refined by Gauss-Newton on the
+    // distances from the cylinder (its axis tilted, moved and its radius), over the points near it.
+    for (int iteration = 0; iteration < 8; ++iteration) {
+        const cv::Vec3d a = out.axis;
+        const cv::Vec3d e1 = cv::normalize(a.cross(std::abs(a[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
+        const cv::Vec3d e2 = a.cross(e1);
+        auto moved = [&](const cv::Vec<double, 5>& d) {
+            Plane c = out;
+            c.axis = cv::normalize(a + d[0] * e1 + d[1] * e2);
+            c.centre = out.centre + d[2] * e1 + d[3] * e2;
+            c.radius = out.radius + d[4];
+            return c;
+        };
+        cv::Matx<double, 5, 5> jtj = cv::Matx<double, 5, 5>::zeros();
+        cv::Vec<double, 5> jtr(0, 0, 0, 0, 0);
+        const double step = 1e-6;
+        for (int i : members) {
+            const double r = out.outwards * out.distance(positions[i]);  // outwards is 1 here
+            if (std::abs(r) > 3 * tolerance) continue;
+            cv::Vec<double, 5> row;
+            for (int k = 0; k < 5; ++k) {
+                cv::Vec<double, 5> d(0, 0, 0, 0, 0);
+                d[k] = step;
+                row[k] = (moved(d).distance(positions[i]) - r) / step;
+            }
+            jtj += row * row.t();
+            jtr += row * r;
+        }
+        if (std::abs(cv::determinant(jtj)) < 1e-30) break;
+        const cv::Vec<double, 5> delta = jtj.solve(-jtr, cv::DECOMP_LU);
+        out = moved(delta);
+    }
+    out.low = 1e30;
+    out.high = -1e30;
+    for (int i : members) {
+        facing += normals[i].dot(out.radial(positions[i]));
+        out.outwards = 1;
+        if (std::abs(out.distance(positions[i])) < 2 * tolerance) ++near;
+        const double along = axis.dot(positions[i] - out.centre);
+        out.low = std::min(out.low, along);
+        out.high = std::max(out.high, along);
+    }
+    out.outwards = facing >= 0 ? 1 : -1;
+    if (std::getenv("PICOSCAN_SHARPEN_DEBUG")) std::fprintf(stderr, "on the cylinder: %zu of %zu\n", near, members.size());
+    // Most of the points within twice the tolerance (a wall seen at a grazing angle is noisier
+    // than a face seen square on).
+    return double(near) >= 0.8 * double(members.size());
+}
+
+// Curved walls: the points no plane took, grown into smooth regions (neighbours' normals within
+// a few degrees of each other), each kept when it is a cylinder; then, as for the planes, the
+// points beside it that lie on it join.
+void add_cylinders(const std::vector<cv::Vec3d>& positions, const std::vector<cv::Vec3d>& normals, const PointGrid& grid,
+                   double radius, Regions& regions) {
+    const size_t n = positions.size();
+    const double smooth = std::cos(10.0 * CV_PI / 180.0);
+    std::vector<int> region(n, -1), near, members;
+    for (size_t seed = 0; seed < n; ++seed) {
+        if (regions.label[seed] >= 0 || region[seed] >= 0) continue;
+        members.clear();
+        std::deque<int> queue{static_cast<int>(seed)};
+        region[seed] = static_cast<int>(seed);
+        while (!queue.empty()) {
+            const int i = queue.front();
+            queue.pop_front();
+            members.push_back(i);
+            grid.within(positions[i], radius, near);
+            for (int k : near) {
+                if (regions.label[k] >= 0 || region[k] >= 0 || normals[k].dot(normals[i]) < smooth) continue;
+                region[k] = static_cast<int>(seed);
+                queue.push_back(k);
+            }
+        }
+        if (members.size() < 3 * kLeastRegionPoints) continue;
+        Plane cylinder;
+        const bool fits = fit_cylinder(positions, normals, members, regions.tolerance, cylinder);
+        if (std::getenv("PICOSCAN_SHARPEN_DEBUG"))
+            std::fprintf(stderr, "curved region of %zu points: cylinder %d, radius %.3f, along %.2f..%.2f\n", members.size(), fits,
+                         cylinder.radius, cylinder.low, cylinder.high);
+        if (!fits) continue;
+        const int id = static_cast<int>(regions.planes.size());
+        regions.planes.push_back(cylinder);
+        std::deque<int> grow;
+        for (int k : members)
+            if (std::abs(cylinder.distance(positions[k])) < regions.tolerance) {
+                regions.label[k] = id;
+                grow.push_back(k);
+            }
+        while (!grow.empty()) {
+            const int i = grow.front();
+            grow.pop_front();
+            grid.within(positions[i], radius, near);
+            for (int k : near) {
+                if (regions.label[k] >= 0 || std::abs(cylinder.distance(positions[k])) > regions.tolerance) continue;
+                regions.label[k] = id;
+                grow.push_back(k);
+            }
+        }
+    }
+}
 
 // Region growing over the points: from the flattest points outwards, a neighbour joins when its
 // normal is within kGrowNormalDeg of the region's and it lies within the tolerance of the
@@ -173,6 +334,7 @@ Regions find_planes(const std::vector<cv::Vec3d>& positions, const std::vector<c
             queue.push_back(k);
         }
     }
+    add_cylinders(positions, normals, grid, radius, regions);
     if (std::getenv("PICOSCAN_SHARPEN_DEBUG")) {
         std::array<int, 8> hist{};
         for (size_t i = 0; i < n; ++i) {
@@ -193,19 +355,30 @@ Regions find_planes(const std::vector<cv::Vec3d>& positions, const std::vector<c
     return regions;
 }
 
-// The point on the line where planes a and b meet nearest to x; false when they are nearly parallel.
+// The point on the line (or curve) where surfaces a and b meet nearest to x; false when they
+// are nearly parallel there.
 bool onto_line(const Plane& a, const Plane& b, const cv::Vec3d& x, cv::Vec3d& out) {
-    cv::Vec3d direction = a.normal.cross(b.normal);
-    if (cv::norm(direction) < 0.2) return false;
-    direction = cv::normalize(direction);
-    const cv::Matx33d m(a.normal[0], a.normal[1], a.normal[2], b.normal[0], b.normal[1], b.normal[2], direction[0],
-                        direction[1], direction[2]);
-    out = cv::Vec3d(m.inv() * cv::Vec3d(a.offset, b.offset, direction.dot(x)));
+    if (!a.cylinder && !b.cylinder) {
+        cv::Vec3d direction = a.normal.cross(b.normal);
+        if (cv::norm(direction) < 0.2) return false;
+        direction = cv::normalize(direction);
+        const cv::Matx33d m(a.normal[0], a.normal[1], a.normal[2], b.normal[0], b.normal[1], b.normal[2], direction[0],
+                            direction[1], direction[2]);
+        out = cv::Vec3d(m.inv() * cv::Vec3d(a.offset, b.offset, direction.dot(x)));
+        return true;
+    }
+    // A cylinder: alternating projections (they converge where the surfaces cross at an angle).
+    cv::Vec3d y = x;
+    for (int i = 0; i < 40; ++i) y = b.project(a.project(y));
+    if (std::abs(a.distance(y)) > 1e-3 || std::abs(b.distance(y)) > 1e-3) return false;
+    if (cv::norm(a.normal_at(y).cross(b.normal_at(y))) < 0.2) return false;
+    out = y;
     return true;
 }
 
 // The point where three planes meet; false when they do not meet in one well-defined point.
 bool corner_of(const Plane& a, const Plane& b, const Plane& c, cv::Vec3d& out) {
+    if (a.cylinder || b.cylinder || c.cylinder) return false;
     const cv::Matx33d m(a.normal[0], a.normal[1], a.normal[2], b.normal[0], b.normal[1], b.normal[2], c.normal[0],
                         c.normal[1], c.normal[2]);
     if (std::abs(cv::determinant(m)) < 0.2) return false;
@@ -288,14 +461,14 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             const Plane& p = regions.planes[ids[s]];
             bool duplicate = false;
             for (int t : kept) {
-                const double angle = degrees_between(p.normal, regions.planes[ids[t]].normal);
+                const double angle = degrees_between(p.normal_at(x), regions.planes[ids[t]].normal_at(x));
                 if (angle < kSamePlaneDeg) duplicate = true;
                 else if (angle < kSharpEdgeDeg) ambiguous = true;
             }
             if (!duplicate) kept.push_back(s);
         }
         if (ambiguous) ++dbg_ambiguous; else if (kept.size() < 2) ++dbg_one; else if (kept.size() > 3) ++dbg_many;
-        if (ambiguous || kept.size() < 2 || kept.size() > 3) continue;
+        if (ambiguous || kept.empty() || kept.size() > 3) continue;
         VertexPlanes& vp = model[v];
         vp.count = static_cast<int>(kept.size());
         for (int k = 0; k < vp.count; ++k) vp.plane[k] = ids[kept[k]];
@@ -336,8 +509,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         std::fprintf(stderr, "sharpen: spacing %.3f reach %.3f tol %.3f, %zu of %zu points labelled; vertices: crowded %zu ambiguous %zu one %zu many %zu disagree %zu\n",
                      spacing_mm, reach, regions.tolerance, dbg_labelled, positions.size(), dbg_crowded, dbg_ambiguous, dbg_one, dbg_many, dbg_disagree);
     auto own_plane = [&](size_t v) { return model[v].count > 0 ? model[v].plane[0] : -1; };
-    auto sharp_pair = [&](int a, int b) {
-        return degrees_between(regions.planes[a].normal, regions.planes[b].normal) >= kSharpEdgeDeg;
+    auto sharp_pair = [&](int a, int b, const cv::Vec3d& x) {
+        return degrees_between(regions.planes[a].normal_at(x), regions.planes[b].normal_at(x)) >= kSharpEdgeDeg;
     };
 
     // 2. Mesh edges between vertices of two planes: where they cross the bisector of the planes
@@ -354,7 +527,9 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (int k = 0; k < 3; ++k) {
             const int a = face[k], b = face[(k + 1) % 3];
             const int pa = own_plane(a), pb = own_plane(b);
-            if (pa < 0 || pb < 0 || pa == pb || !model[a].has(pb) || !model[b].has(pa) || !sharp_pair(pa, pb)) continue;
+            if (pa < 0 || pb < 0 || pa == pb || !model[a].has(pb) || !model[b].has(pa) ||
+                !sharp_pair(pa, pb, 0.5 * (cv::Vec3d(mesh.vertices[a]) + cv::Vec3d(mesh.vertices[b]))))
+                continue;
             const long long key = edge_key(a, b);
             if (crossings.count(key)) continue;
             const cv::Vec3d xa(mesh.vertices[a]), xb(mesh.vertices[b]);
@@ -381,7 +556,26 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<uint8_t> on_feature(vertex_count, 0);  // on a line or a corner: its edges are not split
     for (size_t v = 0; v < vertex_count; ++v) {
         const VertexPlanes& vp = model[v];
-        if (vp.count == 0) continue;
+        if (vp.count == 0) {
+            // Surface no point supports, inside a hole between the parts of its wall that were
+            // seen (Poisson narrows a hole's unseen middle): onto the hole's cylinder.
+            const cv::Vec3d x = safe[v];
+            grid.within(x, reach, near);
+            if (!near.empty()) continue;
+            for (const Plane& hole : regions.planes) {
+                if (!hole.cylinder || hole.outwards > 0) continue;
+                const double along = hole.axis.dot(x - hole.centre);
+                const cv::Vec3d across = (x - hole.centre) - hole.axis * along;
+                const double from_axis = cv::norm(across);
+                if (along < hole.low + reach || along > hole.high - reach || from_axis < 0.5 * hole.radius ||
+                    from_axis > hole.radius + reach)
+                    continue;
+                target[v] = hole.project(x);
+                ++report.hole_vertices;
+                break;
+            }
+            continue;
+        }
         const cv::Vec3d x = safe[v];
         cv::Vec3d moved;
         bool placed = false;
@@ -406,7 +600,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         moved = own.project(x);
         std::vector<int> crossed;
         for (int c = 1; c < vp.count; ++c)
-            if (vp.side[c] != 0 && sharp_pair(vp.plane[0], vp.plane[c]) &&
+            if (vp.side[c] != 0 && sharp_pair(vp.plane[0], vp.plane[c], x) &&
                 vp.side[c] * regions.planes[vp.plane[c]].distance(moved) < 0)
                 crossed.push_back(vp.plane[c]);
         if (crossed.size() == 1) placed = onto_line(own, regions.planes[crossed[0]], moved, moved);

@@ -12,6 +12,7 @@ struct SharpenReport {
     size_t edge_vertices = 0;    // vertices near two or three of them that the points agree with
     size_t cut_edges = 0;        // mesh edges split where they cross a feature line
     size_t corners = 0;          // vertices put on the meeting point of three planes
+    size_t hole_vertices = 0;    // unsupported vertices inside a hole put onto its wall
     size_t reverted = 0;         // moves undone because they folded triangles
 };
 
