@@ -239,11 +239,15 @@ TEST(MeshBudget, PointAndFaceBudgetsBoundTheMesh) {
     EXPECT_NE(std::find(stages.begin(), stages.end(), "Poisson: meshing the surface"), stages.end());
 }
 
-// Cancelling stops the reconstruction in each Poisson stage, also from inside CGAL's surface
-// mesher (its second report comes from there): no further progress is reported.
+// Cancelling stops the reconstruction in each stage, also from inside CGAL's normal
+// estimation, Delaunay refinement and surface mesher (their second reports come from there)
+// and from the assembly of the linear system: no further progress is reported.
 TEST(MeshBudget, CancelStopsPoissonInEachStage) {
     const PointCloud ball = dense_ball();
-    const std::pair<std::string, int> stops[] = {{"Poisson: triangulating the points", 1},
+    const std::pair<std::string, int> stops[] = {{"estimating normals", 2},
+                                                 {"Poisson: triangulating the points", 1},
+                                                 {"Poisson: refining the triangulation", 2},
+                                                 {"Poisson: assembling the system", 1},
                                                  {"Poisson: solving the implicit function", 1},
                                                  {"Poisson: meshing the surface", 2}};
     for (const auto& [stop_at, nth] : stops) {
