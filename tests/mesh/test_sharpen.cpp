@@ -83,6 +83,8 @@ TEST(MeshSharpen, SharpEdgesComeBackAndFilletsStayRound) {
     std::printf("%s\n", check.summary().c_str());
     ASSERT_TRUE(check.closed_volume);
     const double true_volume = kLength * kWidth * kHeight - 2 * (kFillet * kFillet - CV_PI * kFillet * kFillet / 4) * kHeight;
+    std::printf("volume %.1f mm^3, true %.1f mm^3 (%+.3f %%)\n", check.volume_mm3, true_volume,
+                100 * (check.volume_mm3 / true_volume - 1));
     EXPECT_NEAR(check.volume_mm3 / true_volume - 1, 0.0, 0.002);
 
     // Truth -> mesh near the sharp edges (within 1 mm of one of them, away from the fillets)
@@ -127,11 +129,15 @@ TEST(MeshSharpen, SharpEdgesComeBackAndFilletsStayRound) {
     std::printf("mesh vertices -> truth: max %.1f um; fillets: %zu vertices, mean radius %.4f mm (true %.1f), worst %.1f um "
                 "off the arc; nearest vertex to the corner a sharpened fillet would make: %.3f mm\n",
                 1000 * worst_vertex, on_fillet, mean_radius, kFillet, 1000 * worst_on_fillet, nearest_to_false_corner);
-    EXPECT_LT(to_mesh.statistics.mean_abs_mm, 1.0);
-    EXPECT_LT(worst_at_sharp_edges, 1.0);
-    EXPECT_LT(worst_vertex, 1.0);
+    // Measured (see docs/multiview.md): sharpened, truth -> mesh mean 1.1 um, 140 um at the sharp
+    // edges, fillet radius 2.9941 mm, 55 um off the arc at worst, 1.241 mm from the false corner
+    // (the true arc: 1.243 mm); without sharpening mean 10.8 um, 402 um at the sharp edges (and
+    // the volume 0.2 % off).
+    EXPECT_LT(to_mesh.statistics.mean_abs_mm, 0.004);
+    EXPECT_LT(worst_at_sharp_edges, 0.200);
+    EXPECT_LT(worst_vertex, 0.300);
     ASSERT_GT(on_fillet, 100u);
-    EXPECT_NEAR(mean_radius, kFillet, 1.0);
-    EXPECT_LT(worst_on_fillet, 1.0);
-    EXPECT_GT(nearest_to_false_corner, 0.0);
+    EXPECT_NEAR(mean_radius, kFillet, 0.02);
+    EXPECT_LT(worst_on_fillet, 0.080);
+    EXPECT_GT(nearest_to_false_corner, 1.2);  // a sharpened fillet puts vertices at the corner
 }

@@ -272,15 +272,6 @@ void onto_points(Mesh& mesh, const std::vector<detail::PointWithNormal>& points,
     }
 }
 
-// Edges and corners where the measured points' planes meet, made sharp again (sharpen.cpp).
-void sharpen(Mesh& mesh, const std::vector<detail::PointWithNormal>& points, double spacing) {
-    if (std::getenv("PICOSCAN_SHARPEN_OFF")) return;
-    const detail::SharpenReport r = detail::sharpen_edges(mesh, points, spacing);
-    if (std::getenv("PICOSCAN_SHARPEN_DEBUG"))
-        std::fprintf(stderr, "sharpen: %zu planes, %zu edge vertices, %zu cut edges, %zu corners, %zu hole, %zu reverted\n", r.planes,
-                     r.edge_vertices, r.cut_edges, r.corners, r.hole_vertices, r.reverted);
-}
-
 // Each vertex takes the white-frame colour of the nearest input point; vertices far from
 // every point (filled surface) are grey.
 void colour_from_points(Mesh& mesh, const PointCloud& cloud, double reach_mm) {
@@ -367,7 +358,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         report(0.7, "projecting onto the points");
         onto_points(mesh, surface, spacing);
         report(0.72, "sharpening edges");
-        sharpen(mesh, points, spacing);
+        detail::sharpen_edges(mesh, points, spacing);
         mark_measured(mesh, points, measured_reach);
         if (options.fill == MeshFill::Open) {
             mesh = without_filled_faces(mesh);
@@ -382,7 +373,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
                     report(0.75 + fraction * 0.1 / 0.7, stage);
                 });
                 onto_points(mesh, extended, spacing);
-                sharpen(mesh, points, spacing);
+                detail::sharpen_edges(mesh, points, spacing);
             }
             mesh = detail::clip_at_plane(mesh, table.up, table.height, std::max(3 * spacing, 1.0));
         }

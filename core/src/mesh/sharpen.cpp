@@ -14,8 +14,6 @@
 #include <deque>
 #include <numeric>
 #include <unordered_map>
-#include <cstdio>
-#include <cstdlib>
 
 namespace picoscan::detail {
 
@@ -80,7 +78,7 @@ constexpr double kSamePlaneDeg = 5;
 // below this (a curved wall cut into strips is not: its normals fan out across the strip).
 constexpr double kFlatRegionDeg = 3;
 constexpr double kGrowNormalDeg = 15;
-constexpr size_t kLeastRegionPoints = 40;
+constexpr size_t kLeastRegionPoints = 100;  // a gently curved surface makes small plane-like patches
 // Share of the points around a vertex that must lie on its planes for the edge to be sharpened
 // (a fillet's points lie between them).
 constexpr double kLeastAgreement = 0.9;
@@ -103,7 +101,6 @@ bool fit_cylinder(const std::vector<cv::Vec3d>& positions, const std::vector<cv:
     cv::eigen(spread * (1.0 / double(members.size())), values, vectors);
     // Square to the axis: the smallest spread is nearly none; round it: the normals turn a good
     // way (a strip of a plane is not a cylinder).
-    if (std::getenv("PICOSCAN_SHARPEN_DEBUG")) std::fprintf(stderr, "normal spread %.4f %.4f %.4f\n", values(0), values(1), values(2));
     if (values(2) > 0.02 || values(1) < 0.05) return false;
     const cv::Vec3d axis = cv::normalize(cv::Vec3d(vectors(2, 0), vectors(2, 1), vectors(2, 2)));
     const cv::Vec3d u = cv::normalize(axis.cross(std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
@@ -173,7 +170,6 @@ bool fit_cylinder(const std::vector<cv::Vec3d>& positions, const std::vector<cv:
         out.high = std::max(out.high, along);
     }
     out.outwards = facing >= 0 ? 1 : -1;
-    if (std::getenv("PICOSCAN_SHARPEN_DEBUG")) std::fprintf(stderr, "on the cylinder: %zu of %zu\n", near, members.size());
     // Most of the points within twice the tolerance (a wall seen at a grazing angle is noisier
     // than a face seen square on).
     return double(near) >= 0.8 * double(members.size());
@@ -205,11 +201,7 @@ void add_cylinders(const std::vector<cv::Vec3d>& positions, const std::vector<cv
         }
         if (members.size() < 3 * kLeastRegionPoints) continue;
         Plane cylinder;
-        const bool fits = fit_cylinder(positions, normals, members, regions.tolerance, cylinder);
-        if (std::getenv("PICOSCAN_SHARPEN_DEBUG"))
-            std::fprintf(stderr, "curved region of %zu points: cylinder %d, radius %.3f, along %.2f..%.2f\n", members.size(), fits,
-                         cylinder.radius, cylinder.low, cylinder.high);
-        if (!fits) continue;
+        if (!fit_cylinder(positions, normals, members, regions.tolerance, cylinder)) continue;
         const int id = static_cast<int>(regions.planes.size());
         regions.planes.push_back(cylinder);
         std::deque<int> grow;
@@ -335,23 +327,6 @@ Regions find_planes(const std::vector<cv::Vec3d>& positions, const std::vector<c
         }
     }
     add_cylinders(positions, normals, grid, radius, regions);
-    if (std::getenv("PICOSCAN_SHARPEN_DEBUG")) {
-        std::array<int, 8> hist{};
-        for (size_t i = 0; i < n; ++i) {
-            if (regions.label[i] >= 0) continue;
-            grid.within(positions[i], 1.0, near);
-            double best = 1e9;
-            for (int k : near)
-                if (regions.label[k] >= 0) best = std::min(best, std::abs(regions.planes[regions.label[k]].distance(positions[i])));
-            const double edges[] = {0.03, 0.05, 0.08, 0.12, 0.2, 0.4, 1e8};
-            int b = 0;
-            while (best > edges[b] && b < 6) ++b;
-            if (best > 1e8) b = 7;
-            ++hist[b];
-        }
-        std::fprintf(stderr, "unlabelled by distance to nearest plane: <.03 %d, <.05 %d, <.08 %d, <.12 %d, <.2 %d, <.4 %d, more %d, none %d\n",
-                     hist[0], hist[1], hist[2], hist[3], hist[4], hist[5], hist[6], hist[7]);
-    }
     return regions;
 }
 
@@ -424,8 +399,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     const size_t vertex_count = mesh.vertices.size();
     std::vector<VertexPlanes> model(vertex_count);
     std::vector<int> near;
-    size_t dbg_crowded = 0, dbg_ambiguous = 0, dbg_one = 0, dbg_many = 0, dbg_disagree = 0, dbg_labelled = 0;
-    for (int l : regions.label) dbg_labelled += l >= 0;
     for (size_t v = 0; v < vertex_count; ++v) {
         const cv::Vec3d x(mesh.vertices[v]);
         grid.within(x, reach, near);
@@ -447,7 +420,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             }
             ++counts[slot];
         }
-        if (crowded) { ++dbg_crowded; continue; }
+        if (crowded) continue;
         // Nearly coincident planes are one face (a face grown as two regions): keep the larger.
         std::vector<int> planes;
         for (int s = 0; s < found; ++s) {
@@ -467,7 +440,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             }
             if (!duplicate) kept.push_back(s);
         }
-        if (ambiguous) ++dbg_ambiguous; else if (kept.size() < 2) ++dbg_one; else if (kept.size() > 3) ++dbg_many;
         if (ambiguous || kept.empty() || kept.size() > 3) continue;
         VertexPlanes& vp = model[v];
         vp.count = static_cast<int>(kept.size());
@@ -495,7 +467,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         }
         if (all == 0 || double(on_planes) < kLeastAgreement * double(all)) {
             vp.count = 0;
-            ++dbg_disagree;
             continue;
         }
         for (int c = 1; c < vp.count; ++c) {
@@ -505,9 +476,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         }
         ++report.edge_vertices;
     }
-    if (std::getenv("PICOSCAN_SHARPEN_DEBUG"))
-        std::fprintf(stderr, "sharpen: spacing %.3f reach %.3f tol %.3f, %zu of %zu points labelled; vertices: crowded %zu ambiguous %zu one %zu many %zu disagree %zu\n",
-                     spacing_mm, reach, regions.tolerance, dbg_labelled, positions.size(), dbg_crowded, dbg_ambiguous, dbg_one, dbg_many, dbg_disagree);
     auto own_plane = [&](size_t v) { return model[v].count > 0 ? model[v].plane[0] : -1; };
     auto sharp_pair = [&](int a, int b, const cv::Vec3d& x) {
         return degrees_between(regions.planes[a].normal_at(x), regions.planes[b].normal_at(x)) >= kSharpEdgeDeg;
