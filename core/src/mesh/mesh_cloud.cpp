@@ -357,8 +357,6 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
                                            "own, or use --method advancing-front)");
         report(0.7, "projecting onto the points");
         onto_points(mesh, surface, spacing);
-        report(0.72, "sharpening edges");
-        detail::sharpen_edges(mesh, points, spacing);
         mark_measured(mesh, points, measured_reach);
         if (options.fill == MeshFill::Open) {
             mesh = without_filled_faces(mesh);
@@ -373,10 +371,13 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
                     report(0.75 + fraction * 0.1 / 0.7, stage);
                 });
                 onto_points(mesh, extended, spacing);
-                detail::sharpen_edges(mesh, points, spacing);
             }
             mesh = detail::clip_at_plane(mesh, table.up, table.height, std::max(3 * spacing, 1.0));
         }
+        // Last, on the surface that stays: the cut at the table needs a mesh that does not cross
+        // itself, and the sharpening only moves vertices where that stays so.
+        report(0.8, "sharpening edges");
+        detail::sharpen_edges(mesh, points, spacing);
     } else {
         report(0.2, "advancing-front reconstruction");
         mesh = detail::advancing_front_mesh(points, spacing, options.advancing_front_max_radius);
