@@ -129,12 +129,12 @@ TEST(MeshSharpen, SharpEdgesComeBackAndFilletsStayRound) {
     std::printf("mesh vertices -> truth: max %.1f um; fillets: %zu vertices, mean radius %.4f mm (true %.1f), worst %.1f um "
                 "off the arc; nearest vertex to the corner a sharpened fillet would make: %.3f mm\n",
                 1000 * worst_vertex, on_fillet, mean_radius, kFillet, 1000 * worst_on_fillet, nearest_to_false_corner);
-    // Measured (see docs/multiview.md): sharpened, truth -> mesh mean 1.1 um, 140 um at the sharp
-    // edges, fillet radius 2.9941 mm, 55 um off the arc at worst, 1.241 mm from the false corner
-    // (the true arc: 1.243 mm); without sharpening mean 10.8 um, 402 um at the sharp edges (and
-    // the volume 0.2 % off).
+    // Measured (see docs/multiview.md): sharpened, truth -> mesh mean 1.1 um, 140 and 190 um at
+    // the sharp edges in two runs, fillet radius 2.9941 mm, 54-55 um off the arc at worst, 1.241 mm
+    // from the false corner (the true arc: 1.243 mm); without sharpening mean 10.8 um, 402 um at
+    // the sharp edges (and the volume more than 0.2 % off).
     EXPECT_LT(to_mesh.statistics.mean_abs_mm, 0.004);
-    EXPECT_LT(worst_at_sharp_edges, 0.200);
+    EXPECT_LT(worst_at_sharp_edges, 0.250);
     EXPECT_LT(worst_vertex, 0.300);
     ASSERT_GT(on_fillet, 100u);
     EXPECT_NEAR(mean_radius, kFillet, 0.02);
