@@ -98,7 +98,8 @@ What closes the side the scan never saw (poisson only; the face the part stood o
   --fill table     a flat cap on the turntable's plane, for a part standing on the table;
                    walls seen only in part (a deep hole) are continued down to it. The plane
                    is across --turntable's axis when given, else fitted to the unseen side's rim
-  --fill open      nothing invented: the unseen side stays open (not printable as it is)
+  --fill open      nothing invented: the unseen side stays open (not printable as it is);
+                   the points are contoured where they are, no Poisson (one view: seconds)
 The mesh is checked before it is written (watertight, manifold, self-intersections, volume,
 share of filled-in surface) and the result is printed. Output by extension: .stl, .3mf
 (units millimetres), .ply (vertex colours from the white frames; quality 1 = measured,

@@ -200,6 +200,34 @@ void bind_pipeline(py::module_& m) {
         py::arg("cloud"), py::arg("turntable") = py::none(), py::arg("options") = PartFrameOptions(),
         py::arg("progress") = py::none(), "The scan's part frame, Z up: on the turntable's axis, else on its base plane");
 
+    m.def("grown_face_selection", &grown_face_selection, "The default region: the face under the point, within 30 mm");
+    py::class_<PickedFitOptions>(m, "PickedFitOptions")
+        .def(py::init<>())
+        .def_readwrite("selection", &PickedFitOptions::selection)
+        .def_readwrite("fit", &PickedFitOptions::fit);
+    py::class_<PickedFit>(m, "PickedFit")
+        .def_readonly("region", &PickedFit::region)
+        .def_readonly("fit", &PickedFit::fit);
+    m.def(
+        "fit_at_point",
+        [](const PointCloud& cloud, const cv::Vec3d& seed, const PickedFitOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return fit_at_point(cloud, seed, options, callback);
+        },
+        py::arg("cloud"), py::arg("seed"), py::arg("options") = PickedFitOptions(), py::arg("progress") = py::none(),
+        "The region around a picked point (grown, a ball or a box) fitted with a plane, cylinder, sphere or cone");
+    m.def(
+        "fit_in_lasso",
+        [](const PointCloud& cloud, const cv::Matx44d& cloud_to_screen, const std::vector<cv::Vec2d>& polygon,
+           const PickedFitOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return fit_in_lasso(cloud, cloud_to_screen, polygon, options, callback);
+        },
+        py::arg("cloud"), py::arg("cloud_to_screen"), py::arg("polygon"), py::arg("options") = PickedFitOptions(),
+        py::arg("progress") = py::none(), "The points under a lasso drawn on the screen, fitted");
+
     // validate(options) for every options struct: raises picoscan.Error naming the field.
     m.def("validate", py::overload_cast<const PatternOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const DecodeOptions&>(&validate), py::arg("options"));
@@ -211,6 +239,7 @@ void bind_pipeline(py::module_& m) {
     m.def("validate", py::overload_cast<const ReconstructOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const SimulateOptions&>(&validate), py::arg("options"));
     m.def("validate", py::overload_cast<const CleanScanOptions&>(&validate), py::arg("options"));
+    m.def("validate", py::overload_cast<const PickedFitOptions&>(&validate), py::arg("options"));
 }
 
 }  // namespace picoscan::python

@@ -8,6 +8,8 @@ void bind_region_fit(py::module_& m) {
     py::class_<RegionSelection>(m, "RegionSelection")
         .def(py::init<>())
         .def_readwrite("radius_mm", &RegionSelection::radius_mm)
+        .def_readwrite("box_half_size_mm", &RegionSelection::box_half_size_mm)
+        .def_readwrite("box_axes", &RegionSelection::box_axes)
         .def_readwrite("grow", &RegionSelection::grow)
         .def_readwrite("max_gap_mm", &RegionSelection::max_gap_mm)
         .def_readwrite("max_normal_step_deg", &RegionSelection::max_normal_step_deg);
@@ -46,8 +48,17 @@ void bind_region_fit(py::module_& m) {
         .def_readonly("report", &RegionFit::report);
     m.def("select_region", &select_region, py::arg("cloud"), py::arg("seed"), py::arg("selection") = RegionSelection(),
           py::call_guard<py::gil_scoped_release>());
-    m.def("fit_region", &fit_region, py::arg("cloud"), py::arg("region"), py::arg("options") = RegionFitOptions(),
+    m.def("select_in_polygon", &select_in_polygon, py::arg("cloud"), py::arg("cloud_to_screen"), py::arg("polygon"),
           py::call_guard<py::gil_scoped_release>());
+    m.def(
+        "fit_region",
+        [](const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return fit_region(cloud, region, options, callback);
+        },
+        py::arg("cloud"), py::arg("region"), py::arg("options") = RegionFitOptions(), py::arg("progress") = py::none());
 }
 
 }  // namespace picoscan::python

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -216,6 +217,26 @@ TEST(CleanCli, CoreRangeChecksNameTheFlag) {
     EXPECT_NE(mesh.output.find("error: --spacing-mm: must be 0..100"), std::string::npos) << mesh.output;
     EXPECT_FALSE(fs::exists(dir / "c.ply"));
     EXPECT_FALSE(fs::exists(dir / "m.stl"));
+}
+
+// One view meshed with --fill open: the band surface, open and all measured, its faces on the view's points.
+TEST(MeshCli, FillOpenMeshesOneViewOnItsPoints) {
+    const fs::path dir = make_temp_dir("mesh_fill_open");
+    const std::string stl = (dir / "open.stl").string();
+    const Result meshed = run_picoscan("mesh " + view_file(0) + " --fill open --out " + stl);
+    ASSERT_EQ(meshed.exit_code, 0) << meshed.output;
+    EXPECT_NE(meshed.output.find("NOT watertight"), std::string::npos) << meshed.output;
+    EXPECT_NE(meshed.output.find("0 non-manifold edges, 0 non-manifold vertices"), std::string::npos) << meshed.output;
+    EXPECT_NE(meshed.output.find("0.0 % of the surface filled in"), std::string::npos) << meshed.output;
+    const Mesh mesh = read_stl(stl);
+    EXPECT_GT(mesh.faces.size(), 50000u);
+    // No face beyond the view's depth range (Poisson closed a view into a bubble behind it).
+    const PointCloud cloud = to_point_cloud(read_view_ply(view_file(0)));
+    float deepest = 0;
+    for (const cv::Vec3f& p : cloud.points) deepest = std::max(deepest, p[2]);
+    float mesh_deepest = 0;
+    for (const cv::Vec3f& v : mesh.vertices) mesh_deepest = std::max(mesh_deepest, v[2]);
+    EXPECT_LT(mesh_deepest, deepest + 1.0f);
 }
 
 // Two placements of the plain grey part (standing, then on its side), given with --then: each

@@ -2,6 +2,7 @@
 // right kind (a flat chamfer is a plane, not a huge cylinder), the right size, the constraints
 // asked for, and nominal sizes only when the points allow them.
 #include "picoscan/error.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/region_fit.h"
 
 #include <gtest/gtest.h>
@@ -190,4 +191,63 @@ TEST(RegionFit, GrowingFromASeedStopsAtTheEdge) {
     EXPECT_GT(ball.size(), 60u);
     EXPECT_LT(ball.size(), 90u);
     EXPECT_THROW(select_region(PointCloud{}, cv::Vec3d(0, 0, 0)), Error);
+}
+
+TEST(RegionFit, BoxAndLassoSelectExactlyThePointsInsideAndTheRecipeFitsThem) {
+    Scan scan(0.01);
+    for (int i = 0; i <= 50; ++i)
+        for (int j = 0; j <= 50; ++j) {
+            scan.add(cv::Vec3d(i * 0.2, j * 0.2, 0), cv::Vec3d(0, 0, 1));          // floor, 2601 points
+            if (j > 0) scan.add(cv::Vec3d(i * 0.2, 0, j * 0.2), cv::Vec3d(0, -1, 0));  // wall
+        }
+    // A box 2 x 1 x 0.5 mm (half sizes) turned 90 degrees about z around (5, 5, 0): x spans 1 mm
+    // across the floor's y and 2 mm along its x: 11 x 21 grid points.
+    RegionSelection selection;
+    selection.box_half_size_mm = {1.0, 2.0, 0.5};
+    selection.box_axes = cv::Matx33d(0, 1, 0, -1, 0, 0, 0, 0, 1);
+    const std::vector<int> box = select_region(scan.cloud, cv::Vec3d(5, 5, 0.1), selection);
+    EXPECT_EQ(box.size(), 11u * 21u);
+    selection.box_half_size_mm = {1.0, 0.0, 0.5};
+    EXPECT_THROW(select_region(scan.cloud, cv::Vec3d(5, 5, 0), selection), Error);
+    selection.box_half_size_mm = {1.0, 1.0, 1.0};
+    selection.box_axes = cv::Matx33d(1, 0, 0, 0, 2, 0, 0, 0, 1);
+    EXPECT_THROW(select_region(scan.cloud, cv::Vec3d(5, 5, 0), selection), Error);
+
+    // A lasso seen by an eye 5 mm above the floor looking down (screen = 50 px x (x, y) / (5 - z):
+    // 10 px per mm on the floor): a triangle over the floor takes the floor's points under it;
+    // the wall (y = 0) projects onto the screen's y = 0, outside the triangle.
+    const cv::Matx44d top_view(50, 0, 0, 0, 0, 50, 0, 0, 0, 0, 0, 0, 0, 0, -1, 5);
+    const std::vector<cv::Vec2d> triangle = {{11, 11}, {90, 11}, {11, 90}};  // off the grid's 2 px steps
+    const std::vector<int> lasso = select_in_polygon(scan.cloud, top_view, triangle);
+    size_t expected = 0;
+    for (const cv::Vec3f& p : scan.cloud.points) {
+        const double x = 10 * p[0], y = 10 * p[1];
+        if (std::abs(p[2]) < 0.1 && x > 11 && y > 11 && x + y < 101) ++expected;
+    }
+    EXPECT_EQ(lasso.size(), expected);
+    EXPECT_GT(lasso.size(), 500u);
+    for (int i : lasso) EXPECT_LT(std::abs(scan.cloud.points[i][2]), 0.1f);  // floor points only
+    EXPECT_THROW(select_in_polygon(scan.cloud, top_view, {{0, 0}, {1, 1}}), Error);
+
+    // The recipe: the lasso's points are the floor, a plane with its normal up; the default
+    // grown face from a point on the wall is the wall, a plane with its normal along -y.
+    const PickedFit floor = fit_in_lasso(scan.cloud, top_view, triangle);
+    EXPECT_EQ(floor.fit.shape.kind, ShapeKind::Plane);
+    EXPECT_GT(std::abs(floor.fit.shape.direction[2]), 0.9999);
+    PickedFitOptions options;
+    options.selection.max_gap_mm = 0.5;
+    const PickedFit wall = fit_at_point(scan.cloud, cv::Vec3d(5, 0, 5), options);
+    EXPECT_EQ(wall.region.size(), 51u * 50u);
+    EXPECT_EQ(wall.fit.shape.kind, ShapeKind::Plane);
+    EXPECT_GT(-wall.fit.shape.direction[1], 0.9999);
+    int reports = 0;
+    EXPECT_THROW(fit_at_point(scan.cloud, cv::Vec3d(5, 0, 5), options,
+                              [&](double, const std::string&) { return ++reports < 3; }),
+                 Error);
+    EXPECT_EQ(reports, 3);
+    options.fit.snap_step_mm = -1;
+    EXPECT_THROW(validate(options), Error);
+    options.fit.snap_step_mm = 0;
+    options.selection.radius_mm = 0;
+    EXPECT_THROW(fit_at_point(scan.cloud, cv::Vec3d(5, 0, 5), options), Error);
 }

@@ -16,9 +16,10 @@ namespace picoscan {
 enum class MeshMethod { Poisson, AdvancingFront, Grid };
 
 // What becomes of the side a single placement never saw (the face the part stood on).
-// Poisson makes the closed surface first; the fill then decides what stays of it.
+// Poisson makes the closed surface first; the fill then decides what stays of it. Open needs
+// no closed surface: the points are contoured where they are (band_surface), in seconds.
 enum class MeshFill {
-    Open,     // the unseen side is left open: nothing invented
+    Open,     // the unseen side is left open: nothing invented (band_surface, not Poisson)
     Table,    // closed by a flat cap on the turntable's plane (a part standing on the table)
     Poisson,  // Poisson's own smooth closure (invented; the mesh check says how much)
 };
@@ -74,5 +75,13 @@ MeshFill mesh_fill_from_name(const std::string& name, const std::string& what);
 // over the neighbours and flipped to agree with the given ones. Throws Error for an empty or
 // degenerate cloud (too few points, all on a line or a plane for Poisson).
 Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options = {}, const ProgressCallback& progress = nullptr);
+
+// The open surface of oriented points (normals towards the side they were seen from), with
+// nothing invented: the signed distance to the points' tangent planes, contoured by marching
+// tetrahedra on a band of voxel_mm cubes around the points (about their spacing); faces
+// farther than 1.5 voxels from every point are cut. A manifold whose borders are the edges of
+// the data; sheets closer than about two voxels may merge. Throws Error("cancelled") when
+// progress returns false, Error for a bad voxel or a cloud without normals.
+Mesh band_surface(const PointCloud& cloud, double voxel_mm, const ProgressCallback& progress = nullptr);
 
 }  // namespace picoscan

@@ -14,6 +14,7 @@
 #include "picoscan/mesh.h"
 #include "picoscan/patterns.h"
 #include "picoscan/progress.h"
+#include "picoscan/region_fit.h"
 #include "picoscan/register.h"
 #include "picoscan/simulate.h"
 #include "picoscan/stereo.h"
@@ -245,6 +246,34 @@ struct PartFrame {
 PartFrame part_frame(const PointCloud& cloud, const std::optional<TurntableAxis>& turntable = std::nullopt,
                      const PartFrameOptions& options = {}, const ProgressCallback& progress = nullptr);
 
+// ---- Fit where the user points ------------------------------------------------------------
+
+// A region picked on a scan, fitted: the region around a picked point (grown over the smooth
+// surface up to the face's edges by default, or a ball, or a box around it) or under a lasso drawn
+// on the screen, then a plane, cylinder, sphere or cone fitted to it (region_fit.h), with the
+// constraint and snapping the options ask for.
+// The workbench's default region: the face under the point, up to its edges, within 30 mm.
+inline RegionSelection grown_face_selection() {
+    RegionSelection selection;
+    selection.radius_mm = 30;
+    selection.grow = true;
+    return selection;
+}
+struct PickedFitOptions {
+    RegionSelection selection = grown_face_selection();  // ignored by fit_in_lasso
+    RegionFitOptions fit;
+};
+struct PickedFit {
+    std::vector<int> region;  // the cloud's points fitted
+    RegionFit fit;
+};
+// Throws Error(<field>, ...) for bad options, Error("region", ...) when the region is too small or
+// no kind fits it (see fit_region), Error("cancelled", ...) when progress answers false.
+PickedFit fit_at_point(const PointCloud& cloud, const cv::Vec3d& seed, const PickedFitOptions& options = {},
+                       const ProgressCallback& progress = nullptr);
+PickedFit fit_in_lasso(const PointCloud& cloud, const cv::Matx44d& cloud_to_screen, const std::vector<cv::Vec2d>& polygon,
+                       const PickedFitOptions& options = {}, const ProgressCallback& progress = nullptr);
+
 // ---- Fuse views that are already posed ------------------------------------------------------
 
 // Views already aligned (each through its pose, e.g. MeshLab layers with their transforms)
@@ -271,5 +300,6 @@ void validate(const ReconstructOptions& options);
 void validate(const SimulateOptions& options);
 void validate(const CleanScanOptions& options);
 void validate(const PartFrameOptions& options);
+void validate(const PickedFitOptions& options);
 
 }  // namespace picoscan

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "picoscan/cloud.h"
+#include "picoscan/progress.h"
 #include "picoscan/shapes.h"
 
 #include <opencv2/core.hpp>
@@ -15,6 +16,11 @@ namespace picoscan {
 
 struct RegionSelection {
     double radius_mm = 5;            // points within this distance of the seed's nearest point
+    // > 0 (all three): the points in a box of these half sizes around the seed's nearest point,
+    // along box_axes (its rows, unit and square to each other, in the cloud's frame), instead of
+    // the ball of radius_mm.
+    cv::Vec3d box_half_size_mm{0, 0, 0};
+    cv::Matx33d box_axes = cv::Matx33d::eye();
     bool grow = false;               // true: only those reached over the surface from the seed
     double max_gap_mm = 1.0;         // growing: neighbours nearer than this
     double max_normal_step_deg = 20; // growing: normals of neighbours agree within this (stops at edges)
@@ -24,6 +30,13 @@ struct RegionSelection {
 // it). Throws Error("seed", ...) when the cloud is empty, Error("cloud", ...) when growing needs
 // normals it lacks, Error("radius_mm"/"max_gap_mm", ...) for bad options.
 std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection = {});
+
+// Indices of the cloud's points whose projection by `cloud_to_screen` (a 4 x 4 projective map into
+// screen pixels: x, y, _, w; points with w <= 0 are behind the eye) falls inside `polygon` (a lasso
+// drawn on the screen, closed implicitly; even-odd rule). Every point under the lasso is taken,
+// hidden ones too. Throws Error("polygon", ...) for fewer than 3 corners.
+std::vector<int> select_in_polygon(const PointCloud& cloud, const cv::Matx44d& cloud_to_screen,
+                                   const std::vector<cv::Vec2d>& polygon);
 
 enum class FitConstraint { Free, Parallel, Perpendicular, Coaxial };
 
@@ -63,7 +76,9 @@ struct RegionFit {
 // Throws Error("region", ...) for fewer than 10 points or when no kind fits within
 // reject_factor x noise, Error("constraint", ...) for a constraint the kind cannot take,
 // Error("reference_direction", ...) for a zero direction.
-RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options = {});
+// `progress` is told before each kind is fitted; answering false cancels (Error("cancelled", ...)).
+RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options = {},
+                     const ProgressCallback& progress = nullptr);
 
 std::string to_string(FitConstraint constraint);
 

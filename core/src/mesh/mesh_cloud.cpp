@@ -34,26 +34,6 @@ bool is_filled(const Mesh& mesh, const cv::Vec3i& face) {
     return mesh.measured[face[0]] + mesh.measured[face[1]] + mesh.measured[face[2]] < 2;
 }
 
-// MeshFill::Open: the filled faces go, and the vertices only they used.
-Mesh without_filled_faces(const Mesh& mesh) {
-    Mesh out;
-    std::vector<int> index(mesh.vertices.size(), -1);
-    for (const cv::Vec3i& face : mesh.faces) {
-        if (is_filled(mesh, face)) continue;
-        cv::Vec3i kept;
-        for (int k = 0; k < 3; ++k) {
-            int& v = index[static_cast<size_t>(face[k])];
-            if (v < 0) {
-                v = static_cast<int>(out.vertices.size());
-                out.vertices.push_back(mesh.vertices[static_cast<size_t>(face[k])]);
-            }
-            kept[k] = v;
-        }
-        out.faces.push_back(kept);
-    }
-    return out;
-}
-
 // The plane of the table the part stood on: across the turntable axis when it is known,
 // otherwise the plane through most of the rim where the measured surface meets the filled
 // one; the table is on the side of the filled surface, at the lowest measured points.
@@ -331,12 +311,24 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     const double thickness = std::sqrt(std::max(extent(2), 0.0)), width = std::sqrt(std::max(extent(1), 0.0));
     if (!(spacing > 0)) throw Error("point cloud", "is degenerate (its points coincide)");
     if (width < 2 * spacing) throw Error("point cloud", "is degenerate (its points lie along a line)");
-    if (options.method == MeshMethod::Poisson && thickness < 0.5 * spacing)
+    const bool closed_first = options.method == MeshMethod::Poisson && options.fill != MeshFill::Open;
+    if (closed_first && thickness < 0.5 * spacing)
         throw Error("point cloud", "is flat (all points on one plane): Poisson needs a closed shape; use --method advancing-front or grid");
 
     const double measured_reach = std::max(2.0 * spacing, 0.5);
     Mesh mesh;
-    if (options.method == MeshMethod::Poisson) {
+    if (options.method == MeshMethod::Poisson && options.fill == MeshFill::Open) {
+        // Nothing to close: the points contoured where they are, on voxels of their spacing.
+        PointCloud oriented;
+        for (const auto& p : points) {
+            oriented.points.emplace_back(float(p.first.x()), float(p.first.y()), float(p.first.z()));
+            oriented.normals.emplace_back(float(p.second.x()), float(p.second.y()), float(p.second.z()));
+        }
+        mesh = band_surface(oriented, spacing, [&](double fraction, const std::string& stage) {
+            report(0.1 + 0.75 * fraction, stage.c_str());
+            return true;
+        });
+    } else if (options.method == MeshMethod::Poisson) {
         report(0.1, "Poisson reconstruction");
         const detail::PoissonSettings settings{spacing, options.poisson_triangle_size, options.poisson_distance,
                                                options.max_faces};
@@ -358,9 +350,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         report(0.7, "projecting onto the points");
         onto_points(mesh, surface, spacing);
         mark_measured(mesh, points, measured_reach);
-        if (options.fill == MeshFill::Open) {
-            mesh = without_filled_faces(mesh);
-        } else if (options.fill == MeshFill::Table) {
+        if (options.fill == MeshFill::Table) {
             report(0.75, "closing at the table");
             const TablePlane table = find_table(mesh, points, options.table_axis, spacing);
             const std::vector<detail::PointWithNormal> walls = walls_down_to_table(points, table, spacing);

@@ -519,6 +519,138 @@ Shape refit_with_parallel_cuts(const Shape& shape, const Points& pts, long first
     return refitted;
 }
 
+// A fillet: an arc tangent to a line before it and a line after it, fitted as one curve by least
+// squares. Each line is n . p = c (n = (cos t, sin t)); the centre lies r from both lines, on the
+// side it started on, so the tangency holds exactly; each point is measured to the piece it lies
+// against (before the first tangent point: the first line; after the second: the second line;
+// between: the arc), so where the arc ends is found by the fit instead of by a split between
+// points. Fitting the arc alone, its radius follows where its ends were cut: a point of a line
+// counted as the arc's flattens it, an arc point counted as a line's bends it.
+class FilletFit {
+public:
+    FilletFit(const Shape& before, const Shape& arc, const Shape& after, std::vector<cv::Vec2d> points)
+        : points_(std::move(points)) {
+        for (int k = 0; k < 2; ++k) {
+            const Shape& line = k == 0 ? before : after;
+            const cv::Vec2d n(-line.direction[1], line.direction[0]);
+            angle_[k] = std::atan2(n[1], n[0]);
+            offset_[k] = n.dot(line.point);
+            side_[k] = n.dot(arc.centre) - offset_[k] >= 0 ? 1.0 : -1.0;
+        }
+        radius_ = arc.radius;
+    }
+
+    // Gauss-Newton on (angle, offset) of both lines and the radius. False when the lines are
+    // (nearly) parallel or the fit does not settle.
+    bool solve() {
+        double parameters[5] = {angle_[0], offset_[0], angle_[1], offset_[1], radius_};
+        for (int iteration = 0; iteration < 30; ++iteration) {
+            std::vector<double> residual;
+            if (!residuals(parameters, residual, assignment_, true)) return false;
+            cv::Mat jacobian(int(residual.size()), 5, CV_64F);
+            for (int k = 0; k < 5; ++k) {
+                double moved[5];
+                std::copy(parameters, parameters + 5, moved);
+                const double step = 1e-7 * std::max(1.0, std::abs(parameters[k]));
+                moved[k] += step;
+                std::vector<double> shifted;
+                if (!residuals(moved, shifted, assignment_, false)) return false;
+                for (size_t i = 0; i < residual.size(); ++i) jacobian.at<double>(int(i), k) = (shifted[i] - residual[i]) / step;
+            }
+            cv::Mat delta;
+            if (!cv::solve(jacobian, -cv::Mat(residual), delta, cv::DECOMP_SVD)) return false;
+            double size = 0;
+            for (int k = 0; k < 5; ++k) {
+                parameters[k] += delta.at<double>(k);
+                size = std::max(size, std::abs(delta.at<double>(k)));
+            }
+            if (size < 1e-11) break;
+        }
+        std::vector<double> residual;
+        if (!residuals(parameters, residual, assignment_, true)) return false;
+        angle_[0] = parameters[0], offset_[0] = parameters[1], angle_[1] = parameters[2], offset_[1] = parameters[3];
+        radius_ = parameters[4];
+        return radius_ > 0;
+    }
+
+    double max_residual() const {
+        double parameters[5] = {angle_[0], offset_[0], angle_[1], offset_[1], radius_};
+        std::vector<double> residual;
+        std::vector<int> assignment;
+        residuals(parameters, residual, assignment, true);
+        double worst = 0;
+        for (double r : residual) worst = std::max(worst, std::abs(r));
+        return worst;
+    }
+    // Points on the arc's piece (between its tangent points).
+    int arc_points() const { return int(std::count(assignment_.begin(), assignment_.end(), 1)); }
+
+    // The fitted shapes, the lines oriented like `before` and `after`.
+    void shapes(Shape& before, Shape& arc, Shape& after) const {
+        const Geometry g = geometry(angle_[0], offset_[0], angle_[1], offset_[1], radius_);
+        before.point = g.touch[0];
+        before.direction = along(0, before.direction);
+        after.point = g.touch[1];
+        after.direction = along(1, after.direction);
+        arc.centre = g.centre;
+        arc.radius = radius_;
+    }
+
+private:
+    struct Geometry {
+        cv::Vec2d normal[2], centre, touch[2];
+        bool ok = false;
+    };
+    Geometry geometry(double angle0, double offset0, double angle1, double offset1, double radius) const {
+        Geometry g;
+        g.normal[0] = {std::cos(angle0), std::sin(angle0)};
+        g.normal[1] = {std::cos(angle1), std::sin(angle1)};
+        const double det = g.normal[0][0] * g.normal[1][1] - g.normal[0][1] * g.normal[1][0];
+        if (std::abs(det) < 1e-6) return g;
+        const double b0 = offset0 + side_[0] * radius, b1 = offset1 + side_[1] * radius;
+        g.centre = {(b0 * g.normal[1][1] - g.normal[0][1] * b1) / det, (g.normal[0][0] * b1 - b0 * g.normal[1][0]) / det};
+        for (int k = 0; k < 2; ++k) g.touch[k] = g.centre - side_[k] * radius * g.normal[k];
+        g.ok = true;
+        return g;
+    }
+    cv::Vec2d along(int k, const cv::Vec2d& like) const {
+        const cv::Vec2d d(-std::sin(angle_[k]), std::cos(angle_[k]));
+        return d.dot(like) >= 0 ? d : -d;
+    }
+    // Signed distances of the points to their pieces (assignment: 0 the first line, 1 the arc, 2 the
+    // second line), made anew when `assign`, else kept (for the Jacobian).
+    bool residuals(const double* q, std::vector<double>& out, std::vector<int>& assignment, bool assign) const {
+        const Geometry g = geometry(q[0], q[1], q[2], q[3], q[4]);
+        if (!g.ok || !(q[4] > 0)) return false;
+        // Travel directions: the first line runs into the arc, the second away from it.
+        const cv::Vec2d into = g.touch[0] - g.touch[1], out_of = g.touch[1] - g.touch[0];
+        const cv::Vec2d d0 = cv::Vec2d(-g.normal[0][1], g.normal[0][0]) * (cv::Vec2d(-g.normal[0][1], g.normal[0][0]).dot(into) >= 0 ? -1.0 : 1.0);
+        const cv::Vec2d d1 = cv::Vec2d(-g.normal[1][1], g.normal[1][0]) * (cv::Vec2d(-g.normal[1][1], g.normal[1][0]).dot(out_of) >= 0 ? 1.0 : -1.0);
+        out.resize(points_.size());
+        if (assign) assignment.assign(points_.size(), 1);
+        for (size_t i = 0; i < points_.size(); ++i) {
+            const cv::Vec2d& p = points_[i];
+            int piece = 1;
+            if (!assign) {
+                piece = assignment[i];
+            } else {
+                const bool first = (p - g.touch[0]).dot(d0) < 0, second = (p - g.touch[1]).dot(d1) > 0;
+                if (first && second)
+                    piece = std::abs(g.normal[0].dot(p) - q[1]) <= std::abs(g.normal[1].dot(p) - q[3]) ? 0 : 2;
+                else
+                    piece = first ? 0 : second ? 2 : 1;
+                assignment[i] = piece;
+            }
+            out[i] = piece == 0 ? g.normal[0].dot(p) - q[1] : piece == 2 ? g.normal[1].dot(p) - q[3] : cv::norm(p - g.centre) - q[4];
+        }
+        return true;
+    }
+
+    std::vector<cv::Vec2d> points_;
+    double angle_[2] = {0, 0}, offset_[2] = {0, 0}, side_[2] = {1, 1}, radius_ = 0;
+    std::vector<int> assignment_;
+};
+
 SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, const SectionFitOptions& options,
                             const std::vector<std::vector<cv::Vec2d>>& parallel_cuts) {
     if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
@@ -575,21 +707,50 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
         for (size_t j = 0; j + 1 < count || (closed && count > 1 && j < count); ++j)
             smooth_after[j] = can_be_tangent(spans[j].shape, spans[(j + 1) % count].shape, result.tolerance_mm);
         std::vector<Span> trimmed = spans;
+        std::vector<std::pair<long, long>> fitted(count);  // first point and count of each final fit
         for (size_t j = 0; j < count; ++j) {
             const bool smooth_before = closed || j > 0 ? smooth_after[(j + count - 1) % count] : false;
             const long trim = spans[j].count / 10;
             const long head = smooth_before ? 0 : trim, tail = smooth_after[j] ? 0 : trim;
             const long minimum = spans[j].shape.circle ? options.min_arc_points : options.min_line_points;
+            fitted[j] = {spans[j].first, spans[j].count};
             if (spans[j].count - head - tail < minimum || head + tail == 0) continue;
             const Shape shape = fitter.fit(spans[j].shape.circle, spans[j].first + head, spans[j].count - head - tail);
-            if (shape.ok) trimmed[j].shape = shape;
+            if (!shape.ok) continue;
+            trimmed[j].shape = shape;
+            fitted[j] = {spans[j].first + head, spans[j].count - head - tail};
         }
-        for (size_t j = 0; j < count && !parallel_cuts.empty(); ++j) {
-            const bool smooth_before = closed || j > 0 ? smooth_after[(j + count - 1) % count] : false;
-            const long trim = spans[j].count / 10;
-            const long head = smooth_before ? 0 : trim, tail = smooth_after[j] ? 0 : trim;
-            trimmed[j].shape = refit_with_parallel_cuts(trimmed[j].shape, pts, spans[j].first + head,
-                                                        spans[j].count - head - tail, parallel_cuts, result.tolerance_mm);
+        for (size_t j = 0; j < count && !parallel_cuts.empty(); ++j)
+            trimmed[j].shape = refit_with_parallel_cuts(trimmed[j].shape, pts, fitted[j].first, fitted[j].second,
+                                                        parallel_cuts, result.tolerance_mm);
+        // Fillets: an arc tangent to a line on each side is fitted again with both lines as one curve.
+        for (size_t j = 0; j < count && count >= 3; ++j) {
+            const size_t before = (j + count - 1) % count, after = (j + 1) % count;
+            if (!closed && (j == 0 || j + 1 == count)) continue;
+            if (!trimmed[j].shape.circle || trimmed[before].shape.circle || trimmed[after].shape.circle) continue;
+            if (!smooth_after[before] || !smooth_after[j]) continue;
+            std::vector<cv::Vec2d> points;
+            for (const size_t k : {before, j, after}) {
+                const auto [first, number] = fitted[k];
+                for (long i = first; i < first + number; ++i) points.push_back(pts[i]);
+                if (!parallel_cuts.empty()) {
+                    const std::vector<cv::Vec2d> near =
+                        parallel_points(trimmed[k].shape, pts, first, number, parallel_cuts, result.tolerance_mm, false);
+                    points.insert(points.end(), near.begin(), near.end());
+                }
+            }
+            FilletFit fillet(trimmed[before].shape, trimmed[j].shape, trimmed[after].shape, std::move(points));
+            if (!fillet.solve() || fillet.arc_points() < options.min_arc_points) continue;
+            Shape line_before = trimmed[before].shape, arc = trimmed[j].shape, line_after = trimmed[after].shape;
+            fillet.shapes(line_before, arc, line_after);
+            // Kept only when every element still holds its own points within the tolerance.
+            bool holds = true;
+            for (const auto& [k, shape] : {std::pair{before, &line_before}, std::pair{j, &arc}, std::pair{after, &line_after}})
+                holds = holds && max_distance(*shape, pts, fitted[k].first, fitted[k].second) <= result.tolerance_mm;
+            if (!holds) continue;
+            trimmed[before].shape = line_before;
+            trimmed[j].shape = arc;
+            trimmed[after].shape = line_after;
         }
         spans = trimmed;
     }

@@ -246,6 +246,14 @@ std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, c
     if (cloud.points.empty()) throw Error("seed", "the cloud has no points to pick");
     if (!(selection.radius_mm > 0)) throw Error("radius_mm", "must be positive");
     if (selection.grow && !(selection.max_gap_mm > 0)) throw Error("max_gap_mm", "must be positive");
+    const cv::Vec3d& box = selection.box_half_size_mm;
+    if (!(box[0] >= 0 && box[1] >= 0 && box[2] >= 0) || ((box[0] > 0 || box[1] > 0 || box[2] > 0) && !(box[0] > 0 && box[1] > 0 && box[2] > 0)))
+        throw Error("box_half_size_mm", "give all three half sizes (positive), or none");
+    if (box[0] > 0) {
+        const cv::Matx33d product = selection.box_axes * selection.box_axes.t();
+        if (cv::norm(product - cv::Matx33d::eye(), cv::NORM_INF) > 1e-6)
+            throw Error("box_axes", "the box's axes must be unit and square to each other");
+    }
     if (selection.grow && cloud.normals.size() != cloud.points.size())
         throw Error("cloud", "growing a region needs a normal per point");
     int nearest = -1;
@@ -255,9 +263,16 @@ std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, c
         if (d < nearest_distance) nearest_distance = d, nearest = int(i);
     }
     const cv::Vec3d centre(cloud.points[nearest]);
+    const cv::Vec3d& half = selection.box_half_size_mm;
+    const bool in_box = half[0] > 0 && half[1] > 0 && half[2] > 0;
+    const auto inside = [&](const cv::Vec3d& p) {
+        if (!in_box) return cv::norm(p - centre) <= selection.radius_mm;
+        const cv::Vec3d local = selection.box_axes * (p - centre);
+        return std::abs(local[0]) <= half[0] && std::abs(local[1]) <= half[1] && std::abs(local[2]) <= half[2];
+    };
     std::vector<int> ball;
     for (size_t i = 0; i < cloud.points.size(); ++i)
-        if (cv::norm(cv::Vec3d(cloud.points[i]) - centre) <= selection.radius_mm) ball.push_back(int(i));
+        if (inside(cv::Vec3d(cloud.points[i]))) ball.push_back(int(i));
     if (!selection.grow) return ball;
 
     // Grow over the surface: neighbours within the gap whose normals turn less than the step.
@@ -293,7 +308,36 @@ std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, c
     return region;
 }
 
-RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options) {
+std::vector<int> select_in_polygon(const PointCloud& cloud, const cv::Matx44d& cloud_to_screen,
+                                   const std::vector<cv::Vec2d>& polygon) {
+    if (polygon.size() < 3) throw Error("polygon", "a lasso needs at least 3 corners, has " + std::to_string(polygon.size()));
+    for (const cv::Vec2d& corner : polygon)
+        if (!std::isfinite(corner[0]) || !std::isfinite(corner[1])) throw Error("polygon", "has a non-finite corner");
+    std::vector<int> region;
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        if (!is_finite_point(cloud.points[i])) continue;
+        const cv::Vec3f& p = cloud.points[i];
+        const cv::Vec4d screen = cloud_to_screen * cv::Vec4d(p[0], p[1], p[2], 1);
+        if (!(screen[3] > 0)) continue;
+        const double x = screen[0] / screen[3], y = screen[1] / screen[3];
+        // Even-odd rule: count the polygon's edges crossing the ray to the right of (x, y).
+        bool in = false;
+        for (size_t a = 0, b = polygon.size() - 1; a < polygon.size(); b = a++) {
+            const cv::Vec2d &pa = polygon[a], &pb = polygon[b];
+            if ((pa[1] > y) != (pb[1] > y) && x < pa[0] + (y - pa[1]) * (pb[0] - pa[0]) / (pb[1] - pa[1])) in = !in;
+        }
+        if (in) region.push_back(int(i));
+    }
+    return region;
+}
+
+RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options,
+                     const ProgressCallback& progress) {
+    int stage = 0;
+    const auto report_stage = [&](const char* kind) {
+        if (progress && !progress(stage++ / 5.0, std::string("fitting ") + kind))
+            throw Error("cancelled", "region fit cancelled");
+    };
     if (region.size() < 10) throw Error("region", std::to_string(region.size()) + " points picked, at least 10 are needed");
     if (options.constraint != FitConstraint::Free && !(cv::norm(options.reference_direction) > 0))
         throw Error("reference_direction", "a constraint needs the reference feature's direction");
@@ -320,10 +364,12 @@ RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, co
     // Candidates in order of simplicity (parameter count).
     std::vector<DetectedShape> candidates;
     RegionFit result;
+    report_stage("a plane");
     if (allowed(ShapeKind::Plane, options.planes)) {
         candidates.push_back(fitter.plane());
         result.plane_rms_mm = rms_of(candidates.back(), points);
     }
+    report_stage("a sphere");
     if (allowed(ShapeKind::Sphere, options.spheres)) {
         try {
             candidates.push_back(fitter.sphere());
@@ -333,11 +379,13 @@ RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, co
     }
     DetectedShape cylinder;
     const bool need_cylinder = allowed(ShapeKind::Cylinder, options.cylinders) || allowed(ShapeKind::Cone, options.cones);
+    report_stage("a cylinder");
     if (need_cylinder) cylinder = fitter.cylinder();
     if (allowed(ShapeKind::Cylinder, options.cylinders)) {
         candidates.push_back(cylinder);
         result.cylinder_rms_mm = rms_of(cylinder, points);
     }
+    report_stage("a cone");
     if (allowed(ShapeKind::Cone, options.cones)) {
         DetectedShape cone;
         if (fitter.cone(normals.empty() ? cylinder : fitter.cone_start(), cone)) {

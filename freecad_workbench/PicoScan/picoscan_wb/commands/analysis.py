@@ -113,25 +113,20 @@ class FitPrimitivesCommand(Command):
 class FitRegionCommand(Command):
     icon = "picoscan_fit_region"
     menu = "Fit at picked point"
-    tooltip = ("Fit a plane, cylinder, sphere or cone to the surface around the point picked on the selected "
-               "ScanView or Stitch (the face it is on, grown over the smooth surface up to its edges); the kind follows the "
-               "scan's noise")
+    tooltip = ("Fit a plane, cylinder, sphere or cone to the region around the point picked on a ScanView or "
+               "Stitch (the face it is on, a ball, a box or a lasso), with constraints and snapping set in a task panel")
 
     def IsActive(self):
         return any(is_scan_view(s.Object) or is_stitch(s.Object) for s in FreeCADGui.Selection.getSelectionEx()
                    if s.PickedPoints)
 
-    def run(self):
-        from picoscan_wb.operations import region_fit
+    def Activated(self):
+        from picoscan_wb.taskpanels.region_fit import FitRegionTaskPanel
 
         picked = [s for s in FreeCADGui.Selection.getSelectionEx() if s.PickedPoints
                   and (is_scan_view(s.Object) or is_stitch(s.Object))][0]
-        source, seed = picked.Object, picked.PickedPoints[-1]
-        cloud = cloud_of(source)
-        region = region_fit.pick_region(cloud, tuple(seed), placement=source.Placement)
-        obj, fit = region_fit.fit_region(source.Document, cloud, region, placement=source.Placement)
-        FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, fit.report))
-        return obj
+        self.panel = FitRegionTaskPanel(picked.Object, picked.PickedPoints[-1])  # the open panel, for tests and macros
+        FreeCADGui.Control.showDialog(self.panel)
 
 
 class CrossSectionCommand(Command):

@@ -13,6 +13,7 @@ from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanMesh"
 METHODS = ["Grid", "Poisson", "AdvancingFront"]
+FILLS = ["Poisson", "Table", "Open"]  # picoscan.MeshFill: what closes the side the scan never saw
 
 
 def freecad_mesh(mesh):
@@ -44,6 +45,7 @@ class ScanMesh(DocumentObjectProxy):
         obj.addProperty("App::PropertyLength", "MaxHoleDiameter", "Surface", "Holes up to this size are filled")
         obj.addProperty("App::PropertyInteger", "TargetFaces", "Surface", "Simplify to about this many faces; 0 keeps all")
         obj.addProperty("App::PropertyString", "Check", "Result", "Facets, open edges, closed or not", 1)
+        self.add_fill(obj)
         obj.Method = METHODS
         obj.Method = "Grid"
         obj.PixelStep = 2
@@ -52,6 +54,19 @@ class ScanMesh(DocumentObjectProxy):
         obj.SampleSpacing = defaults.sample_spacing_mm
         obj.MaxHoleDiameter = defaults.max_hole_diameter_mm
         obj.TargetFaces = defaults.target_faces
+
+    @staticmethod
+    def add_fill(obj):
+        obj.addProperty("App::PropertyEnumeration", "Fill", "Surface",
+                        "Poisson: the unseen side closed by Poisson's guess, a flat cap at the table, or left "
+                        "Open (nothing invented; one view meshes in seconds)")
+        obj.Fill = FILLS
+        obj.Fill = "Poisson"
+
+    def onDocumentRestored(self, obj):
+        super().onDocumentRestored(obj)
+        if not hasattr(obj, "Fill"):  # documents saved before the property existed
+            self.add_fill(obj)
 
     @brief_input_errors
     def execute(self, obj):
@@ -85,18 +100,21 @@ class ScanMesh(DocumentObjectProxy):
         options.sample_spacing_mm = millimetres(obj.SampleSpacing)
         options.max_hole_diameter_mm = millimetres(obj.MaxHoleDiameter)
         options.target_faces = obj.TargetFaces
+        options.fill = getattr(picoscan.MeshFill, obj.Fill)
         cloud = cloud_of(obj.Source)
         mesh = run_in_background("Meshing " + obj.Label, lambda progress: picoscan.mesh_points(cloud, options, progress))
         return freecad_mesh(mesh), picoscan.check_mesh(mesh).summary()
 
 
 def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spacing_mm=None, target_faces=None,
-           max_hole_diameter_mm=None):
+           max_hole_diameter_mm=None, fill=None):
     """Meshes first and adds the object only when that worked (bad input leaves `doc` unchanged)."""
     if not (is_scan_view(source) or is_stitch(source)):
         raise picoscan.Error("%s: select a ScanView or a Stitch to mesh" % getattr(source, "Label", "selection"))
     if method not in METHODS:
         raise picoscan.Error("%s: meshing method must be one of %s" % (method, ", ".join(METHODS)))
+    if fill is not None and fill not in FILLS:
+        raise picoscan.Error("%s: fill must be one of %s" % (fill, ", ".join(FILLS)))
 
     def setup(obj):
         ScanMesh(obj)
@@ -109,6 +127,8 @@ def create(doc, source, method="Grid", pixel_step=2, name="ScanMesh", sample_spa
             obj.TargetFaces = target_faces
         if max_hole_diameter_mm is not None:
             obj.MaxHoleDiameter = max_hole_diameter_mm
+        if fill is not None:
+            obj.Fill = fill
         if FreeCAD.GuiUp:
             from picoscan_wb.viewproviders.view_provider import ViewProvider
             ViewProvider(obj.ViewObject, "picoscan_mesh")

@@ -65,10 +65,53 @@ def pick_region(cloud, seed, radius_mm=30.0, grow=True, placement=None, max_gap_
     return picoscan.select_region(cloud, tuple(local), selection)
 
 
-def fit_region(doc, cloud, region, options=None, placement=None, label=None):
-    """Adds the Part primitive fitted to cloud's points `region`; returns (object, picoscan.RegionFit).
-    Raises picoscan.Error (document unchanged) when no kind fits or a constraint cannot hold."""
-    fit = picoscan.fit_region(cloud, list(region), options or picoscan.RegionFitOptions())
+def picked_options(region="grown", radius_mm=30.0, box_half_size_mm=(5.0, 5.0, 5.0), placement=None, **fit_options):
+    """picoscan.PickedFitOptions for the core's fit_at_point: region "grown" (the face under the point,
+    within radius_mm), "ball" (every point within radius_mm) or "box" (box_half_size_mm along the
+    document's axes, around the point); fit_options as for region_options."""
+    options = picoscan.PickedFitOptions()
+    selection = picoscan.grown_face_selection()
+    if region not in REGIONS:
+        raise picoscan.Error("region: %r is not one of %s" % (region, ", ".join(REGIONS)))
+    selection.radius_mm = radius_mm
+    selection.grow = region == "grown"
+    if region == "box":
+        selection.box_half_size_mm = tuple(box_half_size_mm)
+        # The box's axes are the document's, seen from the scan's own frame: the rows of its rotation.
+        matrix = (placement or FreeCAD.Placement()).Rotation.toMatrix()
+        selection.box_axes = ((matrix.A11, matrix.A12, matrix.A13), (matrix.A21, matrix.A22, matrix.A23),
+                              (matrix.A31, matrix.A32, matrix.A33))
+    options.selection = selection
+    options.fit = region_options(placement=placement, **fit_options)
+    picoscan.validate(options)
+    return options
+
+
+REGIONS = ("grown", "ball", "box")
+
+
+def fit_at_point(cloud, seed, options, placement=None, progress=None):
+    """The core's recipe on `seed` given in document coordinates (`placement` is the scan object's):
+    returns picoscan.PickedFit. Raises picoscan.Error for bad options or a region no kind fits."""
+    local = (placement or FreeCAD.Placement()).inverse().multVec(FreeCAD.Vector(*seed))
+    return picoscan.fit_at_point(cloud, tuple(local), options, progress=progress)
+
+
+def fit_in_lasso(cloud, document_to_screen, polygon, options, placement=None, progress=None):
+    """The core's recipe on the points under `polygon` (screen pixels) for the 4 x 4 map
+    `document_to_screen` (rows; numpy array); `placement` is the scan object's."""
+    import numpy
+
+    matrix = (placement or FreeCAD.Placement()).toMatrix()
+    document_from_cloud = numpy.array(matrix.A).reshape(4, 4)
+    cloud_to_screen = numpy.asarray(document_to_screen, dtype=float) @ document_from_cloud
+    return picoscan.fit_in_lasso(cloud, [tuple(map(float, row)) for row in cloud_to_screen],
+                                 [tuple(map(float, p)) for p in polygon], options, progress=progress)
+
+
+def add_fitted(doc, cloud, fit, placement=None, label=None):
+    """Adds the Part primitive of a picoscan.RegionFit (in the scan's frame, moved by `placement`),
+    with FitKind, FitRmsMm, InlierCount and FitReport. Returns the object."""
     shape = fit.shape
     points = cloud.points
     if shape.kind == picoscan.ShapeKind.Plane:
@@ -87,4 +130,11 @@ def fit_region(doc, cloud, region, options=None, placement=None, label=None):
     obj.addProperty("App::PropertyString", "FitReport", "Fit", "The kinds' RMS and why this one was chosen", 1)
     obj.FitReport = fit.report
     doc.recompute()
-    return obj, fit
+    return obj
+
+
+def fit_region(doc, cloud, region, options=None, placement=None, label=None):
+    """Adds the Part primitive fitted to cloud's points `region`; returns (object, picoscan.RegionFit).
+    Raises picoscan.Error (document unchanged) when no kind fits or a constraint cannot hold."""
+    fit = picoscan.fit_region(cloud, list(region), options or picoscan.RegionFitOptions())
+    return add_fitted(doc, cloud, fit, placement, label), fit

@@ -15,7 +15,8 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import cloud_of, deviation_map, measurements, scan_mesh, scan_view, stitch
-from picoscan_wb.operations import alignment, datum, encoding, primitives, reconstruct, rig, section, simulate, solid
+from picoscan_wb.operations import (alignment, datum, encoding, primitives, reconstruct, region_fit, rig, section,
+                                   simulate, solid)
 
 SHAFT_RADIUS_MM = 12.5
 BACKGROUND_Z_MM = 460.0
@@ -80,6 +81,23 @@ class PicoScanAppTest(unittest.TestCase):
         mesh.PixelStep = 4  # parametric: a coarser grid after recompute
         self.doc.recompute()
         self.assertLess(mesh.Mesh.CountFacets, read_back.CountFacets / 3)
+
+    def test_open_fill_meshes_one_view_on_its_points(self):
+        """Poisson with Fill Open on one ScanView: the band surface, open, nothing filled in, and no
+        Poisson bubble past the measured depths (the shaft and the background plane)."""
+        view = self.scan()
+        mesh = scan_mesh.create(self.doc, view, method="Poisson", fill="Open", sample_spacing_mm=0.5)
+        self.assertTrue(mesh.isValid(), mesh.getStatusString())
+        FreeCAD.Console.PrintMessage("Poisson, fill open, one view: %s\n" % mesh.Check)
+        self.assertIn("NOT watertight", mesh.Check)
+        self.assertIn("0 non-manifold edges, 0 non-manifold vertices", mesh.Check)
+        self.assertIn("0.0 % of the surface filled in", mesh.Check)
+        self.assertGreater(mesh.Mesh.CountFacets, 10000)
+        box = mesh.Mesh.BoundBox
+        self.assertLess(box.ZMax, BACKGROUND_Z_MM + 1.0)
+        self.assertGreater(box.ZMin, 400.0 - SHAFT_RADIUS_MM - 1.0)
+        with self.assertRaisesRegex(picoscan.Error, "fill must be one of"):
+            scan_mesh.create(self.doc, view, method="Poisson", fill="Bubble")
 
     def test_make_solid(self):
         view = self.scan()
@@ -715,6 +733,52 @@ class PicoScanSectionFitTest(unittest.TestCase):
         corners = self.CORNERS
         return [math.degrees(math.atan2(b[1] - a[1], b[0] - a[0])) for a, b in zip(corners, corners[1:] + corners[:1])]
 
+    def seen_points(self, scan):
+        """What a scanner sees of the part: the mesh's vertices (with their normals) less those inside
+        it (the boss is a separate cylinder sunk 1 mm into the block, so the block's top under it and
+        its foot are hidden). Kept per scan: the heights and the deviation map both need them."""
+        cached = getattr(self, "_seen", {}).get(scan.Name)
+        if cached is not None:
+            return cached
+        vertices = numpy.array([(p.x, p.y, p.z) for p in scan.Mesh.Topology[0]])
+        normals = numpy.array([(n.x, n.y, n.z) for n in scan.Mesh.getPointNormals()])
+        from_boss_axis = numpy.hypot(vertices[:, 0] - 12, vertices[:, 1] + 2)
+        hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
+        self._seen = {scan.Name: (vertices[~hidden], normals[~hidden])}
+        return self._seen[scan.Name]
+
+    def fitted_heights(self, scan, sigma):
+        """The heights measured on the scan as a user does with Fit at picked point: a plane fitted to
+        the face grown from a point picked on the bottom, on the block's top and on the boss's top
+        (the core's fit_at_point), each added as a Part::Plane. Returns the bottom's z and the
+        distances of the tops from the bottom along its normal (the part frame's Z)."""
+        vertices, normals = self.seen_points(scan)
+        cloud = picoscan.PointCloud()
+        cloud.points = vertices.astype(numpy.float32)
+        cloud.normals = normals.astype(numpy.float32)
+        options = region_fit.picked_options(kind="plane", noise_mm=sigma)
+        planes = {}
+        for name, seed in (("bottom", (5.0, 10.0, 0.0)), ("top", (-5.0, 10.0, 24.0)), ("boss top", (12.0, -2.0, 32.0))):
+            picked = region_fit.fit_at_point(cloud, seed, options)
+            region_fit.add_fitted(self.doc, cloud, picked.fit, label="Fitted " + name)
+            planes[name] = picked.fit.shape
+            FreeCAD.Console.PrintMessage("plane fitted to the %s: %d points, rms %.4f mm\n" % (
+                name, len(picked.region), picked.fit.shape.rms_mm))
+        up = -numpy.asarray(planes["bottom"].direction)  # the bottom's outward normal points down
+        base = numpy.asarray(planes["bottom"].point)
+        height = {name: float(numpy.dot(numpy.asarray(planes[name].point) - base, up)) for name in ("top", "boss top")}
+        for name in ("top", "boss top"):  # parallel to the bottom, as the part is
+            self.assertLess(math.degrees(math.acos(min(1.0, abs(numpy.dot(planes[name].direction, up))))), 0.05)
+        return float(base[2]), height["top"], height["boss top"]
+
+    @staticmethod
+    def pad_between(pad, sketch, low, high):
+        """A pad of `sketch` from z = low to z = high (both lengths measured, not typed)."""
+        z = sketch.Placement.Base.z
+        upwards = sketch.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1)).z > 0
+        pad.Type = "TwoLengths"
+        pad.Length, pad.Length2 = (high - z, z - low) if upwards else (z - low, high - z)
+
     def test_demo_outline_gives_five_lines_and_the_hole(self):
         for sigma in (0.0, 0.01, 0.02, 0.04):
             mesh = self.noisy_part(sigma)
@@ -767,20 +831,24 @@ class PicoScanSectionFitTest(unittest.TestCase):
         scan = self.noisy_part(0.02)
         outline = section.cross_section(self.doc, scan, axis="Z", offset_mm=12.0, name="Outline")
         boss_section = section.cross_section(self.doc, scan, axis="Z", offset_mm=28.0, name="BossSection")
+        bottom, top, boss_top = self.fitted_heights(scan, 0.02)  # fitted planes, not typed heights
         body = self.doc.addObject("PartDesign::Body", "Body")
         body.addObject(outline)
         body.addObject(boss_section)
         block = body.newObject("PartDesign::Pad", "Block")
         block.Profile = outline
-        block.Midplane = True  # the section is at mid height: 24 mm, 12 each way
-        block.Length = 24
+        self.pad_between(block, outline, bottom, bottom + top)
         boss = body.newObject("PartDesign::Pad", "Boss")
         boss.Profile = boss_section
-        boss.Midplane = True   # z = 24 .. 32
-        boss.Length = 8
+        self.pad_between(boss, boss_section, bottom + top, bottom + boss_top)
         self.doc.recompute()
         self.assertTrue(body.Shape.isValid())
         box = body.Shape.BoundBox
+        FreeCAD.Console.PrintMessage("rebuilt heights: bottom at z = %.4f mm, block %.4f mm, boss top %.4f mm "
+                                     "(truth 0, 24, 32)\n" % (bottom, top, boss_top))
+        self.assertAlmostEqual(box.ZMin, 0.0, delta=0.02)
+        self.assertAlmostEqual(top, 24.0, delta=0.02)
+        self.assertAlmostEqual(box.ZLength, 32.0, delta=0.02)
         circles = [g for g in boss_section.Geometry if g.TypeId == "Part::GeomCircle"]
         self.assertEqual(len(circles), 1)
         boss_centre = boss_section.Placement.multVec(circles[0].Center)
@@ -794,13 +862,8 @@ class PicoScanSectionFitTest(unittest.TestCase):
         self.assertAlmostEqual(2 * circles[0].Radius, 14.0, delta=0.02)
         self.assertAlmostEqual(boss_centre.x, 12.0, delta=0.02)
         self.assertAlmostEqual(boss_centre.y, -2.0, delta=0.02)
-        # What a scanner sees of the part: its vertices less those inside it (the boss is a separate
-        # cylinder sunk 1 mm into the block, so the block's top under it and its foot are hidden).
-        vertices = numpy.array([(p.x, p.y, p.z) for p in scan.Mesh.Topology[0]])
-        from_boss_axis = numpy.hypot(vertices[:, 0] - 12, vertices[:, 1] + 2)
-        hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
         seen = self.doc.addObject("Points::Feature", "ScanPoints")
-        seen.Points = Points.Points([tuple(p) for p in vertices[~hidden]])
+        seen.Points = Points.Points([tuple(p) for p in self.seen_points(scan)[0]])
         # Misplaced by 2 degrees and 1.4 mm, as a scan in its own frame would be: best fit puts it back.
         seen.Placement = FreeCAD.Placement(FreeCAD.Vector(1.0, -0.8, 0.5), FreeCAD.Rotation(FreeCAD.Vector(0.2, 0.3, 1), 2.0))
         fit = alignment.best_fit(seen, body)
@@ -814,11 +877,11 @@ class PicoScanSectionFitTest(unittest.TestCase):
         self.assertLess(result.MeanAbsDeviation.Value, 0.02)  # the 20 um vertex noise, nothing more
         self.assertGreater(result.WithinTolerance, 95)
         within = result.WithinTolerance
-        # Parametric: a boss 1 mm too tall (z = 23 .. 33) leaves the scan's boss top 1 mm inside the model.
-        boss.Length = 10
+        # Parametric: a boss 1 mm too tall leaves the scan's boss top 1 mm inside the model.
+        self.pad_between(boss, boss_section, bottom + top, bottom + boss_top + 1)
         self.doc.recompute()
         self.assertTrue(boss.isValid() and result.isValid())
-        FreeCAD.Console.PrintMessage("boss 2 mm longer: %s\n" % result.Summary)
+        FreeCAD.Console.PrintMessage("boss 1 mm taller: %s\n" % result.Summary)
         self.assertAlmostEqual(result.MaxDeviation.Value, 1.0, delta=0.1)
         self.assertLess(result.MeanDeviation.Value, -0.01)  # the boss top, about 2 % of the points, 1 mm inside
         self.assertLessEqual(result.WithinTolerance, within - 2)
@@ -827,12 +890,11 @@ class PicoScanSectionFitTest(unittest.TestCase):
         """The issue's targets for the rebuilt demo part: the outline and the boss refitted with
         parallel cuts over their prismatic heights (Band), every dimension of the sketches within
         20 um, each line's direction within 0.05 degrees, and the deviation of the scan from the
-        rebuilt body next to its deviation from the true part (the noise floor). The heights are typed,
-        as in the walkthrough: a section across Y of this mesh falls apart into fragments (its top and
-        bottom faces are tessellated with T-junctions), so it gives no height."""
+        rebuilt body next to its deviation from the true part (the noise floor). The heights come from
+        planes fitted to the scan's bottom, block top and boss top (as in the walkthrough)."""
         sigma = 0.02
         scan = self.noisy_part(sigma)
-        bottom, top, boss_top = 0.0, 24.0, 32.0
+        bottom, top, boss_top = self.fitted_heights(scan, sigma)
         started = time.monotonic()
         outline = section.cross_section(self.doc, scan, axis="Z", offset_mm=12.0, name="Outline", band_mm=10.0)
         boss_section = section.cross_section(self.doc, scan, axis="Z", offset_mm=28.0, name="BossSection", band_mm=3.0)
@@ -852,9 +914,11 @@ class PicoScanSectionFitTest(unittest.TestCase):
         body.addObject(outline)
         body.addObject(boss_section)
         block = body.newObject("PartDesign::Pad", "Block")
-        block.Profile, block.Midplane, block.Length = outline, True, top - bottom
+        block.Profile = outline
+        self.pad_between(block, outline, bottom, bottom + top)
         boss = body.newObject("PartDesign::Pad", "Boss")
-        boss.Profile, boss.Midplane, boss.Length = boss_section, True, boss_top - top
+        boss.Profile = boss_section
+        self.pad_between(boss, boss_section, bottom + top, bottom + boss_top)
         self.doc.recompute()
         self.assertTrue(body.Shape.isValid())
         box = body.Shape.BoundBox
@@ -868,17 +932,16 @@ class PicoScanSectionFitTest(unittest.TestCase):
         measured = [("length", box.XLength, 50.0), ("width", box.YLength, 36.0), ("hole diameter", 2 * hole.Radius, 10.0),
                     ("hole x", hole_centre.x, -11.0), ("hole y", hole_centre.y, 0.0),
                     ("boss diameter", 2 * boss_circle.Radius, 14.0), ("boss x", boss_centre.x, 12.0),
-                    ("boss y", boss_centre.y, -2.0), ("chamfer along x", chamfer_x, 8.0), ("chamfer along y", chamfer_y, 8.0)]
+                    ("boss y", boss_centre.y, -2.0), ("chamfer along x", chamfer_x, 8.0), ("chamfer along y", chamfer_y, 8.0),
+                    ("bottom z", box.ZMin, 0.0), ("block height", top, 24.0), ("boss height", boss_top - top, 8.0),
+                    ("overall height", box.ZLength, 32.0)]
         for name, value, true in measured:
             FreeCAD.Console.PrintMessage("  rebuilt %s: %.4f mm (truth %.1f, error %+.1f um)\n" % (
                 name, value, true, 1000 * (value - true)))
         # The deviation of the scan's visible vertices from the rebuilt body, and from the true part:
         # the vertex noise alone gives the second (mean |d| = 0.8 sigma).
-        vertices = numpy.array([(p.x, p.y, p.z) for p in scan.Mesh.Topology[0]])
-        from_boss_axis = numpy.hypot(vertices[:, 0] - 12, vertices[:, 1] + 2)
-        hidden = ((from_boss_axis < 7.05) & (vertices[:, 2] < 23.95)) | ((from_boss_axis < 6.95) & (vertices[:, 2] < 24.1))
         seen = self.doc.addObject("Points::Feature", "ScanPoints")
-        seen.Points = Points.Points([tuple(p) for p in vertices[~hidden]])
+        seen.Points = Points.Points([tuple(p) for p in self.seen_points(scan)[0]])
         true_part = self.doc.addObject("Mesh::Feature", "TruePart")
         true_part.Mesh = scan_mesh.freecad_mesh(picoscan.mechanical_part())
         against_body = deviation_map.create(self.doc, seen, body, tolerance_mm=0.05)

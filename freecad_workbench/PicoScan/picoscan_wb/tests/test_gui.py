@@ -271,6 +271,126 @@ class PicoScanGuiTest(unittest.TestCase):
         # Undo removes what the command added, in one step.
         self.doc.undo()
         self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Cylinder"], [])
+        self.fit_at_picked_point_panel(view)
+
+    def fit_at_picked_point_panel(self, view):
+        """Fit at picked point on the shaft (radius 12.5 mm, axis along y through x = 0, z = 400 mm, in
+        the camera's frame) in front of the wall (z = 460 mm): the panel opens on a point picked
+        programmatically, Cancel leaves the document as it was, OK fits with the fields set."""
+        import numpy
+        from picoscan_wb.taskpanels import region_fit as panel_module
+
+        def open_panel(point):
+            FreeCADGui.Selection.clearSelection()
+            # FreeCAD keeps the picked point (PickedPoints) only with a sub-element name.
+            FreeCADGui.Selection.addSelection(self.doc.Name, view.Name, "Point", *point)
+            self.assertTrue(COMMANDS["PicoScan_FitRegion"].IsActive())
+            FreeCADGui.runCommand("PicoScan_FitRegion")
+            process_events()
+            panel = COMMANDS["PicoScan_FitRegion"].panel
+            self.assertIs(FreeCADGui.Control.activeDialog(), True)
+            return panel
+
+        def axis_error(cylinder):
+            axis = cylinder.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+            angle = numpy.degrees(numpy.arccos(min(1.0, abs(axis.y))))
+            base = cylinder.Placement.Base
+            offset = numpy.hypot(base.x - 0.0, base.z - 400.0)  # a point on the axis, off the true axis
+            return angle, offset
+
+        started = time.monotonic()
+        names, undo_count = self.object_names(), self.doc.UndoCount
+        panel = open_panel((0.0, 0.0, 387.5))  # the shaft's front
+        panel.update_preview()
+        count = int(panel.region_count.text())
+        self.assertGreater(count, 5000)
+        self.assertIsNotNone(panel.preview)  # the region shown in the 3D view
+        panel.set_kind("cylinder")
+        panel.noise.setValue(0.02)
+        self.assertEqual(panel.noise.suffix(), " mm")
+        panel.snap_step.setValue(1.0)
+        panel.reject()  # Cancel: nothing added, nothing to undo, no preview left
+        process_events()
+        self.assertEqual(self.object_names(), names)
+        self.assertEqual(self.doc.UndoCount, undo_count)
+        self.assertIsNone(panel.preview)
+        self.assertFalse(FreeCADGui.Control.activeDialog())
+
+        # The wall, automatic, within 10 mm of the point: a plane with its normal along z (towards the camera).
+        panel = open_panel((40.0, 0.0, 460.0))
+        panel.radius.setValue(10.0)
+        self.assertTrue(panel.accept(), self.messages)
+        wall = panel.created
+        self.assertEqual(wall.TypeId, "Part::Plane", wall.FitReport)
+        normal = wall.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertLess(numpy.degrees(numpy.arccos(min(1.0, abs(normal.z)))), 0.05)
+        self.assertAlmostEqual(wall.Placement.Base.z, 460.0, delta=0.02)
+
+        # The shaft: a cylinder perpendicular to the wall's normal, diameter snapped to 25 mm.
+        panel = open_panel((0.0, 0.0, 387.5))
+        panel.set_kind("cylinder")
+        panel.noise.setValue(0.02)
+        panel.set_constraint("perpendicular", wall)
+        panel.snap_step.setValue(1.0)
+        panel.snap_tolerance.setValue(0.1)
+        self.assertTrue(panel.accept(), self.messages)
+        shaft = panel.created
+        fit = panel.fit
+        FreeCAD.Console.PrintMessage("fit at picked point panel: shaft radius %.4f mm before snapping (truth 12.5), "
+                                     "%s\n" % (fit.fitted_radius_mm, fit.report))
+        self.assertEqual(shaft.TypeId, "Part::Cylinder", shaft.FitReport)
+        self.assertTrue(fit.snapped, fit.report)
+        self.assertAlmostEqual(shaft.Radius.Value, 12.5, places=9)
+        self.assertAlmostEqual(fit.fitted_radius_mm, 12.5, delta=0.02)
+        axis = shaft.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
+        self.assertLess(abs(axis.dot(normal)), 1e-9)  # the constraint holds exactly
+        angle, offset = axis_error(shaft)
+        self.assertLess(angle, 0.2)
+        self.assertLess(offset, 0.05)
+        shaft_name = shaft.Name
+        self.doc.undo()  # one undo step removes it
+        self.assertNotIn(shaft_name, self.object_names())
+
+        # A lasso over the shaft's front, drawn in the 3D view looking along +z like the camera.
+        FreeCADGui.Selection.clearSelection()
+        panel = open_panel((0.0, 0.0, 387.5))
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        view3d.viewBottom()
+        view3d.fitAll()
+        process_events()
+        # Drawn as a user does: Draw lasso, a left click at each corner, a right click to close, sent
+        # as Coin mouse events through the viewer. The corners are placed with FreeCAD's own projection
+        # (pixels, y up like Coin's events), which the panel's projection (from the camera's view
+        # volume) must match for the fit to find the shaft.
+        from pivy import coin
+
+        panel.set_region("lasso")
+        panel.draw_lasso.click()
+        events = view3d.getViewer().getSoEventManager()
+        corners = [view3d.getPointOnScreen(FreeCAD.Vector(x, y, 387.5)) for x, y in ((-8, -20), (8, -20), (8, 20), (-8, 20))]
+        clicks = [(coin.SoMouseButtonEvent.BUTTON1, c, state) for c in corners
+                  for state in (coin.SoButtonEvent.DOWN, coin.SoButtonEvent.UP)]
+        for button, corner, state in clicks + [(coin.SoMouseButtonEvent.BUTTON2, corners[-1], coin.SoButtonEvent.DOWN)]:
+            event = coin.SoMouseButtonEvent()
+            event.setButton(button)
+            event.setState(state)
+            event.setPosition(coin.SbVec2s(int(corner[0]), int(corner[1])))
+            events.processEvent(event)
+        self.assertFalse(panel.draw_lasso.isChecked())  # the right click closed it
+        self.assertEqual(len(panel.lasso), 4)
+        panel.update_preview()
+        lasso_count = int(panel.region_count.text())
+        self.assertGreater(lasso_count, 2000)
+        self.assertTrue(panel.accept(), self.messages)
+        strip = panel.created
+        FreeCAD.Console.PrintMessage("fit at picked point panel: lasso of %d points: radius %.4f mm (truth 12.5), %s; "
+                                     "the panel's steps took %.1f s\n" % (lasso_count, strip.Radius.Value, strip.FitReport,
+                                                                         time.monotonic() - started))
+        self.assertEqual(strip.TypeId, "Part::Cylinder", strip.FitReport)
+        self.assertAlmostEqual(strip.Radius.Value, 12.5, delta=0.05)
+        angle, offset = axis_error(strip)
+        self.assertLess(angle, 0.5)
+        self.assertLess(offset, 0.1)
 
     @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
     def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
