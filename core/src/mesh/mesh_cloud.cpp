@@ -1,5 +1,6 @@
 // mesh_cloud: prepare the points, reconstruct, fill small holes, simplify.
 #include "mesh/cgal_types.h"
+#include "mesh/sharpen.h"
 #include "picoscan/error.h"
 #include "picoscan/mesh.h"
 #include "register/point_grid.h"
@@ -363,6 +364,10 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
             }
             mesh = detail::clip_at_plane(mesh, table.up, table.height, std::max(3 * spacing, 1.0));
         }
+        // Last, on the surface that stays: the cut at the table needs a mesh that does not cross
+        // itself, and the sharpening only moves vertices where that stays so.
+        report(0.8, "sharpening edges");
+        detail::sharpen_edges(mesh, points, spacing);
     } else {
         report(0.2, "advancing-front reconstruction");
         mesh = detail::advancing_front_mesh(points, spacing, options.advancing_front_max_radius);

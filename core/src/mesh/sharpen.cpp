@@ -1,0 +1,721 @@
+// Sharp edges and corners restored on the Poisson mesh. Poisson's implicit function is smooth,
+// so a convex edge comes out rounded and a concave one filled, by about a triangle; moving each
+// vertex onto the plane of its nearest points (project_onto_points) restores the faces but
+// not the edge itself, since no vertex lies on it. Here the planes are found in the points,
+// the mesh is split where it crosses the line two planes meet on (the bisector of the two
+// planes decides which side a point belongs to), and the split vertices are put on that line.
+#include "mesh/sharpen.h"
+#include "register/point_grid.h"
+
+#include <opencv2/core.hpp>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+#include <numeric>
+#include <unordered_map>
+
+namespace picoscan::detail {
+
+namespace {
+
+// A plane, or a cylinder (a hole's wall, a boss).
+struct Plane {
+    bool cylinder = false;
+    cv::Vec3d normal;   // plane: unit, outwards (as the points' normals)
+    double offset = 0;  // plane: normal . x on it
+    cv::Vec3d axis, centre;  // cylinder: unit axis, a point on it
+    double radius = 0;
+    int outwards = 1;        // cylinder: +1 when the outside is away from the axis (a boss), -1 (a hole)
+    double low = 0, high = 0;  // cylinder: the extent of its points along the axis
+    cv::Vec3d radial(const cv::Vec3d& x) const {
+        cv::Vec3d r = x - centre;
+        r -= axis * axis.dot(r);
+        const double length = cv::norm(r);
+        return length > 1e-12 ? r * (1.0 / length) : cv::Vec3d(0, 0, 0);
+    }
+    double distance(const cv::Vec3d& x) const {
+        if (!cylinder) return normal.dot(x) - offset;
+        cv::Vec3d r = x - centre;
+        r -= axis * axis.dot(r);
+        return outwards * (cv::norm(r) - radius);
+    }
+    cv::Vec3d project(const cv::Vec3d& x) const {
+        if (!cylinder) return x - distance(x) * normal;
+        return centre + axis * axis.dot(x - centre) + radius * radial(x);
+    }
+    cv::Vec3d normal_at(const cv::Vec3d& x) const { return cylinder ? outwards * radial(x) : normal; }
+};
+
+double degrees_between(const cv::Vec3d& a, const cv::Vec3d& b) {
+    return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / CV_PI;
+}
+
+// Least-squares plane through points (their normals say which way is out); false when too few.
+bool fit_plane(const std::vector<cv::Vec3d>& positions, const std::vector<int>& members, const cv::Vec3d& outwards,
+               Plane& plane) {
+    if (members.size() < 3) return false;
+    cv::Vec3d centre(0, 0, 0);
+    for (int i : members) centre += positions[i];
+    centre *= 1.0 / double(members.size());
+    cv::Matx33d scatter = cv::Matx33d::zeros();
+    for (int i : members) scatter += (positions[i] - centre) * (positions[i] - centre).t();
+    cv::Matx31d values;
+    cv::Matx33d vectors;
+    cv::eigen(scatter, values, vectors);
+    cv::Vec3d normal(vectors(2, 0), vectors(2, 1), vectors(2, 2));
+    if (normal.dot(outwards) < 0) normal = -normal;
+    plane.normal = normal;
+    plane.offset = normal.dot(centre);
+    return true;
+}
+
+// Planes meeting at an angle of at least this are an edge; below it (and above
+// kSamePlaneDeg) the region is ambiguous (a gently bent or curved surface): left alone.
+constexpr double kSharpEdgeDeg = 25;
+constexpr double kSamePlaneDeg = 5;
+// A region is a plane when the median angle between its points' normals and its plane's is
+// below this (a curved wall cut into strips is not: its normals fan out across the strip).
+constexpr double kFlatRegionDeg = 3;
+constexpr double kGrowNormalDeg = 15;
+constexpr size_t kLeastRegionPoints = 100;  // a gently curved surface makes small plane-like patches
+// Share of the points around a vertex that must lie on its planes for the edge to be sharpened
+// (a fillet's points lie between them).
+constexpr double kLeastAgreement = 0.9;
+
+struct Regions {
+    std::vector<Plane> planes;
+    std::vector<int> label;  // per point: plane index or -1
+    double tolerance = 0;    // mm: a point within this of a plane lies on it
+};
+
+// A cylinder through points: its axis across the normals (they are all square to it), then a
+// circle fitted in the plane across the axis (Kasa's algebraic fit). False when the points are
+// not on one (normals not square to one direction, or too far from the circle).
+bool fit_cylinder(const std::vector<cv::Vec3d>& positions, const std::vector<cv::Vec3d>& normals,
+                  const std::vector<int>& members, double tolerance, Plane& out) {
+    cv::Matx33d spread = cv::Matx33d::zeros();
+    for (int i : members) spread += normals[i] * normals[i].t();
+    cv::Matx31d values;
+    cv::Matx33d vectors;
+    cv::eigen(spread * (1.0 / double(members.size())), values, vectors);
+    // Square to the axis: the smallest spread is nearly none; round it: the normals turn a good
+    // way (a strip of a plane is not a cylinder).
+    if (values(2) > 0.02 || values(1) < 0.05) return false;
+    const cv::Vec3d axis = cv::normalize(cv::Vec3d(vectors(2, 0), vectors(2, 1), vectors(2, 2)));
+    const cv::Vec3d u = cv::normalize(axis.cross(std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
+    const cv::Vec3d w = axis.cross(u);
+    cv::Matx33d normal_matrix = cv::Matx33d::zeros();
+    cv::Vec3d rhs(0, 0, 0);
+    const cv::Vec3d origin = positions[members[0]];
+    for (int i : members) {
+        const cv::Vec3d d = positions[i] - origin;
+        const double x = d.dot(u), y = d.dot(w);
+        const cv::Vec3d row(x, y, 1);
+        normal_matrix += row * row.t();
+        rhs += row * (-(x * x + y * y));
+    }
+    if (std::abs(cv::determinant(normal_matrix)) < 1e-12) return false;
+    const cv::Vec3d solution = normal_matrix.solve(rhs, cv::DECOMP_LU);
+    const double cx = -solution[0] / 2, cy = -solution[1] / 2, r2 = cx * cx + cy * cy - solution[2];
+    if (!(r2 > 0)) return false;
+    out = Plane{};
+    out.cylinder = true;
+    out.axis = axis;
+    out.centre = origin + cx * u + cy * w;
+    out.radius = std::sqrt(r2);
+    out.outwards = 1;
+    double facing = 0;
+    size_t near = 0;
+    // Kasa's fit is biased by noise on a partly seen wall: refined by Gauss-Newton on the
+    // distances from the cylinder (its axis tilted, moved and its radius), over the points near it.
+    for (int iteration = 0; iteration < 8; ++iteration) {
+        const cv::Vec3d a = out.axis;
+        const cv::Vec3d e1 = cv::normalize(a.cross(std::abs(a[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
+        const cv::Vec3d e2 = a.cross(e1);
+        auto moved = [&](const cv::Vec<double, 5>& d) {
+            Plane c = out;
+            c.axis = cv::normalize(a + d[0] * e1 + d[1] * e2);
+            c.centre = out.centre + d[2] * e1 + d[3] * e2;
+            c.radius = out.radius + d[4];
+            return c;
+        };
+        cv::Matx<double, 5, 5> jtj = cv::Matx<double, 5, 5>::zeros();
+        cv::Vec<double, 5> jtr(0, 0, 0, 0, 0);
+        const double step = 1e-6;
+        for (int i : members) {
+            const double r = out.outwards * out.distance(positions[i]);  // outwards is 1 here
+            if (std::abs(r) > 3 * tolerance) continue;
+            cv::Vec<double, 5> row;
+            for (int k = 0; k < 5; ++k) {
+                cv::Vec<double, 5> d(0, 0, 0, 0, 0);
+                d[k] = step;
+                row[k] = (moved(d).distance(positions[i]) - r) / step;
+            }
+            jtj += row * row.t();
+            jtr += row * r;
+        }
+        if (std::abs(cv::determinant(jtj)) < 1e-30) break;
+        const cv::Vec<double, 5> delta = jtj.solve(-jtr, cv::DECOMP_LU);
+        out = moved(delta);
+    }
+    out.low = 1e30;
+    out.high = -1e30;
+    for (int i : members) {
+        facing += normals[i].dot(out.radial(positions[i]));
+        out.outwards = 1;
+        if (std::abs(out.distance(positions[i])) < 2 * tolerance) ++near;
+        const double along = axis.dot(positions[i] - out.centre);
+        out.low = std::min(out.low, along);
+        out.high = std::max(out.high, along);
+    }
+    out.outwards = facing >= 0 ? 1 : -1;
+    // Most of the points within twice the tolerance (a wall seen at a grazing angle is noisier
+    // than a face seen square on).
+    return double(near) >= 0.8 * double(members.size());
+}
+
+// Curved walls: the points no plane took, grown into smooth regions (neighbours' normals within
+// a few degrees of each other), each kept when it is a cylinder; then, as for the planes, the
+// points beside it that lie on it join.
+void add_cylinders(const std::vector<cv::Vec3d>& positions, const std::vector<cv::Vec3d>& normals, const PointGrid& grid,
+                   double radius, Regions& regions) {
+    const size_t n = positions.size();
+    const double smooth = std::cos(10.0 * CV_PI / 180.0);
+    std::vector<int> region(n, -1), near, members;
+    for (size_t seed = 0; seed < n; ++seed) {
+        if (regions.label[seed] >= 0 || region[seed] >= 0) continue;
+        members.clear();
+        std::deque<int> queue{static_cast<int>(seed)};
+        region[seed] = static_cast<int>(seed);
+        while (!queue.empty()) {
+            const int i = queue.front();
+            queue.pop_front();
+            members.push_back(i);
+            grid.within(positions[i], radius, near);
+            for (int k : near) {
+                if (regions.label[k] >= 0 || region[k] >= 0 || normals[k].dot(normals[i]) < smooth) continue;
+                region[k] = static_cast<int>(seed);
+                queue.push_back(k);
+            }
+        }
+        if (members.size() < 3 * kLeastRegionPoints) continue;
+        Plane cylinder;
+        if (!fit_cylinder(positions, normals, members, regions.tolerance, cylinder)) continue;
+        const int id = static_cast<int>(regions.planes.size());
+        regions.planes.push_back(cylinder);
+        std::deque<int> grow;
+        for (int k : members)
+            if (std::abs(cylinder.distance(positions[k])) < regions.tolerance) {
+                regions.label[k] = id;
+                grow.push_back(k);
+            }
+        while (!grow.empty()) {
+            const int i = grow.front();
+            grow.pop_front();
+            grid.within(positions[i], radius, near);
+            for (int k : near) {
+                if (regions.label[k] >= 0 || std::abs(cylinder.distance(positions[k])) > regions.tolerance) continue;
+                regions.label[k] = id;
+                grow.push_back(k);
+            }
+        }
+    }
+}
+
+// Region growing over the points: from the flattest points outwards, a neighbour joins when its
+// normal is within kGrowNormalDeg of the region's and it lies within the tolerance of the
+// region's plane (refitted as the region grows). The tolerance comes from the noise of the
+// flattest neighbourhoods.
+Regions find_planes(const std::vector<cv::Vec3d>& positions, const std::vector<cv::Vec3d>& normals,
+                    const PointGrid& grid, double radius) {
+    const size_t n = positions.size();
+    Regions regions;
+    regions.label.assign(n, -1);
+    std::vector<double> spread(n, 1.0);
+    std::vector<int> near;
+    for (size_t i = 0; i < n; ++i) {
+        grid.within(positions[i], radius, near);
+        if (near.size() < 6) continue;
+        double worst = 0;
+        for (int k : near) worst = std::max(worst, 1 - normals[i].dot(normals[k]));
+        spread[i] = worst;
+    }
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return spread[a] < spread[b]; });
+    const double flat = 1 - std::cos(kFlatRegionDeg * CV_PI / 180.0);
+    // Noise: the rms distance from their own plane of the flattest neighbourhoods.
+    std::vector<double> noise;
+    for (size_t s = 0; s < n && noise.size() < 200; s += 7) {
+        const int i = order[s];
+        if (spread[i] > flat) break;
+        grid.within(positions[i], radius, near);
+        Plane plane;
+        if (!fit_plane(positions, near, normals[i], plane)) continue;
+        double sum = 0;
+        for (int k : near) sum += std::pow(plane.distance(positions[k]), 2);
+        noise.push_back(std::sqrt(sum / double(near.size())));
+    }
+    if (noise.empty()) return regions;
+    std::nth_element(noise.begin(), noise.begin() + long(noise.size() / 2), noise.end());
+    regions.tolerance = std::clamp(6 * noise[noise.size() / 2], 0.02, 0.12);
+
+    const double grow = std::cos(kGrowNormalDeg * CV_PI / 180.0);
+    std::vector<uint8_t> tried(n, 0);
+    std::vector<int> members;
+    for (int seed : order) {
+        if (spread[seed] > flat) break;
+        if (regions.label[seed] >= 0 || tried[seed]) continue;
+        tried[seed] = 1;
+        Plane plane;
+        grid.within(positions[seed], radius, near);
+        members.clear();
+        for (int k : near)
+            if (regions.label[k] < 0 && normals[k].dot(normals[seed]) > grow) members.push_back(k);
+        if (!fit_plane(positions, members, normals[seed], plane)) continue;
+        const int id = static_cast<int>(regions.planes.size());
+        members.clear();
+        std::deque<int> queue{seed};
+        regions.label[seed] = id;
+        size_t fitted = 1;
+        while (!queue.empty()) {
+            const int i = queue.front();
+            queue.pop_front();
+            members.push_back(i);
+            if (members.size() >= 2 * fitted && members.size() >= 20) {
+                fit_plane(positions, members, plane.normal, plane);
+                fitted = members.size();
+            }
+            grid.within(positions[i], radius, near);
+            for (int k : near) {
+                if (regions.label[k] >= 0 || normals[k].dot(plane.normal) < grow ||
+                    std::abs(plane.distance(positions[k])) > regions.tolerance)
+                    continue;
+                regions.label[k] = id;
+                queue.push_back(k);
+            }
+        }
+        fit_plane(positions, members, plane.normal, plane);
+        std::vector<double> angles;
+        angles.reserve(members.size());
+        for (int k : members) angles.push_back(degrees_between(normals[k], plane.normal));
+        std::nth_element(angles.begin(), angles.begin() + long(angles.size() / 2), angles.end());
+        if (members.size() < kLeastRegionPoints || angles[angles.size() / 2] > kFlatRegionDeg) {
+            for (int k : members) {
+                regions.label[k] = -1;
+                tried[k] = 1;
+            }
+            continue;
+        }
+        regions.planes.push_back(plane);
+    }
+    // The points beside a region whose normals the edge blended (PCA over neighbours of both
+    // faces) but which lie on its plane join it: outwards from the regions, by distance alone.
+    std::deque<int> queue;
+    for (size_t i = 0; i < n; ++i)
+        if (regions.label[i] >= 0) queue.push_back(static_cast<int>(i));
+    while (!queue.empty()) {
+        const int i = queue.front();
+        queue.pop_front();
+        const Plane& plane = regions.planes[regions.label[i]];
+        grid.within(positions[i], radius, near);
+        for (int k : near) {
+            if (regions.label[k] >= 0 || std::abs(plane.distance(positions[k])) > regions.tolerance) continue;
+            regions.label[k] = regions.label[i];
+            queue.push_back(k);
+        }
+    }
+    add_cylinders(positions, normals, grid, radius, regions);
+    return regions;
+}
+
+// The point on the line (or curve) where surfaces a and b meet nearest to x; false when they
+// are nearly parallel there.
+bool onto_line(const Plane& a, const Plane& b, const cv::Vec3d& x, cv::Vec3d& out) {
+    if (!a.cylinder && !b.cylinder) {
+        cv::Vec3d direction = a.normal.cross(b.normal);
+        if (cv::norm(direction) < 0.2) return false;
+        direction = cv::normalize(direction);
+        const cv::Matx33d m(a.normal[0], a.normal[1], a.normal[2], b.normal[0], b.normal[1], b.normal[2], direction[0],
+                            direction[1], direction[2]);
+        out = cv::Vec3d(m.inv() * cv::Vec3d(a.offset, b.offset, direction.dot(x)));
+        return true;
+    }
+    // A cylinder: alternating projections (they converge where the surfaces cross at an angle).
+    cv::Vec3d y = x;
+    for (int i = 0; i < 40; ++i) y = b.project(a.project(y));
+    if (std::abs(a.distance(y)) > 1e-3 || std::abs(b.distance(y)) > 1e-3) return false;
+    if (cv::norm(a.normal_at(y).cross(b.normal_at(y))) < 0.2) return false;
+    out = y;
+    return true;
+}
+
+// The point where three planes meet; false when they do not meet in one well-defined point.
+bool corner_of(const Plane& a, const Plane& b, const Plane& c, cv::Vec3d& out) {
+    if (a.cylinder || b.cylinder || c.cylinder) return false;
+    const cv::Matx33d m(a.normal[0], a.normal[1], a.normal[2], b.normal[0], b.normal[1], b.normal[2], c.normal[0],
+                        c.normal[1], c.normal[2]);
+    if (std::abs(cv::determinant(m)) < 0.2) return false;
+    out = cv::Vec3d(m.inv() * cv::Vec3d(a.offset, b.offset, c.offset));
+    return true;
+}
+
+// What the points say around one vertex.
+struct VertexPlanes {
+    std::array<int, 3> plane{-1, -1, -1};  // the planes near it (the sharp model), first = its own
+    int count = 0;
+    // For each other plane: the side of it (+1, -1) the own plane's points lie on, 0 when both
+    // (an L-shaped face past a corner).
+    std::array<int, 3> side{0, 0, 0};
+    bool has(int p) const { return std::find(plane.begin(), plane.begin() + count, p) != plane.begin() + count; }
+};
+
+}  // namespace
+
+SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
+    SharpenReport report;
+    if (mesh.vertices.empty() || points.size() < kLeastRegionPoints || !(spacing_mm > 0)) return report;
+    std::vector<cv::Vec3d> positions, normals;
+    positions.reserve(points.size());
+    normals.reserve(points.size());
+    for (const PointWithNormal& p : points) {
+        positions.emplace_back(p.first.x(), p.first.y(), p.first.z());
+        normals.emplace_back(p.second.x(), p.second.y(), p.second.z());
+    }
+    const double grow_radius = 2 * spacing_mm;
+    // The planes within this of a vertex make its model: Poisson rounds an edge by about a
+    // triangle (the spacing), and the points' normals are blended for about as far again.
+    const double reach = std::max(2.5 * spacing_mm, 1.0);
+    const PointGrid grid(positions, std::max(grow_radius, reach));
+    const Regions regions = find_planes(positions, normals, grid, grow_radius);
+    report.planes = regions.planes.size();
+    if (regions.planes.size() < 2) return report;
+    const double agree = 2 * regions.tolerance;
+    // A vertex further than this from where its planes put it is left alone (not an edge Poisson rounded).
+    const double longest_move = std::max(1.5 * spacing_mm, 0.6);
+
+    // 1. Each vertex's planes, and whether the points around it lie on them.
+    const size_t vertex_count = mesh.vertices.size();
+    std::vector<VertexPlanes> model(vertex_count);
+    std::vector<int> near;
+    for (size_t v = 0; v < vertex_count; ++v) {
+        const cv::Vec3d x(mesh.vertices[v]);
+        grid.within(x, reach, near);
+        std::array<int, 8> ids{}, counts{};
+        int found = 0;
+        bool crowded = false;
+        for (int k : near) {
+            const int id = regions.label[k];
+            if (id < 0) continue;
+            int slot = 0;
+            while (slot < found && ids[slot] != id) ++slot;
+            if (slot == found) {
+                if (found == 8) {
+                    crowded = true;
+                    continue;
+                }
+                ids[found] = id;
+                counts[found++] = 0;
+            }
+            ++counts[slot];
+        }
+        if (crowded) continue;
+        // Nearly coincident planes are one face (a face grown as two regions): keep the larger.
+        std::vector<int> planes;
+        for (int s = 0; s < found; ++s) {
+            if (counts[s] < 3) continue;
+            planes.push_back(s);
+        }
+        std::sort(planes.begin(), planes.end(), [&](int a, int b) { return counts[a] > counts[b]; });
+        std::vector<int> kept;
+        bool ambiguous = false;
+        for (int s : planes) {
+            const Plane& p = regions.planes[ids[s]];
+            bool duplicate = false;
+            for (int t : kept) {
+                const double angle = degrees_between(p.normal_at(x), regions.planes[ids[t]].normal_at(x));
+                if (angle < kSamePlaneDeg) duplicate = true;
+                else if (angle < kSharpEdgeDeg) ambiguous = true;
+            }
+            if (!duplicate) kept.push_back(s);
+        }
+        if (ambiguous || kept.empty() || kept.size() > 3) continue;
+        VertexPlanes& vp = model[v];
+        vp.count = static_cast<int>(kept.size());
+        for (int k = 0; k < vp.count; ++k) vp.plane[k] = ids[kept[k]];
+        // Its own plane: the nearest.
+        int own = 0;
+        for (int k = 1; k < vp.count; ++k)
+            if (std::abs(regions.planes[vp.plane[k]].distance(x)) < std::abs(regions.planes[vp.plane[own]].distance(x)))
+                own = k;
+        std::swap(vp.plane[0], vp.plane[own]);
+        // The points must lie on the planes (within the noise), or the surface is not made of them here.
+        size_t on_planes = 0, all = 0;
+        std::array<int, 3> above{0, 0, 0}, below{0, 0, 0};
+        for (int k : near) {
+            ++all;
+            double nearest = 1e9;
+            for (int c = 0; c < vp.count; ++c) nearest = std::min(nearest, std::abs(regions.planes[vp.plane[c]].distance(positions[k])));
+            if (nearest < agree) ++on_planes;
+            if (regions.label[k] == vp.plane[0])
+                for (int c = 1; c < vp.count; ++c) {
+                    const double d = regions.planes[vp.plane[c]].distance(positions[k]);
+                    if (d > agree) ++above[c];
+                    else if (d < -agree) ++below[c];
+                }
+        }
+        if (all == 0 || double(on_planes) < kLeastAgreement * double(all)) {
+            vp.count = 0;
+            continue;
+        }
+        for (int c = 1; c < vp.count; ++c) {
+            const int total = above[c] + below[c];
+            if (total > 0 && above[c] >= 0.95 * total) vp.side[c] = 1;
+            else if (total > 0 && below[c] >= 0.95 * total) vp.side[c] = -1;
+        }
+        ++report.edge_vertices;
+    }
+    auto own_plane = [&](size_t v) { return model[v].count > 0 ? model[v].plane[0] : -1; };
+    auto sharp_pair = [&](int a, int b, const cv::Vec3d& x) {
+        return degrees_between(regions.planes[a].normal_at(x), regions.planes[b].normal_at(x)) >= kSharpEdgeDeg;
+    };
+
+    // 2. Mesh edges between vertices of two planes: where they cross the bisector of the planes
+    // (equal distance from both). Crossings near an end put that end on the line instead.
+    struct Crossing {
+        int a, b;      // the vertices
+        double t;      // from a to b
+        int plane_a, plane_b;
+    };
+    std::unordered_map<long long, Crossing> crossings;
+    auto edge_key = [&](int a, int b) { return (long long)std::min(a, b) * (long long)vertex_count + std::max(a, b); };
+    std::vector<std::vector<std::pair<int, int>>> snaps(vertex_count);  // planes pairs an end goes onto
+    for (const cv::Vec3i& face : mesh.faces)
+        for (int k = 0; k < 3; ++k) {
+            const int a = face[k], b = face[(k + 1) % 3];
+            const int pa = own_plane(a), pb = own_plane(b);
+            if (pa < 0 || pb < 0 || pa == pb || !model[a].has(pb) || !model[b].has(pa) ||
+                !sharp_pair(pa, pb, 0.5 * (cv::Vec3d(mesh.vertices[a]) + cv::Vec3d(mesh.vertices[b]))))
+                continue;
+            const long long key = edge_key(a, b);
+            if (crossings.count(key)) continue;
+            const cv::Vec3d xa(mesh.vertices[a]), xb(mesh.vertices[b]);
+            const Plane &plane_a = regions.planes[pa], &plane_b = regions.planes[pb];
+            auto gap = [&](double t) {
+                const cv::Vec3d x = xa + t * (xb - xa);
+                return std::abs(plane_a.distance(x)) - std::abs(plane_b.distance(x));
+            };
+            double lo = 0, hi = 1;
+            for (int i = 0; i < 30; ++i) {
+                const double mid = 0.5 * (lo + hi);
+                (gap(mid) <= 0 ? lo : hi) = mid;
+            }
+            const double t = 0.5 * (lo + hi);
+            crossings.emplace(key, Crossing{a, b, t, pa, pb});
+            if (t < 0.15) snaps[a].push_back({pa, pb});
+            else if (t > 0.85) snaps[b].push_back({pa, pb});
+        }
+
+    // 3. Where each vertex goes. `safe` is where it may go back to without folding anything:
+    // its place on the Poisson surface (for a new vertex, its place on the split edge).
+    std::vector<cv::Vec3d> safe(vertex_count), target(vertex_count);
+    for (size_t v = 0; v < vertex_count; ++v) safe[v] = target[v] = cv::Vec3d(mesh.vertices[v]);
+    std::vector<uint8_t> on_feature(vertex_count, 0);  // on a line or a corner: its edges are not split
+    for (size_t v = 0; v < vertex_count; ++v) {
+        const VertexPlanes& vp = model[v];
+        if (vp.count == 0) {
+            // Surface no point supports, inside a hole between the parts of its wall that were
+            // seen (Poisson narrows a hole's unseen middle): onto the hole's cylinder.
+            const cv::Vec3d x = safe[v];
+            grid.within(x, reach, near);
+            if (!near.empty()) continue;
+            for (const Plane& hole : regions.planes) {
+                if (!hole.cylinder || hole.outwards > 0) continue;
+                const double along = hole.axis.dot(x - hole.centre);
+                const cv::Vec3d across = (x - hole.centre) - hole.axis * along;
+                const double from_axis = cv::norm(across);
+                if (along < hole.low + reach || along > hole.high - reach || from_axis < 0.5 * hole.radius ||
+                    from_axis > hole.radius + reach)
+                    continue;
+                target[v] = hole.project(x);
+                ++report.hole_vertices;
+                break;
+            }
+            continue;
+        }
+        const cv::Vec3d x = safe[v];
+        cv::Vec3d moved;
+        bool placed = false;
+        if (!snaps[v].empty()) {
+            // The planes of its lines: two (one line) or three (a corner).
+            std::vector<int> planes;
+            for (const auto& [p, q] : snaps[v])
+                for (int r : {p, q})
+                    if (std::find(planes.begin(), planes.end(), r) == planes.end()) planes.push_back(r);
+            if (planes.size() == 2) placed = onto_line(regions.planes[planes[0]], regions.planes[planes[1]], x, moved);
+            else if (planes.size() == 3)
+                placed = corner_of(regions.planes[planes[0]], regions.planes[planes[1]], regions.planes[planes[2]], moved);
+            if (placed && cv::norm(moved - x) <= longest_move) {
+                on_feature[v] = 1;
+                report.corners += planes.size() == 3;
+                target[v] = moved;
+                continue;
+            }
+        }
+        // On its own plane, within the part of it its points are on (not past an edge).
+        const Plane& own = regions.planes[vp.plane[0]];
+        moved = own.project(x);
+        std::vector<int> crossed;
+        for (int c = 1; c < vp.count; ++c)
+            if (vp.side[c] != 0 && sharp_pair(vp.plane[0], vp.plane[c], x) &&
+                vp.side[c] * regions.planes[vp.plane[c]].distance(moved) < 0)
+                crossed.push_back(vp.plane[c]);
+        if (crossed.size() == 1) placed = onto_line(own, regions.planes[crossed[0]], moved, moved);
+        else if (crossed.size() == 2) placed = corner_of(own, regions.planes[crossed[0]], regions.planes[crossed[1]], moved);
+        else placed = true;
+        if (placed && cv::norm(moved - x) <= longest_move) target[v] = moved;
+    }
+
+    // 4. Split the edges that cross a line (neither end on a feature), each once.
+    std::unordered_map<long long, int> split_vertex;
+    for (auto& [key, crossing] : crossings) {
+        if (on_feature[crossing.a] || on_feature[crossing.b]) continue;
+        const cv::Vec3d xa(mesh.vertices[crossing.a]), xb(mesh.vertices[crossing.b]);
+        const cv::Vec3d on_edge = xa + crossing.t * (xb - xa);
+        cv::Vec3d moved;
+        if (!onto_line(regions.planes[crossing.plane_a], regions.planes[crossing.plane_b], on_edge, moved) ||
+            cv::norm(moved - on_edge) > longest_move)
+            moved = on_edge;
+        split_vertex.emplace(key, static_cast<int>(safe.size()));
+        safe.push_back(on_edge);
+        target.push_back(moved);
+        ++report.cut_edges;
+    }
+
+    // 5. The faces, split along the lines; each remembers the face it came from.
+    std::vector<cv::Vec3i> faces;
+    std::vector<int> parent;
+    faces.reserve(mesh.faces.size() + 3 * split_vertex.size());
+    auto add = [&](int a, int b, int c, int from) {
+        faces.emplace_back(a, b, c);
+        parent.push_back(from);
+    };
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+        const cv::Vec3i& face = mesh.faces[f];
+        std::array<int, 3> cut{-1, -1, -1};
+        int cuts = 0;
+        for (int k = 0; k < 3; ++k) {
+            const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
+            if (found != split_vertex.end()) {
+                cut[k] = found->second;
+                ++cuts;
+            }
+        }
+        const int from = static_cast<int>(f);
+        if (cuts == 0) {
+            add(face[0], face[1], face[2], from);
+        } else if (cuts == 1) {
+            int k = 0;
+            while (cut[k] < 0) ++k;
+            add(face[k], cut[k], face[(k + 2) % 3], from);
+            add(cut[k], face[(k + 1) % 3], face[(k + 2) % 3], from);
+        } else if (cuts == 2) {
+            int k = 0;
+            while (cut[k] >= 0) ++k;  // the edge not cut: face[k] -> face[k+1]
+            const int v0 = face[k], v1 = face[(k + 1) % 3], lone = face[(k + 2) % 3];
+            const int c1 = cut[(k + 1) % 3], c2 = cut[(k + 2) % 3];  // on v1 -> lone and lone -> v0
+            add(c1, lone, c2, from);
+            if (cv::norm(target[v0] - target[c1]) < cv::norm(target[v1] - target[c2])) {
+                add(v0, v1, c1, from);
+                add(v0, c1, c2, from);
+            } else {
+                add(v0, v1, c2, from);
+                add(v1, c1, c2, from);
+            }
+        } else {
+            for (int k = 0; k < 3; ++k) add(face[k], cut[k], cut[(k + 2) % 3], from);
+            // The middle holds the corner where the three planes meet, when they do.
+            const int pa = own_plane(face[0]), pb = own_plane(face[1]), pc = own_plane(face[2]);
+            cv::Vec3d corner;
+            const cv::Vec3d middle = (safe[cut[0]] + safe[cut[1]] + safe[cut[2]]) * (1.0 / 3);
+            if (pa != pb && pb != pc && pa != pc && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
+                cv::norm(corner - middle) <= longest_move) {
+                const int centre = static_cast<int>(safe.size());
+                safe.push_back(middle);
+                target.push_back(corner);
+                ++report.corners;
+                for (int k = 0; k < 3; ++k) add(cut[k], cut[(k + 1) % 3], centre, from);
+            } else {
+                add(cut[0], cut[1], cut[2], from);
+            }
+        }
+    }
+
+    // 6. Self-check: a face turned over against the face it came from, or faces crossing each
+    // other, send their vertices back.
+    std::vector<cv::Vec3d> original_normal(mesh.faces.size());
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+        const cv::Vec3i& face = mesh.faces[f];
+        const cv::Vec3d a(mesh.vertices[face[0]]), b(mesh.vertices[face[1]]), c(mesh.vertices[face[2]]);
+        original_normal[f] = (b - a).cross(c - a);
+    }
+    std::vector<cv::Vec3d> position = target;
+    std::vector<uint8_t> reverted(position.size(), 0);
+    auto send_back = [&](const cv::Vec3i& face) {
+        for (int k = 0; k < 3; ++k)
+            if (!reverted[face[k]] && position[face[k]] != safe[face[k]]) {
+                position[face[k]] = safe[face[k]];
+                reverted[face[k]] = 1;
+                ++report.reverted;
+            }
+    };
+    for (int round = 0; round < 10; ++round) {
+        bool changed = false;
+        for (size_t f = 0; f < faces.size(); ++f) {
+            const cv::Vec3i& face = faces[f];
+            const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
+            if (normal.dot(original_normal[parent[f]]) < 0) {
+                const size_t before = report.reverted;
+                send_back(face);
+                changed = changed || report.reverted != before;
+            }
+        }
+        if (!changed) break;
+    }
+    Mesh out;
+    out.faces = faces;
+    auto write_positions = [&]() {
+        out.vertices.resize(position.size());
+        for (size_t v = 0; v < position.size(); ++v) out.vertices[v] = cv::Vec3f(position[v]);
+    };
+    write_positions();
+    // Faces that crossed each other before (none, usually) are not this stage's doing: only
+    // crossings with a moved vertex send vertices back.
+    auto moved_crossings = [&]() {
+        std::vector<int> moved;
+        for (int f : self_intersecting_faces(out)) {
+            const cv::Vec3i& face = faces[f];
+            if (position[face[0]] != safe[face[0]] || position[face[1]] != safe[face[1]] || position[face[2]] != safe[face[2]])
+                moved.push_back(f);
+        }
+        return moved;
+    };
+    for (int round = 0;; ++round) {
+        const std::vector<int> crossing_faces = moved_crossings();
+        if (crossing_faces.empty()) break;
+        if (round == 5) {
+            // Still crossing itself: nothing is moved (the split faces stay, flat on their parents).
+            position = safe;
+            report.reverted = position.size();
+            write_positions();
+            break;
+        }
+        for (int f : crossing_faces) send_back(faces[f]);
+        write_positions();
+    }
+    mesh = std::move(out);
+    return report;
+}
+
+}  // namespace picoscan::detail
