@@ -40,6 +40,23 @@ private:
     // open-addressed table (no node allocations, few cache misses: ICP asks 27 per query).
     struct Cell { long long key = 0; int begin = -1, end = -1; };
     const Cell* find(long long key) const;
+    // Calls visit(point, index) for every point of the cells that the cube of half-side
+    // radius_mm (<= cell_mm) around the query touches: 1 to 8 cells, not the 27 around the
+    // query's own cell, fewer as ICP tightens its radius. Cells in a fixed order, their
+    // points in input order, so ties resolve the same way every time.
+    template <class Visit>
+    void visit_near(const cv::Vec3d& query, double radius_mm, Visit&& visit) const {
+        const double margin = radius_mm + 1e-9;  // rounding never drops a cell that holds a point in range
+        const cv::Vec<long long, 3> low = cell_of(query - cv::Vec3d::all(margin)), high = cell_of(query + cv::Vec3d::all(margin));
+        for (long long x = low[0]; x <= high[0]; ++x)
+            for (long long y = low[1]; y <= high[1]; ++y)
+                for (long long z = low[2]; z <= high[2]; ++z) {
+                    const Cell* cell = find(key(x, y, z));
+                    if (!cell) continue;
+                    for (int k = cell->begin; k < cell->end; ++k)
+                        visit(sorted_[static_cast<size_t>(k)], index_[static_cast<size_t>(k)]);
+                }
+    }
     double cell_mm_;
     std::vector<cv::Vec3d> sorted_;  // the points grouped by cell
     std::vector<int> index_;         // their indices in the input
