@@ -75,14 +75,9 @@ struct SearchMemory {
 // The nearest fixed point to p closer than limit_mm, or -1: what PointGrid::nearest(p, limit_mm) returns.
 int nearest_partner(const PointGrid& grid, const std::vector<cv::Vec3d>& fixed, const cv::Vec3d& p, double limit_mm,
                     SearchMemory& memory) {
-    constexpr double hair_mm = 1e-9;  // far above rounding: a bound never leaves out a point in reach
-    int found;
-    if (memory.partner >= 0)
-        found = grid.nearest(p, std::min(limit_mm, cv::norm(p - fixed[static_cast<size_t>(memory.partner)]) + hair_mm));
-    else if (memory.clear_mm - cv::norm(p - memory.at) - hair_mm >= limit_mm)
-        return -1;
-    else
-        found = grid.nearest(p, limit_mm);
+    constexpr double hair_mm = 1e-9;  // far above rounding: the bound never leaves out a point in reach
+    if (memory.partner < 0 && memory.clear_mm - cv::norm(p - memory.at) - hair_mm >= limit_mm) return -1;
+    const int found = grid.nearest_from(p, limit_mm, fixed, memory.partner);
     if (found < 0) {  // searched as far as limit_mm, found nothing
         memory.clear_mm = limit_mm;
         memory.at = p;

@@ -154,6 +154,12 @@ int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
     return best_index;
 }
 
+int PointGrid::nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const {
+    if (guess < 0) return nearest(query, max_distance_mm);
+    // A hair beyond the guess (far above rounding), so that it still counts as within reach.
+    return nearest(query, std::min(max_distance_mm, cv::norm(query - points[static_cast<size_t>(guess)]) + 1e-9));
+}
+
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
     const double limit = radius_mm * radius_mm;

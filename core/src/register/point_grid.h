@@ -33,6 +33,12 @@ public:
     // Indices of all points within radius_mm (<= cell_mm) of the query.
     void within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const;
 
+    // nearest(query, max_distance_mm) when points[guess] (guess -1: none) may lie near the
+    // query, as last iteration's partner does in ICP: the nearest point is no farther than the
+    // guess, so the search reaches only that far and visits fewer cells. `points` are the ones
+    // the grid was built on, or the same points moved since (the bound holds wherever they are).
+    int nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const;
+
 private:
     static long long key(long long ix, long long iy, long long iz) { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
     cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
