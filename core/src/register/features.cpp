@@ -163,12 +163,14 @@ struct TwoNearest {
     int first_distance = INT_MAX, second_distance = INT_MAX;
 };
 
-// The binary descriptors as 64-bit words, one row after another.
+// ORB descriptors: 256 bits, four 64-bit words.
+constexpr int kOrbWords = 4;
+
+// The descriptors' words, one row after another.
 std::vector<std::uint64_t> descriptor_words(const cv::Mat& descriptors) {
-    std::vector<std::uint64_t> words(static_cast<size_t>(descriptors.rows) * static_cast<size_t>(descriptors.cols / 8));
+    std::vector<std::uint64_t> words(static_cast<size_t>(descriptors.rows) * kOrbWords);
     for (int r = 0; r < descriptors.rows; ++r)
-        std::memcpy(words.data() + static_cast<size_t>(r) * static_cast<size_t>(descriptors.cols / 8), descriptors.ptr(r),
-                    static_cast<size_t>(descriptors.cols / 8) * 8);
+        std::memcpy(words.data() + static_cast<size_t>(r) * kOrbWords, descriptors.ptr(r), kOrbWords * 8);
     return words;
 }
 
@@ -179,15 +181,15 @@ std::vector<std::uint64_t> descriptor_words(const cv::Mat& descriptors) {
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
 __attribute__((target_clones("popcnt", "default")))
 #endif
-void two_nearest_rows(const std::uint64_t* moving, const std::uint64_t* fixed, int fixed_rows, int words, int begin,
-                      int end, TwoNearest* out) {
+void two_nearest_rows(const std::uint64_t* moving, const std::uint64_t* fixed, int fixed_rows, int begin, int end,
+                      TwoNearest* out) {
     for (int q = begin; q < end; ++q) {
-        const std::uint64_t* query = moving + static_cast<size_t>(q) * static_cast<size_t>(words);
+        const std::uint64_t* a = moving + static_cast<size_t>(q) * kOrbWords;
         TwoNearest best;
         for (int t = 0; t < fixed_rows; ++t) {
-            const std::uint64_t* candidate = fixed + static_cast<size_t>(t) * static_cast<size_t>(words);
-            int distance = 0;
-            for (int w = 0; w < words; ++w) distance += __builtin_popcountll(query[w] ^ candidate[w]);
+            const std::uint64_t* b = fixed + static_cast<size_t>(t) * kOrbWords;
+            const int distance = __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
+                                 __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
             // As a brute-force matcher ranks them: strictly closer only, so ties keep the lower index.
             if (distance >= best.second_distance) continue;
             if (distance < best.first_distance) {
@@ -204,14 +206,13 @@ void two_nearest_rows(const std::uint64_t* moving, const std::uint64_t* fixed, i
     }
 }
 
-// For each moving binary descriptor, its two nearest fixed ones by Hamming distance.
+// For each moving ORB descriptor, its two nearest fixed ones by Hamming distance.
 std::vector<TwoNearest> two_nearest_hamming(const cv::Mat& moving, const cv::Mat& fixed) {
-    CV_Assert(moving.type() == CV_8U && fixed.type() == CV_8U && moving.cols == fixed.cols && moving.cols % 8 == 0);
-    const int words = moving.cols / 8;
+    CV_Assert(moving.type() == CV_8U && fixed.type() == CV_8U && moving.cols == 8 * kOrbWords && fixed.cols == 8 * kOrbWords);
     const std::vector<std::uint64_t> moving_words = descriptor_words(moving), fixed_words = descriptor_words(fixed);
     std::vector<TwoNearest> nearest(static_cast<size_t>(moving.rows));
     parallel_rows(moving.rows, [&](int begin, int end) {
-        two_nearest_rows(moving_words.data(), fixed_words.data(), fixed.rows, words, begin, end, nearest.data());
+        two_nearest_rows(moving_words.data(), fixed_words.data(), fixed.rows, begin, end, nearest.data());
     });
     return nearest;
 }
