@@ -6,6 +6,7 @@
 #include "picoscan/capture_set.h"
 #include "picoscan/error.h"
 #include "picoscan/fit.h"
+#include "picoscan/io.h"
 #include "picoscan/pipeline.h"
 #include "picoscan/simulate.h"
 
@@ -67,6 +68,7 @@ const char* const kTargetFaces = "targetFaces";
 const char* const kShape = "shape";
 const char* const kSelectedOnly = "selectedOnly";
 const char* const kModelFrame = "modelFrame";
+const char* const kViewFolder = "viewFolder";
 
 // Values of the "sequence" enum: where the frame order of a capture set comes from.
 enum SequenceSource { OwnManifest, SlmasterCgc, SlstudioGray };
@@ -194,23 +196,6 @@ MeshModel* add_scan_layer(MeshDocument& document, const QString& label, const Sc
     return add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, view); });
 }
 
-// Clean, Align and Fuse need the organised pixel grid and camera; other layers get a plain answer.
-void require_scan_grid(MeshModel& layer) {
-    const std::string missing = missing_scan_data(layer);
-    if (!missing.empty()) throw Error(layer.label().toStdString(), missing);
-}
-
-// The visible layers, each of which must carry a pixel grid.
-std::vector<MeshModel*> visible_scan_layers(MeshDocument& document) {
-    std::vector<MeshModel*> layers;
-    for (MeshModel* layer : document.meshList)
-        if (layer->isVisible()) {
-            require_scan_grid(*layer);
-            layers.push_back(layer);
-        }
-    return layers;
-}
-
 std::string layer_name(const MeshModel& layer) { return layer.label().toStdString(); }
 
 // The "placements" parameter, layers per placement in layer order ("8 8"), as the core's
@@ -235,7 +220,7 @@ std::vector<int> placement_of_layers(const QString& text, size_t layer_count) {
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
-    typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure;
+    typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure << SaveViews;
     for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
 }
 
@@ -249,6 +234,7 @@ QString PicoScanFilterPlugin::filterName(FilterIDType filter) const {
     case Align: return "PicoScan: Align Layers";
     case Fuse: return "PicoScan: Fuse and Mesh";
     case Measure: return "PicoScan: Measure Sphere or Plane";
+    case SaveViews: return "PicoScan: Save Views for Project";
     }
     return {};
 }
@@ -291,6 +277,12 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
         return "Fits a sphere or a plane (least squares) to the current layer's points, or to the selected ones, and "
                "writes centre, radius or normal, and the RMS residual to the log: for checking a scanner with a "
                "reference sphere or a flat plate.";
+    case SaveViews:
+        return "Writes every PicoScan layer as a PicoScan view PLY (its points with their camera pixels, the camera, "
+               "normals, quality, colours and the layer's transform as the view's pose) into a folder, and makes it "
+               "the layer's file. Run it before saving a project: MeshLab's own layer files keep neither the pixels "
+               "nor the camera, and Clean, Align and Fuse of the reopened project take them from these files (also "
+               "when meshlabserver wrote its own copy, LAYER_out.ply, beside them). Other layers are left as they are.";
     }
     return {};
 }
@@ -303,6 +295,7 @@ MeshFilterInterface::FilterClass PicoScanFilterPlugin::getClass(QAction* action)
     case Align: return MeshFilterInterface::RangeMap;
     case Fuse: return MeshFilterInterface::Remeshing;
     case Measure: return MeshFilterInterface::Measure;
+    case SaveViews: return MeshFilterInterface::Layer;
     }
     return MeshFilterInterface::MeshCreation;
 }
@@ -312,7 +305,8 @@ MeshFilterInterface::FILTER_ARITY PicoScanFilterPlugin::filterArity(QAction* act
     case Reconstruct:
     case Simulate: return NONE;
     case Align:
-    case Fuse: return VARIABLE;
+    case Fuse:
+    case SaveViews: return VARIABLE;
     default: return SINGLE_MESH;
     }
 }
@@ -330,7 +324,8 @@ int PicoScanFilterPlugin::postCondition(QAction* action) const {
     switch (ID(action)) {
     case Clean: return MeshModel::MM_VERTNUMBER | MeshModel::MM_FACENUMBER;
     case Align: return MeshModel::MM_TRANSFMATRIX;
-    case Measure: return MeshModel::MM_NONE;
+    case Measure:
+    case SaveViews: return MeshModel::MM_NONE;
     default: return MeshModel::MM_ALL;
     }
 }
@@ -468,6 +463,11 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                      "Measure in model coordinates (after the layer's transform) rather than the "
                                      "camera frame."));
         break;
+    case SaveViews:
+        parameters.addParam(RichString(kViewFolder, "", "Folder for the views",
+                                       "Where the view files go: beside the project (e.g. the project's folder; made "
+                                       "if missing). Empty: the folder of the project the document was opened from."));
+        break;
     }
     (void)document;
 }
@@ -482,6 +482,7 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
         case Align: align(document, parameters, callback); break;
         case Fuse: fuse(document, parameters, callback); break;
         case Measure: measure(document, parameters); break;
+        case SaveViews: save_views(document, parameters); break;
         }
         return true;
     } catch (const Error& error) {
@@ -495,6 +496,26 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
         Log(GLLogStream::WARNING, "%s error: %s", qUtf8Printable(filterName(ID(action))), qUtf8Printable(errorMessage));
         return false;
     }
+}
+
+void PicoScanFilterPlugin::require_scan_grid(MeshModel& layer) {
+    QString view_file;
+    const std::string missing = missing_scan_data(layer, &view_file);
+    if (!missing.empty()) throw Error(layer_name(layer), missing);
+    if (!view_file.isEmpty())
+        Log("PicoScan %s: pixel grid and camera taken from the view file %s", qUtf8Printable(layer.label()),
+            qUtf8Printable(view_file));
+}
+
+// The visible layers, each of which must carry a pixel grid.
+std::vector<MeshModel*> PicoScanFilterPlugin::visible_scan_layers(MeshDocument& document) {
+    std::vector<MeshModel*> layers;
+    for (MeshModel* layer : document.meshList)
+        if (layer->isVisible()) {
+            require_scan_grid(*layer);
+            layers.push_back(layer);
+        }
+    return layers;
 }
 
 void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParameterList& parameters,
@@ -744,6 +765,54 @@ void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterLi
         Log("PicoScan plane fit of %s: normal %.7f %.7f %.7f, offset %.4f mm, RMS %.4f mm over %zu points",
             subject.c_str(), fit.normal[0], fit.normal[1], fit.normal[2], fit.offset_mm, fit.rms_mm, fit.point_count);
     }
+}
+
+void PicoScanFilterPlugin::save_views(MeshDocument& document, const RichParameterList& parameters) {
+    QString folder = parameters.getString(kViewFolder).trimmed();
+    const QString project = document.docLabel();
+    if (folder.isEmpty()) {
+        if (!project.endsWith(".mlp", Qt::CaseInsensitive) && !project.endsWith(".mlb", Qt::CaseInsensitive))
+            throw Error(kViewFolder, "is required: the document was not opened from a project; give the folder the "
+                                     "project will be saved in");
+        folder = QFileInfo(project).absolutePath();
+    }
+    if (!QDir().mkpath(folder)) throw Error(folder.toStdString(), "folder for the views cannot be made");
+    const QDir directory(folder);
+    // Every file is chosen and checked before any is written.
+    struct Planned {
+        MeshModel* layer;
+        QString path;
+    };
+    std::vector<Planned> planned;
+    QStringList names;
+    for (MeshModel* layer : document.meshList) {
+        const std::string missing = missing_scan_data(*layer);
+        if (!missing.empty()) {
+            Log("PicoScan %s is not a PicoScan view, left as it is (%s)", qUtf8Printable(layer->label()), missing.c_str());
+            continue;
+        }
+        QString base = QFileInfo(layer->label()).completeBaseName();
+        if (layer->label().endsWith(".ply", Qt::CaseInsensitive) == false) base = layer->label();
+        base.replace(QRegularExpression("[^A-Za-z0-9._-]+"), "_");
+        if (base.isEmpty()) base = "view";
+        QString name = base + ".ply";
+        for (int n = 2; names.contains(name, Qt::CaseInsensitive); ++n) name = base + "_" + QString::number(n) + ".ply";
+        names << name;
+        const QString path = directory.absoluteFilePath(name);
+        // Only the layer's own file is replaced: another file of that name may be someone's input.
+        if (QFileInfo::exists(path) && QFileInfo(path).canonicalFilePath() != QFileInfo(layer->fullName()).canonicalFilePath())
+            throw Error(path.toStdString(), "exists and is not the file of layer " + layer_name(*layer) +
+                                                ": choose an empty folder for the views");
+        planned.push_back({layer, path});
+    }
+    if (planned.empty()) throw Error("Save Views for Project", "no layer is a PicoScan view");
+    for (const Planned& view : planned) {
+        write_view_ply(layer_view(*view.layer), view.path.toStdString());  // the pose is the layer's transform
+        view.layer->setFileName(view.path);
+        Log("PicoScan saved %s (%d points) as %s", qUtf8Printable(view.layer->label()), view.layer->cm.vn,
+            qUtf8Printable(view.path));
+    }
+    Log("PicoScan saved %zu views in %s", planned.size(), qUtf8Printable(folder));
 }
 
 MESHLAB_PLUGIN_NAME_EXPORTER(PicoScanFilterPlugin)

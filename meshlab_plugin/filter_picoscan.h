@@ -5,13 +5,15 @@
 
 #include <common/interfaces.h>
 
+#include <vector>
+
 class PicoScanFilterPlugin : public QObject, public MeshFilterInterface {
     Q_OBJECT
     MESHLAB_PLUGIN_IID_EXPORTER(MESH_FILTER_INTERFACE_IID)
     Q_INTERFACES(MeshFilterInterface)
 
 public:
-    enum FilterId { Reconstruct, Simulate, Clean, Align, Fuse, Measure };
+    enum FilterId { Reconstruct, Simulate, Clean, Align, Fuse, Measure, SaveViews };
 
     PicoScanFilterPlugin();
 
@@ -37,4 +39,9 @@ private:
     void align(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void measure(MeshDocument& document, const RichParameterList& parameters);
+    void save_views(MeshDocument& document, const RichParameterList& parameters);
+    // Clean, Align and Fuse need the pixel grid and camera: refused with the reason, or logged
+    // when they were taken from a view file.
+    void require_scan_grid(MeshModel& layer);
+    std::vector<MeshModel*> visible_scan_layers(MeshDocument& document);
 };

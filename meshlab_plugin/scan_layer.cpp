@@ -2,6 +2,10 @@
 
 #include "picoscan/io.h"
 
+#include <QDir>
+#include <QFile>
+#include <QFileInfo>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -75,45 +79,126 @@ void set_layer_camera(MeshModel& layer, const picoscan::ScanView& view) {
     mesh.shot.Extrinsics.SetIdentity();
 }
 
-// A layer opened from a PicoScan view PLY (written by 'picoscan reconstruct --out', 'picoscan
-// stitch' views or FreeCAD): MeshLab keeps its points in the file's order (row by row) but drops
-// the pixels and camera, which are read again from the file. Only while the layer still holds
-// exactly the file's points; returns why not otherwise.
-std::string adopt_view_file(MeshModel& layer) {
-    const QString file = layer.fullName();
-    if (file.isEmpty() || !file.endsWith(".ply", Qt::CaseInsensitive)) return "not opened from a PLY file";
-    picoscan::ScanView view;
-    try {
-        view = picoscan::read_view_ply(file.toStdString());
-    } catch (const std::exception&) {
-        return "its file is not a PicoScan view";
+// The vertex count of a PicoScan view PLY (a file with the picoscan_grid comment), from its
+// header alone; -1 for any other file.
+long long view_file_vertex_count(const QString& path) {
+    QFile file(path);
+    if (!file.open(QIODevice::ReadOnly) || file.readLine(64).trimmed() != "ply") return -1;
+    bool has_grid = false;
+    long long vertex_count = -1;
+    for (int line = 0; line < 1000 && !file.atEnd(); ++line) {
+        const QByteArray text = file.readLine(4096).trimmed();
+        if (text == "end_header") return has_grid ? vertex_count : -1;
+        if (text.startsWith("comment picoscan_grid ")) has_grid = true;
+        if (text.startsWith("element vertex ")) vertex_count = text.mid(15).trimmed().toLongLong();
     }
-    if (view.camera_matrix(0, 0) <= 0) return "its file is a PicoScan view without a camera (an older file)";
-    CMeshO& mesh = layer.cm;
-    if (view.valid_count() != mesh.vn) return "it no longer holds the points of its file";
+    return -1;
+}
+
+// The camera pixel of each of the layer's vertices, in order, when they are points of `view` in
+// its row order: all of its valid points, or those left by Clean or by deleting points in MeshLab
+// (MeshLab keeps the order of the remaining vertices). Empty when a vertex is not a point of the view.
+std::vector<std::pair<int, int>> pixels_in_view(CMeshO& mesh, const picoscan::ScanView& view) {
     std::vector<std::pair<int, int>> pixels;
     pixels.reserve(size_t(mesh.vn));
     auto vertex = mesh.vert.begin();
-    for (int y = 0; y < view.points.rows; ++y)
-        for (int x = 0; x < view.points.cols; ++x) {
+    const auto skip_deleted = [&] {
+        while (vertex != mesh.vert.end() && vertex->IsD()) ++vertex;
+    };
+    skip_deleted();
+    for (int y = 0; y < view.points.rows && vertex != mesh.vert.end(); ++y)
+        for (int x = 0; x < view.points.cols && vertex != mesh.vert.end(); ++x) {
             const cv::Vec3f& p = view.points.at<cv::Vec3f>(y, x);
-            if (!finite_point(p)) continue;
-            while (vertex != mesh.vert.end() && vertex->IsD()) ++vertex;
-            if (vertex == mesh.vert.end() || cv::norm(p - cv::Vec3f(vertex->P()[0], vertex->P()[1], vertex->P()[2])) > 1e-4)
-                return "it no longer holds the points of its file";
+            if (!finite_point(p) || cv::norm(p - cv::Vec3f(vertex->P()[0], vertex->P()[1], vertex->P()[2])) > 1e-4)
+                continue;
             pixels.emplace_back(x, y);
             ++vertex;
+            skip_deleted();
         }
-    layer.updateDataMask(MeshModel::MM_VERTTEXCOORD);
+    if (vertex != mesh.vert.end() || pixels.empty()) pixels.clear();
+    return pixels;
+}
+
+// Gives the layer the pixels and camera of `view` (matched by pixels_in_view), and the normals,
+// quality and colours the layer's file did not keep.
+void adopt_view(MeshModel& layer, const picoscan::ScanView& view, const std::vector<std::pair<int, int>>& pixels) {
+    CMeshO& mesh = layer.cm;
+    const bool take_normals = !view.normals.empty() && mesh.vert.begin()->cN().SquaredNorm() == 0;
+    const bool take_quality = !view.quality.empty() && !layer.hasDataMask(MeshModel::MM_VERTQUALITY);
+    const bool take_colours = !view.colours.empty() && !layer.hasDataMask(MeshModel::MM_VERTCOLOR);
+    int mask = MeshModel::MM_VERTTEXCOORD;
+    if (take_quality) mask |= MeshModel::MM_VERTQUALITY;
+    if (take_colours) mask |= MeshModel::MM_VERTCOLOR;
+    layer.updateDataMask(mask);
     size_t index = 0;
     for (CVertexO& v : mesh.vert) {
         if (v.IsD()) continue;
-        v.T().U() = Scalarm(pixels[index].first);
-        v.T().V() = Scalarm(pixels[index].second);
+        const int x = pixels[index].first, y = pixels[index].second;
+        v.T().U() = Scalarm(x);
+        v.T().V() = Scalarm(y);
         v.T().N() = 0;
+        if (take_normals) {
+            const cv::Vec3f& n = view.normals.at<cv::Vec3f>(y, x);
+            v.N() = finite_point(n) ? Point3m(n[0], n[1], n[2]) : Point3m(0, 0, -1);
+        }
+        if (take_quality) v.Q() = view.quality.at<float>(y, x);
+        if (take_colours) {
+            const cv::Vec3b& bgr = view.colours.at<cv::Vec3b>(y, x);
+            v.C() = vcg::Color4b(bgr[2], bgr[1], bgr[0], 255);
+        }
         ++index;
     }
     set_layer_camera(layer, view);
+}
+
+// A layer opened from a file that lost the pixels and camera (MeshLab keeps neither when it reads
+// a PicoScan view PLY, and meshlabserver's project save writes plain PLY files) takes them from a
+// PicoScan view PLY: its own file, or a view beside it (written by 'PicoScan: Save Views for
+// Project' next to MeshLab's copy), as long as the layer holds points of that view, in its order.
+// Returns the view file used, or why there is none in `problem`.
+QString adopt_view_file(MeshModel& layer, std::string& problem) {
+    const QString file = layer.fullName();
+    if (file.isEmpty()) {
+        problem = "it was not opened from a file";
+        return {};
+    }
+    const QFileInfo info(file);
+    const bool own_file_is_view = view_file_vertex_count(file) >= 0;
+    // Its own file first, then the views beside it, those whose name starts its name first
+    // (meshlabserver saves VIEW.ply as VIEW_out.ply).
+    QStringList candidates{file};
+    QStringList others;
+    for (const QFileInfo& sibling : info.dir().entryInfoList(QStringList{"*.ply", "*.PLY"}, QDir::Files, QDir::Name)) {
+        if (sibling.absoluteFilePath() == info.absoluteFilePath()) continue;
+        (info.completeBaseName().startsWith(sibling.completeBaseName()) ? candidates : others) << sibling.absoluteFilePath();
+    }
+    candidates << others;
+    CMeshO& mesh = layer.cm;
+    bool own_file_has_no_camera = false;
+    for (const QString& candidate : candidates) {
+        if (view_file_vertex_count(candidate) < mesh.vn) continue;
+        picoscan::ScanView view;
+        try {
+            view = picoscan::read_view_ply(candidate.toStdString());
+        } catch (const std::exception&) {
+            continue;
+        }
+        if (view.camera_matrix(0, 0) <= 0) {  // a view of an older PicoScan, without its camera
+            own_file_has_no_camera = own_file_has_no_camera || candidate == file;
+            continue;
+        }
+        const std::vector<std::pair<int, int>> pixels = pixels_in_view(mesh, view);
+        if (pixels.empty()) continue;
+        adopt_view(layer, view, pixels);
+        return candidate;
+    }
+    const std::string folder = info.absolutePath().toStdString();
+    if (own_file_has_no_camera)
+        problem = "its file is a PicoScan view without a camera (an older file)";
+    else if (own_file_is_view)
+        problem = "it no longer holds points of its file, and no other PicoScan view in " + folder + " holds them";
+    else
+        problem = "its file is not a PicoScan view, and no PicoScan view in " + folder + " holds its points";
     return {};
 }
 
@@ -176,18 +261,20 @@ void fill_layer(MeshModel& layer, const picoscan::Mesh& source) {
     vcg::tri::UpdateBounding<CMeshO>::Box(mesh);
 }
 
-std::string missing_scan_data(MeshModel& layer) {
+std::string missing_scan_data(MeshModel& layer, QString* view_file) {
     const bool has_pixels = layer.hasDataMask(MeshModel::MM_VERTTEXCOORD);
     const bool has_camera = has_camera_attribute(layer.cm) || has_saved_camera(layer);
     if (!has_pixels || !has_camera) {
-        const std::string not_a_view = adopt_view_file(layer);
-        if (!not_a_view.empty()) {
+        std::string not_a_view;
+        const QString adopted = adopt_view_file(layer, not_a_view);
+        if (view_file != nullptr) *view_file = adopted;
+        if (adopted.isEmpty()) {
             if (!has_pixels)
                 return "this layer has no camera pixel grid (" + not_a_view + "): it needs a point cloud layer made "
-                       "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', saved as PLY with "
-                       "texture coordinates, normals and camera, or a PicoScan view PLY";
-            return "this layer has pixel coordinates but no camera (" + not_a_view + "): save PicoScan layers as "
-                   "PLY with their camera";
+                       "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', or a PicoScan view "
+                       "PLY; before saving a project, write the views with 'PicoScan: Save Views for Project'";
+            return "this layer has pixel coordinates but no camera (" + not_a_view + "): before saving a project, "
+                   "write the views with 'PicoScan: Save Views for Project'";
         }
     }
     if (layer.cm.vn > 0 && layer.cm.vert.begin()->cN().SquaredNorm() == 0)

@@ -34,9 +34,11 @@ void fill_layer(MeshModel& layer, const picoscan::ScanView& view);
 // Fills an empty layer with a mesh (no pixel grid: such a layer cannot be cleaned or aligned).
 void fill_layer(MeshModel& layer, const picoscan::Mesh& mesh);
 
-// Empty when the layer carries the pixel grid and camera of a PicoScan view (in memory or read
-// back from a PLY saved with texture coordinates and camera); otherwise what it lacks.
-std::string missing_scan_data(MeshModel& layer);
+// Empty when the layer carries the pixel grid and camera of a PicoScan view: in memory, read
+// back from a PLY saved with texture coordinates and camera, or taken from a PicoScan view PLY
+// (its own file, or one beside it that holds its points; its path then goes to `view_file`).
+// Otherwise what it lacks.
+std::string missing_scan_data(MeshModel& layer, QString* view_file = nullptr);
 // Rebuilds the organised view of a layer (check missing_scan_data first); pose = layer transform.
 picoscan::ScanView layer_view(MeshModel& layer);
 // Deletes the vertices (and faces using them) whose pixel is no longer valid in `view`.

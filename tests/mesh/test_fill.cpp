@@ -239,11 +239,15 @@ TEST(MeshBudget, PointAndFaceBudgetsBoundTheMesh) {
     EXPECT_NE(std::find(stages.begin(), stages.end(), "Poisson: meshing the surface"), stages.end());
 }
 
-// Cancelling stops the reconstruction in each Poisson stage, also from inside CGAL's surface
-// mesher (its second report comes from there): no further progress is reported.
+// Cancelling stops the reconstruction in each stage, also from inside CGAL's normal
+// estimation, Delaunay refinement and surface mesher (their second reports come from there)
+// and from the assembly of the linear system: no further progress is reported.
 TEST(MeshBudget, CancelStopsPoissonInEachStage) {
     const PointCloud ball = dense_ball();
-    const std::pair<std::string, int> stops[] = {{"Poisson: triangulating the points", 1},
+    const std::pair<std::string, int> stops[] = {{"estimating normals", 2},
+                                                 {"Poisson: triangulating the points", 1},
+                                                 {"Poisson: refining the triangulation", 2},
+                                                 {"Poisson: assembling the system", 1},
                                                  {"Poisson: solving the implicit function", 1},
                                                  {"Poisson: meshing the surface", 2}};
     for (const auto& [stop_at, nth] : stops) {
@@ -262,6 +266,47 @@ TEST(MeshBudget, CancelStopsPoissonInEachStage) {
             EXPECT_NE(std::string(e.what()).find("cancel"), std::string::npos) << e.what();
         }
         EXPECT_TRUE(cancelled) << stop_at;
+        EXPECT_EQ(calls_after, 0) << stop_at;
+    }
+}
+
+// The points' preparation (PCA normals, then the average spacing: 2 to 8 s on a 462 613-point
+// view) reports from inside CGAL and stops there on cancel, the spacing too. 120 000 points kept
+// (no thinning): each stage reports many times before it is cancelled near its start.
+TEST(MeshBudget, CancelStopsTheNormalsAndSpacingEstimation) {
+    const PointCloud dense = dense_ball();
+    PointCloud ball;  // every 16th point: 120 000
+    for (size_t i = 0; i < dense.points.size(); i += 16) {
+        ball.points.push_back(dense.points[i]);
+        ball.normals.push_back(dense.normals[i]);
+    }
+    for (const std::string stop_at : {"estimating normals", "measuring the spacing"}) {
+        MeshOptions options;
+        options.sample_spacing_mm = 0;
+        options.max_points = 200000;  // above the 120 000: nothing thinned
+        std::vector<double> fractions;  // reported in the stopped stage
+        int calls_after = 0;
+        bool cancelled = false;
+        try {
+            mesh_points(ball, options, [&](double fraction, const std::string& stage) {
+                if (cancelled) ++calls_after;
+                if (stage != stop_at) return !cancelled;
+                fractions.push_back(fraction);
+                // The third report: from inside CGAL (the normals' first report comes before it starts).
+                if (fractions.size() == 3) cancelled = true;
+                return !cancelled;
+            });
+            FAIL() << "meshing went on after cancel at " << stop_at;
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("cancel"), std::string::npos) << e.what();
+        }
+        ASSERT_EQ(fractions.size(), 3u) << stop_at;
+        std::printf("%s: cancelled at %.4f of the meshing (reports at %.4f %.4f %.4f)\n", stop_at.c_str(), fractions[2],
+                    fractions[0], fractions[1], fractions[2]);
+        // Reports advance inside the stage, within the preparation's tenth of the meshing.
+        EXPECT_LT(fractions[0], fractions[1]) << stop_at;
+        EXPECT_LT(fractions[1], fractions[2]) << stop_at;
+        EXPECT_LT(fractions[2], 0.1) << stop_at;
         EXPECT_EQ(calls_after, 0) << stop_at;
     }
 }

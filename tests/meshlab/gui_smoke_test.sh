@@ -79,6 +79,7 @@ expected=(
   "PicoScan: Align Layers"
   "PicoScan: Fuse and Mesh"
   "PicoScan: Measure Sphere or Plane"
+  "PicoScan: Save Views for Project"
 )
 listed=$(grep -c "/PicoScan: " filters.txt || true)
 for name in "${expected[@]}"; do

@@ -2,6 +2,7 @@
 // .mlx scripts; the saved meshes are read back with the core and checked against ground
 // truth and against the CLI.
 #include "picoscan/calibration.h"
+#include "picoscan/error.h"
 #include "picoscan/fit.h"
 #include "picoscan/io.h"
 #include "picoscan/mesh.h"
@@ -61,6 +62,7 @@ const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichFloat"
                            {"RichFloat", "poissonTriangleSize", "1"}, {"RichFloat", "poissonDistance", "0.1"},
                            {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
                            {"RichInt", "targetFaces", "0"}};
+const Params kSaveViewsDefaults{{"RichString", "viewFolder", ""}};
 const Params kMeasureDefaults{
     {"RichEnum", "shape", "0"}, {"RichBool", "selectedOnly", "false"}, {"RichBool", "modelFrame", "true"}};
 
@@ -94,6 +96,15 @@ std::string align(const std::map<std::string, std::string>& overrides = {}) {
 }
 std::string fuse(const std::map<std::string, std::string>& overrides = {}) {
     return filter("PicoScan: Fuse and Mesh", kFuseDefaults, overrides);
+}
+std::string save_views(const std::string& folder) {
+    return filter("PicoScan: Save Views for Project", kSaveViewsDefaults, {{"viewFolder", folder}});
+}
+// MeshLab's own filters (filter_layer): remove the current layer; make layer n the current one.
+const char* const kDeleteCurrentLayer = " <filter name=\"Delete Current Mesh\">\n </filter>\n";
+std::string make_current(int layer) {
+    return " <filter name=\"Change the current layer\">\n  <Param type=\"RichMesh\" name=\"layer\" value=\"" +
+           std::to_string(layer) + "\"/>\n </filter>\n";
 }
 std::string measure(const std::string& shape) {
     return filter("PicoScan: Measure Sphere or Plane", kMeasureDefaults, {{"shape", shape == "sphere" ? "0" : "1"}});
@@ -536,17 +547,29 @@ TEST(MeshlabPlugin, ViewPlyOpenedInMeshlabCleansAsCli) {
     ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
     EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
 
-    // The same file with one point removed is no longer the view: Clean refuses, naming why.
+    // A plain copy with one point fewer (as deleting a point in MeshLab and saving leaves it): its
+    // points are the view's, in order, so its pixels and camera come from view.ply beside it.
     Mesh edited = view;
     edited.vertices.pop_back();
     edited.normals.pop_back();
     if (!edited.colours.empty()) edited.colours.pop_back();
     write_ply(edited, directory + "/edited.ply");
-    run = run_meshlabserver(directory, clean(), "-i edited.ply -o never.ply");
-    EXPECT_NE(run.exit_code, 0);
-    EXPECT_NE(run.log.find("edited.ply: this layer has no camera pixel grid (its file is not a PicoScan view)"),
+    run = run_meshlabserver(directory, clean(), "-i edited.ply -o edited_clean.ply");
+    EXPECT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_NE(run.log.find("edited.ply: pixel grid and camera taken from the view file " + directory + "/view.ply"),
               std::string::npos)
         << run.log;
+    // Built to fool it: one point moved by 0.01 mm. No view holds the layer's points: refused, naming why.
+    Mesh moved = view;
+    moved.vertices[moved.vertices.size() / 2][2] += 0.01f;
+    write_ply(moved, directory + "/moved.ply");
+    run = run_meshlabserver(directory, clean(), "-i moved.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("moved.ply: this layer has no camera pixel grid (its file is not a PicoScan view, and no "
+                           "PicoScan view in " + directory + " holds its points)"),
+              std::string::npos)
+        << run.log;
+    EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
 }
 
 // MeshLab keeps a layer's pixels (texture coordinates) but meshlabserver cannot write a layer's
@@ -570,40 +593,151 @@ void write_project(const std::string& path, const std::vector<std::string>& file
     write_file(path, project + " </MeshGroup>\n <RasterGroup/>\n</MeshLabProject>\n");
 }
 
-// A project of two turntable views (CLI view PLYs) reopened by meshlabserver aligns to the
-// true relative pose.
-TEST(MeshlabPlugin, ProjectOfViewsReopensAndAligns) {
-    const std::string directory = make_temp_dir("meshlab_reopen_align");
-    const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
-    ServerRun run = run_meshlabserver(directory,
-                                      simulate({{"partView", "0"}, {"saveCaptureFolder", directory + "/captures_0"}}) +
-                                          simulate({{"partView", "1"}, {"saveCaptureFolder", directory + "/captures_1"}}),
-                                      "");
-    ASSERT_EQ(run.exit_code, 0) << run.log;
-    const std::string cli = test_support::cli_path();
-    std::vector<std::string> files;
-    for (int i = 0; i < 2; ++i) {
-        const std::string name = "view_" + std::to_string(i) + ".ply", captures = directory + "/captures_" + std::to_string(i);
-        std::string cli_log;
-        ASSERT_EQ(run_command(cli + " reconstruct --clean --calibration " + captures + "/calibration.yml --captures " +
-                                  captures + " --out " + directory + "/" + name,
-                              &cli_log),
-                  0)
-            << cli_log;
-        files.push_back(name);
+namespace {
+
+double mesh_area(const Mesh& mesh) {
+    double area = 0;
+    for (const cv::Vec3i& face : mesh.faces) {
+        const cv::Vec3d a(mesh.vertices[size_t(face[0])]), b(mesh.vertices[size_t(face[1])]), c(mesh.vertices[size_t(face[2])]);
+        area += 0.5 * cv::norm((b - a).cross(c - a));
     }
-    write_project(directory + "/project.mlp", files);
-    run = run_meshlabserver(directory, align(), "-p project.mlp -w aligned.mlp");
+    return area;
+}
+
+// Enclosed volume by the divergence theorem (signed tetrahedra to the origin), for a closed mesh.
+double mesh_volume(const Mesh& mesh) {
+    double volume = 0;
+    for (const cv::Vec3i& face : mesh.faces) {
+        const cv::Vec3d a(mesh.vertices[size_t(face[0])]), b(mesh.vertices[size_t(face[1])]), c(mesh.vertices[size_t(face[2])]);
+        volume += a.dot(b.cross(c)) / 6;
+    }
+    return std::abs(volume);
+}
+
+}  // namespace
+
+// A project saved by meshlabserver itself (-w writes plain PLY layers: no pixels, no camera) after
+// 'Save Views for Project' wrote the views beside it. A new meshlabserver on the saved project
+// cleans, aligns and fuses it as the first session did; with a view file replaced by a plain PLY
+// the project is refused, naming the layer.
+TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
+    const std::string directory = make_temp_dir("meshlab_saved_project");
+    const std::string views = directory + "/views";
+    const std::string rig = directory + "/rig.yml";
+    write_calibration(test_support::half_resolution_seed_rig(), rig);  // 800 x 600: a quarter of the work
+    const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
+    std::string first_session;
+    for (int i = 0; i < 2; ++i)
+        first_session += simulate({{"partView", std::to_string(i)}, {"calibrationFile", rig}}) + clean();
+    first_session += align() + fuse({{"sampleSpacing", "0.6"}}) + save_views(views);
+    ServerRun run = run_meshlabserver(directory, first_session, "-w project.mlp -o fused_first.ply -l 2");
     ASSERT_EQ(run.exit_code, 0) << run.log;
-    const std::vector<ProjectLayer> layers = read_project(directory + "/aligned.mlp");
-    ASSERT_EQ(layers.size(), 2u);
+    EXPECT_NE(run.log.find("PicoScan saved 2 views in " + views), std::string::npos) << run.log;
+
+    // meshlabserver saved its own copies (VIEW_out.ply) and the project names them: they are not views.
+    const std::vector<ProjectLayer> saved = read_project(directory + "/project.mlp");
+    ASSERT_EQ(saved.size(), 3u);
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(saved[size_t(i)].file, views + "/Part_view_" + std::to_string(i) + "_out.ply");
+        EXPECT_THROW(read_view_ply(saved[size_t(i)].file), Error) << saved[size_t(i)].file;
+        EXPECT_NO_THROW(read_view_ply(views + "/Part_view_" + std::to_string(i) + ".ply"));
+    }
+
+    // A new process on the saved project: the first session's fused layer goes, then Align and
+    // Fuse (the first session's inputs: the same result expected), then Clean of the first layer,
+    // and the views saved again, by default into the project's folder.
+    run = run_meshlabserver(directory,
+                            std::string(kDeleteCurrentLayer) + align() + fuse({{"sampleSpacing", "0.6"}}) +
+                                make_current(0) + clean() + save_views(""),
+                            "-p project.mlp -w reopened.mlp -o fused_reopened.ply -l 2 -o cleaned_reopened.ply -l 0 -m vn");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    for (int i = 0; i < 2; ++i) {
+        const std::string name = "Part_view_" + std::to_string(i);
+        EXPECT_NE(run.log.find(name + "_out.ply: pixel grid and camera taken from the view file " + views + "/" + name + ".ply"),
+                  std::string::npos)
+            << run.log;
+    }
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
+    // Clean of the reopened layer is the CLI's clean of its view file, point for point.
+    std::string cli_log;
+    ASSERT_EQ(run_command(test_support::cli_path() + " clean " + views + "/Part_view_0.ply --out " + directory + "/cli_clean.ply",
+                          &cli_log),
+              0)
+        << cli_log;
+    const Mesh by_plugin = read_ply(directory + "/cleaned_reopened.ply"), by_cli = read_ply(directory + "/cli_clean.ply");
+    ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
+    EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
+    // The cleaned view saved again beside the project; the fused mesh is no view and stays as it is.
+    EXPECT_NE(run.log.find("PicoScan saved 2 views in " + directory), std::string::npos) << run.log;
+    EXPECT_NE(run.log.find("Fused mesh (Poisson) is not a PicoScan view, left as it is"), std::string::npos) << run.log;
+    EXPECT_EQ(size_t(read_view_ply(directory + "/Part_view_0_out.ply").valid_count()), by_cli.vertices.size());
+    const std::vector<ProjectLayer> reopened = read_project(directory + "/reopened.mlp");
+    ASSERT_EQ(reopened.size(), 3u);
     const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[1]);
     const cv::Vec4d middle = part_to_camera[1] * cv::Vec4d(0, 0, 16, 1);
-    const PoseDifference error = pose_difference(truth, layers[1].transform, cv::Vec3d(middle[0], middle[1], middle[2]));
-    std::printf("reopened project aligned: pose error %.3f deg, %.3f mm\n", error.rotation_deg, error.translation_mm);
+    const PoseDifference error = pose_difference(
+        truth, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
+        cv::Vec3d(middle[0], middle[1], middle[2]));
+
+    const Mesh first = read_ply(directory + "/fused_first.ply");
+    const Mesh second = read_ply(directory + "/fused_reopened.ply");
+    const MeshCheck first_check = check_mesh(first), second_check = check_mesh(second);
+    const double first_area = mesh_area(first), second_area = mesh_area(second);
+    const double first_volume = mesh_volume(first), second_volume = mesh_volume(second);
+    std::printf("reopened project: cleaning removed %.0f points, %zu kept (the CLI keeps %zu, max distance %.2g mm); "
+                "pose error %.4f deg, %.4f mm; fused mesh %s, area %.1f mm^2, volume %.1f mm^3 (first session: %s, "
+                "area %.1f mm^2, volume %.1f mm^3)\n",
+                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(),
+                max_distance(by_plugin.vertices, by_cli.vertices), error.rotation_deg, error.translation_mm,
+                second_check.summary().c_str(), second_area, second_volume, first_check.summary().c_str(), first_area,
+                first_volume);
+    EXPECT_GT(by_plugin.vertices.size(), 10000u);
     EXPECT_LT(error.rotation_deg, 0.15);
     EXPECT_LT(error.translation_mm, 0.1);
-    EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
+    const EdgeCount edges = count_edges(second);
+    EXPECT_GT(second.faces.size(), 5000u);
+    EXPECT_EQ(edges.border, 0u);
+    EXPECT_EQ(edges.non_manifold, 0u);
+    EXPECT_TRUE(first_check.watertight()) << first_check.summary();
+    EXPECT_TRUE(second_check.watertight()) << second_check.summary();
+    EXPECT_GT(first_volume, 1000.0);
+    // Same inputs, same recipe: over seven runs within 0.030 % (volume) and 0.065 % (area); the
+    // alignment's small run-to-run differences move the Poisson surface a little.
+    EXPECT_NEAR(second_volume, first_volume, 0.005 * first_volume);
+    EXPECT_NEAR(second_area, first_area, 0.005 * first_area);
+
+    // Built to fool it: a view file replaced by a plain PLY of the same points (no pixel grid, no
+    // camera). The project is refused, naming the layer and what it lacks; nothing is written. The
+    // same for a project that names the view files themselves (as the GUI's Save Project does
+    // after Save Views), whose other layer still takes its grid from its own file.
+    write_ply(read_ply(views + "/Part_view_1.ply"), views + "/Part_view_1.ply");
+    write_project(views + "/gui.mlp", {"Part_view_0.ply", "Part_view_1.ply"});
+    const std::string refused = "this layer has no camera pixel grid (its file is not a PicoScan view, and no PicoScan "
+                                "view in " + views + " holds its points)";
+    run = run_meshlabserver(directory, std::string(kDeleteCurrentLayer) + align(), "-p project.mlp -w never.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("Part_view_1_out.ply: " + refused), std::string::npos) << run.log;
+    run = run_meshlabserver(directory, align(), "-p views/gui.mlp -w never.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("Part_view_0.ply: pixel grid and camera taken from the view file " + views + "/Part_view_0.ply"),
+              std::string::npos)
+        << run.log;
+    EXPECT_NE(run.log.find("Part_view_1.ply: " + refused), std::string::npos) << run.log;
+    EXPECT_FALSE(std::ifstream(directory + "/never.mlp").good());
+    // Save Views never replaces a file that is not the layer's own: it stops before writing any.
+    const std::string again = directory + "/views_again";
+    std::filesystem::create_directories(again);
+    const std::string someone_else = write_file(again + "/Part_view_0_out.ply", "not mine\n");
+    run = run_meshlabserver(directory, std::string(kDeleteCurrentLayer) + save_views(again), "-p project.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find(someone_else + ": exists and is not the file of layer Part_view_0_out.ply"), std::string::npos)
+        << run.log;
+    std::ifstream kept(someone_else);
+    const std::string kept_text((std::istreambuf_iterator<char>(kept)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(kept_text, "not mine\n");
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(again), std::filesystem::directory_iterator()), 1);
 }
 
 namespace {

@@ -62,7 +62,8 @@ struct PoissonSettings {
 Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSettings& settings, const StageReport& report);
 Mesh advancing_front_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double max_radius);
 // Points thinned to the spacing (coarser when more than max_points would remain), normals
-// re-estimated by PCA and flipped to agree with the given ones.
+// re-estimated by PCA and flipped to agree with the given ones. `report` gets the fraction of the
+// preparation done (0..1), during the normals and the spacing too, and throws to cancel.
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
                                             double& average_spacing_mm, const StageReport& report);
 // Moves each vertex onto the plane fitted to its nearest input points (undoes Poisson's smoothing).

@@ -312,7 +312,8 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     report(0.0, "thinning the points");
     double spacing = 0;
     const std::vector<detail::PointWithNormal> points = detail::prepare_points(
-        cloud, options.sample_spacing_mm, options.max_points, spacing, [&](double, const char* stage) { report(0.05, stage); });
+        cloud, options.sample_spacing_mm, options.max_points, spacing,
+        [&](double fraction, const char* stage) { report(0.05 + 0.05 * fraction, stage); });
     if (points.size() < 100)
         throw Error("point cloud", "has only " + std::to_string(points.size()) + " usable points; at least 100 are needed");
     // Degenerate: all points on a line or (for a closed surface) a plane.

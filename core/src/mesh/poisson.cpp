@@ -21,6 +21,8 @@
 #include <opencv2/core.hpp>
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <limits>
 #include <map>
 #include <unordered_set>
@@ -30,6 +32,40 @@ namespace picoscan::detail {
 namespace {
 using PointMap = CGAL::First_of_pair_property_map<PointWithNormal>;
 using NormalMap = CGAL::Second_of_pair_property_map<PointWithNormal>;
+
+// The progress callback of CGAL's point processing (called once per point here, CGAL being
+// built without TBB): reports every few thousand points. A cancel (the exception the report
+// throws) is kept and stops CGAL's loop, and thrown again once CGAL has returned.
+// CGAL 5.5 binds its reference to a temporary copy of a callback passed by value, gone before it
+// is called (a crash once the callable does not fit in std::function's own buffer): the callback
+// is passed as a std::cref of a std::function that outlives the call.
+class PointLoopReport {
+public:
+    PointLoopReport(const StageReport& report, const char* stage, double from, double to)
+        : report_(report), stage_(stage), from_(from), to_(to) {}
+    std::function<bool(double)> callback() {
+        return [this](double done) {
+            if (++calls_ % 4096 != 0) return true;
+            try {
+                report_(from_ + (to_ - from_) * done, stage_);
+            } catch (...) {
+                cancel_ = std::current_exception();
+                return false;
+            }
+            return true;
+        };
+    }
+    void throw_if_cancelled() const {
+        if (cancel_) std::rethrow_exception(cancel_);
+    }
+
+private:
+    const StageReport& report_;
+    const char* stage_;
+    double from_, to_;
+    size_t calls_ = 0;
+    std::exception_ptr cancel_;
+};
 }  // namespace
 
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
@@ -76,16 +112,22 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     std::vector<Vector3> sensor_side;
     sensor_side.reserve(points.size());
     for (const PointWithNormal& p : points) sensor_side.push_back(p.second);
+    PointLoopReport normals_report(report, "estimating normals", 0.0, 0.8);
+    const std::function<bool(double)> normals_callback = normals_report.callback();
     CGAL::pca_estimate_normals<CGAL::Parallel_if_available_tag>(
-        points, 18, CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()));
+        points, 18, CGAL::parameters::point_map(PointMap()).normal_map(NormalMap()).callback(std::cref(normals_callback)));
+    normals_report.throw_if_cancelled();
     for (size_t i = 0; i < points.size(); ++i) {
         Vector3& n = points[i].second;
         const double length = std::sqrt(n.squared_length());
         if (length > 0) n = n / length;
         if (has_normals && n * sensor_side[i] < 0) n = -n;
     }
+    PointLoopReport spacing_report(report, "measuring the spacing", 0.8, 1.0);
+    const std::function<bool(double)> spacing_callback = spacing_report.callback();
     average_spacing_mm = CGAL::compute_average_spacing<CGAL::Parallel_if_available_tag>(
-        points, 6, CGAL::parameters::point_map(PointMap()));
+        points, 6, CGAL::parameters::point_map(PointMap()).callback(std::cref(spacing_callback)));
+    spacing_report.throw_if_cancelled();
     return points;
 }
 
@@ -97,8 +139,8 @@ constexpr double kEvaluationsPerFace = 250;
 // Relative residual at which the Poisson equation counts as solved.
 constexpr double kSolverTolerance = 1e-7;
 
-// Called by CGAL before each point enters the Delaunay refinement: reports progress and stops
-// the reconstruction (by the exception report throws) when the caller cancels.
+// Called by CGAL before each point enters the triangulation: reports progress and stops the
+// reconstruction (by the exception report throws) when the caller cancels.
 struct ReportingVisitor {
     const StageReport* report;
     size_t total;
@@ -110,6 +152,66 @@ struct ReportingVisitor {
     }
 };
 
+// CGAL's Delaunay refinement of the Poisson triangulation offers no hook, but it asks the
+// geometric traits for the circumradius of every cell it tests. The traits below count those
+// requests (and the input points inserted again between refinements) and report every few
+// thousand, so that the refinement shows progress and can be cancelled.
+struct RefinementReport {
+    const StageReport* report = nullptr;
+    size_t points = 1;  // the input, to scale the progress (about 10 cell tests per point)
+    size_t steps = 0;
+    void step() {
+        if (++steps % 8192 != 0) return;
+        const double work = double(steps) / double(10 * points);
+        (*report)(0.03 + 0.09 * work / (1 + work), "Poisson: refining the triangulation");
+    }
+};
+thread_local RefinementReport* refinement_report = nullptr;
+
+struct ReportingKernel : Kernel {
+    struct Compute_squared_radius_3 : Kernel::Compute_squared_radius_3 {
+        using Base = Kernel::Compute_squared_radius_3;
+        using Base::operator();
+        Kernel::FT operator()(const Point3& p, const Point3& q, const Point3& r, const Point3& s) const {
+            if (refinement_report) refinement_report->step();
+            return Base::operator()(p, q, r, s);
+        }
+    };
+    Compute_squared_radius_3 compute_squared_radius_3_object() const { return {}; }
+};
+
+struct RefinementVisitor {
+    void before_insertion() const {
+        if (refinement_report) refinement_report->step();
+    }
+};
+
+// Sets refinement_report for the lifetime of one reconstruction on this thread.
+class RefinementReportScope {
+public:
+    explicit RefinementReportScope(RefinementReport& report) { refinement_report = &report; }
+    ~RefinementReportScope() { refinement_report = nullptr; }
+    RefinementReportScope(const RefinementReportScope&) = delete;
+    RefinementReportScope& operator=(const RefinementReportScope&) = delete;
+};
+
+// CGAL's symmetric matrix, reporting as the rows of the Poisson system are assembled (each
+// row ends with its diagonal coefficient), so that the assembly can be cancelled too.
+class ReportingMatrix : public CGAL::Eigen_sparse_symmetric_matrix<double> {
+public:
+    explicit ReportingMatrix(int dimension)
+        : CGAL::Eigen_sparse_symmetric_matrix<double>(dimension), rows_(std::max(dimension, 1)) {}
+    void set_coef(std::size_t i, std::size_t j, double value, bool new_coef = false) {
+        CGAL::Eigen_sparse_symmetric_matrix<double>::set_coef(i, j, value, new_coef);
+        if (i == j && ++rows_done_ % 8192 == 0 && refinement_report)
+            (*refinement_report->report)(0.12 + 0.03 * double(rows_done_) / double(rows_), "Poisson: assembling the system");
+    }
+
+private:
+    int rows_;
+    int rows_done_ = 0;
+};
+
 // The conjugate-gradient solve of CGAL's Poisson system, as Eigen's ConjugateGradient does it
 // (Jacobi preconditioner, the lower triangle read as the symmetric matrix, 2n iterations at most),
 // with a progress report every few iterations: the solve is most of a large reconstruction's
@@ -118,7 +220,7 @@ struct ReportingVisitor {
 // beyond move the zero level by far less than the point noise.
 struct ReportingSolver {
     using Base = CGAL::Eigen_solver_traits<Eigen::ConjugateGradient<CGAL::Eigen_sparse_symmetric_matrix<double>::EigenType>>;
-    using Matrix = Base::Matrix;
+    using Matrix = ReportingMatrix;
     using Vector = Base::Vector;
     using NT = Base::NT;
     const StageReport* report = nullptr;
@@ -155,7 +257,7 @@ struct ReportingSolver {
             rz = rz_next;
             // The residual falls about geometrically: its logarithm tells how far the solve is.
             if (iteration % 16 == 15)
-                (*report)(0.05 + 0.25 * std::clamp((std::log(r_norm2) - log_start) / log_span, 0.0, 1.0),
+                (*report)(0.15 + 0.15 * std::clamp((std::log(r_norm2) - log_start) / log_span, 0.0, 1.0),
                           "Poisson: solving the implicit function");
         }
         return false;
@@ -257,22 +359,25 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     // Kazhdan's implicit function on CGAL's Delaunay refinement, then the surface mesher of
     // Boissonnat & Oudot on its zero level, as CGAL's poisson_surface_reconstruction_delaunay,
     // with the progress reported and the surface's triangle size bounded by the face budget.
-    using Function = CGAL::Poisson_reconstruction_function<Kernel>;
+    using Function = CGAL::Poisson_reconstruction_function<ReportingKernel>;
     using Triangulation = CGAL::Surface_mesher::Surface_mesh_default_triangulation_3_generator<Kernel>::Type;
     using Complex = CGAL::Surface_mesh_complex_2_in_triangulation_3<Triangulation>;
     using Surface = CGAL::Implicit_surface_3<Kernel, std::function<Kernel::FT(Point3)>>;
 
     report(0.0, "Poisson: triangulating the points");
     Function function(points.begin(), points.end(), PointMap(), NormalMap(),
-                      ReportingVisitor{&report, points.size(), "Poisson: triangulating the points", 0.0, 0.04});
-    // CGAL's refinement and the assembly of the linear system report nothing (and cannot be
-    // cancelled) but for the points it inserts again; the solve that follows reports as it goes.
-    const char* refining = "Poisson: refining and assembling the system";
-    report(0.04, refining);
+                      ReportingVisitor{&report, points.size(), "Poisson: triangulating the points", 0.0, 0.03});
+    report(0.03, "Poisson: refining the triangulation");
     ThirdPartyOutput cgal;  // CGAL prints its solver's complaints on stderr
     ReportingSolver solver;
     solver.report = &report;
-    if (!function.compute_implicit_function(solver, ReportingVisitor{&report, points.size(), refining, 0.04, 0.05}, 0, 5))
+    RefinementReport refinement{&report, std::max<size_t>(points.size(), 1)};
+    bool solved = false;
+    {
+        const RefinementReportScope scope(refinement);
+        solved = function.compute_implicit_function(solver, RefinementVisitor{}, 0, 5);
+    }
+    if (!solved)
         throw Error("Poisson reconstruction", "the implicit function could not be solved (are the normals consistent?)" +
                                                   attached(cgal.text(), "CGAL"));
     // The surface mesher's triangles: about the point spacing, but larger when the data's
