@@ -12,6 +12,9 @@ two view PLY files and are timed from reading the files to the pose:
           point-to-plane ICP, the gates) against Open3D FPFH + RANSAC + point-to-plane ICP;
   icp     from the true pose knocked by 2 degrees and 2 mm: PicoScan 'stitch A B
           --initial-poses' against Open3D point-to-plane ICP.
+PicoScan is timed twice: as the 'picoscan stitch' process (start-up, reading, registering,
+writing the merged cloud), and in-process through the picoscan module (reading both views and
+align_views, the registration 'stitch' runs), timed inside this Python as Open3D is.
 Errors: the rotation angle and the shift of the moving view's centroid between the found
 and the true relative pose; a pair is right when both are under 1 degree and 1 mm.
 
@@ -58,8 +61,7 @@ def write_poses(path, poses):
 
 def simulate(build, directory, part_kind):
     """8 turntable views of the mechanical part (painted or plain), their truth, the true mesh."""
-    sys.path.insert(0, os.path.join(build, "freecad_workbench", "PicoScan"))  # where the build puts the module
-    import picoscan
+    picoscan = picoscan_module(build)
     os.makedirs(os.path.join(directory, "views"), exist_ok=True)
     part = picoscan.mechanical_part()
     options = picoscan.TurntableScanOptions()
@@ -131,6 +133,27 @@ def picoscan_pair(picoscan, fixed, moving, work, initial=None):
     if result.returncode != 0:
         return None, seconds
     return read_poses(os.path.join(work, "pair.poses.txt"))[1], seconds
+
+
+def picoscan_module(build):
+    sys.path.insert(0, os.path.join(build, "freecad_workbench", "PicoScan"))  # where the build puts the module
+    import picoscan
+    return picoscan
+
+
+def picoscan_in_process(module, fixed, moving, initial=None):
+    """What 'stitch A B' does up to the pose (reading both views, align_views with the same
+    options), but inside this running Python, as Open3D is timed: no process start-up, no
+    merged cloud written."""
+    clock = Clock()
+    views = [module.read_view_ply(fixed), module.read_view_ply(moving)]
+    options = module.RegistrationOptions()
+    if initial is not None:
+        options.initial_poses = [np.eye(4), initial]
+    alignment = module.align_views(views, ["fixed", "moving"], options)
+    seconds = clock.read()
+    moved = alignment.views[1]
+    return (np.asarray(moved.pose) if moved.aligned else None), seconds
 
 
 def open3d_load(path, voxel_mm):
@@ -279,9 +302,10 @@ def main():
         views = [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(count)]
         pairs = [(k, (k + 1) % count) for k in range(count)]
         rng = np.random.default_rng(1)
-        tools = ("PicoScan", "Open3D") + (("PicoScan before",) if args.baseline else ())
+        tools = ("PicoScan", "PicoScan in-process", "Open3D") + (("PicoScan before",) if args.baseline else ())
         rows = {(kind, tool): ([], []) for kind in ("global", "icp") for tool in tools
                 if kind == "global" or tool != "PicoScan before"}
+        module = picoscan_module(os.path.abspath(args.build))
         open3d_found = []
         with tempfile.TemporaryDirectory() as work:
             for a, b in pairs:
@@ -296,6 +320,8 @@ def main():
                     ("global", "Open3D"): open3d_global(views[a], views[b]),
                     ("icp", "PicoScan"): picoscan_pair(picoscan, views[a], views[b], work, initial),
                     ("icp", "Open3D"): open3d_icp(views[a], views[b], initial),
+                    ("global", "PicoScan in-process"): picoscan_in_process(module, views[a], views[b]),
+                    ("icp", "PicoScan in-process"): picoscan_in_process(module, views[a], views[b], initial),
                 }
                 if args.baseline:
                     runs[("global", "PicoScan before")] = picoscan_pair(args.baseline, views[a], views[b], work)

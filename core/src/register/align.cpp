@@ -351,6 +351,9 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
     std::vector<double> rms(n, 0.0);
     const double min_normal_cos = std::cos(CV_PI / 4);
     double limit = std::max(3 * options.sample_spacing_mm, 1.0);
+    // Each view's samples' partners in every other view at the last sweep: the search for the
+    // nearest point reaches no farther than that partner does now.
+    std::vector<std::vector<int>> partners(n * n);
     for (int sweep = 0; sweep < options.global_sweeps; ++sweep) {
         if (progress && !progress(0.6 + 0.4 * sweep / options.global_sweeps, "refining all views together"))
             throw Error("cancelled", "alignment cancelled");
@@ -383,9 +386,12 @@ std::vector<double> refine_together(const std::vector<ViewData>& data, std::vect
                 if (i == j || !active[j]) continue;
                 struct Term { double residual, distance; cv::Vec6d from_i, from_j; };
                 std::vector<Term> terms;
+                std::vector<int>& partner = partners[i * n + j];
+                partner.resize(model[i].points.size(), -1);
                 for (size_t k = 0; k < model[i].points.size(); ++k) {
                     const cv::Vec3d& p = model[i].points[k];
-                    const int m = grids[j]->nearest(p, limit);
+                    const int m = grids[j]->nearest_from(p, limit, model[j].points, partner[k]);
+                    partner[k] = m;
                     if (m < 0) continue;
                     const cv::Vec3d& q = model[j].points[static_cast<size_t>(m)];
                     const cv::Vec3d& normal = model[j].normals[static_cast<size_t>(m)];

@@ -61,6 +61,31 @@ double texture_correlation(const std::vector<Pairing>& pairings, size_t count, c
     return (sab / n - (sa / n) * (sb / n)) / std::sqrt(va * vb);
 }
 
+// What earlier iterations learned about one moving sample's neighbourhood in the fixed view.
+// Poses change little from one iteration to the next, so the nearest point lies no farther
+// than the last partner does now, and a sample that found nothing within reach cannot find
+// anything before it has moved closer than that reach. Searching only as far as needed finds
+// the same nearest point (or none) while visiting far fewer cells.
+struct SearchMemory {
+    int partner = -1;
+    double clear_mm = 0;  // no fixed point lay this close to `at`
+    cv::Vec3d at{0, 0, 0};
+};
+
+// The nearest fixed point to p closer than limit_mm, or -1: what PointGrid::nearest(p, limit_mm) returns.
+int nearest_partner(const PointGrid& grid, const std::vector<cv::Vec3d>& fixed, const cv::Vec3d& p, double limit_mm,
+                    SearchMemory& memory) {
+    constexpr double hair_mm = 1e-9;  // far above rounding: the bound never leaves out a point in reach
+    if (memory.partner < 0 && memory.clear_mm - cv::norm(p - memory.at) - hair_mm >= limit_mm) return -1;
+    const int found = grid.nearest_from(p, limit_mm, fixed, memory.partner);
+    if (found < 0) {  // searched as far as limit_mm, found nothing
+        memory.clear_mm = limit_mm;
+        memory.at = p;
+    }
+    memory.partner = found;
+    return found;
+}
+
 }  // namespace
 
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
@@ -82,6 +107,8 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
     const double min_normal_cos = std::cos(CV_PI / 4);  // partners must face the same way
     double limit = options.icp_max_distance_mm;
     std::vector<Pairing> pairings;
+    std::vector<std::vector<SearchMemory>> memories(pairs.size());
+    for (size_t k = 0; k < pairs.size(); ++k) memories[k].resize(pairs[k].moving->points.size());
     for (int iteration = 0; iteration < options.icp_iterations; ++iteration) {
         const cv::Matx33d rotation = result.transform.get_minor<3, 3>(0, 0);
         const cv::Vec3d translation(result.transform(0, 3), result.transform(1, 3), result.transform(2, 3));
@@ -91,7 +118,7 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
             const SurfaceSamples& moving = *pairs[k].moving;
             for (size_t i = 0; i < moving.points.size(); ++i) {
                 const cv::Vec3d p = rotation * moving.points[i] + translation;
-                const int j = grids[k]->nearest(p, limit);
+                const int j = nearest_partner(*grids[k], fixed.points, p, limit, memories[k][i]);
                 if (j < 0) continue;
                 const cv::Vec3d& n = fixed.normals[static_cast<size_t>(j)];
                 if ((rotation * moving.normals[i]).dot(n) < min_normal_cos) continue;

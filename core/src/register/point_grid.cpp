@@ -141,40 +141,32 @@ const PointGrid::Cell* PointGrid::find(long long key) const {
 }
 
 int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
-    const cv::Vec<long long, 3> c = cell_of(query);
     double best = max_distance_mm * max_distance_mm;
     int best_index = -1;
-    for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-            for (int dz = -1; dz <= 1; ++dz) {
-                const Cell* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz));
-                if (!cell) continue;
-                for (int k = cell->begin; k < cell->end; ++k) {
-                    const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
-                    const double distance = d.dot(d);
-                    if (distance < best) {
-                        best = distance;
-                        best_index = index_[static_cast<size_t>(k)];
-                    }
-                }
-            }
+    visit_near(query, max_distance_mm, [&](const cv::Vec3d& point, int index) {
+        const cv::Vec3d d = point - query;
+        const double distance = d.dot(d);
+        if (distance < best) {
+            best = distance;
+            best_index = index;
+        }
+    });
     return best_index;
+}
+
+int PointGrid::nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const {
+    if (guess < 0) return nearest(query, max_distance_mm);
+    // A hair beyond the guess (far above rounding), so that it still counts as within reach.
+    return nearest(query, std::min(max_distance_mm, cv::norm(query - points[static_cast<size_t>(guess)]) + 1e-9));
 }
 
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
-    const cv::Vec<long long, 3> c = cell_of(query);
     const double limit = radius_mm * radius_mm;
-    for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-            for (int dz = -1; dz <= 1; ++dz) {
-                const Cell* cell = find(key(c[0] + dx, c[1] + dy, c[2] + dz));
-                if (!cell) continue;
-                for (int k = cell->begin; k < cell->end; ++k) {
-                    const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
-                    if (d.dot(d) <= limit) found.push_back(index_[static_cast<size_t>(k)]);
-                }
-            }
+    visit_near(query, radius_mm, [&](const cv::Vec3d& point, int index) {
+        const cv::Vec3d d = point - query;
+        if (d.dot(d) <= limit) found.push_back(index);
+    });
 }
 
 }  // namespace picoscan::detail

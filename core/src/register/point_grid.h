@@ -25,21 +25,45 @@ SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& tra
 
 class PointGrid {
 public:
-    // cell_mm: the largest distance nearest() will be asked for.
+    // cell_mm: the largest distance nearest() and within() will usually be asked for (larger
+    // ones work, visiting more cells).
     PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm);
 
-    // Index of the nearest point within max_distance_mm (<= cell_mm), or -1.
+    // Index of the nearest point closer than max_distance_mm, or -1.
     int nearest(const cv::Vec3d& query, double max_distance_mm) const;
-    // Indices of all points within radius_mm (<= cell_mm) of the query.
+    // Indices of all points within radius_mm of the query.
     void within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const;
+
+    // nearest(query, max_distance_mm) when points[guess] (guess -1: none) may lie near the
+    // query, as last iteration's partner does in ICP: the nearest point is no farther than the
+    // guess, so the search reaches only that far and visits fewer cells. `points`: the ones the
+    // grid was built on.
+    int nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const;
 
 private:
     static long long key(long long ix, long long iy, long long iz) { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
     cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
     // The points of one cell key: a run of sorted_, in index order. Cells live in an
-    // open-addressed table (no node allocations, few cache misses: ICP asks 27 per query).
+    // open-addressed table (no node allocations, few cache misses: ICP asks up to 8 per query).
     struct Cell { long long key = 0; int begin = -1, end = -1; };
     const Cell* find(long long key) const;
+    // Calls visit(point, index) for every point of the cells that the cube of half-side
+    // radius_mm around the query touches (for radius_mm <= cell_mm, 1 to 8 cells, not the 27 around the
+    // query's own cell; fewer as ICP tightens its radius). Cells in a fixed order, their
+    // points in input order, so ties resolve the same way every time.
+    template <class Visit>
+    void visit_near(const cv::Vec3d& query, double radius_mm, Visit&& visit) const {
+        const double margin = radius_mm + 1e-9;  // rounding never drops a cell that holds a point in range
+        const cv::Vec<long long, 3> low = cell_of(query - cv::Vec3d::all(margin)), high = cell_of(query + cv::Vec3d::all(margin));
+        for (long long x = low[0]; x <= high[0]; ++x)
+            for (long long y = low[1]; y <= high[1]; ++y)
+                for (long long z = low[2]; z <= high[2]; ++z) {
+                    const Cell* cell = find(key(x, y, z));
+                    if (!cell) continue;
+                    for (int k = cell->begin; k < cell->end; ++k)
+                        visit(sorted_[static_cast<size_t>(k)], index_[static_cast<size_t>(k)]);
+                }
+    }
     double cell_mm_;
     std::vector<cv::Vec3d> sorted_;  // the points grouped by cell
     std::vector<int> index_;         // their indices in the input

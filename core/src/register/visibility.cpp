@@ -1,6 +1,7 @@
 #include "register/visibility.h"
 
 #include "cloud/view_check.h"
+#include "register/point_grid.h"
 
 #include <opencv2/imgproc.hpp>
 #include <cmath>
@@ -40,14 +41,18 @@ ViewCamera view_camera(const ScanView& view) {
         camera.fy = solution_y[0];
         camera.cy = solution_y[1];
     }
-    cv::Mat depth(view.points.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
+    // Only the measured area: the part is small in the frame, and a whole frame's maps cost
+    // more to fill and erode than the rest of a view's preparation.
+    const cv::Rect area = measured_bounds(view);
+    camera.origin = area.tl();
+    cv::Mat depth(area.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
     double squared = 0;
     size_t counted = 0;
-    for (int y = 0; y < view.points.rows; ++y)
-        for (int x = 0; x < view.points.cols; ++x) {
+    for (int y = area.y; y < area.y + area.height; ++y)
+        for (int x = area.x; x < area.x + area.width; ++x) {
             const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
             if (!is_finite_point(p) || p[2] <= 0) continue;
-            depth.at<float>(y, x) = p[2];
+            depth.at<float>(y - area.y, x - area.x) = p[2];
             if ((x % 3) || (y % 3)) continue;
             const double ex = camera.fx * p[0] / p[2] + camera.cx - x, ey = camera.fy * p[1] / p[2] + camera.cy - y;
             squared += ex * ex + ey * ey;
@@ -55,7 +60,8 @@ ViewCamera view_camera(const ScanView& view) {
         }
     camera.fit_rms_px = std::sqrt(squared / static_cast<double>(counted));
     // The nearest surface within a few pixels (more where the pinhole fits worse): a point
-    // counts as seen through only if it is in front of all of them.
+    // counts as seen through only if it is in front of all of them. Beyond the area's edge
+    // nothing was measured, so erosion's border (the largest value) changes nothing.
     const int radius = 2 + static_cast<int>(std::ceil(2 * camera.fit_rms_px));
     cv::erode(depth, camera.nearest_depth, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * radius + 1, 2 * radius + 1)));
     camera.depth = depth;
@@ -68,8 +74,8 @@ FreeSpaceCheck free_space_violations(const ViewCamera& camera, const std::vector
     const int width = camera.nearest_depth.cols, height = camera.nearest_depth.rows;
     for (const cv::Vec3d& p : points) {
         if (p[2] <= 0) continue;
-        const int x = static_cast<int>(std::lround(camera.fx * p[0] / p[2] + camera.cx));
-        const int y = static_cast<int>(std::lround(camera.fy * p[1] / p[2] + camera.cy));
+        const int x = static_cast<int>(std::lround(camera.fx * p[0] / p[2] + camera.cx)) - camera.origin.x;
+        const int y = static_cast<int>(std::lround(camera.fy * p[1] / p[2] + camera.cy)) - camera.origin.y;
         if (x < 0 || y < 0 || x >= width || y >= height) continue;
         // Only where the view measured: an unmeasured pixel may be a shadow, not empty space.
         if (!std::isfinite(camera.depth.at<float>(y, x))) continue;

@@ -12,9 +12,12 @@ namespace picoscan::detail {
 
 // A view's pinhole camera (its own, or else fitted to its pixel grid: its points are in the
 // camera frame, each at its pixel), how well that explains the grid, and its depth map.
+// The maps cover the smallest rectangle of the frame holding every measured pixel (outside
+// it nothing was measured), whose top-left pixel is `origin`.
 struct ViewCamera {
     double fx = 0, fy = 0, cx = 0, cy = 0;
     double fit_rms_px = 0;   // how well the pinhole explains the grid (lens distortion)
+    cv::Point origin;        // frame pixel of the maps' (0, 0)
     cv::Mat depth;           // CV_32F: the depth (mm) measured at each pixel, infinite where none
     cv::Mat nearest_depth;   // CV_32F: the smallest depth measured around each pixel
     bool valid() const { return !nearest_depth.empty(); }
