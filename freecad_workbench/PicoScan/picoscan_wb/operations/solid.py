@@ -36,20 +36,20 @@ def face_options(merge_planes=True, noise_mm=0.0):
 def solid_with_model(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=None, check_valid=None):
     """(Part.Solid, picoscan.PlanarFaceModel, note) of a closed FreeCAD mesh. Raises picoscan.Error
     saying why not. check_valid: run OpenCASCADE's isValid() (default: up to CHECK_FACES faces).
-    When merging planar faces moves the volume beyond the tolerance (regions of a coarse, curved
-    mesh taken for planes), the solid is made of the mesh's own triangles instead, and the note
-    says so."""
+    When the merged planar faces move the volume beyond the tolerance (regions of a coarse, curved
+    mesh taken for planes) or make a solid OpenCASCADE finds invalid, the solid is made of the
+    mesh's own triangles instead, and the note says so."""
     try:
         return _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid) + ("",)
-    except _VolumeChanged as change:
+    except _MergedFacesRefused as refusal:
         if not merge_planes:
-            raise picoscan.Error(str(change)) from None
+            raise picoscan.Error(str(refusal)) from None
         shape, model = _solid_with_model(mesh, label, False, noise_mm, progress, check_valid)
-        return shape, model, "planar faces not merged: %s" % change
+        return shape, model, "planar faces not merged: %s" % refusal
 
 
-class _VolumeChanged(Exception):
-    pass
+class _MergedFacesRefused(Exception):
+    """The solid of the merged faces is wrong; one of the mesh's own triangles may still be right."""
 
 
 def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid):
@@ -71,11 +71,13 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
         shape.read(path)
     volume = model.mesh_volume_mm3
     if shape.ShapeType != "Solid" or abs(shape.Volume - volume) > VOLUME_TOLERANCE * volume:
-        raise _VolumeChanged("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
+        raise _MergedFacesRefused("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
             label, shape.Volume, volume))
     if check_valid is None:
         check_valid = len(model.faces) <= CHECK_FACES
     if check_valid and not shape.isValid():
+        if merge_planes:
+            raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged planar faces invalid" % label)
         raise picoscan.Error("%s: OpenCASCADE finds the solid built from this mesh invalid" % label)
     return shape, model
 

@@ -570,8 +570,9 @@ class PicoScanStitchTest(unittest.TestCase):
         self.assertNotIn("NOT watertight", mesh.Check)
         self.assertTrue(mesh.Mesh.isSolid())
         # Simplified without crossing itself, it bounds a solid of the mesh's volume. Planar regions
-        # grown on this coarse, mostly curved mesh moved its volume by 0.3 % in one run; Make solid
-        # then keeps the mesh's own triangles and says so in SolidReport.
+        # grown on this coarse, mostly curved mesh moved its volume by 0.3 % in one run, and made a
+        # solid OpenCASCADE found invalid in another (after edges were sharpened); Make solid then
+        # keeps the mesh's own triangles and says so in SolidReport.
         self.assertNotIn("self-intersecting", mesh.Check)
         made = solid.make_solid(self.doc, mesh)
         FreeCAD.Console.PrintMessage("solid of the stitched mesh: %s\n" % made.SolidReport)
