@@ -338,7 +338,9 @@ TEST(MeshBudget, SimplifiedPoissonMeshDoesNotCrossItself) {
             // Where the simplified surface still crosses itself, the budget grows 1.5 times and
             // simplification runs again; Poisson's output varies slightly from run to run, and the
             // block at 1500 faces ended at 1498, 2248 and 3374 faces in three runs (two growths).
-            EXPECT_LE(check.faces, size_t(target * 1.5 * 1.5) + 2) << c.name;
+            // Since the edges are sharpened before simplifying, the mechanical part at 1500 needed
+            // three growths in one clean-clone run (5060 faces): at most three are allowed.
+            EXPECT_LE(check.faces, size_t(target * 1.5 * 1.5 * 1.5) + 2) << c.name;
             EXPECT_GE(check.faces, size_t(target) / 2) << c.name;
         }
     }
