@@ -172,13 +172,19 @@ TEST(RegionFit, TwoSurfacesAtOnceAreRefusedWhenTheNoiseIsKnown) {
     EXPECT_THROW(fit_region(scan.cloud, std::vector<int>(20, 999999)), Error);
 }
 
-TEST(RegionFit, GrowingFromASeedStopsAtTheEdge) {
+// A 10 x 10 mm floor (z = 0, 2601 points on a 0.2 mm grid) meeting a wall (y = 0) at a 90° edge.
+Scan floor_and_wall() {
     Scan scan(0.01);
     for (int i = 0; i <= 50; ++i)
         for (int j = 0; j <= 50; ++j) {
-            scan.add(cv::Vec3d(i * 0.2, j * 0.2, 0), cv::Vec3d(0, 0, 1));          // floor, 2601 points
-            if (j > 0) scan.add(cv::Vec3d(i * 0.2, 0, j * 0.2), cv::Vec3d(0, -1, 0));  // wall
+            scan.add(cv::Vec3d(i * 0.2, j * 0.2, 0), cv::Vec3d(0, 0, 1));
+            if (j > 0) scan.add(cv::Vec3d(i * 0.2, 0, j * 0.2), cv::Vec3d(0, -1, 0));
         }
+    return scan;
+}
+
+TEST(RegionFit, GrowingFromASeedStopsAtTheEdge) {
+    Scan scan = floor_and_wall();
     RegionSelection selection;
     selection.radius_mm = 100;
     selection.grow = true;
@@ -194,12 +200,7 @@ TEST(RegionFit, GrowingFromASeedStopsAtTheEdge) {
 }
 
 TEST(RegionFit, BoxAndLassoSelectExactlyThePointsInsideAndTheRecipeFitsThem) {
-    Scan scan(0.01);
-    for (int i = 0; i <= 50; ++i)
-        for (int j = 0; j <= 50; ++j) {
-            scan.add(cv::Vec3d(i * 0.2, j * 0.2, 0), cv::Vec3d(0, 0, 1));          // floor, 2601 points
-            if (j > 0) scan.add(cv::Vec3d(i * 0.2, 0, j * 0.2), cv::Vec3d(0, -1, 0));  // wall
-        }
+    Scan scan = floor_and_wall();
     // A box 2 x 1 x 0.5 mm (half sizes) turned 90 degrees about z around (5, 5, 0): x spans 1 mm
     // across the floor's y and 2 mm along its x: 11 x 21 grid points.
     RegionSelection selection;

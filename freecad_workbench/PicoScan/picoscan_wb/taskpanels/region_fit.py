@@ -68,8 +68,7 @@ class FitRegionTaskPanel:
         layout.addRow("Picked point", QtGui.QLabel(seed_text))
 
         self.region = QtGui.QComboBox()
-        for text, _ in REGIONS:
-            self.region.addItem(text)
+        self.region.addItems([text for text, _ in REGIONS])
         self.region.setToolTip("Which points are fitted: the face under the point up to its edges (normals turn "
                                "by less than 20 degrees between neighbours within 1 mm), every point within the "
                                "radius, a box along the document's axes, or the points under a lasso")
@@ -96,8 +95,7 @@ class FitRegionTaskPanel:
         layout.addRow("", self.show_region)
 
         self.kind = QtGui.QComboBox()
-        for text, _ in KINDS:
-            self.kind.addItem(text)
+        self.kind.addItems([text for text, _ in KINDS])
         self.kind.setToolTip("Automatic: the simplest of plane, sphere, cylinder and cone whose RMS is within "
                              "1.5 x the noise (or 1.1 x the best RMS)")
         layout.addRow("Kind", self.kind)
@@ -106,8 +104,7 @@ class FitRegionTaskPanel:
                                     "faces at once) is refused; 0: the best fit's RMS stands for it")
         layout.addRow("Noise", self.noise)
         self.constraint = QtGui.QComboBox()
-        for text, _ in CONSTRAINTS:
-            self.constraint.addItem(text)
+        self.constraint.addItems([text for text, _ in CONSTRAINTS])
         self.constraint.setToolTip("Plane: parallel or perpendicular (its normal); cylinder: parallel, "
                                    "perpendicular or coaxial (its axis); cone: parallel or coaxial; sphere: coaxial "
                                    "(its centre on the reference's axis)")
