@@ -21,8 +21,9 @@ struct PlanarFaceOptions {
                                      // (a strip of a cylinder is flat within 4 sigma, not within 1.5)
     int min_facets = 30;             // smaller regions stay triangles
     bool merge = true;               // false: one face per facet
-    bool check_faces = true;         // refuse a merged face whose boundary would not make a valid
-                                     // B-rep face (see merged_face_defects); its facets stay triangles
+    bool check_faces = true;         // no vertex move may fold a facet, and a merged face whose
+                                     // boundary would not make a valid B-rep face (merged_face_defects)
+                                     // goes back to triangles where it fails; false: neither (as before)
 };
 
 struct BrepEdge {

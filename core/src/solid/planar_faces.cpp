@@ -508,7 +508,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
             }
             // No move may fold a facet (turn it over, or collapse it when two of its corners go to
             // one corner of three planes): that facet's corners stay where they were.
-            for (bool folded = true; folded;) {
+            for (bool folded = options.check_faces; folded;) {
                 folded = false;
                 for (int f = 0; f < facet_count; ++f) {
                     const cv::Vec3i& c = facets[f];
