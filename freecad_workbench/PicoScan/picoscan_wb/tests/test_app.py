@@ -1043,30 +1043,30 @@ class PicoScanSectionFitTest(unittest.TestCase):
         self.assertLess(body_mean_abs, simulated_truth.MeanAbsDeviation.Value + 0.001)
 
 
-def simulated_demo_scan(stride=5):
-    """Every `stride`-th of the demo part's points as the core's turntable session scans it (simulate_turntable_scan:
-    16 phase shifts, camera noise sigma = 1 DN, cleaned views), each view moved into the part's frame
-    by its true pose. The C++ suites cache the same views (same recipe and noise seeds) under
-    PICOSCAN_TEST_CACHE_DIR/turntable-v3-exact: all of them are read when present; otherwise the
-    first view alone is simulated here. (A fifth of the points keeps the test within its time and
-    samples the same surface.) Returns (N x 3 points, what they are)."""
+def simulated_demo_scan(views=(0, 4, 8), stride=4):
+    """Every `stride`-th point of the demo part's `views` (two sides and the top) as the core's
+    turntable session scans it (simulate_turntable_scan: 16 phase shifts, camera noise sigma = 1 DN,
+    cleaned views), each view moved into the part's frame by its true pose. The C++ suites cache the
+    same views (same recipe and noise seeds) under PICOSCAN_TEST_CACHE_DIR/turntable-v3-exact: they
+    are read when present; otherwise the first view alone is simulated here. (Three views and a
+    quarter of their points keep the test within its time.) Returns (N x 3 points, what they are)."""
     plan = picoscan.TurntablePlan()
     poses = picoscan.turntable_part_poses(plan)
     cache = os.path.join(os.environ.get("PICOSCAN_TEST_CACHE_DIR", ""), "turntable-v3-exact")
-    files = [os.path.join(cache, "view_%d.ply" % i) for i in range(len(poses))]
-    views = []
+    files = [os.path.join(cache, "view_%d.ply" % i) for i in views]
+    found = []
     if os.environ.get("PICOSCAN_TEST_CACHE_DIR") and all(os.path.isfile(f) for f in files):
-        views = [(picoscan.read_view_ply(f), pose) for f, pose in zip(files, poses)]
-        source = "%d cached views (%s), every %dth point" % (len(views), cache, stride)
+        found = [(picoscan.read_view_ply(f), poses[i]) for f, i in zip(files, views)]
+        source = "views %s cached (%s), every %dth point" % (", ".join(map(str, views)), cache, stride)
     else:
         options = picoscan.TurntableScanOptions()
         plan.turntable_views, plan.top_view = 1, False  # the first view's pose and noise seed
         options.plan = plan
         picoscan.simulate_turntable_scan(picoscan.mechanical_part(), picoscan.seed_rig_calibration(), options,
-                                         lambda simulated: views.append((simulated.view, simulated.part_to_camera)))
-        source = "1 view simulated (no cache at %s), every %dth point" % (cache, stride)
+                                         lambda simulated: found.append((simulated.view, simulated.part_to_camera)))
+        source = "view 0 simulated (no cache at %s), every %dth point" % (cache, stride)
     parts = []
-    for view, part_to_camera in views:
+    for view, part_to_camera in found:
         points = numpy.asarray(picoscan.to_point_cloud(view).points, dtype=numpy.float64)[::stride]
         to_part = numpy.linalg.inv(numpy.asarray(part_to_camera))
         parts.append(points @ to_part[:3, :3].T + to_part[:3, 3])
