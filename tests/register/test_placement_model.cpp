@@ -142,8 +142,8 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
 // volume, the means and the p95s are met since edges are sharpened and the hole's unseen
 // middle is put on its fitted wall (sharpen.cpp); the maxima are not (a filled-in spot of the
 // hole's wall that the fold check keeps off it, and a few edges, see docs/multiview.md). The
-// limits below are the figures reached (6.0-6.1 / 14.7-14.8 / 274-279 um and 14.9-15.0 /
-// 1009-1439 um in two runs since corners get
+// limits below are the figures reached (6.0-6.1 / 14.7-14.8 / 274-336 um and 14.8-15.0 /
+// 354-1439 um in three runs since corners get
 // a vertex and edge points are judged as the edge's; before that 7.6 / 15.9-16.0 / 400-428 um
 // and 15.9-16.0 / 1379-1507 um in three runs; before the sharpening 21 / 115 / 984 and 88 / 1426)
 // with a margin, so that a worse model fails.
@@ -155,7 +155,7 @@ TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
     EXPECT_LT(model.filled, 0.06);
     EXPECT_LT(model.truth_to_mesh.mean_abs_mm, 0.010);
     EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.020);
-    EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.400);
+    EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.450);
     EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.020);
     EXPECT_LT(model.mesh_to_truth.max_abs_mm, 1.8);
 }
@@ -164,8 +164,8 @@ TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
 // Their views are merged with the true poses (their stitching is judged in test_placements),
 // which keeps this suite's time down and judges the meshing alone. Both placements see all of
 // them: nothing is filled in, and what is left is at a few corners and edges (reached, block /
-// hex, two runs: truth -> mesh mean 1.3 / 1.5-1.6 um, p95 3.0-3.1 / 2.0 um, max 275-292 /
-// 126-205 um; mesh -> truth p95 2.9-3.0 / 2.0 um, max 181-254 / 149-154 um; before corners got a vertex and edge points were judged as
+// hex, three runs: truth -> mesh mean 1.3 / 1.5-1.6 um, p95 3.0-3.1 / 2.0 um, max 268-292 /
+// 126-210 um; mesh -> truth p95 2.9-3.0 / 2.0-2.1 um, max 181-254 / 149-193 um; before corners got a vertex and edge points were judged as
 // the edge's: mean 2.3-2.5 / 1.8 um, p95 3.5 / 2.7-2.8 um, max 367-398 / 188-265 um and p95
 // 3.3-3.5 / 2.7-2.8 um, max 244-265 / 184-210 um in three runs; before the sharpening mean
 // 14 / 13 um, p95 78 / 62 um, max 476 / 363 um and 37 / 43 um, 289 / 257 um).
