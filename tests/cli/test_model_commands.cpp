@@ -209,7 +209,11 @@ TEST(StitchCli, PlainPartIsRightOrRefusedAndAutomaticFallsBackToTheRound) {
         }
         std::printf("%s (%zu views): %zu merged\n", run.name.c_str(), run.views, merged);
     }
-    // The mode is one of three, and not given with a guess of its own.
+    // --help teaches the modes; the mode is one of three, and not given with a guess of its own.
+    const Result help = run_picoscan("stitch --help");
+    EXPECT_EQ(help.exit_code, 0);
+    EXPECT_NE(help.output.find("--mode automatic|features|turntable-round  see above (default automatic)"), std::string::npos)
+        << help.output;
     const std::string out = (dir / "never.ply").string();
     const Result unknown = run_picoscan("stitch " + views_of(2) + "--out " + out + " --mode sideways");
     EXPECT_EQ(unknown.exit_code, 1);
