@@ -18,7 +18,6 @@
 #include <algorithm>
 #include <functional>
 #include <map>
-#include <optional>
 
 using namespace picoscan;
 using namespace picoscan_meshlab;
@@ -59,11 +58,12 @@ const char* const kIcpMaxDistance = "icpMaxDistance";
 const char* const kAlignSpacing = "sampleSpacing";
 const char* const kMinOverlap = "minOverlap";
 const char* const kPlacements = "placements";
-const char* const kTurntableRound = "turntableRound";
+const char* const kAlignMode = "mode";
 const char* const kTurntableAxisPoint = "turntableAxisPoint";
 const char* const kTurntableAxisDirection = "turntableAxisDirection";
 const char* const kTurntableStep = "turntableStepDeg";
 const char* const kMethod = "method";
+const char* const kFill = "fill";
 const char* const kMeshSpacing = "sampleSpacing";
 const char* const kPoissonTriangleSize = "poissonTriangleSize";
 const char* const kPoissonDistance = "poissonDistance";
@@ -80,6 +80,11 @@ enum SequenceSource { OwnManifest, SlmasterCgc, SlstudioGray };
 enum OutputKind { PointCloudLayer, GridMeshLayer };
 enum FitShape { SphereShape, PlaneShape };
 enum MeshingMethod { PoissonMethod, AdvancingFrontMethod };
+// Align Layers' mode: how each placement's layers are aligned (the core's stitch_views recipe).
+enum AlignMode { AutomaticAlign, FeaturesAlign, TurntableRoundAlign, TurntableAxisAlign };
+// Fuse and Mesh's fill, in the order of the FreeCAD workbench's ScanMesh Fill.
+const QStringList kFillNames{"Poisson", "Table", "Open"};
+const MeshFill kFills[] = {MeshFill::Poisson, MeshFill::Table, MeshFill::Open};
 
 std::string parameter_text(const QString& value) { return value.trimmed().toStdString(); }
 
@@ -118,7 +123,8 @@ QString parameter_for_field(const std::string& field) {
         {"registration.sample_spacing_mm", kAlignSpacing},
         {"registration.min_overlap", kMinOverlap},
         {"placement_of_view", kPlacements},
-        {"registration.turntable_round", kTurntableRound},
+        {"registration.turntable_round", kAlignMode},
+        {"automatic", kAlignMode},
         {"turntable.point_mm", kTurntableAxisPoint},
         {"turntable.direction", kTurntableAxisDirection},
         {"turntable.step_deg", kTurntableStep},
@@ -128,6 +134,7 @@ QString parameter_for_field(const std::string& field) {
         {"mesh.advancing_front_max_radius", kFrontMaxRadius},
         {"mesh.max_hole_diameter_mm", kMaxHole},
         {"mesh.target_faces", kTargetFaces},
+        {"mesh.fill", kFill},
         {"mesh.grid.pixel_step", kMeshStep},
     };
     const auto found = parameters.find(field);
@@ -226,17 +233,26 @@ std::vector<int> placement_of_layers(const QString& text, size_t layer_count) {
     return placement_of_view;
 }
 
-// The known turntable axis of Align Layers, if its direction is not zero; the step defaults to one
-// full round of a placement's layers.
-std::optional<TurntableAxis> known_turntable_axis(const RichParameterList& parameters,
-                                                  const std::vector<int>& placement_of_view, size_t layer_count) {
+// Align Layers' mode, checked with the known axis' parameters, which only mode "Turntable axis" uses.
+AlignMode align_mode(const RichParameterList& parameters) {
+    const int mode = parameters.getEnum(kAlignMode);
+    if (mode < AutomaticAlign || mode > TurntableAxisAlign) throw Error(kAlignMode, "must be 0..3");
+    const vcg::Point3f direction = parameters.getPoint3f(kTurntableAxisDirection);
+    if (mode == TurntableAxisAlign && direction.Norm() == 0)
+        throw Error(kTurntableAxisDirection, "must not be zero in mode 'Turntable axis': give the known axis' direction");
+    if (mode != TurntableAxisAlign && (direction.Norm() != 0 || parameters.getFloat(kTurntableStep) != 0))
+        throw Error(direction.Norm() != 0 ? kTurntableAxisDirection : kTurntableStep,
+                    "is used in mode 'Turntable axis' only (a known axis): set that mode, or leave it zero");
+    return AlignMode(mode);
+}
+
+// The known turntable axis of Align Layers (mode "Turntable axis"); the step defaults to one full
+// round of a placement's layers.
+TurntableAxis known_turntable_axis(const RichParameterList& parameters, const std::vector<int>& placement_of_view,
+                                   size_t layer_count) {
     const vcg::Point3f point = parameters.getPoint3f(kTurntableAxisPoint);
     const vcg::Point3f direction = parameters.getPoint3f(kTurntableAxisDirection);
     const double step = parameters.getFloat(kTurntableStep);
-    if (direction.Norm() == 0) {
-        if (step != 0) throw Error(kTurntableStep, "is used with a known axis only: give turntableAxisDirection too");
-        return std::nullopt;
-    }
     TurntableAxis axis{{point[0], point[1], point[2]}, {direction[0], direction[1], direction[2]}, step};
     if (step == 0) {
         std::vector<size_t> sizes(size_t(placement_of_view.empty() ? 1 : placement_of_view.back() + 1), 0);
@@ -293,8 +309,12 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
     case Align:
         return "Registers all visible PicoScan layers into one model: ORB features on the white frames lifted to 3D, "
                "a RANSAC rigid fit, point-to-plane ICP, then a global refinement of all views together. The first "
-               "visible layer stays where it is; each other layer's transform is set. The log gives each layer's "
-               "residual and overlap. If any layer cannot be aligned, no transform is changed.<br>"
+               "visible layer stays where it is; each other layer's transform is set. The mode chooses how each "
+               "placement's layers are aligned: Automatic (features, then one turntable round with the axis "
+               "estimated where features leave layers out: plain parts), Features, Turntable round, or a known "
+               "Turntable axis. The log gives each way tried (layers aligned, the first left out and why, kept or "
+               "not) and each layer's method, residual and overlap. If any layer cannot be aligned, no transform is "
+               "changed.<br>"
                "Several placements (the part set down again between them, e.g. standing, then on its side to show "
                "the face it stood on): give the number of layers of each placement, in layer order. Each placement "
                "is aligned on its own, then the placements to each other by their shape alone; a placement that "
@@ -303,7 +323,10 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
     case Fuse:
         return "Merges the visible PicoScan layers (each through its transform) into one cloud and meshes it with "
                "CGAL: Poisson (watertight) or advancing front (open surfaces), fills small holes and checks the "
-               "result. Creates a new layer; the log gives the mesh check (watertight, manifold, volume).";
+               "result. With Poisson, the fill decides what closes the side the scan never saw: Poisson's guess, a "
+               "flat cap on the table, or nothing (left open). Creates a new layer whose vertex quality is 1 where "
+               "the surface was measured and 0 where it was filled in; the log gives the mesh check (watertight, "
+               "manifold, volume, share of the surface filled in).";
     case Measure:
         return "Fits a sphere or a plane (least squares) to the current layer's points, or to the selected ones, and "
                "writes centre, radius or normal, and the RMS residual to the log: for checking a scanner with a "
@@ -460,20 +483,25 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                        "For a part scanned in several placements (set down again between them): the "
                                        "number of visible layers of each placement, in layer order, e.g. '8 8' for "
                                        "8 layers standing, then 8 on its side. Empty: all layers are one placement."));
-        parameters.addParam(RichBool(kTurntableRound, defaults.turntable_round, "Turntable rounds",
-                                     "The layers of each placement are one full turntable round, in order, in equal "
-                                     "steps; the axis is estimated from them. Plain, unpainted parts need this: their "
-                                     "white frames have no features."));
+        parameters.addParam(RichEnum(kAlignMode, AutomaticAlign,
+                                     QStringList{"Automatic", "Features", "Turntable round", "Turntable axis"}, "Mode",
+                                     "How each placement's layers are aligned. Automatic: features first; a placement "
+                                     "they leave incomplete (a plain, unpainted part gives no features) is aligned "
+                                     "again as one turntable round, and the way that aligns more of its layers is "
+                                     "kept. Features: ORB features on the white frames (painted or textured parts). "
+                                     "Turntable round: the layers of each placement are one full turntable round, in "
+                                     "order, in equal steps; the axis is estimated from them. Turntable axis: the "
+                                     "layers are turntable steps about the known axis below."));
         parameters.addParam(RichPoint3f(kTurntableAxisPoint, vcg::Point3f(0, 0, 0), "Turntable axis point (mm)",
-                                        "A known turntable axis (e.g. as 'picoscan stitch' prints it): a point on it, "
-                                        "in the first layer's camera frame. Used when the direction is not zero."));
+                                        "Mode 'Turntable axis': a point on the known axis (e.g. as 'picoscan stitch' "
+                                        "prints it), in the first layer's camera frame."));
         parameters.addParam(RichPoint3f(kTurntableAxisDirection, vcg::Point3f(0, 0, 0), "Turntable axis direction",
-                                        "The known axis' direction (any length; the part turns right-handed about it "
-                                        "from one layer to the next); each placement's layers are then turntable "
-                                        "steps about it. Zero: no known axis."));
+                                        "Mode 'Turntable axis': the known axis' direction (any length; the part turns "
+                                        "right-handed about it from one layer to the next); each placement's layers "
+                                        "are turntable steps about it. Zero in the other modes."));
         parameters.addParam(RichFloat(kTurntableStep, 0.f, "Turntable step (degrees)",
-                                      "With a known axis: the turn between layers; 0: one full round (360 degrees / "
-                                      "the layers of a placement)."));
+                                      "Mode 'Turntable axis': the turn between layers; 0: one full round (360 degrees "
+                                      "/ the layers of a placement)."));
         break;
     }
     case Fuse: {
@@ -481,6 +509,12 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
         parameters.addParam(RichEnum(kMethod, PoissonMethod, QStringList{"Poisson (watertight)", "Advancing front (open)"},
                                      "Method", "Poisson gives a closed surface; advancing front keeps the scanned "
                                                "surface only."));
+        parameters.addParam(RichEnum(kFill, 0, kFillNames, "Fill (Poisson)",
+                                     "What closes the side the scan never saw (the face the part stood on). Poisson: "
+                                     "Poisson's own smooth guess. Table: a flat cap on the table's plane (fitted to "
+                                     "the rim of the unseen side), for a part standing on the turntable. Open: nothing "
+                                     "invented, the unseen side stays open (the points contoured where they are, no "
+                                     "Poisson; seconds). Vertex quality: 1 measured, 0 filled in."));
         parameters.addParam(RichFloat(kMeshSpacing, float(defaults.sample_spacing_mm), "Sample spacing (mm)",
                                       "The merged cloud is thinned to about this spacing first (0 keeps all)."));
         parameters.addParam(RichFloat(kPoissonTriangleSize, float(defaults.poisson_triangle_size),
@@ -723,12 +757,15 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
     options.registration.icp_max_distance_mm = parameters.getFloat(kIcpMaxDistance);
     options.registration.sample_spacing_mm = parameters.getFloat(kAlignSpacing);
     options.registration.min_overlap = parameters.getFloat(kMinOverlap);
-    options.registration.turntable_round = parameters.getBool(kTurntableRound);
+    const AlignMode mode = align_mode(parameters);
+    options.automatic = mode == AutomaticAlign;
+    options.registration.turntable_round = mode == TurntableRoundAlign;
     validate(options.registration);
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
     if (layers.size() < 2) throw Error("Align Layers", "needs at least two visible PicoScan layers");
     options.placement_of_view = placement_of_layers(parameters.getString(kPlacements), layers.size());
-    options.turntable = known_turntable_axis(parameters, options.placement_of_view, layers.size());
+    if (mode == TurntableAxisAlign)
+        options.turntable = known_turntable_axis(parameters, options.placement_of_view, layers.size());
     validate(options);
     std::vector<ScanView> views;
     std::vector<std::string> names;
@@ -742,14 +779,15 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
     // of a placement that did not join is named through its placement.
     std::string failures;
     for (const StitchAttempt& attempt : result.attempts)
-        Log("PicoScan placement %d by %s: %d of %d layers aligned%s%s", attempt.placement + 1, attempt.method.c_str(),
+        Log("PicoScan placement %d by %s: %d of %d layers aligned%s%s; %s", attempt.placement + 1, attempt.method.c_str(),
             attempt.aligned_views, attempt.views, attempt.problem.empty() ? "" : ", first left out: ",
-            attempt.problem.c_str());
+            attempt.problem.c_str(), attempt.kept ? "kept" : "not kept");
     const std::vector<PlacementAlignment>& placements = result.alignment.placements;
-    for (const ViewAlignment& view : result.alignment.views) {
+    for (size_t i = 0; i < layers.size(); ++i) {
+        const ViewAlignment& view = result.alignment.views[i];
         if (view.aligned)
-            Log("PicoScan aligned %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(), view.rms_mm,
-                100 * view.overlap);
+            Log("PicoScan aligned %s by %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(),
+                result.method_of_view[i].c_str(), view.rms_mm, 100 * view.overlap);
         else if (placements.empty() || placements[size_t(view.placement)].aligned)
             failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
     }
@@ -782,15 +820,19 @@ void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList&
     options.advancing_front_max_radius = parameters.getFloat(kFrontMaxRadius);
     options.max_hole_diameter_mm = parameters.getFloat(kMaxHole);
     options.target_faces = parameters.getInt(kTargetFaces);
+    const int fill = parameters.getEnum(kFill);
+    if (fill < 0 || fill >= kFillNames.size()) throw Error(kFill, "must be 0.." + std::to_string(kFillNames.size() - 1));
+    options.fill = kFills[fill];
     validate(options);
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
     if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
     std::vector<ScanView> views;
     for (MeshModel* layer : layers) views.push_back(layer_view(*layer));  // pose = the layer's transform
     const FuseResult fused = fuse_views(views, options, meshlab_progress(callback));
-    add_filled_layer(document,
-                     options.method == MeshMethod::Poisson ? "Fused mesh (Poisson)" : "Fused mesh (advancing front)",
-                     [&](MeshModel& layer) { fill_layer(layer, fused.mesh); });
+    const QString label = options.method == MeshMethod::AdvancingFront ? "Fused mesh (advancing front)"
+                          : options.fill == MeshFill::Poisson        ? "Fused mesh (Poisson)"
+                                                                     : "Fused mesh (Poisson, fill " + kFillNames[fill].toLower() + ")";
+    add_filled_layer(document, label, [&](MeshModel& layer) { fill_layer(layer, fused.mesh); });
     Log("PicoScan fused %zu layers (%zu points) into %zu vertices, %zu faces; %s", layers.size(),
         fused.merged.points.size(), fused.mesh.vertices.size(), fused.mesh.faces.size(), fused.check.summary().c_str());
 }

@@ -241,8 +241,10 @@ void fill_layer(MeshModel& layer, const picoscan::ScanView& view) {
 void fill_layer(MeshModel& layer, const picoscan::Mesh& source) {
     CMeshO& mesh = layer.cm;
     const bool has_normals = source.normals.size() == source.vertices.size(),
-               has_colours = source.colours.size() == source.vertices.size();
+               has_colours = source.colours.size() == source.vertices.size(),
+               has_measured = source.measured.size() == source.vertices.size();
     if (has_colours) layer.updateDataMask(MeshModel::MM_VERTCOLOR);
+    if (has_measured) layer.updateDataMask(MeshModel::MM_VERTQUALITY);  // 1 measured, 0 filled in (as the PLY writer)
     auto vertex = vcg::tri::Allocator<CMeshO>::AddVertices(mesh, source.vertices.size());
     CVertexO* first_vertex = &*vertex;
     for (size_t i = 0; i < source.vertices.size(); ++i, ++vertex) {
@@ -250,6 +252,7 @@ void fill_layer(MeshModel& layer, const picoscan::Mesh& source) {
         vertex->P() = Point3m(p[0], p[1], p[2]);
         if (has_normals) vertex->N() = Point3m(source.normals[i][0], source.normals[i][1], source.normals[i][2]);
         if (has_colours) vertex->C() = vcg::Color4b(source.colours[i][0], source.colours[i][1], source.colours[i][2], 255);
+        if (has_measured) vertex->Q() = source.measured[i];
     }
     auto face = vcg::tri::Allocator<CMeshO>::AddFaces(mesh, source.faces.size());
     for (const cv::Vec3i& indices : source.faces) {

@@ -49,13 +49,13 @@ into one model, in the first view's camera frame, and writes the merged cloud wi
 
 Placements: when the part was set down again between views (standing, then on its side, so
 that the face it stood on is seen), give the views of each further placement after --then:
-  picoscan stitch stand/*.ply --then side/*.ply --out merged.ply --turntable-round
-Each placement is aligned on its own (with the turntable options below, which apply to every
-placement: the table stays where it is), then the placements are aligned to each other by
-their shape alone: no guess and no paint needed. A placement is joined only when exactly one
-fit passes, it fixes the pose, fits within the views' own residual, and puts no point where
-a camera of the other placement saw through; otherwise it is named with the reason and left
-out. Then all views are refined together.
+  picoscan stitch stand/*.ply --then side/*.ply --out merged.ply
+Each placement is aligned on its own (by --mode or the turntable options below, which apply
+to every placement: the table stays where it is), then the placements are aligned to each
+other by their shape alone: no guess and no paint needed. A placement is joined only when
+exactly one fit passes, it fixes the pose, fits within the views' own residual, and puts no
+point where a camera of the other placement saw through; otherwise it is named with the
+reason and left out. Then all views are refined together.
   1. ORB features on each view's white frame, lifted to 3D, matched and fitted by RANSAC;
      where too few match (large turns, plain parts), shape histograms (FPFH) instead;
   2. point-to-plane ICP with trimmed correspondences for every overlapping pair; a pair is
@@ -65,22 +65,34 @@ out. Then all views are refined together.
   3. all views refined together (multi-view ICP), so no error piles up around a full turn.
 Views that cannot be aligned are named with the reason and their overlap, are left out of
 the merge and are written beside it as MERGED.unmerged-NAME.ply; the exit code is then 3.
+stitch prints each way it tried (per placement: the views it aligned, the first it left out
+and why, kept or not) and, for every view, the way that placed it.
 The poses go to MERGED.poses.txt (one 4x4 view->model matrix per view; with placements, a
 '# placement N' line before each placement's views).
 
+How each placement's views are aligned without a guess (--mode):
+  automatic        (default) features first (step 1 above); a placement they leave incomplete
+                   (a plain, unpainted part gives no features) is aligned again as one
+                   turntable round (below), and the way that aligns more of its views is
+                   kept, features when both align as many. When features align every
+                   view, nothing more is tried.
+  features         step 1 above only (painted or textured parts; hand-held views)
+  turntable-round  the views are one full turntable round, in order, in equal steps; the
+                   axis is unknown: the step is estimated from all the views together
+
 Options:
+  --mode automatic|features|turntable-round  see above (default automatic)
+  --turntable-round          short for --mode turntable-round
   --turntable X,Y,Z,DX,DY,DZ  a calibrated turntable axis (point and direction, camera frame,
                              mm): the views were taken in equal steps around it, in order;
-                             its steps replace the feature search as the initial guess. When
-                             the views of a turntable are stitched by features, stitch prints
-                             the axis it found, ready to paste here.
+                             its steps replace the feature search as the initial guess (no
+                             --mode). When all views of one turntable round are stitched,
+                             stitch prints the axis they turn about, ready to paste here.
   --step-deg A               turntable step between consecutive views (default 360/views
                              of the placement)
-  --turntable-round          the views are one full turntable round, in order, in equal steps;
-                             the axis is unknown: the step is estimated from all the views
-                             together (for plain parts whose views do not register alone)
   --initial-poses P.txt      start ICP from these view->model poses (the format stitch writes
                              to MERGED.poses.txt, views in the same order) instead of features
+                             (no --mode)
   --spacing-mm S             points are thinned to about S mm for ICP (default 0.7)
 )";
 
@@ -227,11 +239,19 @@ int stitch_and_write(const std::vector<std::string>& paths, const std::string& o
     const StitchResult result = stitch_views(views, names, options, terminal_progress());
     OutputBatch outputs;  // the cloud, its poses and the unmerged views appear together
     int left_out = 0;
+    // Each way tried, per placement: what it aligned, the first view it left out and why, kept or not.
+    const bool several = result.alignment.placements.size() > 1;
+    for (const StitchAttempt& attempt : result.attempts)
+        std::printf("%s%s: %d of %d views aligned%s%s; %s\n",
+                    several ? ("placement " + std::to_string(attempt.placement + 1) + " by ").c_str() : "by ",
+                    attempt.method.c_str(), attempt.aligned_views, attempt.views,
+                    attempt.problem.empty() ? "" : ", first left out: ", attempt.problem.c_str(),
+                    attempt.kept ? "kept" : "not kept");
     for (size_t i = 0; i < views.size(); ++i) {
         const ViewAlignment& view = result.alignment.views[i];
         if (view.aligned) {
-            std::printf("%-24s aligned: residual %.4f mm, overlap %.0f %%\n", names[i].c_str(), view.rms_mm,
-                        100 * std::min(1.0, view.overlap));
+            std::printf("%-24s aligned by %s: residual %.4f mm, overlap %.0f %%\n", names[i].c_str(),
+                        result.method_of_view[i].c_str(), view.rms_mm, 100 * std::min(1.0, view.overlap));
             continue;
         }
         ++left_out;
@@ -314,14 +334,26 @@ int run_stitch(const Arguments& arguments) {
             throw Error("--step-deg", "is needed when the placements have different numbers of views");
         options.turntable->step_deg = arguments.number("--step-deg", options.turntable->step_deg);
     }
-    options.registration.turntable_round = arguments.flag("--turntable-round");
-    if (options.registration.turntable_round && options.turntable)
-        throw Error("--turntable-round", "give either --turntable (axis known) or --turntable-round (axis estimated)");
+    // How each placement's views are aligned: --mode (automatic unless a guess is given), or
+    // the guess itself (a known axis, initial poses).
+    std::string mode = arguments.text("--mode");
+    if (arguments.flag("--turntable-round")) {
+        if (!mode.empty()) throw Error("--turntable-round", "is short for --mode turntable-round: give one of them");
+        mode = "turntable-round";
+    }
+    const std::string mode_option = arguments.flag("--turntable-round") ? "--turntable-round" : "--mode";
+    if (!mode.empty() && options.turntable)
+        throw Error(mode_option, "give either --turntable (axis known) or " + mode_option + " (no guess)");
+    if (!mode.empty() && arguments.has("--initial-poses"))
+        throw Error("--initial-poses", "give either --turntable, " + mode_option + " or --initial-poses");
+    if (mode.empty() && !options.turntable && !arguments.has("--initial-poses")) mode = "automatic";
+    if (mode == "automatic") options.automatic = true;
+    else if (mode == "turntable-round") options.registration.turntable_round = true;
+    else if (!mode.empty() && mode != "features")
+        throw Error("--mode", "must be automatic, features or turntable-round, got '" + mode + "'");
     if (placement_sizes.size() > 1) options.placement_of_view = placement_of_view;
     if (arguments.has("--initial-poses")) {
         if (placement_sizes.size() > 1) throw Error("--initial-poses", "cannot be used with --then (placements)");
-        if (options.turntable || options.registration.turntable_round)
-            throw Error("--initial-poses", "give either --turntable, --turntable-round or --initial-poses");
         const std::string path = arguments.text("--initial-poses");
         const std::vector<ViewPose> poses = read_poses(path);
         if (poses.size() != inputs.size())
@@ -329,7 +361,7 @@ int run_stitch(const Arguments& arguments) {
         for (const ViewPose& pose : poses) options.registration.initial_poses.push_back(pose.pose);
     }
     arguments.reject_unknown();
-    validate(options.registration);
+    validate(options);
     return stitch_and_write(inputs, out, options) > 0 ? 3 : 0;
 }
 

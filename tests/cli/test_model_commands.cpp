@@ -147,37 +147,83 @@ TEST(CleanCli, FiltersReportTheirCountsAndTheInputStays) {
     EXPECT_NE(overwrite.output.find("would overwrite an input"), std::string::npos) << overwrite.output;
 }
 
-// A plain (unpainted) stepped block, 8 views of one turntable round: stitched by features
-// alone, the views that cannot be placed for sure are named and left out, never merged wrongly;
-// with --turntable-round all 8 align onto the true part.
-TEST(StitchCli, PlainPartIsRightOrRefusedAndTurntableRoundAlignsIt) {
+// A plain (unpainted) stepped block, 8 views of one turntable round. By features alone
+// (--mode features), the views that cannot be placed for sure are named and left out, never
+// merged wrongly; automatic (the default) tries features, falls back to the turntable round
+// (axis estimated), which aligns all 8 onto the true part, and says which way placed each view.
+// Built to fool the round: half the round (4 views 45 degrees apart, not a full round), where
+// the round's equal steps would be 90 degrees; neither --turntable-round nor automatic may merge
+// a view off its true pose.
+TEST(StitchCli, PlainPartIsRightOrRefusedAndAutomaticFallsBackToTheRound) {
     const test_support::TurntableScan& scan = test_support::plain_turntable_scan(test_support::PlainPart::SteppedBlock);
-    std::string views;
-    for (size_t i = 0; i < scan.views.size(); ++i)
-        views += (fs::path(PICOSCAN_TEST_CACHE_DIR) / "plain-v2-stepped-block" / scan.names[i]).string() + " ";
+    auto views_of = [&](size_t count) {
+        std::string views;
+        for (size_t i = 0; i < count; ++i)
+            views += (fs::path(PICOSCAN_TEST_CACHE_DIR) / "plain-v2-stepped-block" / scan.names[i]).string() + " ";
+        return views;
+    };
     const fs::path dir = make_temp_dir("stitch_cli_plain");
-    for (const bool round : {false, true}) {
-        const std::string out = (dir / (round ? "round.ply" : "features.ply")).string();
-        const Result result = run_picoscan("stitch " + views + "--out " + out + (round ? " --turntable-round" : ""));
-        if (round) {
+    const std::string round = "turntable round (axis estimated)";
+    struct Case {
+        std::string name, options;
+        size_t views;
+        std::string kept;  // the method expected to place the views it merged
+    };
+    for (const Case& run : {Case{"features", " --mode features", 8, "features"}, Case{"automatic", "", 8, round},
+                            Case{"round-half", " --turntable-round", 4, round}, Case{"automatic-half", "", 4, "features"}}) {
+        const std::string out = (dir / (run.name + ".ply")).string();
+        const Result result = run_picoscan("stitch " + views_of(run.views) + "--out " + out + run.options);
+        const std::string all = std::to_string(run.views) + " of " + std::to_string(run.views) + " views";
+        if (run.name == "automatic") {
             EXPECT_EQ(result.exit_code, 0) << result.output;
-            EXPECT_NE(result.output.find("8 of 8 views merged"), std::string::npos) << result.output;
+            EXPECT_NE(result.output.find(all + " merged"), std::string::npos) << result.output;
+            // Features leave views out on the plain part; the round aligns them all and is kept.
+            EXPECT_NE(result.output.find("by features: "), std::string::npos) << result.output;
+            EXPECT_EQ(result.output.find("by features: " + all + " aligned"), std::string::npos) << result.output;
+            EXPECT_NE(result.output.find("; not kept\nby " + round + ": " + all + " aligned; kept\n"), std::string::npos)
+                << result.output;
         } else {
             EXPECT_TRUE(result.exit_code == 0 || result.exit_code == 3) << result.output;
+            EXPECT_NE(result.output.find("by " + run.kept + ": "), std::string::npos) << result.output;
+        }
+        if (run.name == "automatic-half") {  // the round was tried and did not align more
+            EXPECT_NE(result.output.find("by " + round + ": "), std::string::npos) << result.output;
+            EXPECT_NE(result.output.find("; not kept\n"), std::string::npos) << result.output;
         }
         const std::vector<ViewPose> poses = read_poses(fs::path(out).replace_extension(".poses.txt").string());
-        ASSERT_EQ(poses.size(), scan.views.size());
-        for (size_t i = 1; i < poses.size(); ++i) {
+        ASSERT_EQ(poses.size(), run.views);
+        size_t merged = 0;
+        for (size_t i = 0; i < poses.size(); ++i) {
+            const std::string line_start = scan.names[i] + std::string(25 - scan.names[i].size(), ' ');
             if (!poses[i].aligned) {
-                EXPECT_NE(result.output.find(scan.names[i] + std::string(25 - scan.names[i].size(), ' ') + "NOT aligned: "),
-                          std::string::npos) << result.output;
+                EXPECT_NE(result.output.find(line_start + "NOT aligned: "), std::string::npos) << result.output;
                 continue;
             }
+            ++merged;
+            EXPECT_NE(result.output.find(line_start + "aligned by " + run.kept + ": residual "), std::string::npos)
+                << result.output;
+            if (i == 0) continue;
             const PoseDifference error = pose_difference(scan.true_view_to_model[i], poses[i].pose, scan.centroid(i));
-            EXPECT_LT(error.rotation_deg, 0.1) << (round ? "round " : "features ") << i;
-            EXPECT_LT(error.translation_mm, 0.1) << (round ? "round " : "features ") << i;
+            EXPECT_LT(error.rotation_deg, 0.1) << run.name << " " << i;
+            EXPECT_LT(error.translation_mm, 0.1) << run.name << " " << i;
         }
+        std::printf("%s (%zu views): %zu merged\n", run.name.c_str(), run.views, merged);
     }
+    // --help teaches the modes; the mode is one of three, and not given with a guess of its own.
+    const Result help = run_picoscan("stitch --help");
+    EXPECT_EQ(help.exit_code, 0);
+    EXPECT_NE(help.output.find("--mode automatic|features|turntable-round  see above (default automatic)"), std::string::npos)
+        << help.output;
+    const std::string out = (dir / "never.ply").string();
+    const Result unknown = run_picoscan("stitch " + views_of(2) + "--out " + out + " --mode sideways");
+    EXPECT_EQ(unknown.exit_code, 1);
+    EXPECT_NE(unknown.output.find("--mode: must be automatic, features or turntable-round, got 'sideways'"), std::string::npos)
+        << unknown.output;
+    const Result with_axis = run_picoscan("stitch " + views_of(2) + "--out " + out + " --mode features --turntable 0,0,400,0,1,0");
+    EXPECT_EQ(with_axis.exit_code, 1);
+    EXPECT_NE(with_axis.output.find("--mode: give either --turntable (axis known) or --mode (no guess)"), std::string::npos)
+        << with_axis.output;
+    EXPECT_FALSE(fs::exists(out));
 }
 
 TEST(CleanCli, ViewsCarryTheirCameraSoNoCalibrationIsNeeded) {

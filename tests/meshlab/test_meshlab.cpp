@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -57,11 +58,12 @@ const Params kAlignDefaults{{"RichInt", "orbFeatures", "6000"},
                             {"RichFloat", "sampleSpacing", "0.7"},
                             {"RichFloat", "minOverlap", "0.08"},
                             {"RichString", "placements", ""},
-                            {"RichBool", "turntableRound", "false"},
+                            {"RichEnum", "mode", "0"},
                             {"RichPoint3f", "turntableAxisPoint", "0 0 0"},
                             {"RichPoint3f", "turntableAxisDirection", "0 0 0"},
                             {"RichFloat", "turntableStepDeg", "0"}};
-const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichFloat", "sampleSpacing", "0.4"},
+const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichEnum", "fill", "0"},
+                           {"RichFloat", "sampleSpacing", "0.4"},
                            {"RichFloat", "poissonTriangleSize", "1"}, {"RichFloat", "poissonDistance", "0.1"},
                            {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
                            {"RichInt", "targetFaces", "0"}};
@@ -513,6 +515,12 @@ TEST(MeshlabPlugin, RangeErrorsNameMeshlabParameters) {
         {align({{"sampleSpacing", "0"}}), "-i plain.ply", "PicoScan: Align Layers error: sampleSpacing: must be 0.1..20"},
         {fuse({{"poissonDistance", "0"}}), "-i plain.ply",
          "PicoScan: Fuse and Mesh error: poissonDistance: must be 0.001..10"},
+        {fuse({{"method", "1"}, {"fill", "1"}}), "-i plain.ply",
+         "PicoScan: Fuse and Mesh error: fill: table closes the Poisson surface: it needs method poisson"},
+        {align({{"turntableAxisDirection", "0 1 0"}}), "-i plain.ply",
+         "PicoScan: Align Layers error: turntableAxisDirection: is used in mode 'Turntable axis' only"},
+        {align({{"mode", "3"}}), "-i plain.ply",
+         "PicoScan: Align Layers error: turntableAxisDirection: must not be zero in mode 'Turntable axis'"},
     };
     for (const auto& [script, input, message] : cases) {
         const ServerRun run = run_meshlabserver(directory, script, input + " -o never.ply");
@@ -595,11 +603,19 @@ TEST(MeshlabPlugin, LayerSavedWithoutItsCameraIsRefused) {
 
 // A project (.mlp) of view PLYs in `directory`, in layer order, each labelled by its file name
 // and at the identity transform.
-void write_project(const std::string& path, const std::vector<std::string>& files) {
+// A project of the files, each layer's transform the identity or the one given.
+void write_project(const std::string& path, const std::vector<std::string>& files,
+                   const std::vector<cv::Matx44d>& transforms = {}) {
     std::string project = "<!DOCTYPE MeshLabDocument>\n<MeshLabProject>\n <MeshGroup>\n";
-    for (const std::string& name : files)
-        project += "  <MLMesh label=\"" + name + "\" filename=\"" + name +
-                   "\" visible=\"1\">\n   <MLMatrix44>\n1 0 0 0 \n0 1 0 0 \n0 0 1 0 \n0 0 0 1 \n</MLMatrix44>\n  </MLMesh>\n";
+    for (size_t i = 0; i < files.size(); ++i) {
+        const cv::Matx44d transform = i < transforms.size() ? transforms[i] : cv::Matx44d::eye();
+        std::string matrix;
+        char number[40];
+        for (int r = 0; r < 4; ++r, matrix += "\n")
+            for (int c = 0; c < 4; ++c) std::snprintf(number, sizeof number, "%.12g ", transform(r, c)), matrix += number;
+        project += "  <MLMesh label=\"" + files[i] + "\" filename=\"" + files[i] + "\" visible=\"1\">\n   <MLMatrix44>\n" +
+                   matrix + "</MLMatrix44>\n  </MLMesh>\n";
+    }
     write_file(path, project + " </MeshGroup>\n <RasterGroup/>\n</MeshLabProject>\n");
 }
 
@@ -777,15 +793,31 @@ std::vector<std::string> two_placement_project(const std::string& directory, tes
 }  // namespace
 
 // The plain grey part in two placements (standing, then on its side), 8 turntable layers each,
-// no paint and no axis given: Align Layers with "8 8" puts every layer on its true pose.
+// no paint and no axis given: Align Layers with "8 8" in mode Automatic (the default) puts every
+// layer on its true pose. Features alone cannot place a plain part's layers; the log says which
+// way placed each layer.
 TEST(MeshlabPlugin, AlignTwoPlacementsOfAPlainPart) {
     const std::string directory = make_temp_dir("meshlab_placements");
     const auto part = test_support::PlacementPart::GreyMechanical;
     const std::vector<std::string> files = two_placement_project(directory, part, part);
-    const ServerRun run = run_meshlabserver(directory, align({{"placements", "8 8"}, {"turntableRound", "true"}}),
-                                            "-p project.mlp -w aligned.mlp");
+    const ServerRun run = run_meshlabserver(directory, align({{"placements", "8 8"}}), "-p project.mlp -w aligned.mlp");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     EXPECT_NE(run.log.find("PicoScan aligned 16 layers"), std::string::npos) << run.log;
+    // Each way tried, and every layer's method: features where they aligned the whole placement,
+    // else the turntable round, which must then be kept for at least one placement.
+    for (size_t at = run.log.find("PicoScan placement "); at != std::string::npos; at = run.log.find("PicoScan placement ", at + 1))
+        std::printf("%s\n", run.log.substr(at, run.log.find('\n', at) - at).c_str());
+    EXPECT_NE(run.log.find("PicoScan placement 1 by features: "), std::string::npos) << run.log;
+    EXPECT_NE(run.log.find("by turntable round (axis estimated): 8 of 8 layers aligned; kept"), std::string::npos) << run.log;
+    for (int placement = 1; placement <= 2; ++placement) {
+        const bool by_features =
+            run.log.find("PicoScan placement " + std::to_string(placement) + " by features: 8 of 8 layers aligned; kept") !=
+            std::string::npos;
+        const std::string method = by_features ? "features" : "turntable round (axis estimated)";
+        for (size_t i = (placement - 1) * 8; i < size_t(placement) * 8; ++i)
+            EXPECT_NE(run.log.find("PicoScan aligned " + files[i] + " by " + method + ": residual "), std::string::npos)
+                << files[i] << "\n" << run.log;
+    }
     const std::vector<double> placement = numbers_after(run.log, "placement 2 aligned to the others: residual", 1);
     ASSERT_EQ(placement.size(), 1u) << run.log;
     const std::vector<ProjectLayer> layers = read_project(directory + "/aligned.mlp");
@@ -820,7 +852,7 @@ TEST(MeshlabPlugin, AlignPlainRoundWithAKnownAxisAndRefusesAWrongOne) {
     const TurntableAxis axis = fit_turntable_axis(truth);
     auto axis_parameters = [](const cv::Vec3d& point, const cv::Vec3d& direction) {
         auto text = [](const cv::Vec3d& v) { return std::to_string(v[0]) + " " + std::to_string(v[1]) + " " + std::to_string(v[2]); };
-        return align({{"turntableAxisPoint", text(point)}, {"turntableAxisDirection", text(direction)}});
+        return align({{"mode", "3"}, {"turntableAxisPoint", text(point)}, {"turntableAxisDirection", text(direction)}});
     };
     ServerRun run = run_meshlabserver(directory, axis_parameters(axis.point_mm, axis.direction), "-p project.mlp -w aligned.mlp");
     ASSERT_EQ(run.exit_code, 0) << run.log;
@@ -854,12 +886,12 @@ TEST(MeshlabPlugin, AlignPlainRoundWithAKnownAxisAndRefusesAWrongOne) {
 TEST(MeshlabPlugin, AlignRefusesAPlacementOfAnotherPart) {
     const std::string directory = make_temp_dir("meshlab_placement_other_part");
     two_placement_project(directory, test_support::PlacementPart::GreyMechanical, test_support::PlacementPart::SteppedBlock);
-    ServerRun run = run_meshlabserver(directory, align({{"placements", "8 9"}, {"turntableRound", "true"}}),
+    ServerRun run = run_meshlabserver(directory, align({{"placements", "8 9"}, {"mode", "2"}}),
                                       "-p project.mlp -w never.mlp");
     EXPECT_NE(run.exit_code, 0);
     EXPECT_NE(run.log.find("placements: gives 17 layers in all, but 16 PicoScan layers are visible"), std::string::npos)
         << run.log;
-    run = run_meshlabserver(directory, align({{"placements", "8 8"}, {"turntableRound", "true"}}),
+    run = run_meshlabserver(directory, align({{"placements", "8 8"}, {"mode", "2"}}),
                             "-p project.mlp -w never.mlp");
     EXPECT_NE(run.exit_code, 0);
     const size_t refused = run.log.find("placement 2 NOT aligned: ");
@@ -867,6 +899,110 @@ TEST(MeshlabPlugin, AlignRefusesAPlacementOfAnotherPart) {
     std::printf("another part as placement 2: %s\n", run.log.substr(refused, run.log.find('\n', refused) - refused).c_str());
     EXPECT_NE(run.log.find("8 of 16 layers could not be aligned, no transform changed"), std::string::npos) << run.log;
     EXPECT_EQ(run.log.find("PicoScan aligned 16 layers"), std::string::npos) << run.log;
+}
+
+namespace {
+
+// The vertex quality of an ASCII PLY (meshlabserver -m vq sa).
+std::vector<float> ascii_ply_quality(const std::string& path) {
+    std::ifstream in(path);
+    std::string line;
+    size_t vertices = 0;
+    int property = 0, quality = -1;
+    bool in_vertex = false;
+    while (std::getline(in, line) && line.rfind("end_header", 0) != 0) {
+        std::istringstream words(line);
+        std::string word, type, name;
+        words >> word;
+        if (word == "element") {
+            words >> name;
+            in_vertex = name == "vertex";
+            if (in_vertex) words >> vertices;
+        } else if (word == "property" && in_vertex) {
+            words >> type >> name;
+            if (name == "quality") quality = property;
+            ++property;
+        }
+    }
+    std::vector<float> values;
+    if (quality < 0) return values;
+    for (size_t v = 0; v < vertices && std::getline(in, line); ++v) {
+        std::istringstream fields(line);
+        float value = 0;
+        for (int k = 0; k <= quality; ++k) fields >> value;
+        values.push_back(value);
+    }
+    return values;
+}
+
+}  // namespace
+
+// Fuse and Mesh's fill on one placement (the plain grey part standing on the turntable, its 8
+// layers on their true poses; the bottom never seen). Open leaves the bottom open and invents
+// nothing; Table closes it with a flat cap at the table: watertight, the part's volume. The saved
+// vertex quality says which vertices were filled in (0) and which measured (1).
+TEST(MeshlabPlugin, FuseFillOpenLeavesTheUnseenSideOpenAndTableClosesIt) {
+    const std::string directory = make_temp_dir("meshlab_fuse_fill");
+    const auto part = test_support::PlacementPart::GreyMechanical;
+    std::vector<std::string> files = two_placement_project(directory, part, part);
+    files.resize(test_support::kViewsPerPlacement);  // the standing round only
+    const test_support::TurntableScan& scan = test_support::two_placement_scan(part);
+    write_project(directory + "/project.mlp", files, scan.true_view_to_model);
+    double true_volume = 0;  // of the part's triangles (divergence theorem)
+    for (const cv::Vec3i& f : scan.part.faces)
+        true_volume += cv::Vec3d(scan.part.vertices[f[0]]).dot(cv::Vec3d(scan.part.vertices[f[1]]).cross(cv::Vec3d(scan.part.vertices[f[2]]))) / 6;
+    const cv::Matx44d model_to_part = inverse_rigid(scan.part_to_camera[0]);
+    const std::string fused_layer = std::to_string(files.size());
+    for (const std::string fill : {"Open", "Table"}) {
+        const std::string out = "fused_" + fill + ".ply";
+        const auto start = std::chrono::steady_clock::now();
+        const ServerRun run = run_meshlabserver(directory, fuse({{"fill", fill == "Open" ? "2" : "1"}, {"sampleSpacing", "1"}}),
+                                                "-p project.mlp -o " + out + " -l " + fused_layer + " -m vq sa");
+        ASSERT_EQ(run.exit_code, 0) << run.log;
+        const size_t report = run.log.find("PicoScan fused");
+        ASSERT_NE(report, std::string::npos) << run.log;
+        const std::string line = run.log.substr(report, run.log.find('\n', report) - report);
+        const Mesh fused = read_ply(directory + "/" + out);
+        const std::vector<float> quality = ascii_ply_quality(directory + "/" + out);
+        ASSERT_EQ(quality.size(), fused.vertices.size()) << out;
+        const EdgeCount edges = count_edges(fused);
+        std::vector<double> filled_heights;  // height above the table (part frame z) of the filled-in vertices
+        for (size_t v = 0; v < fused.vertices.size(); ++v) {
+            EXPECT_TRUE(quality[v] == 0 || quality[v] == 1) << quality[v];
+            if (quality[v] != 0) continue;
+            const cv::Vec4d p = model_to_part * cv::Vec4d(fused.vertices[v][0], fused.vertices[v][1], fused.vertices[v][2], 1);
+            filled_heights.push_back(p[2]);
+        }
+        std::sort(filled_heights.begin(), filled_heights.end());
+        const MeshCheck check = check_mesh(fused);
+        std::printf("fill %s (meshlabserver %.1f s): %s\n  %zu border edges, %zu of %zu vertices filled in", fill.c_str(),
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), line.c_str(), edges.border,
+                    filled_heights.size(), fused.vertices.size());
+        if (!filled_heights.empty())
+            std::printf(", their height above the table %.3f..%.3f mm (median %.3f)", filled_heights.front(),
+                        filled_heights.back(), filled_heights[filled_heights.size() / 2]);
+        if (fill == "Table")
+            std::printf("; as saved: %s; volume %.1f mm^3 (true part %.1f mm^3, %+.2f %%)", check.summary().c_str(),
+                        check.volume_mm3, true_volume, 100 * (check.volume_mm3 / true_volume - 1));
+        std::printf("\n");
+        if (fill == "Open") {
+            EXPECT_NE(line.find("NOT watertight"), std::string::npos) << line;
+            EXPECT_NE(line.find("; 0.0 % of the surface filled in"), std::string::npos) << line;
+            EXPECT_GT(edges.border, 100u);
+            // The contoured points are measured; a vertex flagged filled is a rare exception (1 in 51 781).
+            EXPECT_LT(filled_heights.size(), fused.vertices.size() / 1000);
+        } else {
+            EXPECT_NE(line.find("; watertight;"), std::string::npos) << line;
+            EXPECT_EQ(edges.border, 0u);
+            EXPECT_EQ(edges.non_manifold, 0u);
+            EXPECT_EQ(line.find("; 0.0 % of the surface filled in"), std::string::npos) << line;
+            ASSERT_GT(filled_heights.size(), 100u);
+            // The cap lies on the table (z = 0): nothing bulges below it (the filled walls of the
+            // through hole rise above it), and the closed mesh holds the part's volume.
+            EXPECT_GT(filled_heights.front(), -0.3);
+            EXPECT_NEAR(check.volume_mm3, true_volume, 0.01 * true_volume);
+        }
+    }
 }
 
 namespace {

@@ -51,6 +51,10 @@ cv::Vec3f face_normal(const cv::Vec3f& a, const cv::Vec3f& b, const cv::Vec3f& c
 // index is out of range.
 void check_mesh(const Mesh& mesh, const std::string& path);
 
+// A rows x cols grid of zeros. Large ones come from the operating system's fresh pages and
+// are not written here: only the pages a caller writes cost memory and time.
+cv::Mat zeroed_grid(int rows, int cols, int type);
+
 // What read_ply_with_extras returns beside the mesh: the header comments and the vertex
 // properties "quality" and "pixel" (empty when absent).
 struct PlyExtras {

@@ -515,10 +515,13 @@ ScanView read_view_ply(const std::string& path) {
     view.pose = pose;
     view.camera_matrix = camera_matrix;
     view.camera_distortion = distortion;
-    view.points = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
-    if (!mesh.normals.empty()) view.normals = cv::Mat(height, width, CV_32FC3, cv::Scalar::all(0));
-    if (!mesh.colours.empty()) view.colours = cv::Mat(height, width, CV_8UC3, cv::Scalar::all(0));
-    if (!extras.quality.empty()) view.quality = cv::Mat(height, width, CV_32F, cv::Scalar::all(0));
+    // A view measures a few percent of its grid: the zero grids are left as the system's
+    // fresh pages, written only where a point is.
+    view.points = detail::zeroed_grid(height, width, CV_32FC3);
+    view.points.setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    if (!mesh.normals.empty()) view.normals = detail::zeroed_grid(height, width, CV_32FC3);
+    if (!mesh.colours.empty()) view.colours = detail::zeroed_grid(height, width, CV_8UC3);
+    if (!extras.quality.empty()) view.quality = detail::zeroed_grid(height, width, CV_32F);
     for (size_t i = 0; i < mesh.vertices.size(); ++i) {
         const int64_t pixel = extras.pixels[i];
         const int y = static_cast<int>(pixel / width), x = static_cast<int>(pixel % width);

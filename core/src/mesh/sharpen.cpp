@@ -13,6 +13,7 @@
 #include <cmath>
 #include <deque>
 #include <numeric>
+#include <map>
 #include <unordered_map>
 
 namespace picoscan::detail {
@@ -82,6 +83,12 @@ constexpr size_t kLeastRegionPoints = 100;  // a gently curved surface makes sma
 // Share of the points around a vertex that must lie on its planes for the edge to be sharpened
 // (a fillet's points lie between them).
 constexpr double kLeastAgreement = 0.9;
+// Points within this of two surfaces meeting at an edge count as on them (a camera pixel at
+// the edge sees both faces and rounds the edge by about this; a fillet's middle lies farther).
+constexpr double kEdgeBlurMm = 0.25;
+// A filled-in vertex goes onto a hole's wall only when its surface faces the hole's axis
+// (cosine of 75 degrees: a bulge Poisson made tilts its surface by tens of degrees).
+constexpr double kHoleWallFacing = 0.25;
 
 struct Regions {
     std::vector<Plane> planes;
@@ -165,7 +172,7 @@ bool fit_cylinder(const std::vector<cv::Vec3d>& positions, const std::vector<cv:
         facing += normals[i].dot(out.radial(positions[i]));
         out.outwards = 1;
         if (std::abs(out.distance(positions[i])) < 2 * tolerance) ++near;
-        const double along = axis.dot(positions[i] - out.centre);
+        const double along = out.axis.dot(positions[i] - out.centre);
         out.low = std::min(out.low, along);
         out.high = std::max(out.high, along);
     }
@@ -218,9 +225,59 @@ void add_cylinders(const std::vector<cv::Vec3d>& positions, const std::vector<cv
                 if (regions.label[k] >= 0 || std::abs(cylinder.distance(positions[k])) > regions.tolerance) continue;
                 regions.label[k] = id;
                 grow.push_back(k);
+                // Its extent: the points that joined it too (a wall's last points before an edge).
+                Plane& grown = regions.planes[id];
+                const double along = grown.axis.dot(positions[k] - grown.centre);
+                grown.low = std::min(grown.low, along);
+                grown.high = std::max(grown.high, along);
             }
         }
     }
+}
+
+// A face grown as several regions (patches whose growth stopped at noisier points between
+// them) is one plane: regions whose planes are within 2 degrees and whose points lie within the
+// tolerance of each other's plane are merged, and the plane refitted to all their points.
+void merge_coplanar(const std::vector<cv::Vec3d>& positions, Regions& regions) {
+    const size_t count = regions.planes.size();
+    std::vector<std::vector<int>> members(count);
+    for (size_t i = 0; i < positions.size(); ++i)
+        if (regions.label[i] >= 0) members[regions.label[i]].push_back(static_cast<int>(i));
+    std::vector<cv::Vec3d> centre(count, cv::Vec3d(0, 0, 0));
+    for (size_t p = 0; p < count; ++p) {
+        for (int i : members[p]) centre[p] += positions[i];
+        if (!members[p].empty()) centre[p] *= 1.0 / double(members[p].size());
+    }
+    std::vector<int> root(count);
+    std::iota(root.begin(), root.end(), 0);
+    auto find = [&](int p) {
+        while (root[p] != p) p = root[p] = root[root[p]];
+        return p;
+    };
+    for (size_t a = 0; a < count; ++a)
+        for (size_t b = a + 1; b < count; ++b) {
+            const Plane &pa = regions.planes[a], &pb = regions.planes[b];
+            if (degrees_between(pa.normal, pb.normal) < 2 && std::abs(pa.distance(centre[b])) < regions.tolerance &&
+                std::abs(pb.distance(centre[a])) < regions.tolerance)
+                root[find(static_cast<int>(b))] = find(static_cast<int>(a));
+        }
+    std::vector<int> renumber(count, -1);
+    std::vector<Plane> planes;
+    std::vector<std::vector<int>> merged;
+    for (size_t p = 0; p < count; ++p) {
+        const int r = find(static_cast<int>(p));
+        if (renumber[r] < 0) {
+            renumber[r] = static_cast<int>(planes.size());
+            planes.push_back(regions.planes[r]);
+            merged.emplace_back();
+        }
+        renumber[p] = renumber[r];
+        merged[renumber[p]].insert(merged[renumber[p]].end(), members[p].begin(), members[p].end());
+    }
+    for (size_t p = 0; p < planes.size(); ++p) fit_plane(positions, merged[p], planes[p].normal, planes[p]);
+    for (int& label : regions.label)
+        if (label >= 0) label = renumber[label];
+    regions.planes = std::move(planes);
 }
 
 // Region growing over the points: from the flattest points outwards, a neighbour joins when its
@@ -310,8 +367,23 @@ Regions find_planes(const std::vector<cv::Vec3d>& positions, const std::vector<c
         }
         regions.planes.push_back(plane);
     }
+    merge_coplanar(positions, regions);
+    // Parts of a face the growing did not reach (cut off from its region by a band of noisier
+    // points) join it when they lie on its plane and face its way.
+    for (size_t i = 0; i < n; ++i) {
+        if (regions.label[i] >= 0) continue;
+        double nearest = regions.tolerance;
+        for (size_t p = 0; p < regions.planes.size(); ++p) {
+            const double d = std::abs(regions.planes[p].distance(positions[i]));
+            if (d < nearest && normals[i].dot(regions.planes[p].normal) > grow) {
+                nearest = d;
+                regions.label[i] = static_cast<int>(p);
+            }
+        }
+    }
     // The points beside a region whose normals the edge blended (PCA over neighbours of both
-    // faces) but which lie on its plane join it: outwards from the regions, by distance alone.
+    // faces) but which lie on its plane join it: outwards from the regions, by distance alone,
+    // within twice the tolerance (the points at an edge are noisier than a face's middle).
     std::deque<int> queue;
     for (size_t i = 0; i < n; ++i)
         if (regions.label[i] >= 0) queue.push_back(static_cast<int>(i));
@@ -319,9 +391,9 @@ Regions find_planes(const std::vector<cv::Vec3d>& positions, const std::vector<c
         const int i = queue.front();
         queue.pop_front();
         const Plane& plane = regions.planes[regions.label[i]];
-        grid.within(positions[i], radius, near);
+        grid.within(positions[i], 1.5 * radius, near);  // across the thinning's gaps between rows
         for (int k : near) {
-            if (regions.label[k] >= 0 || std::abs(plane.distance(positions[k])) > regions.tolerance) continue;
+            if (regions.label[k] >= 0 || std::abs(plane.distance(positions[k])) > 2 * regions.tolerance) continue;
             regions.label[k] = regions.label[i];
             queue.push_back(k);
         }
@@ -455,9 +527,19 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         std::array<int, 3> above{0, 0, 0}, below{0, 0, 0};
         for (int k : near) {
             ++all;
+            std::array<double, 3> off{};
             double nearest = 1e9;
-            for (int c = 0; c < vp.count; ++c) nearest = std::min(nearest, std::abs(regions.planes[vp.plane[c]].distance(positions[k])));
-            if (nearest < agree) ++on_planes;
+            for (int c = 0; c < vp.count; ++c) {
+                off[c] = std::abs(regions.planes[vp.plane[c]].distance(positions[k]));
+                nearest = std::min(nearest, off[c]);
+            }
+            // Right at the line two surfaces meet on, a camera pixel spans both: its points are
+            // rounded off by a fraction of a millimetre, which is the edge, not a fillet.
+            bool at_line = false;
+            for (int c = 0; c < vp.count; ++c)
+                for (int e = c + 1; e < vp.count; ++e)
+                    at_line = at_line || (off[c] < kEdgeBlurMm && off[e] < kEdgeBlurMm);
+            if (nearest < agree || at_line) ++on_planes;
             if (regions.label[k] == vp.plane[0])
                 for (int c = 1; c < vp.count; ++c) {
                     const double d = regions.planes[vp.plane[c]].distance(positions[k]);
@@ -522,21 +604,75 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<cv::Vec3d> safe(vertex_count), target(vertex_count);
     for (size_t v = 0; v < vertex_count; ++v) safe[v] = target[v] = cv::Vec3d(mesh.vertices[v]);
     std::vector<uint8_t> on_feature(vertex_count, 0);  // on a line or a corner: its edges are not split
+    // The Poisson surface's normals (area-weighted), to tell a hole's wall from the faces it opens on.
+    std::vector<cv::Vec3d> vertex_normal(vertex_count, cv::Vec3d(0, 0, 0));
+    for (const cv::Vec3i& face : mesh.faces) {
+        const cv::Vec3d a(mesh.vertices[face[0]]), b(mesh.vertices[face[1]]), c(mesh.vertices[face[2]]);
+        const cv::Vec3d n = (b - a).cross(c - a);
+        for (int k = 0; k < 3; ++k) vertex_normal[face[k]] += n;
+    }
+    for (cv::Vec3d& n : vertex_normal) n = cv::norm(n) > 0 ? cv::normalize(n) : n;
+    // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
+    const double filled_reach = std::max(2 * spacing_mm, 0.5);
+    // Corners: three planes meeting in a point, each with its points beside it, get the vertex
+    // nearest to that point whose points lie on all three (Poisson leaves none there, and an
+    // edge split near it rarely lands on it).
+    using Triple = std::array<int, 3>;
+    std::map<Triple, cv::Vec3d> corner_at;                   // the supported corners
+    std::map<Triple, std::pair<double, int>> corner_vertex;  // its nearest vertex and how near
+    for (size_t v = 0; v < vertex_count; ++v) {
+        const VertexPlanes& vp = model[v];
+        if (vp.count != 3) continue;
+        Triple triple{vp.plane[0], vp.plane[1], vp.plane[2]};
+        std::sort(triple.begin(), triple.end());
+        auto found = corner_at.find(triple);
+        if (found == corner_at.end()) {
+            cv::Vec3d corner;
+            bool supported = corner_of(regions.planes[triple[0]], regions.planes[triple[1]], regions.planes[triple[2]], corner) &&
+                             sharp_pair(triple[0], triple[1], corner) && sharp_pair(triple[1], triple[2], corner) &&
+                             sharp_pair(triple[0], triple[2], corner);
+            if (supported) {
+                grid.within(corner, reach, near);
+                for (int plane : triple)
+                    supported = supported &&
+                                std::count_if(near.begin(), near.end(), [&](int k) { return regions.label[k] == plane; }) >= 3;
+            }
+            if (!supported) corner = cv::Vec3d(1e30, 1e30, 1e30);  // remembered as none
+            found = corner_at.emplace(triple, corner).first;
+        }
+        const double distance = cv::norm(found->second - safe[v]);
+        if (distance > longest_move) continue;
+        auto best = corner_vertex.find(triple);
+        if (best == corner_vertex.end() || distance < best->second.first) corner_vertex[triple] = {distance, int(v)};
+    }
+    for (const auto& [triple, nearest] : corner_vertex) {
+        target[nearest.second] = corner_at[triple];
+        on_feature[nearest.second] = 1;
+        ++report.corners;
+    }
+    auto corner_taken = [&](int a, int b, int c) {
+        Triple triple{a, b, c};
+        std::sort(triple.begin(), triple.end());
+        return corner_vertex.count(triple) > 0;
+    };
     for (size_t v = 0; v < vertex_count; ++v) {
         const VertexPlanes& vp = model[v];
         if (vp.count == 0) {
-            // Surface no point supports, inside a hole between the parts of its wall that were
-            // seen (Poisson narrows a hole's unseen middle): onto the hole's cylinder.
+            // Surface the points do not make (filled in: too few of them around it), inside a
+            // hole between the parts of its wall that were seen, facing the hole's axis (Poisson
+            // narrows a hole's unseen middle, or bulges it out by a millimetre): onto the hole's
+            // cylinder. The faces a hole opens on face along its axis and are left alone.
             const cv::Vec3d x = safe[v];
-            grid.within(x, reach, near);
-            if (!near.empty()) continue;
+            grid.within(x, filled_reach, near);
+            if (near.size() >= 3) continue;
             for (const Plane& hole : regions.planes) {
                 if (!hole.cylinder || hole.outwards > 0) continue;
                 const double along = hole.axis.dot(x - hole.centre);
                 const cv::Vec3d across = (x - hole.centre) - hole.axis * along;
                 const double from_axis = cv::norm(across);
-                if (along < hole.low + reach || along > hole.high - reach || from_axis < 0.5 * hole.radius ||
-                    from_axis > hole.radius + reach)
+                if (along < hole.low || along > hole.high || from_axis < 0.5 * hole.radius ||
+                    from_axis > hole.radius + std::max(reach, 0.5 * hole.radius) ||
+                    vertex_normal[v].dot(hole.normal_at(x)) < kHoleWallFacing)
                     continue;
                 target[v] = hole.project(x);
                 ++report.hole_vertices;
@@ -544,6 +680,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             }
             continue;
         }
+        if (on_feature[v]) continue;  // a corner
         const cv::Vec3d x = safe[v];
         cv::Vec3d moved;
         bool placed = false;
@@ -554,7 +691,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 for (int r : {p, q})
                     if (std::find(planes.begin(), planes.end(), r) == planes.end()) planes.push_back(r);
             if (planes.size() == 2) placed = onto_line(regions.planes[planes[0]], regions.planes[planes[1]], x, moved);
-            else if (planes.size() == 3)
+            else if (planes.size() == 3 && !corner_taken(planes[0], planes[1], planes[2]))
                 placed = corner_of(regions.planes[planes[0]], regions.planes[planes[1]], regions.planes[planes[2]], moved);
             if (placed && cv::norm(moved - x) <= longest_move) {
                 on_feature[v] = 1;
@@ -639,7 +776,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             const int pa = own_plane(face[0]), pb = own_plane(face[1]), pc = own_plane(face[2]);
             cv::Vec3d corner;
             const cv::Vec3d middle = (safe[cut[0]] + safe[cut[1]] + safe[cut[2]]) * (1.0 / 3);
-            if (pa != pb && pb != pc && pa != pc && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
+            if (pa != pb && pb != pc && pa != pc && !corner_taken(pa, pb, pc) && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
                 cv::norm(corner - middle) <= longest_move) {
                 const int centre = static_cast<int>(safe.size());
                 safe.push_back(middle);
@@ -653,7 +790,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     }
 
     // 6. Self-check: a face turned over against the face it came from, or faces crossing each
-    // other, send their vertices back.
+    // other, pull their vertices back: half way, then a quarter of the way, then all the way
+    // (often a vertex need not go all the way back for its faces to stay unfolded).
     std::vector<cv::Vec3d> original_normal(mesh.faces.size());
     for (size_t f = 0; f < mesh.faces.size(); ++f) {
         const cv::Vec3i& face = mesh.faces[f];
@@ -661,24 +799,26 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         original_normal[f] = (b - a).cross(c - a);
     }
     std::vector<cv::Vec3d> position = target;
-    std::vector<uint8_t> reverted(position.size(), 0);
+    std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
     auto send_back = [&](const cv::Vec3i& face) {
-        for (int k = 0; k < 3; ++k)
-            if (!reverted[face[k]] && position[face[k]] != safe[face[k]]) {
-                position[face[k]] = safe[face[k]];
-                reverted[face[k]] = 1;
-                ++report.reverted;
-            }
+        bool pulled = false;
+        for (int k = 0; k < 3; ++k) {
+            const int v = face[k];
+            if (share[v] == 0 || target[v] == safe[v]) continue;
+            pulled = true;
+            share[v] = share[v] > 0.3 ? 0.5 * share[v] : 0.0;
+            position[v] = safe[v] + share[v] * (target[v] - safe[v]);
+            if (share[v] == 0) ++report.reverted;
+        }
+        return pulled;
     };
-    for (int round = 0; round < 10; ++round) {
+    for (int round = 0; round < 30; ++round) {
         bool changed = false;
         for (size_t f = 0; f < faces.size(); ++f) {
             const cv::Vec3i& face = faces[f];
             const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
             if (normal.dot(original_normal[parent[f]]) < 0) {
-                const size_t before = report.reverted;
-                send_back(face);
-                changed = changed || report.reverted != before;
+                changed = send_back(face) || changed;
             }
         }
         if (!changed) break;
@@ -704,7 +844,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     for (int round = 0;; ++round) {
         const std::vector<int> crossing_faces = moved_crossings();
         if (crossing_faces.empty()) break;
-        if (round == 5) {
+        if (round == 12) {
             // Still crossing itself: nothing is moved (the split faces stay, flat on their parents).
             position = safe;
             report.reverted = position.size();

@@ -174,45 +174,95 @@ std::vector<std::uint64_t> descriptor_words(const cv::Mat& descriptors) {
     return words;
 }
 
-// Brute force over 64-bit words with the processor's popcount where it has one (cloned for
-// it; the plain build would count bits in software). Each pair costs a few instructions,
-// not a library call: matching 12 000 ORB descriptors against 12 000 was a sixth of a pair's
+// The same words, word by word: every row's first word, then every row's second, and so on,
+// so that the distances of one query to a run of rows are computed side by side.
+std::vector<std::uint64_t> descriptor_columns(const cv::Mat& descriptors) {
+    const size_t rows = static_cast<size_t>(descriptors.rows);
+    std::vector<std::uint64_t> columns(rows * kOrbWords);
+    for (size_t r = 0; r < rows; ++r) {
+        std::uint64_t row[kOrbWords];
+        std::memcpy(row, descriptors.ptr(static_cast<int>(r)), kOrbWords * 8);
+        for (size_t w = 0; w < kOrbWords; ++w) columns[w * rows + r] = row[w];
+    }
+    return columns;
+}
+
+// Fixed rows whose distances to one query are computed in one run.
+constexpr int kRunRows = 256;
+
+// Brute force over 64-bit words with the processor's popcount where it has one (compiled
+// for it: AVX-512's vector popcount counts eight words at once, the scalar one one; the plain
+// build would count bits in software). The distances of a run of rows are computed first
+// (a loop the compiler vectorises), then ranked in row order, so every build finds the same
+// matches. Matching 12 000 ORB descriptors against 12 000 was a sixth of a pair's
 // registration time through cv::BFMatcher.
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-__attribute__((target_clones("popcnt", "default")))
-#endif
-void two_nearest_rows(const std::uint64_t* moving, const std::uint64_t* fixed, int fixed_rows, int begin, int end,
-                      TwoNearest* out) {
+inline __attribute__((always_inline)) void two_nearest_run(const std::uint64_t* moving, const std::uint64_t* fixed_columns, int fixed_rows, int begin,
+                      int end, TwoNearest* out) {
+    const size_t rows = static_cast<size_t>(fixed_rows);
+    const std::uint64_t *w0 = fixed_columns, *w1 = w0 + rows, *w2 = w1 + rows, *w3 = w2 + rows;
+    int distances[kRunRows];
     for (int q = begin; q < end; ++q) {
         const std::uint64_t* a = moving + static_cast<size_t>(q) * kOrbWords;
+        const std::uint64_t a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3];
         TwoNearest best;
-        for (int t = 0; t < fixed_rows; ++t) {
-            const std::uint64_t* b = fixed + static_cast<size_t>(t) * kOrbWords;
-            const int distance = __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
-                                 __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
-            // As a brute-force matcher ranks them: strictly closer only, so ties keep the lower index.
-            if (distance >= best.second_distance) continue;
-            if (distance < best.first_distance) {
-                best.second = best.first;
-                best.second_distance = best.first_distance;
-                best.first = t;
-                best.first_distance = distance;
-            } else {
-                best.second = t;
-                best.second_distance = distance;
+        for (int run = 0; run < fixed_rows; run += kRunRows) {
+            const int count = std::min(kRunRows, fixed_rows - run);
+            int smallest = INT_MAX;
+            for (int k = 0; k < count; ++k) {
+                const size_t t = static_cast<size_t>(run + k);
+                distances[k] = __builtin_popcountll(a0 ^ w0[t]) + __builtin_popcountll(a1 ^ w1[t]) +
+                               __builtin_popcountll(a2 ^ w2[t]) + __builtin_popcountll(a3 ^ w3[t]);
+                smallest = std::min(smallest, distances[k]);
+            }
+            if (smallest >= best.second_distance) continue;  // nothing in this run ranks
+            for (int k = 0; k < count; ++k) {
+                const int distance = distances[k];
+                // As a brute-force matcher ranks them: strictly closer only, so ties keep the lower index.
+                if (distance >= best.second_distance) continue;
+                if (distance < best.first_distance) {
+                    best.second = best.first;
+                    best.second_distance = best.first_distance;
+                    best.first = run + k;
+                    best.first_distance = distance;
+                } else {
+                    best.second = run + k;
+                    best.second_distance = distance;
+                }
             }
         }
         out[q] = best;
     }
 }
 
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+__attribute__((target("avx512f,avx512vpopcntdq"))) void two_nearest_vector_popcount(
+    const std::uint64_t* moving, const std::uint64_t* fixed_columns, int fixed_rows, int begin, int end, TwoNearest* out) {
+    two_nearest_run(moving, fixed_columns, fixed_rows, begin, end, out);
+}
+__attribute__((target("popcnt"))) void two_nearest_scalar_popcount(
+    const std::uint64_t* moving, const std::uint64_t* fixed_columns, int fixed_rows, int begin, int end, TwoNearest* out) {
+    two_nearest_run(moving, fixed_columns, fixed_rows, begin, end, out);
+}
+#endif
+
+void two_nearest_rows(const std::uint64_t* moving, const std::uint64_t* fixed_columns, int fixed_rows, int begin, int end,
+                      TwoNearest* out) {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    if (__builtin_cpu_supports("avx512vpopcntdq"))
+        return two_nearest_vector_popcount(moving, fixed_columns, fixed_rows, begin, end, out);
+    if (__builtin_cpu_supports("popcnt"))
+        return two_nearest_scalar_popcount(moving, fixed_columns, fixed_rows, begin, end, out);
+#endif
+    two_nearest_run(moving, fixed_columns, fixed_rows, begin, end, out);
+}
+
 // For each moving ORB descriptor, its two nearest fixed ones by Hamming distance.
 std::vector<TwoNearest> two_nearest_hamming(const cv::Mat& moving, const cv::Mat& fixed) {
     CV_Assert(moving.type() == CV_8U && fixed.type() == CV_8U && moving.cols == 8 * kOrbWords && fixed.cols == 8 * kOrbWords);
-    const std::vector<std::uint64_t> moving_words = descriptor_words(moving), fixed_words = descriptor_words(fixed);
+    const std::vector<std::uint64_t> moving_words = descriptor_words(moving), fixed_columns = descriptor_columns(fixed);
     std::vector<TwoNearest> nearest(static_cast<size_t>(moving.rows));
     parallel_rows(moving.rows, [&](int begin, int end) {
-        two_nearest_rows(moving_words.data(), fixed_words.data(), fixed.rows, begin, end, nearest.data());
+        two_nearest_rows(moving_words.data(), fixed_columns.data(), fixed.rows, begin, end, nearest.data());
     });
     return nearest;
 }

@@ -62,27 +62,36 @@ double texture_correlation(const std::vector<Pairing>& pairings, size_t count, c
 }
 
 // What earlier iterations learned about one moving sample's neighbourhood in the fixed view.
-// Poses change little from one iteration to the next, so the nearest point lies no farther
-// than the last partner does now, and a sample that found nothing within reach cannot find
-// anything before it has moved closer than that reach. Searching only as far as needed finds
-// the same nearest point (or none) while visiting far fewer cells.
+// Poses change little from one iteration to the next: a sample that had a partner keeps it
+// while it has moved less than the gap to the runner-up allows, and a sample that found
+// nothing within reach cannot find anything before it has moved closer than that reach.
+// Either way the nearest point found is the one a full search would return.
 struct SearchMemory {
     int partner = -1;
-    double clear_mm = 0;  // no fixed point lay this close to `at`
+    double clear_mm = 0;  // no fixed point other than the partner lay this close to `at`
     cv::Vec3d at{0, 0, 0};
 };
+
+// How much farther than its last partner a sample searches: a wider search costs little
+// (the grid's cells are 3 mm) and its runner-up lets later iterations skip the search.
+constexpr double kClearanceMarginMm = 0.3;
 
 // The nearest fixed point to p closer than limit_mm, or -1: what PointGrid::nearest(p, limit_mm) returns.
 int nearest_partner(const PointGrid& grid, const std::vector<cv::Vec3d>& fixed, const cv::Vec3d& p, double limit_mm,
                     SearchMemory& memory) {
-    constexpr double hair_mm = 1e-9;  // far above rounding: the bound never leaves out a point in reach
-    if (memory.partner < 0 && memory.clear_mm - cv::norm(p - memory.at) - hair_mm >= limit_mm) return -1;
-    const int found = grid.nearest_from(p, limit_mm, fixed, memory.partner);
-    if (found < 0) {  // searched as far as limit_mm, found nothing
-        memory.clear_mm = limit_mm;
-        memory.at = p;
+    constexpr double hair_mm = 1e-9;  // far above rounding: the bounds never leave out a point in reach
+    const double moved = cv::norm(p - memory.at);
+    if (memory.partner < 0 && memory.clear_mm - moved - hair_mm >= limit_mm) return -1;
+    double radius = limit_mm;
+    if (memory.partner >= 0) {
+        // Every other point is at least clear_mm - moved away from p.
+        const double to_partner = cv::norm(p - fixed[static_cast<size_t>(memory.partner)]);
+        if (to_partner + hair_mm < limit_mm && to_partner + moved + hair_mm < memory.clear_mm) return memory.partner;
+        radius = std::min(limit_mm, to_partner + kClearanceMarginMm);  // the nearest is no farther than the partner
     }
+    const int found = grid.nearest_with_clearance(p, radius, memory.clear_mm);
     memory.partner = found;
+    memory.at = p;
     return found;
 }
 

@@ -160,6 +160,26 @@ int PointGrid::nearest_from(const cv::Vec3d& query, double max_distance_mm, cons
     return nearest(query, std::min(max_distance_mm, cv::norm(query - points[static_cast<size_t>(guess)]) + 1e-9));
 }
 
+int PointGrid::nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const {
+    // The same walk and the same strict comparison as nearest(), so the same point (ties
+    // included) is found; every point in reach is visited, so the runner-up bounds the rest.
+    double best = max_distance_mm * max_distance_mm, second = best;
+    int best_index = -1;
+    visit_near(query, max_distance_mm, [&](const cv::Vec3d& point, int index) {
+        const cv::Vec3d d = point - query;
+        const double distance = d.dot(d);
+        if (distance < best) {
+            second = best;
+            best = distance;
+            best_index = index;
+        } else if (distance < second) {
+            second = distance;
+        }
+    });
+    clearance_mm = std::sqrt(second);
+    return best_index;
+}
+
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
     const double limit = radius_mm * radius_mm;

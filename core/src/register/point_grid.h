@@ -40,6 +40,11 @@ public:
     // grid was built on.
     int nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const;
 
+    // nearest(query, max_distance_mm), and `clearance_mm`: no point other than the one found
+    // lies closer to the query than this (the second nearest, or max_distance_mm when that is
+    // nearer). A query that then moves by less than the gap keeps the same nearest point.
+    int nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const;
+
 private:
     static long long key(long long ix, long long iy, long long iz) { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
     cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
