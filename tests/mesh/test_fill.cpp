@@ -335,13 +335,30 @@ TEST(MeshBudget, SimplifiedPoissonMeshDoesNotCrossItself) {
             std::printf("%s, spacing 1 mm, target %d faces: %s\n", c.name.c_str(), target, check.summary().c_str());
             EXPECT_FALSE(check.self_intersecting) << c.name << ", target " << target;
             EXPECT_TRUE(check.watertight()) << c.name << ", target " << target;
-            // Where the simplified surface still crosses itself, the budget grows 1.5 times and
-            // simplification runs again; Poisson's output varies slightly from run to run, and the
-            // block at 1500 faces ended at 1498, 2248 and 3374 faces in three runs (two growths).
-            // Since the edges are sharpened before simplifying, the mechanical part at 1500 needed
-            // three growths in one clean-clone run (5060 faces): at most three are allowed.
-            EXPECT_LE(check.faces, size_t(target * 1.5 * 1.5 * 1.5) + 2) << c.name;
-            EXPECT_GE(check.faces, size_t(target) / 2) << c.name;
+            // The budget is hard: collapses that would make the surface cross itself are refused,
+            // others made instead (it used to grow 1.5 times per retry, up to 5060 faces for 1500).
+            EXPECT_LE(check.faces, size_t(target * 1.05)) << c.name;
+            EXPECT_GE(check.faces, size_t(target * 0.95)) << c.name;
         }
+    }
+}
+
+// One view closed by Poisson (its unseen side invented): the surface mesher used to leave holes
+// in the closing bubble (188 border edges and 4 components on this view before). The
+// mesh is one closed, watertight component, and the unseen side is marked filled. Still open:
+// the closed holes may cross the bubble's other faces (view 2 stays self-intersecting, so it
+// is not a printable volume; the mesh check says so).
+TEST(MeshFill, PoissonClosesASingleView) {
+    const test_support::TurntableScan& scan = test_support::disturbed_turntable_scan();
+    for (size_t view : {size_t(2)}) {
+        MeshOptions options;
+        options.fill = MeshFill::Poisson;
+        const MeshCheck check = check_mesh(mesh_view(scan.views[view], options));
+        std::printf("view %zu alone, fill poisson: %s\n", view, check.summary().c_str());
+        EXPECT_TRUE(check.watertight()) << "view " << view;
+        EXPECT_EQ(check.border_edges, 0u) << "view " << view;
+        EXPECT_EQ(check.components, 1u) << "view " << view;
+        // One view sees about a third of the part: most of the closed surface is invented.
+        EXPECT_GT(check.filled_fraction, 0.4) << "view " << view;
     }
 }

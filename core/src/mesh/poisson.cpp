@@ -11,6 +11,9 @@
 #include <CGAL/grid_simplify_point_set.h>
 #include <CGAL/pca_estimate_normals.h>
 #include <CGAL/IO/facets_in_complex_2_to_triangle_mesh.h>
+#include <CGAL/Polygon_mesh_processing/border.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Implicit_surface_3.h>
 #include <CGAL/Poisson_reconstruction_function.h>
 #include <CGAL/Surface_mesh_default_triangulation_3.h>
@@ -353,6 +356,38 @@ private:
     CGAL::Surface_mesher::Standard_criteria<Criterion> criteria_;
 };
 
+// The surface mesher finds the surface where the implicit function changes sign along the
+// edges of its Voronoi diagram: where a coarse cell's edge crosses the closing bubble twice (far
+// from the data, where the triangles are large) it misses a facet, and leaves a hole there
+// (27 to 41 border edges on a single view of the mechanical part), or a small separate sheet.
+// The surface is closed, so its holes are closed again (triangulated, refined and faired: they
+// lie on invented surface, marked filled later as any other) and separate pieces away from the
+// data are dropped. A piece of the surface that holds data is never dropped.
+void close_invented_surface(SurfaceMesh& mesh, const DataProximity& proximity) {
+    namespace PMP = CGAL::Polygon_mesh_processing;
+    std::vector<SurfaceMesh::Halfedge_index> borders;
+    PMP::extract_boundary_cycles(mesh, std::back_inserter(borders));
+    for (SurfaceMesh::Halfedge_index border : borders) {
+        std::vector<SurfaceMesh::Face_index> faces;
+        std::vector<SurfaceMesh::Vertex_index> vertices;
+        PMP::triangulate_refine_and_fair_hole(mesh, border, std::back_inserter(faces), std::back_inserter(vertices));
+    }
+    auto component = mesh.add_property_map<SurfaceMesh::Face_index, std::size_t>("f:component", 0).first;
+    const std::size_t count = PMP::connected_components(mesh, component);
+    if (count > 1) {
+        std::vector<bool> holds_data(count, false);
+        for (SurfaceMesh::Face_index f : mesh.faces())
+            for (SurfaceMesh::Vertex_index v : CGAL::vertices_around_face(mesh.halfedge(f), mesh))
+                if (proximity.level(mesh.point(v)) == 0) holds_data[component[f]] = true;
+        std::vector<std::size_t> invented;
+        for (std::size_t c = 0; c < count; ++c)
+            if (!holds_data[c]) invented.push_back(c);
+        if (!invented.empty()) PMP::remove_connected_components(mesh, invented, component);
+    }
+    mesh.remove_property_map(component);
+    mesh.collect_garbage();
+}
+
 }  // namespace
 
 Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSettings& settings, const StageReport& report) {
@@ -421,6 +456,7 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
             throw Error("Poisson reconstruction", "the implicit function has no surface (are the normals consistent?)");
         SurfaceMesh out;
         CGAL::facets_in_complex_2_to_triangle_mesh(complex, out);
+        close_invented_surface(out, proximity);
         return to_mesh(out);
     }
 }

@@ -1,5 +1,6 @@
 // Mesh repair and checks: small-hole filling (Liepa 2003: triangulate, refine, fair),
-// edge-collapse simplification (Lindstrom-Turk), and the topology check before export.
+// edge-collapse simplification (Lindstrom-Turk) that never makes the surface cross itself,
+// and the topology check before export.
 #define CGAL_EIGEN3_ENABLED 1
 #include "mesh/cgal_types.h"
 #include "picoscan/error.h"
@@ -12,13 +13,17 @@
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Bounded_normal_change_filter.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
+#include <CGAL/Surface_mesh_simplification/Edge_collapse_visitor_base.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <numeric>
 #include <set>
+#include <unordered_map>
 
 namespace picoscan {
 
@@ -99,23 +104,220 @@ Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double 
     return to_mesh(surface);
 }
 
+namespace {
+
+namespace SMS = CGAL::Surface_mesh_simplification;
+using Vertex = SurfaceMesh::Vertex_index;
+using Face = SurfaceMesh::Face_index;
+
+// Passes of edge collapse over all the edges; the second and later ones retry the edges refused
+// before (most collapses happen in the first).
+constexpr int kSimplificationPasses = 4;
+
+Kernel::Triangle_3 face_triangle(const SurfaceMesh& mesh, Face f) {
+    const SurfaceMesh::Halfedge_index h = mesh.halfedge(f);
+    return {mesh.point(mesh.source(h)), mesh.point(mesh.target(h)), mesh.point(mesh.target(mesh.next(h)))};
+}
+
+// A triangle with the mesh's vertices it is made of (to know which corners two triangles share).
+struct Corners {
+    Point3 point[3];
+    Vertex vertex[3];
+    CGAL::Bbox_3 box() const { return point[0].bbox() + point[1].bbox() + point[2].bbox(); }
+};
+
+Corners corners_of(const SurfaceMesh& mesh, Face f) {
+    Corners c;
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) {
+        c.vertex[k] = v;
+        c.point[k] = mesh.point(v);
+        ++k;
+    }
+    return c;
+}
+
+// Whether two triangles of a surface meet anywhere but at the corner or the edge they share:
+// with no shared corner, any contact; with one, the edge opposite it in either triangle
+// meeting the other triangle (their planes meet along a line through the corner, which leaves
+// each triangle through its opposite edge); with a shared edge, the two folded flat onto each
+// other (coplanar, on the same side of the edge). The predicates are exact (CGAL's Epick).
+bool triangles_cross(const Corners& a, const Corners& b) {
+    int shared = 0, in_a[3], in_b[3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            if (a.vertex[i] == b.vertex[j]) {
+                in_a[shared] = i;
+                in_b[shared] = j;
+                ++shared;
+            }
+    const Kernel::Triangle_3 ta(a.point[0], a.point[1], a.point[2]), tb(b.point[0], b.point[1], b.point[2]);
+    if (shared == 0) return CGAL::do_intersect(ta, tb);
+    if (shared == 1) {
+        const int i = in_a[0], j = in_b[0];
+        return CGAL::do_intersect(tb, Kernel::Segment_3(a.point[(i + 1) % 3], a.point[(i + 2) % 3])) ||
+               CGAL::do_intersect(ta, Kernel::Segment_3(b.point[(j + 1) % 3], b.point[(j + 2) % 3]));
+    }
+    if (shared == 2) {
+        const Point3 &s = a.point[in_a[0]], &t = a.point[in_a[1]];
+        const Point3& a_apex = a.point[3 - in_a[0] - in_a[1]];
+        const Point3& b_apex = b.point[3 - in_b[0] - in_b[1]];
+        return CGAL::coplanar(s, t, a_apex, b_apex) && CGAL::coplanar_orientation(s, t, a_apex, b_apex) == CGAL::POSITIVE;
+    }
+    return true;  // the same three corners twice
+}
+
+// The mesh's faces by cells of a grid, each face listed in every cell its bounding box
+// touches. A collapse moves one vertex: its faces are listed again where they now are. The
+// old entries stay (a lookup reads the faces' current corners and skips removed faces).
+class FaceGrid {
+public:
+    FaceGrid(const SurfaceMesh& mesh, double cell) : mesh_(mesh), cell_(cell), seen_(mesh.number_of_faces() + mesh.number_of_removed_faces(), 0) {
+        for (Face f : mesh.faces()) add(f);
+    }
+    void add(Face f) {
+        const CGAL::Bbox_3 box = corners_of(mesh_, f).box();
+        for_each_cell(box, [&](long long key) { cells_[key].push_back(f); });
+    }
+    // Calls visit(face) once for each live face listed in a cell that box touches.
+    template <class Visit>
+    void faces_near(const CGAL::Bbox_3& box, Visit visit) {
+        ++stamp_;
+        for_each_cell(box, [&](long long key) {
+            const auto found = cells_.find(key);
+            if (found == cells_.end()) return;
+            for (Face f : found->second) {
+                if (seen_[f] == stamp_ || mesh_.is_removed(f)) continue;
+                seen_[f] = stamp_;
+                visit(f);
+            }
+        });
+    }
+
+private:
+    template <class Visit>
+    void for_each_cell(const CGAL::Bbox_3& box, Visit visit) const {
+        // 21 bits per axis around the origin: +-1 million cells.
+        const auto index = [&](double v) { return static_cast<long long>(std::floor(v / cell_)) + (1 << 20); };
+        for (long long x = index(box.xmin()); x <= index(box.xmax()); ++x)
+            for (long long y = index(box.ymin()); y <= index(box.ymax()); ++y)
+                for (long long z = index(box.zmin()); z <= index(box.zmax()); ++z)
+                    visit(((x & 0x1FFFFF) << 42) | ((y & 0x1FFFFF) << 21) | (z & 0x1FFFFF));
+    }
+    const SurfaceMesh& mesh_;
+    double cell_;
+    std::unordered_map<long long, std::vector<Face>> cells_;
+    std::vector<unsigned> seen_;
+    unsigned stamp_ = 0;
+};
+
+// Lindstrom-Turk's placement rounded to float, the precision the Mesh keeps: the crossing test
+// then sees the vertex where it will be written.
+struct FloatPlacement {
+    SMS::LindstromTurk_placement<SurfaceMesh> placement;
+    template <class Profile>
+    boost::optional<typename Profile::Point> operator()(const Profile& profile) const {
+        const boost::optional<typename Profile::Point> exact = placement(profile);
+        if (!exact) return exact;
+        return Point3(static_cast<float>(exact->x()), static_cast<float>(exact->y()), static_cast<float>(exact->z()));
+    }
+};
+
+// Refuses a collapse that turns one of the remaining faces over (CGAL's bounded normal change)
+// or whose new faces (the star of the merged vertex) cross each other or a face near them.
+class CrossingFilter {
+public:
+    CrossingFilter(const SurfaceMesh& mesh, FaceGrid& grid) : mesh_(&mesh), grid_(&grid) {}
+    template <class Profile>
+    boost::optional<typename Profile::Point> operator()(const Profile& profile, boost::optional<typename Profile::Point> placement) const {
+        placement = turn_filter_(profile, placement);
+        if (!placement) return placement;
+        // The star after the collapse: the faces around either end but the one or two on the
+        // edge, with the moving corner (the middle one) at the placement, named after v0.
+        std::vector<Corners> star;
+        const auto& triangles = profile.triangles();
+        const size_t on_edge = (profile.left_face_exists() ? 1 : 0) + (profile.right_face_exists() ? 1 : 0);
+        for (size_t i = on_edge; i < triangles.size(); ++i) {
+            const auto& t = triangles[i];
+            star.push_back({{mesh_->point(t.v0), *placement, mesh_->point(t.v2)}, {t.v0, profile.v0(), t.v2}});
+        }
+        if (star.empty()) return placement;
+        CGAL::Bbox_3 box = star[0].box();
+        std::vector<CGAL::Bbox_3> boxes;
+        for (const Corners& c : star) {
+            boxes.push_back(c.box());
+            box += boxes.back();
+        }
+        for (size_t i = 0; i < star.size(); ++i)
+            for (size_t j = i + 1; j < star.size(); ++j)
+                if (CGAL::do_overlap(boxes[i], boxes[j]) && triangles_cross(star[i], star[j])) return boost::none;
+        bool crossed = false;
+        grid_->faces_near(box, [&](Face f) {
+            if (crossed) return;
+            const Corners c = corners_of(*mesh_, f);
+            for (Vertex v : c.vertex)
+                if (v == profile.v0() || v == profile.v1()) return;  // replaced by the star
+            const CGAL::Bbox_3 face_box = c.box();
+            if (!CGAL::do_overlap(face_box, box)) return;
+            for (size_t i = 0; i < star.size() && !crossed; ++i)
+                crossed = CGAL::do_overlap(boxes[i], face_box) && triangles_cross(star[i], c);
+        });
+        if (crossed) return boost::none;
+        return placement;
+    }
+
+private:
+    const SurfaceMesh* mesh_;
+    FaceGrid* grid_;
+    SMS::Bounded_normal_change_filter<> turn_filter_;
+};
+
+// Lists the faces around each merged vertex in the grid where they now are.
+struct RegridVisitor : SMS::Edge_collapse_visitor_base<SurfaceMesh> {
+    RegridVisitor(const SurfaceMesh& mesh, FaceGrid& grid) : mesh(&mesh), grid(&grid) {}
+    void OnCollapsed(const Profile&, const Vertex& v) {
+        for (Face f : CGAL::faces_around_target(mesh->halfedge(v), *mesh))
+            if (f != SurfaceMesh::null_face()) grid->add(f);
+    }
+    const SurfaceMesh* mesh;
+    FaceGrid* grid;
+};
+
+}  // namespace
+
 Mesh simplify(const Mesh& mesh, int target_faces) {
-    // Edge collapse checks only that the faces around the collapsed edge keep their
-    // orientation: faces farther away may end up crossing them (seen at the through hole
-    // and the boss of the mechanical part at a few thousand faces). Collapses that turn a
-    // face by more than 90 degrees are refused, and the result is checked; one that crosses
-    // itself is made again with more faces, up to the mesh as it was.
+    // Lindstrom-Turk edge collapses, each refused when it would turn a face over or make the
+    // surface cross itself (CrossingFilter: the new faces tested against the faces near them).
+    // A refused edge is tried again when its neighbourhood changes, and once more in a further
+    // pass over all the edges; collapses go on until the target or until none is allowed.
     namespace SMS = CGAL::Surface_mesh_simplification;
-    for (size_t target = static_cast<size_t>(target_faces); target < mesh.faces.size(); target = target * 3 / 2) {
-        SurfaceMesh surface = to_surface_mesh(mesh);
+    SurfaceMesh surface = to_surface_mesh(mesh);
+    const size_t target = static_cast<size_t>(std::max(target_faces, 4));
+    if (surface.number_of_faces() <= target) return mesh;
+    double area = 0;
+    for (SurfaceMesh::Face_index f : surface.faces()) area += std::sqrt(CGAL::to_double(face_triangle(surface, f).squared_area()));
+    // The grid's cells: about the edge of the target's triangles (equilateral, covering the area).
+    const double cell = std::max(std::sqrt(4 * area / (std::sqrt(3.0) * double(target))), 1e-6);
+    for (int pass = 0; pass < kSimplificationPasses && surface.number_of_faces() > target; ++pass) {
+        const size_t before = surface.number_of_faces();
+        FaceGrid grid(surface, cell);
         // A closed triangle mesh has 3/2 edges per face.
         const SMS::Count_stop_predicate<SurfaceMesh> stop(target * 3 / 2);
-        SMS::edge_collapse(surface, stop, CGAL::parameters::filter(SMS::Bounded_normal_change_filter<>()));
+        SMS::edge_collapse(surface, stop,
+                           CGAL::parameters::get_placement(FloatPlacement())
+                               .filter(CrossingFilter(surface, grid))
+                               .visitor(RegridVisitor(surface, grid)));
         surface.collect_garbage();
-        Mesh simplified = to_mesh(surface);
-        if (self_intersecting_faces(simplified).empty()) return simplified;
+        if (surface.number_of_faces() >= before) break;
     }
-    return mesh;
+    Mesh simplified = to_mesh(surface);
+    // The filter's promise, checked on the result: a crossing there is a defect of this code,
+    // unless the surface crossed itself before.
+    const std::vector<int> crossing = self_intersecting_faces(simplified);
+    if (!crossing.empty() && self_intersecting_faces(mesh).empty())
+        throw Error("mesh simplification", "left " + std::to_string(crossing.size() / 2) +
+                                               " pairs of faces crossing each other (a defect: please report it)");
+    return simplified;
 }
 
 }  // namespace detail
