@@ -12,7 +12,8 @@ void bind_solid(py::module_& m) {
         .def_readwrite("max_normal_deg", &PlanarFaceOptions::max_normal_deg)
         .def_readwrite("max_rms_factor", &PlanarFaceOptions::max_rms_factor)
         .def_readwrite("min_facets", &PlanarFaceOptions::min_facets)
-        .def_readwrite("merge", &PlanarFaceOptions::merge);
+        .def_readwrite("merge", &PlanarFaceOptions::merge)
+        .def_readwrite("check_faces", &PlanarFaceOptions::check_faces);
     py::class_<BrepEdge>(m, "BrepEdge")
         .def_readonly("start", &BrepEdge::start)
         .def_readonly("end", &BrepEdge::end)
@@ -34,6 +35,7 @@ void bind_solid(py::module_& m) {
         .def_readonly("facet_count", &PlanarFaceModel::facet_count)
         .def_readonly("merged_faces", &PlanarFaceModel::merged_faces)
         .def_readonly("merged_facets", &PlanarFaceModel::merged_facets)
+        .def_readonly("refused_merges", &PlanarFaceModel::refused_merges)
         .def("summary", &PlanarFaceModel::summary);
     m.def(
         "planar_face_model",
@@ -43,6 +45,7 @@ void bind_solid(py::module_& m) {
             return planar_face_model(mesh, options, callback);
         },
         py::arg("mesh"), py::arg("options") = PlanarFaceOptions(), py::arg("progress") = py::none());
+    m.def("merged_face_defects", &merged_face_defects, py::arg("model"), py::arg("options") = PlanarFaceOptions());
     m.def("write_brep", &write_brep, py::arg("model"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
 }
 

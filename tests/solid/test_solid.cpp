@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <random>
@@ -184,4 +185,152 @@ TEST(PlanarFaces, MeshesThatBoundNoSolidAreRefused) {
     PlanarFaceOptions bad;
     bad.max_normal_deg = 95;
     EXPECT_THROW(planar_face_model(grid_box(2, 2, 2, 1.0, 0.0), bad), Error);
+}
+
+namespace {
+
+// A prism along +y (length `length`, `rows` rows of facets) over an outline in (x, z) whose k-th
+// side is cut into segments[k] pieces, its two ends closed by fans; every vertex moved by noise.
+Mesh prism(const std::vector<cv::Vec2d>& outline, const std::vector<int>& segments, double length, int rows, double sigma,
+           unsigned seed) {
+    std::vector<cv::Vec2d> ring;
+    for (size_t k = 0; k < outline.size(); ++k) {
+        const cv::Vec2d a = outline[k], b = outline[(k + 1) % outline.size()];
+        for (int s = 0; s < segments[k]; ++s) ring.push_back(a + (b - a) * (double(s) / segments[k]));
+    }
+    const int n = int(ring.size());
+    Mesh mesh;
+    std::mt19937 random(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    auto add = [&](double x, double y, double z) {
+        mesh.vertices.emplace_back(float(x + noise(random)), float(y + noise(random)), float(z + noise(random)));
+    };
+    for (int j = 0; j <= rows; ++j)
+        for (const cv::Vec2d& p : ring) add(p[0], length * j / rows, p[1]);
+    cv::Vec2d centre(0, 0);
+    for (const cv::Vec2d& p : ring) centre += p / double(n);
+    const int front = int(mesh.vertices.size()), back = front + 1;
+    add(centre[0], 0, centre[1]);
+    add(centre[0], length, centre[1]);
+    auto at = [&](int j, int i) { return j * n + (i % n); };
+    // The outline runs counter-clockwise in (x, z), so (x, z, y) is left-handed: these face outwards.
+    for (int j = 0; j < rows; ++j)
+        for (int i = 0; i < n; ++i) {
+            mesh.faces.emplace_back(at(j, i), at(j, i + 1), at(j + 1, i + 1));
+            mesh.faces.emplace_back(at(j, i), at(j + 1, i + 1), at(j + 1, i));
+        }
+    for (int i = 0; i < n; ++i) {
+        mesh.faces.emplace_back(front, at(0, i + 1), at(0, i));
+        mesh.faces.emplace_back(back, at(rows, i), at(rows, i + 1));
+    }
+    return mesh;
+}
+
+// The 20 x 10 x 20 mm block with its (+x, +z) edge chamfered `chamfer` mm wide, one facet across.
+Mesh chamfered_block(double chamfer, double sigma, unsigned seed) {
+    return prism({{0, 0}, {20, 0}, {20, 10 - chamfer}, {20 - chamfer, 10}, {0, 10}}, {20, 10, 1, 20, 10}, 20.0, 20, sigma, seed);
+}
+
+// A model of one merged face on z = 0 (normal +z) bounded by `loops` (vertex indices, the outer
+// counter-clockwise first), and nothing else: enough for the face check.
+PlanarFaceModel one_face(const std::vector<cv::Vec3d>& vertices, const std::vector<std::vector<int>>& loops) {
+    PlanarFaceModel model;
+    model.vertices = vertices;
+    model.vertex_tolerance_mm.assign(vertices.size(), 1e-7);
+    model.noise_mm = 0.001;
+    BrepFace face;
+    face.origin = {0, 0, 0};
+    face.normal = {0, 0, 1};
+    face.merged = true;
+    for (const std::vector<int>& loop : loops) {
+        face.wires.emplace_back();
+        for (size_t k = 0; k < loop.size(); ++k) {
+            model.edges.push_back({loop[k], loop[(k + 1) % loop.size()], 1e-7});
+            face.wires.back().push_back(int(model.edges.size()));
+        }
+    }
+    model.faces.push_back(face);
+    return model;
+}
+
+std::string defects_of(const PlanarFaceModel& model) {
+    std::string text;
+    for (const std::string& defect : merged_face_defects(model)) text += defect + "\n";
+    return text;
+}
+
+}  // namespace
+
+TEST(PlanarFaces, FaceCheckFindsBoundariesThatMakeNoValidFace) {
+    // A 10 x 10 square with a 2 x 2 hole: a valid face.
+    const std::vector<cv::Vec3d> square{{0, 0, 0}, {10, 0, 0}, {10, 10, 0}, {0, 10, 0}, {4, 4, 0}, {4, 6, 0}, {6, 6, 0}, {6, 4, 0}};
+    EXPECT_EQ(defects_of(one_face(square, {{0, 1, 2, 3}, {4, 5, 6, 7}})), "");
+    // Built to fool it, each one: the hole run counter-clockwise,
+    EXPECT_NE(defects_of(one_face(square, {{0, 1, 2, 3}, {7, 6, 5, 4}})).find("hole's boundary runs"), std::string::npos);
+    // the outer boundary run clockwise,
+    EXPECT_NE(defects_of(one_face(square, {{3, 2, 1, 0}})).find("runs clockwise"), std::string::npos);
+    // a hole outside the face,
+    std::vector<cv::Vec3d> outside = square;
+    for (size_t v = 4; v < 8; ++v) outside[v] += cv::Vec3d(20, 0, 0);
+    EXPECT_NE(defects_of(one_face(outside, {{0, 1, 2, 3}, {4, 5, 6, 7}})).find("outside its outer"), std::string::npos);
+    // a hole touching the outer boundary at one of its corners (the same vertex),
+    EXPECT_NE(defects_of(one_face(square, {{0, 1, 2, 3}, {0, 5, 6, 7}})).find("touches itself"), std::string::npos);
+    // two squares meeting at a corner as one boundary (a figure of eight through vertex 2),
+    const std::vector<cv::Vec3d> eight{{0, 0, 0}, {5, 0, 0}, {5, 5, 0}, {0, 5, 0}, {10, 5, 0}, {10, 10, 0}, {5, 10, 0}};
+    EXPECT_NE(defects_of(one_face(eight, {{0, 1, 2, 4, 5, 6, 2, 3}})).find("touches itself"), std::string::npos);
+    // a boundary crossing itself (a bow tie),
+    EXPECT_NE(defects_of(one_face({{0, 0, 0}, {10, 0, 0}, {0, 10, 0}, {10, 10, 0}, {-5, 5, 0}}, {{0, 1, 2, 3, 4}}))
+                  .find("crosses or touches"),
+              std::string::npos);
+    // a corner of the boundary on another of its edges (a sliver of zero width),
+    EXPECT_NE(defects_of(one_face({{0, 0, 0}, {10, 0, 0}, {10, 10, 0}, {5, 0, 0}, {0, 10, 0}}, {{0, 1, 2, 3, 4}}))
+                  .find("crosses or touches"),
+              std::string::npos);
+    // an edge of zero length (two vertices at one place),
+    std::vector<cv::Vec3d> doubled = square;
+    doubled.push_back(square[2]);
+    EXPECT_NE(defects_of(one_face(doubled, {{0, 1, 2, 8, 3}})).find("no length"), std::string::npos);
+    // and a corner lifted off the plane by 0.1 mm (the noise is 1 um).
+    std::vector<cv::Vec3d> lifted = square;
+    lifted[2][2] = 0.1;
+    EXPECT_NE(defects_of(one_face(lifted, {{0, 1, 2, 3}})).find("not planar"), std::string::npos);
+}
+
+TEST(PlanarFaces, SliverChamferMergedWithoutTheCheckMakesAnInvalidFaceAndWithItDoesNot) {
+    // A chamfer narrower than the noise (a sharpened edge leaves such a sliver): its facets join
+    // the top and the side unevenly, and the old merge made a face OpenCASCADE rejects (its
+    // boundary touching itself; freecad_headless reads such a solid back). The check puts the
+    // few facets there back as triangles; every plane stays one face.
+    int fooled = 0;
+    for (double chamfer : {0.002, 0.01})
+        for (unsigned seed : {1u, 2u, 3u}) {
+            const Mesh block = chamfered_block(chamfer, 0.01, seed);
+            SCOPED_TRACE("chamfer " + std::to_string(chamfer) + " mm, seed " + std::to_string(seed));
+            PlanarFaceOptions unchecked;
+            unchecked.min_facets = 10;
+            unchecked.check_faces = false;
+            const PlanarFaceModel old = planar_face_model(block, unchecked);
+            if (!merged_face_defects(old, unchecked).empty()) ++fooled;
+            PlanarFaceOptions checked = unchecked;
+            checked.check_faces = true;
+            const PlanarFaceModel model = planar_face_model(block, checked);
+            SCOPED_TRACE(model.summary());
+            EXPECT_EQ(defects_of(model), "");
+            EXPECT_EQ(model.merged_faces, old.merged_faces);
+            EXPECT_GT(model.merged_facets, old.merged_facets * 95 / 100);
+            if (!merged_face_defects(old, unchecked).empty()) {
+                ASSERT_FALSE(model.refused_merges.empty());
+                EXPECT_NE(model.summary().find("would be invalid"), std::string::npos);
+            }
+        }
+    std::printf("the unchecked merge made an invalid face in %d of 6 blocks\n", fooled);
+    EXPECT_GE(fooled, 3);
+    // A chamfer ten times the noise: nothing is undone (its slivers stay triangles, as before).
+    for (unsigned seed : {1u, 2u}) {
+        PlanarFaceOptions options;
+        options.min_facets = 10;
+        const PlanarFaceModel model = planar_face_model(chamfered_block(0.1, 0.01, seed), options);
+        EXPECT_TRUE(model.refused_merges.empty()) << model.summary();
+        EXPECT_EQ(model.merged_faces, 4u) << model.summary();
+    }
 }

@@ -21,6 +21,9 @@ struct PlanarFaceOptions {
                                      // (a strip of a cylinder is flat within 4 sigma, not within 1.5)
     int min_facets = 30;             // smaller regions stay triangles
     bool merge = true;               // false: one face per facet
+    bool check_faces = true;         // no vertex move may fold a facet, and a merged face whose
+                                     // boundary would not make a valid B-rep face (merged_face_defects)
+                                     // goes back to triangles where it fails; false: neither (as before)
 };
 
 struct BrepEdge {
@@ -47,6 +50,7 @@ struct PlanarFaceModel {
     double mesh_volume_mm3 = 0;      // enclosed by the (outward-turned) mesh
     size_t facet_count = 0;          // facets used (without those collapsed by joining vertices)
     size_t merged_faces = 0, merged_facets = 0;  // planar regions and the facets they hold
+    std::vector<std::string> refused_merges;     // planar regions left as triangles, and why
     std::string summary() const;
 };
 
@@ -56,6 +60,13 @@ struct PlanarFaceModel {
 // inwards are turned outwards. Self-intersections are check_mesh's (mesh.h).
 PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options = {},
                                   const ProgressCallback& progress = nullptr);
+
+// Why each merged face of `model` would not make a valid B-rep face (one line per bad face, empty
+// when all are good): its boundary must lie on its plane (within 3 x distance_factor x the noise),
+// have no edge of zero length, neither touch nor cross itself (closer than its edges'
+// tolerances), run counter-clockwise seen from outside with its holes clockwise, inside it and
+// not inside each other. planar_face_model runs this on its own faces unless check_faces is false.
+std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options = {});
 
 // Writes the model as an OpenCASCADE BREP solid (vertices, straight edges, planar faces, one
 // shell). Written to a temporary file and renamed.

@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <limits>
 #include <numeric>
 #include <sstream>
 #include <unordered_map>
@@ -67,12 +69,152 @@ void douglas_peucker(const std::vector<cv::Vec3d>& positions, const std::vector<
     douglas_peucker(positions, chain, worst_index, last, tolerance, kept);
 }
 
+
+// How far a merged face's boundary may stray from its plane (a vertex is moved onto it by up to
+// 3 x the distance limit, or left where it was), and how short an edge may be.
+struct FaceLimits {
+    double off_plane_mm, min_length_mm;
+};
+
+FaceLimits face_limits(const PlanarFaceModel& model, const PlanarFaceOptions& options) {
+    cv::Vec3d low = model.vertices.empty() ? cv::Vec3d(0, 0, 0) : model.vertices[0], high = low;
+    for (const cv::Vec3d& p : model.vertices)
+        for (int k = 0; k < 3; ++k) low[k] = std::min(low[k], p[k]), high[k] = std::max(high[k], p[k]);
+    const double size = cv::norm(high - low);
+    return {3 * options.distance_factor * model.noise_mm + 1e-9 * size, 1e-7 * size};
+}
+
+std::string point_text(const cv::Vec3d& p) {
+    char text[96];
+    std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f)", p[0], p[1], p[2]);
+    return text;
+}
+
+double cross2(const cv::Vec2d& a, const cv::Vec2d& b) { return a[0] * b[1] - a[1] * b[0]; }
+
+double point_segment_distance(const cv::Vec2d& p, const cv::Vec2d& a, const cv::Vec2d& b) {
+    const cv::Vec2d ab = b - a;
+    const double length2 = ab.dot(ab);
+    const double t = length2 > 0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+    return cv::norm(p - (a + t * ab));
+}
+
+double segment_distance(const cv::Vec2d& a, const cv::Vec2d& b, const cv::Vec2d& c, const cv::Vec2d& d) {
+    const double abc = cross2(b - a, c - a), abd = cross2(b - a, d - a), cda = cross2(d - c, a - c), cdb = cross2(d - c, b - c);
+    if (((abc > 0 && abd < 0) || (abc < 0 && abd > 0)) && ((cda > 0 && cdb < 0) || (cda < 0 && cdb > 0))) return 0;
+    return std::min({point_segment_distance(a, c, d), point_segment_distance(b, c, d), point_segment_distance(c, a, b),
+                     point_segment_distance(d, a, b)});
+}
+
+bool inside(const std::vector<cv::Vec2d>& loop, const cv::Vec2d& p) {
+    bool in = false;
+    for (size_t i = 0, j = loop.size() - 1; i < loop.size(); j = i++)
+        if ((loop[i][1] > p[1]) != (loop[j][1] > p[1]) &&
+            p[0] < loop[j][0] + (p[1] - loop[j][1]) * (loop[i][0] - loop[j][0]) / (loop[i][1] - loop[j][1]))
+            in = !in;
+    return in;
+}
+
+double signed_area(const std::vector<cv::Vec2d>& loop) {
+    double twice = 0;
+    for (size_t i = 0; i < loop.size(); ++i) twice += cross2(loop[i], loop[(i + 1) % loop.size()]);
+    return twice / 2;
+}
+
+struct FaceDefect {
+    std::string reason;        // empty: none
+    std::vector<int> vertices; // where (model vertices); empty: the face as a whole
+};
+
+// Why a merged face would not be a valid B-rep face, and where; no reason when it would be: its wires must lie on
+// its plane, have edges of some length, neither touch nor cross themselves or each other (closer
+// than their edges' tolerances), the outer one counter-clockwise seen from outside, the holes
+// clockwise, inside it and not inside each other.
+FaceDefect merged_face_defect(const PlanarFaceModel& model, const BrepFace& face, const FaceLimits& limits) {
+    const cv::Vec3d n = cv::normalize(face.normal);
+    const cv::Vec3d helper = std::abs(n[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
+    const cv::Vec3d x = cv::normalize(helper - helper.dot(n) * n), y = n.cross(x);
+    auto flat = [&](int v) {
+        const cv::Vec3d p = model.vertices[v] - face.origin;
+        return cv::Vec2d(p.dot(x), p.dot(y));
+    };
+    struct Segment {
+        cv::Vec2d a, b;
+        int from, to;
+        double tolerance;
+    };
+    std::vector<Segment> segments;
+    std::vector<std::vector<cv::Vec2d>> loops;
+    std::unordered_map<int, int> uses;
+    for (const auto& wire : face.wires) {
+        loops.emplace_back();
+        for (int e : wire) {
+            const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+            const int from = e > 0 ? edge.start : edge.end, to = e > 0 ? edge.end : edge.start;
+            const cv::Vec3d& p = model.vertices[from];
+            const double off = std::abs((p - face.origin).dot(n));
+            if (off > limits.off_plane_mm) {
+                char text[128];
+                std::snprintf(text, sizeof text, " is %.4g mm from its plane (at most %.4g)", off, limits.off_plane_mm);
+                return {"not planar: its boundary at " + point_text(p) + text, {from}};
+            }
+            if (++uses[from] > 1) return {"its boundary touches itself at " + point_text(p), {from}};
+            if (cv::norm(model.vertices[to] - p) <= limits.min_length_mm)
+                return {"an edge of its boundary has no length at " + point_text(p), {from, to}};
+            segments.push_back({flat(from), flat(to), from, to, std::max(edge.tolerance_mm, limits.min_length_mm)});
+            loops.back().push_back(segments.back().a);
+        }
+    }
+    if (loops.empty() || !(signed_area(loops[0]) > 0)) return {"its outer boundary encloses no area or runs clockwise", {}};
+    for (size_t w = 1; w < loops.size(); ++w) {
+        if (!(signed_area(loops[w]) < 0)) return {"a hole's boundary runs counter-clockwise", {}};
+        if (!inside(loops[0], loops[w][0])) return {"a hole lies outside its outer boundary", {}};
+        for (size_t other = 1; other < loops.size(); ++other)
+            if (other != w && inside(loops[other], loops[w][0])) return {"a hole lies inside another hole", {}};
+    }
+    // Every pair of edges that could come within their tolerances: swept along x.
+    std::sort(segments.begin(), segments.end(),
+              [](const Segment& s, const Segment& t) { return std::min(s.a[0], s.b[0]) < std::min(t.a[0], t.b[0]); });
+    for (size_t i = 0; i < segments.size(); ++i) {
+        const Segment& s = segments[i];
+        const double s_right = std::max(s.a[0], s.b[0]);
+        for (size_t j = i + 1; j < segments.size(); ++j) {
+            const Segment& t = segments[j];
+            const double tolerance = std::max(s.tolerance, t.tolerance);
+            if (std::min(t.a[0], t.b[0]) > s_right + tolerance) break;
+            if (std::min(t.a[1], t.b[1]) > std::max(s.a[1], s.b[1]) + tolerance ||
+                std::min(s.a[1], s.b[1]) > std::max(t.a[1], t.b[1]) + tolerance)
+                continue;
+            double distance;
+            if (s.to == t.from && s.from == t.to) {
+                distance = 0;
+            } else if (s.to == t.from || s.from == t.to) {
+                // Neighbours meet at their shared vertex; they may not fold back onto each other
+                // beyond its tolerance.
+                const bool s_first = s.to == t.from;
+                const cv::Vec2d &shared = s_first ? s.b : s.a, &s_far = s_first ? s.a : s.b, &t_far = s_first ? t.b : t.a;
+                distance = std::numeric_limits<double>::infinity();
+                if (cv::norm(s_far - shared) > tolerance) distance = point_segment_distance(s_far, t.a, t.b);
+                if (cv::norm(t_far - shared) > tolerance) distance = std::min(distance, point_segment_distance(t_far, s.a, s.b));
+            } else {
+                distance = segment_distance(s.a, s.b, t.a, t.b);
+            }
+            if (distance <= tolerance)
+                return {"its boundary crosses or touches itself near " + point_text(model.vertices[s.from]),
+                        {s.from, s.to, t.from, t.to}};
+        }
+    }
+    return {};
+}
+
 }  // namespace
 
 std::string PlanarFaceModel::summary() const {
     std::ostringstream text;
     text << faces.size() << " faces from " << facet_count << " facets: " << merged_faces << " planar regions holding "
          << merged_facets << " facets, " << faces.size() - merged_faces << " triangles; noise " << noise_mm << " mm";
+    if (!refused_merges.empty())
+        text << "; " << refused_merges.size() << " merge(s) undone where a face would be invalid, first: " << refused_merges.front();
     return text.str();
 }
 
@@ -329,198 +471,280 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     }
     report(0.7, "solid: boundaries");
 
-    // Vertices on planar regions move onto them: onto the plane, the line where two planes meet,
-    // or the corner of three (the point nearest to the vertex that satisfies the planes, in the
-    // least-squares sense with a heavy weight). The faces then meet exactly, without gaps of
-    // the noise's size. A move longer than a few noise widths (planes meeting at a glancing
-    // angle) is not made; the edges' tolerances cover that vertex instead.
-    if (!region_planes.empty()) {
-        std::vector<std::vector<int>> regions_at(vertex_count);
-        for (int f = 0; f < facet_count; ++f)
-            if (region[f] >= 0)
-                for (int k = 0; k < 3; ++k) {
-                    std::vector<int>& around = regions_at[facets[f][k]];
-                    if (std::find(around.begin(), around.end(), region[f]) == around.end()) around.push_back(region[f]);
+    // The B-rep from the regions that are merged (region_of[f] >= 0, into `planes`): vertices
+    // moved onto the planes, faces, straight edges, wires and tolerances.
+    const std::vector<cv::Vec3d> joined = model.vertices;  // before any vertex moves onto a plane
+    auto build_faces = [&](const std::vector<int>& region_of, const std::vector<Plane>& planes, const std::vector<double>& rms) {
+        model.vertices = joined;
+        model.edges.clear();
+        model.faces.clear();
+        model.merged_facets = 0;
+        // Vertices on planar regions move onto them: onto the plane, the line where two planes
+        // meet, or the corner of three (the point nearest to the vertex that satisfies the planes,
+        // in the least-squares sense with a heavy weight). The faces then meet exactly, without
+        // gaps of the noise's size. A move longer than a few noise widths (planes meeting at a
+        // glancing angle) is not made; the edges' tolerances cover that vertex instead.
+        if (!planes.empty()) {
+            std::vector<std::vector<int>> regions_at(vertex_count);
+            for (int f = 0; f < facet_count; ++f)
+                if (region_of[f] >= 0)
+                    for (int k = 0; k < 3; ++k) {
+                        std::vector<int>& around = regions_at[facets[f][k]];
+                        if (std::find(around.begin(), around.end(), region_of[f]) == around.end()) around.push_back(region_of[f]);
+                    }
+            const double weight = 1e8;
+            for (int v = 0; v < vertex_count; ++v) {
+                if (regions_at[v].empty()) continue;
+                cv::Matx33d system = cv::Matx33d::eye();
+                cv::Vec3d right = model.vertices[v];
+                for (int r : regions_at[v]) {
+                    const Plane& plane = planes[r];
+                    system += weight * (plane.normal * plane.normal.t());
+                    right += weight * plane.normal.dot(plane.origin) * plane.normal;
                 }
-        const double weight = 1e8;
-        for (int v = 0; v < vertex_count; ++v) {
-            if (regions_at[v].empty()) continue;
-            cv::Matx33d system = cv::Matx33d::eye();
-            cv::Vec3d right = model.vertices[v];
-            for (int r : regions_at[v]) {
-                const Plane& plane = region_planes[r];
-                system += weight * (plane.normal * plane.normal.t());
-                right += weight * plane.normal.dot(plane.origin) * plane.normal;
+                cv::Vec3d moved;
+                if (!cv::solve(system, right, moved, cv::DECOMP_CHOLESKY)) continue;
+                if (cv::norm(moved - model.vertices[v]) <= 3 * distance_limit) model.vertices[v] = moved;
             }
-            cv::Vec3d moved;
-            if (!cv::solve(system, right, moved, cv::DECOMP_CHOLESKY)) continue;
-            if (cv::norm(moved - model.vertices[v]) <= 3 * distance_limit) model.vertices[v] = moved;
+            // No move may fold a facet (turn it over, or collapse it when two of its corners go to
+            // one corner of three planes): that facet's corners stay where they were.
+            for (bool folded = options.check_faces; folded;) {
+                folded = false;
+                for (int f = 0; f < facet_count; ++f) {
+                    const cv::Vec3i& c = facets[f];
+                    const cv::Vec3d before = (joined[c[1]] - joined[c[0]]).cross(joined[c[2]] - joined[c[0]]);
+                    const cv::Vec3d after = (positions[c[1]] - positions[c[0]]).cross(positions[c[2]] - positions[c[0]]);
+                    if (after.dot(before) > 0.25 * before.dot(before)) continue;
+                    for (int k = 0; k < 3; ++k)
+                        if (model.vertices[c[k]] != joined[c[k]]) model.vertices[c[k]] = joined[c[k]], folded = true;
+                }
+            }
+            for (int f = 0; f < facet_count; ++f) {
+                const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
+                const cv::Vec3d cross = (b - a).cross(c - a);
+                if (cv::norm(cross) > 0) normals[f] = cv::normalize(cross);
+            }
+        }
+
+        // Faces: the regions, then one per remaining facet.
+        const int region_count = int(planes.size());
+        std::vector<int> face_of(facet_count);
+        model.faces.resize(region_count);
+        for (int r = 0; r < region_count; ++r) {
+            model.faces[r].origin = planes[r].origin;
+            model.faces[r].normal = planes[r].normal;
+            model.faces[r].merged = true;
+            model.faces[r].facet_count = 0;
+            model.faces[r].rms_mm = rms[r];
         }
         for (int f = 0; f < facet_count; ++f) {
-            const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
-            const cv::Vec3d cross = (b - a).cross(c - a);
-            if (cv::norm(cross) > 0) normals[f] = cv::normalize(cross);
-        }
-    }
-
-    // Faces: the regions, then one per remaining facet.
-    const int region_count = int(region_planes.size());
-    std::vector<int> face_of(facet_count);
-    model.faces.resize(region_count);
-    for (int r = 0; r < region_count; ++r) {
-        model.faces[r].origin = region_planes[r].origin;
-        model.faces[r].normal = region_planes[r].normal;
-        model.faces[r].merged = true;
-        model.faces[r].facet_count = 0;
-        model.faces[r].rms_mm = region_rms[r];
-    }
-    for (int f = 0; f < facet_count; ++f) {
-        if (region[f] >= 0) {
-            face_of[f] = region[f];
-            ++model.faces[region[f]].facet_count;
-            ++model.merged_facets;
-            continue;
-        }
-        face_of[f] = int(model.faces.size());
-        BrepFace face;
-        face.origin = positions[facets[f][0]];
-        face.normal = normals[f];
-        model.faces.push_back(face);
-    }
-    model.merged_faces = size_t(region_count);
-
-    // A vertex stays a B-rep vertex when a triangle uses it or three or more faces meet there;
-    // between two planar faces the boundary runs straight through it.
-    std::vector<int> first_face(vertex_count, -1), second_face(vertex_count, -1);
-    std::vector<char> kept(vertex_count, 0);
-    for (int f = 0; f < facet_count; ++f)
-        for (int k = 0; k < 3; ++k) {
-            const int v = facets[f][k], face = face_of[f];
-            if (face >= region_count) kept[v] = 1;
-            if (first_face[v] < 0 || first_face[v] == face) first_face[v] = face;
-            else if (second_face[v] < 0 || second_face[v] == face) second_face[v] = face;
-            else kept[v] = 1;
-        }
-
-    // Boundary half-edges (their two facets on different faces), by start vertex.
-    std::vector<int> boundary_start(vertex_count + 1, 0), boundary;
-    auto on_boundary = [&](int h) { return face_of[h / 3] != face_of[twin[h] / 3]; };
-    for (int h = 0; h < 3 * facet_count; ++h)
-        if (on_boundary(h)) ++boundary_start[facets[h / 3][h % 3] + 1];
-    for (int v = 0; v < vertex_count; ++v) boundary_start[v + 1] += boundary_start[v];
-    boundary.resize(boundary_start[vertex_count]);
-    {
-        std::vector<int> fill(boundary_start.begin(), boundary_start.end() - 1);
-        for (int h = 0; h < 3 * facet_count; ++h)
-            if (on_boundary(h)) boundary[fill[facets[h / 3][h % 3]]++] = h;
-    }
-    auto head = [&](int h) { return facets[h / 3][(h % 3 + 1) % 3]; };
-    auto next_on_face = [&](int h) {  // the boundary half-edge of the same face leaving h's head
-        const int v = head(h), face = face_of[h / 3];
-        for (int i = boundary_start[v]; i < boundary_start[v + 1]; ++i)
-            if (face_of[boundary[i] / 3] == face) return boundary[i];
-        throw Error("mesh", "internal: a face's boundary is broken at vertex " + std::to_string(v));
-    };
-
-    // Chains of boundary half-edges between kept vertices become straight edges.
-    struct Piece {
-        int start, end;
-        std::vector<int> edges;  // signed references
-    };
-    std::vector<std::vector<Piece>> pieces(model.faces.size());
-    std::vector<char> visited(size_t(3 * facet_count), 0);
-    std::vector<int> chain, chain_edges;
-    auto emit_chain = [&](const std::vector<int>& vertices, int owner, int other) {
-        // vertices: the chain as run by `owner`'s boundary; split closed or self-ending chains in three.
-        std::vector<size_t> breaks{0};
-        const size_t last = vertices.size() - 1;
-        if (vertices.front() == vertices.back()) breaks.push_back(last / 3), breaks.push_back(2 * last / 3);
-        breaks.push_back(last);
-        std::vector<size_t> kept_points;
-        for (size_t b = 0; b + 1 < breaks.size(); ++b) {
-            kept_points.push_back(breaks[b]);
-            douglas_peucker(positions, vertices, breaks[b], breaks[b + 1], straight_limit, kept_points);
-        }
-        kept_points.push_back(last);
-        chain_edges.clear();
-        for (size_t i = 0; i + 1 < kept_points.size(); ++i) {
-            model.edges.push_back({vertices[kept_points[i]], vertices[kept_points[i + 1]], 1e-7});
-            chain_edges.push_back(int(model.edges.size()));
-        }
-        pieces[owner].push_back({vertices.front(), vertices.back(), chain_edges});
-        std::vector<int> reversed(chain_edges.rbegin(), chain_edges.rend());
-        for (int& e : reversed) e = -e;
-        pieces[other].push_back({vertices.back(), vertices.front(), reversed});
-    };
-    auto walk = [&](int h) {
-        chain.assign(1, facets[h / 3][h % 3]);
-        const int owner = face_of[h / 3], other = face_of[twin[h] / 3];
-        for (;;) {
-            visited[h] = visited[twin[h]] = 1;
-            chain.push_back(head(h));
-            if (kept[head(h)] || head(h) == chain.front()) break;
-            h = next_on_face(h);
-        }
-        emit_chain(chain, owner, other);
-    };
-    for (int v = 0; v < vertex_count; ++v)
-        if (kept[v])
-            for (int i = boundary_start[v]; i < boundary_start[v + 1]; ++i)
-                if (!visited[boundary[i]]) walk(boundary[i]);
-    for (int h = 0; h < 3 * facet_count; ++h)  // closed boundaries between two planar faces only
-        if (on_boundary(h) && !visited[h]) walk(h);
-    report(0.85, "solid: wires");
-
-    // Wires: each face's pieces joined end to start; a merged face's outer loop first.
-    for (size_t face = 0; face < model.faces.size(); ++face) {
-        std::vector<Piece>& own = pieces[face];
-        std::unordered_map<int, int> piece_at;
-        for (size_t i = 0; i < own.size(); ++i) piece_at[own[i].start] = int(i);
-        std::vector<char> used(own.size(), 0);
-        std::vector<double> areas;
-        for (size_t i = 0; i < own.size(); ++i) {
-            if (used[i]) continue;
-            std::vector<int> wire;
-            cv::Vec3d area(0, 0, 0);
-            for (size_t p = i; !used[p];) {
-                used[p] = 1;
-                for (int e : own[p].edges) {
-                    wire.push_back(e);
-                    const BrepEdge& edge = model.edges[std::abs(e) - 1];
-                    const cv::Vec3d &a = positions[e > 0 ? edge.start : edge.end], &b = positions[e > 0 ? edge.end : edge.start];
-                    area += a.cross(b);
-                }
-                const auto found = piece_at.find(own[p].end);
-                if (found == piece_at.end()) throw Error("mesh", "internal: a face's boundary does not close");
-                p = size_t(found->second);
+            if (region_of[f] >= 0) {
+                face_of[f] = region_of[f];
+                ++model.faces[region_of[f]].facet_count;
+                ++model.merged_facets;
+                continue;
             }
-            model.faces[face].wires.push_back(wire);
-            areas.push_back(area.dot(model.faces[face].normal));
+            face_of[f] = int(model.faces.size());
+            BrepFace face;
+            face.origin = positions[facets[f][0]];
+            face.normal = normals[f];
+            model.faces.push_back(face);
         }
-        const size_t outer = size_t(std::max_element(areas.begin(), areas.end()) - areas.begin());
-        std::swap(model.faces[face].wires[0], model.faces[face].wires[outer]);
-    }
+        model.merged_faces = size_t(region_count);
+        // A vertex stays a B-rep vertex when a triangle uses it or three or more faces meet there;
+        // between two planar faces the boundary runs straight through it.
+        std::vector<int> first_face(vertex_count, -1), second_face(vertex_count, -1);
+        std::vector<char> kept(vertex_count, 0);
+        for (int f = 0; f < facet_count; ++f)
+            for (int k = 0; k < 3; ++k) {
+                const int v = facets[f][k], face = face_of[f];
+                if (face >= region_count) kept[v] = 1;
+                if (first_face[v] < 0 || first_face[v] == face) first_face[v] = face;
+                else if (second_face[v] < 0 || second_face[v] == face) second_face[v] = face;
+                else kept[v] = 1;
+            }
 
-    // Tolerances: how far each straight edge's ends are from the planes of the faces along it.
-    std::vector<std::vector<int>> faces_of_edge(model.edges.size());
-    for (size_t face = 0; face < model.faces.size(); ++face)
-        for (const auto& wire : model.faces[face].wires)
-            for (int e : wire) faces_of_edge[std::abs(e) - 1].push_back(int(face));
-    model.vertex_tolerance_mm.assign(vertex_count, 1e-7);
-    for (size_t e = 0; e < model.edges.size(); ++e) {
-        BrepEdge& edge = model.edges[e];
-        double distance = 0;
-        for (int face : faces_of_edge[e]) {
-            const Plane plane{model.faces[face].origin, model.faces[face].normal};
-            distance = std::max({distance, std::abs(plane.distance(positions[edge.start])),
-                                 std::abs(plane.distance(positions[edge.end]))});
+        // Boundary half-edges (their two facets on different faces), by start vertex.
+        std::vector<int> boundary_start(vertex_count + 1, 0), boundary;
+        auto on_boundary = [&](int h) { return face_of[h / 3] != face_of[twin[h] / 3]; };
+        for (int h = 0; h < 3 * facet_count; ++h)
+            if (on_boundary(h)) ++boundary_start[facets[h / 3][h % 3] + 1];
+        for (int v = 0; v < vertex_count; ++v) boundary_start[v + 1] += boundary_start[v];
+        boundary.resize(boundary_start[vertex_count]);
+        {
+            std::vector<int> fill(boundary_start.begin(), boundary_start.end() - 1);
+            for (int h = 0; h < 3 * facet_count; ++h)
+                if (on_boundary(h)) boundary[fill[facets[h / 3][h % 3]]++] = h;
         }
-        edge.tolerance_mm = distance * 1.01 + 1e-7;
-        for (int v : {edge.start, edge.end})
-            model.vertex_tolerance_mm[v] = std::max(model.vertex_tolerance_mm[v], edge.tolerance_mm);
+        auto head = [&](int h) { return facets[h / 3][(h % 3 + 1) % 3]; };
+        auto next_on_face = [&](int h) {  // the boundary half-edge of the same face leaving h's head
+            const int v = head(h), face = face_of[h / 3];
+            for (int i = boundary_start[v]; i < boundary_start[v + 1]; ++i)
+                if (face_of[boundary[i] / 3] == face) return boundary[i];
+            throw Error("mesh", "internal: a face's boundary is broken at vertex " + std::to_string(v));
+        };
+
+        // Chains of boundary half-edges between kept vertices become straight edges.
+        struct Piece {
+            int start, end;
+            std::vector<int> edges;  // signed references
+        };
+        std::vector<std::vector<Piece>> pieces(model.faces.size());
+        std::vector<char> visited(size_t(3 * facet_count), 0);
+        std::vector<int> chain, chain_edges;
+        auto emit_chain = [&](const std::vector<int>& vertices, int owner, int other) {
+            // vertices: the chain as run by `owner`'s boundary; split closed or self-ending chains in three.
+            std::vector<size_t> breaks{0};
+            const size_t last = vertices.size() - 1;
+            if (vertices.front() == vertices.back()) breaks.push_back(last / 3), breaks.push_back(2 * last / 3);
+            breaks.push_back(last);
+            std::vector<size_t> kept_points;
+            for (size_t b = 0; b + 1 < breaks.size(); ++b) {
+                kept_points.push_back(breaks[b]);
+                douglas_peucker(positions, vertices, breaks[b], breaks[b + 1], straight_limit, kept_points);
+            }
+            kept_points.push_back(last);
+            chain_edges.clear();
+            for (size_t i = 0; i + 1 < kept_points.size(); ++i) {
+                model.edges.push_back({vertices[kept_points[i]], vertices[kept_points[i + 1]], 1e-7});
+                chain_edges.push_back(int(model.edges.size()));
+            }
+            pieces[owner].push_back({vertices.front(), vertices.back(), chain_edges});
+            std::vector<int> reversed(chain_edges.rbegin(), chain_edges.rend());
+            for (int& e : reversed) e = -e;
+            pieces[other].push_back({vertices.back(), vertices.front(), reversed});
+        };
+        auto walk = [&](int h) {
+            chain.assign(1, facets[h / 3][h % 3]);
+            const int owner = face_of[h / 3], other = face_of[twin[h] / 3];
+            for (;;) {
+                visited[h] = visited[twin[h]] = 1;
+                chain.push_back(head(h));
+                if (kept[head(h)] || head(h) == chain.front()) break;
+                h = next_on_face(h);
+            }
+            emit_chain(chain, owner, other);
+        };
+        for (int v = 0; v < vertex_count; ++v)
+            if (kept[v])
+                for (int i = boundary_start[v]; i < boundary_start[v + 1]; ++i)
+                    if (!visited[boundary[i]]) walk(boundary[i]);
+        for (int h = 0; h < 3 * facet_count; ++h)  // closed boundaries between two planar faces only
+            if (on_boundary(h) && !visited[h]) walk(h);
+        report(0.85, "solid: wires");
+
+        // Wires: each face's pieces joined end to start; a merged face's outer loop first.
+        for (size_t face = 0; face < model.faces.size(); ++face) {
+            std::vector<Piece>& own = pieces[face];
+            std::unordered_map<int, int> piece_at;
+            for (size_t i = 0; i < own.size(); ++i) piece_at[own[i].start] = int(i);
+            std::vector<char> used(own.size(), 0);
+            std::vector<double> areas;
+            for (size_t i = 0; i < own.size(); ++i) {
+                if (used[i]) continue;
+                std::vector<int> wire;
+                cv::Vec3d area(0, 0, 0);
+                for (size_t p = i; !used[p];) {
+                    used[p] = 1;
+                    for (int e : own[p].edges) {
+                        wire.push_back(e);
+                        const BrepEdge& edge = model.edges[std::abs(e) - 1];
+                        const cv::Vec3d &a = positions[e > 0 ? edge.start : edge.end], &b = positions[e > 0 ? edge.end : edge.start];
+                        area += a.cross(b);
+                    }
+                    const auto found = piece_at.find(own[p].end);
+                    if (found == piece_at.end()) throw Error("mesh", "internal: a face's boundary does not close");
+                    p = size_t(found->second);
+                }
+                model.faces[face].wires.push_back(wire);
+                areas.push_back(area.dot(model.faces[face].normal));
+            }
+            const size_t outer = size_t(std::max_element(areas.begin(), areas.end()) - areas.begin());
+            std::swap(model.faces[face].wires[0], model.faces[face].wires[outer]);
+        }
+
+        // Tolerances: how far each straight edge's ends are from the planes of the faces along it.
+        std::vector<std::vector<int>> faces_of_edge(model.edges.size());
+        for (size_t face = 0; face < model.faces.size(); ++face)
+            for (const auto& wire : model.faces[face].wires)
+                for (int e : wire) faces_of_edge[std::abs(e) - 1].push_back(int(face));
+        model.vertex_tolerance_mm.assign(vertex_count, 1e-7);
+        for (size_t e = 0; e < model.edges.size(); ++e) {
+            BrepEdge& edge = model.edges[e];
+            double distance = 0;
+            for (int face : faces_of_edge[e]) {
+                const Plane plane{model.faces[face].origin, model.faces[face].normal};
+                distance = std::max({distance, std::abs(plane.distance(positions[edge.start])),
+                                     std::abs(plane.distance(positions[edge.end]))});
+            }
+            edge.tolerance_mm = distance * 1.01 + 1e-7;
+            for (int v : {edge.start, edge.end})
+                model.vertex_tolerance_mm[v] = std::max(model.vertex_tolerance_mm[v], edge.tolerance_mm);
+        }
+    };
+
+    // Each merged face is checked once its wires are built. Where one would not be a valid B-rep
+    // face, the region's facets at the defect become triangles (a sliver, a pinch, a crossing are
+    // local), or the whole region when the defect is not local, persists, or leaves too few facets;
+    // then the faces are built again. Each case is reported.
+    std::vector<char> refused(region_planes.size(), 0);
+    const int local_rounds = 8;
+    std::vector<char> at_defect(vertex_count, 0);
+    for (int round = 0;; ++round) {
+        std::vector<int> source;  // the regions still merged
+        std::vector<int> renumbered(region_planes.size(), -1), region_of(facet_count, -1);
+        std::vector<Plane> planes;
+        std::vector<double> rms;
+        for (size_t r = 0; r < region_planes.size(); ++r)
+            if (!refused[r]) {
+                renumbered[r] = int(source.size());
+                source.push_back(int(r));
+                planes.push_back(region_planes[r]);
+                rms.push_back(region_rms[r]);
+            }
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0) region_of[f] = renumbered[region[f]];
+        build_faces(region_of, planes, rms);
+        if (!options.check_faces) break;
+        bool any = false;
+        const FaceLimits limits = face_limits(model, options);
+        for (size_t r = 0; r < source.size(); ++r) {
+            const FaceDefect defect = merged_face_defect(model, model.faces[r], limits);
+            if (defect.reason.empty()) continue;
+            any = true;
+            const int id = source[r];
+            const std::string plane = "the plane of " + std::to_string(model.faces[r].facet_count) + " facets at " +
+                                      point_text(model.faces[r].origin) + " mm";
+            int trimmed = 0;
+            if (round < local_rounds && !defect.vertices.empty()) {
+                for (int v : defect.vertices) at_defect[v] = 1;
+                for (int f = 0; f < facet_count; ++f)
+                    if (region[f] == id && (at_defect[facets[f][0]] || at_defect[facets[f][1]] || at_defect[facets[f][2]]))
+                        region[f] = -1, ++trimmed;
+                for (int v : defect.vertices) at_defect[v] = 0;
+            }
+            if (trimmed > 0 && model.faces[r].facet_count - trimmed >= options.min_facets) {
+                model.refused_merges.push_back(std::to_string(trimmed) + " facets of " + plane + " stay triangles: " + defect.reason);
+            } else {
+                refused[size_t(id)] = 1;
+                model.refused_merges.push_back(plane + " stays triangles: " + defect.reason);
+            }
+        }
+        if (!any) break;
     }
     report(1.0, "solid: faces");
     return model;
+}
+
+std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options) {
+    std::vector<std::string> defects;
+    const FaceLimits limits = face_limits(model, options);
+    for (size_t f = 0; f < model.faces.size(); ++f) {
+        if (!model.faces[f].merged) continue;
+        const FaceDefect defect = merged_face_defect(model, model.faces[f], limits);
+        if (!defect.reason.empty()) defects.push_back("face " + std::to_string(f) + ": " + defect.reason);
+    }
+    return defects;
 }
 
 }  // namespace picoscan

@@ -1,6 +1,8 @@
 """Mesh -> Part solid. The core (`picoscan.planar_face_model`) checks that the mesh bounds a solid,
 merges the facets that lie on one plane (within the scan's noise) into one planar face, keeps
-the rest as triangles, and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`);
+the rest as triangles (and turns back into triangles the facets where a merged face's boundary
+would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
+and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`);
 FreeCAD reads it back. No sewing: the time grows linearly with the facets. The solid's volume is
 checked against the mesh's, and OpenCASCADE's own validity check (BRepCheck, the slowest part by
 far) runs when the solid has up to CHECK_FACES faces."""
