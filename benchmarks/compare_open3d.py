@@ -24,9 +24,18 @@ pose graph with the loop closed, optimised) then its screened Poisson (depth 9).
 meshes are judged against the true part: the volume, and the distances truth -> mesh (over
 the whole true surface, the unseen bottom included) and mesh -> truth.
 
+Whole pipelines (--pipelines, run on its own), all 8 views of each part, from the view files
+to the mesh: PicoScan 'stitch' (no guess) then 'mesh' (Poisson, its default fill), against
+Open3D's own pipeline as its tutorials give it: FPFH + RANSAC + point-to-plane ICP for each
+neighbouring pair, the poses chained from view 0, the clouds merged, its Poisson (depth 9),
+then the vertices of the lowest 1 % of Poisson density removed. The same distance code judges
+both meshes against the true part (truth -> mesh over the whole true surface, mesh -> truth
+per vertex), with the volume, whether the mesh is watertight, and the wall and CPU time.
+
 Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
         [--baseline OLD/picoscan]  (an earlier build on the same pairs, global registration: before and after)
+    /usr/bin/python3 benchmarks/compare_open3d.py --pipelines  (the whole pipelines only)
 """
 import argparse
 import os
@@ -280,6 +289,99 @@ def open3d_model(views, pair_results):
     return mesh, [np.asarray(node.pose) for node in graph.nodes], time.perf_counter() - start
 
 
+def picoscan_pipeline(picoscan, views, work):
+    """'picoscan stitch' of every view (no guess), then 'picoscan mesh' with its defaults, timed
+    as the two processes (wall, and CPU of the children)."""
+    merged, model = os.path.join(work, "pipeline-merged.ply"), os.path.join(work, "pipeline-model.ply")
+    clock = Clock(child=True)
+    stitched = subprocess.run([picoscan, "stitch"] + views + ["--out", merged], capture_output=True, text=True)
+    if stitched.returncode != 0:
+        print(stitched.stdout + stitched.stderr, file=sys.stderr)
+        return None, [], clock.read()
+    meshed = subprocess.run([picoscan, "mesh", merged, "--out", model], capture_output=True, text=True)
+    seconds = clock.read()
+    if meshed.returncode != 0:
+        print(meshed.stdout + meshed.stderr, file=sys.stderr)
+        return None, read_poses(merged.replace(".ply", ".poses.txt")), seconds
+    mesh = o3d.io.read_triangle_mesh(model)
+    mesh.merge_close_vertices(1e-6)
+    return mesh, read_poses(merged.replace(".ply", ".poses.txt")), seconds
+
+
+def open3d_pipeline(views):
+    """Open3D's pipeline as its tutorials give it: each neighbouring pair by open3d_global
+    (FPFH + RANSAC + point-to-plane ICP), the poses chained from view 0, the clouds (with the
+    views' normals, turned with them) merged and thinned to 0.4 mm, Poisson at depth 9. Gives
+    the raw Poisson mesh and the one cropped by density (the vertices of the lowest 1 % of
+    density removed, as the Poisson tutorial does), the poses, and the wall and CPU seconds of
+    everything up to the raw mesh and up to the cropped one."""
+    clock = Clock()
+    poses = [np.eye(4)]
+    for k in range(len(views) - 1):
+        transform, _ = open3d_global(views[k], views[k + 1])  # view k+1 -> view k
+        poses.append(poses[-1] @ np.asarray(transform))
+    merged = o3d.geometry.PointCloud()
+    for view, pose in zip(views, poses):
+        merged += open3d_load(view, 0.7).transform(pose)
+    merged = merged.voxel_down_sample(0.4)
+    raw, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
+    raw_seconds = clock.read()
+    cropped = o3d.geometry.TriangleMesh(raw)
+    densities = np.asarray(densities)
+    cropped.remove_vertices_by_mask(densities < np.quantile(densities, 0.01))
+    return raw, cropped, poses, raw_seconds, clock.read()
+
+
+def pipeline_row(name, mesh, truth, true_volume, placed, seconds):
+    """One line of the pipelines table: the same measures for every tool's mesh."""
+    to_mesh, to_truth = distances(truth, mesh)
+    volume = mesh_volume(mesh)
+    watertight = mesh.is_watertight()
+    volume_text = "%.2f (%+.1f %%)" % (volume / 1000, 100 * (volume / true_volume - 1))
+    if not watertight:
+        volume_text = "open (%s)" % volume_text  # an open mesh encloses no volume: indicative only
+    return ("| %s | %s | %s | %s | %.3f / %.3f / %.3f | %.3f / %.3f | %.0f / %.0f |" % (
+        name, placed, "yes" if watertight else "no", volume_text, to_mesh.mean(), np.percentile(to_mesh, 95),
+        to_mesh.max(), np.percentile(to_truth, 95), to_truth.max(), *seconds))
+
+
+def compare_pipelines(args, picoscan):
+    """The --pipelines run: both whole pipelines on each part's views; prints the table."""
+    o3d.utility.random.seed(1)  # the same points sampled on the true surface for every mesh
+    table = []
+    for part in args.parts.split(","):
+        directory = os.path.join(args.data, part)
+        if not os.path.exists(os.path.join(directory, "true_poses.txt")):
+            print("simulating the %s part's views into %s" % (part, directory), file=sys.stderr)
+            simulate(os.path.abspath(args.build), directory, part)
+        truth = read_poses(os.path.join(directory, "true_poses.txt"))
+        views = [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(len(truth))]
+        true_mesh = o3d.io.read_triangle_mesh(os.path.join(directory, "truth.stl"))
+        true_mesh.merge_close_vertices(1e-6)
+        true_volume = mesh_volume(true_mesh)
+        print("%s: true volume %.2f cm3" % (part, true_volume / 1000), file=sys.stderr)
+        centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
+        with tempfile.TemporaryDirectory() as work:
+            mesh, poses, seconds = picoscan_pipeline(picoscan, views, work)
+        placed = "%d / %d" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
+        if mesh is None:
+            table.append("| %s: PicoScan stitch + mesh | %s | failed | - | - | - | %.0f / %.0f |" % (part, placed, *seconds))
+        else:
+            table.append(pipeline_row("%s: PicoScan stitch + mesh" % part, mesh, true_mesh, true_volume, placed, seconds))
+        print(table[-1], file=sys.stderr)
+        raw, cropped, poses, raw_seconds, cropped_seconds = open3d_pipeline(views)
+        placed = "%d / %d" % (len(poses), right_views(truth, poses, centroids))
+        table.append(pipeline_row("%s: Open3D chained pairs + Poisson" % part, raw, true_mesh, true_volume, placed, raw_seconds))
+        print(table[-1], file=sys.stderr)
+        table.append(pipeline_row("%s: Open3D chained pairs + Poisson, cropped by density" % part, cropped, true_mesh,
+                                  true_volume, placed, cropped_seconds))
+        print(table[-1], file=sys.stderr)
+    print("| pipeline | views merged / right (of 8) | watertight | volume cm3 (vs true) | "
+          "truth -> mesh mean / p95 / max (mm) | mesh -> truth p95 / max (mm) | time wall / CPU (s) |")
+    print("|---|---|---|---|---|---|---|")
+    print("\n".join(table))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--build", default="build", help="the build tree (core/picoscan, the picoscan module)")
@@ -289,8 +391,13 @@ def main():
     parser.add_argument("--no-model", action="store_true", help="registration of the pairs only")
     parser.add_argument("--model-only", action="store_true", help="the models only (Open3D's global pairs still feed its pose graph)")
     parser.add_argument("--baseline", help="another picoscan binary (an earlier build) run on the same pairs")
+    parser.add_argument("--pipelines", action="store_true",
+                        help="only the whole pipelines: PicoScan stitch + mesh against Open3D's chained pairs + Poisson")
     args = parser.parse_args()
     picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
+    if args.pipelines:
+        compare_pipelines(args, picoscan)
+        return
     registration_table, model_table = [], []
     for part in args.parts.split(","):
         directory = os.path.join(args.data, part)

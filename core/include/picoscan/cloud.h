@@ -4,6 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <functional>
 #include <vector>
 
 namespace picoscan {
@@ -52,6 +53,12 @@ PointCloud to_point_cloud(const ScanView& view);
 
 // Merges views (each transformed by its pose) into one cloud with normals and colours.
 PointCloud merge_views(const std::vector<ScanView>& views);
+
+// The same merge, the views asked for one at a time (view_at(0) .. view_at(view_count - 1)),
+// each dropped once its valid points are in: only one view is ever held whole, so more views
+// can be merged than fit in memory as pixel grids (read from files or made on demand).
+using ViewSource = std::function<ScanView(size_t index)>;
+PointCloud merge_view_stream(size_t view_count, const ViewSource& view_at);
 
 // The mesh with its vertices (and normals) moved by a rigid transform.
 Mesh transformed(const Mesh& mesh, const cv::Matx44d& transform);

@@ -304,6 +304,11 @@ struct FuseResult {
 // Throws Error when no view is given, the merged cloud is empty, or meshing gives no triangle.
 FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& options = {},
                       const ProgressCallback& progress = nullptr);
+// The same, the views asked for one at a time (merge_view_stream): for 16-32 full views,
+// which a host reads or makes one by one rather than holding every pixel grid at once.
+// The result is the same as from the views held whole.
+FuseResult fuse_views(size_t view_count, const ViewSource& view_at, const MeshOptions& options = {},
+                      const ProgressCallback& progress = nullptr);
 
 // ---- Validation ---------------------------------------------------------------------------
 // Each throws Error naming the offending field (e.g. "decode.min_modulation") when a value is

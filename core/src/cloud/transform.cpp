@@ -4,16 +4,24 @@
 namespace picoscan {
 
 PointCloud merge_views(const std::vector<ScanView>& views) {
+    return merge_view_stream(views.size(), [&](size_t index) { return views[index]; });  // cv::Mat copies share the pixels
+}
+
+PointCloud merge_view_stream(size_t view_count, const ViewSource& view_at) {
     PointCloud merged;
-    for (const ScanView& view : views) {
-        const PointCloud cloud = to_point_cloud(view);
+    for (size_t index = 0; index < view_count; ++index) {
+        const PointCloud cloud = to_point_cloud(view_at(index));  // the whole view lives only in this statement
         merged.points.insert(merged.points.end(), cloud.points.begin(), cloud.points.end());
         merged.normals.insert(merged.normals.end(), cloud.normals.begin(), cloud.normals.end());
         merged.colours.insert(merged.colours.end(), cloud.colours.begin(), cloud.colours.end());
         merged.quality.insert(merged.quality.end(), cloud.quality.begin(), cloud.quality.end());
     }
     // A layer some views lack is dropped for all, so every layer stays one per point.
-    auto keep = [&](auto& layer) { if (layer.size() != merged.points.size()) layer.clear(); };
+    auto keep = [&](auto& layer) {
+        if (layer.size() != merged.points.size()) layer.clear();
+        layer.shrink_to_fit();  // growing by doubling left up to twice the room
+    };
+    keep(merged.points);
     keep(merged.normals);
     keep(merged.colours);
     keep(merged.quality);

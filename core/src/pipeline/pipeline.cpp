@@ -302,15 +302,29 @@ Mesh mesh_points(const PointCloud& cloud, const MeshOptions& options, const Prog
 }
 
 FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& options, const ProgressCallback& progress) {
+    return fuse_views(views.size(), [&](size_t index) { return views[index]; }, options, progress);
+}
+
+FuseResult fuse_views(size_t view_count, const ViewSource& view_at, const MeshOptions& options, const ProgressCallback& progress) {
     validate(options);
-    if (views.empty()) throw Error("views", "fusing needs at least one view");
+    if (view_count == 0) throw Error("views", "fusing needs at least one view");
+    // Merging takes the first 5 % of the progress, meshing the rest.
+    constexpr double kMergeShare = 0.05;
+    auto report = [&](double fraction, const std::string& stage) {
+        if (progress && !progress(fraction, stage)) throw Error("cancelled", "fusing cancelled");
+    };
     FuseResult result;
-    if (progress && !progress(0.0, "merging the views")) throw Error("cancelled", "fusing cancelled");
-    result.merged = merge_views(views);
+    result.merged = merge_view_stream(view_count, [&](size_t index) {
+        report(kMergeShare * double(index) / double(view_count), "merging the views");
+        return view_at(index);
+    });
     if (result.merged.points.empty()) throw Error("views", "the views hold no valid point");
-    result.mesh = mesh_cloud(result.merged, options, progress);
+    const ProgressCallback meshing = [&](double fraction, const std::string& stage) {
+        return !progress || progress(kMergeShare + (1 - kMergeShare) * fraction, stage);
+    };
+    result.mesh = mesh_cloud(result.merged, options, meshing);
     if (result.mesh.faces.empty()) throw Error("views", "meshing the merged views produced no triangles");
-    if (progress && !progress(1.0, "checking the mesh")) throw Error("cancelled", "fusing cancelled");
+    report(1.0, "checking the mesh");
     result.check = check_mesh(result.mesh);
     return result;
 }
