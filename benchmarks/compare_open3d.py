@@ -233,34 +233,10 @@ def right_views(truth, poses, centroids):
                if pose is not None and all(e < 1.0 for e in pose_error(truth[k], pose, centroids[k])))
 
 
-def model_row(name, mesh, truth, true_volume, merged, seconds):
-    to_mesh, to_truth = distances(truth, mesh)
-    closed = mesh.is_watertight()  # a volume means something only for a closed surface
-    volume = mesh_volume(mesh)
-    volume_text = "%.2f (%+.1f %%)" % (volume / 1000, 100 * (volume / true_volume - 1)) if closed else "not closed"
-    return ("| %s | %s | %s | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | %.1f |" % (
-        name, merged, volume_text, to_mesh.mean(), np.percentile(to_mesh, 95),
-        to_mesh.max(), to_truth.mean(), np.percentile(to_truth, 95), to_truth.max(), seconds))
-
-
-def picoscan_model(picoscan, views, work):
-    merged, model = os.path.join(work, "merged.ply"), os.path.join(work, "model.ply")
-    start = time.perf_counter()
-    result = subprocess.run([picoscan, "stitch"] + views + ["--out", merged], capture_output=True, text=True)
-    if not os.path.exists(merged):
-        print(result.stdout + result.stderr, file=sys.stderr)
-        return None, [], time.perf_counter() - start
-    subprocess.run([picoscan, "mesh", merged, "--out", model], capture_output=True, text=True, check=True)
-    seconds = time.perf_counter() - start
-    mesh = o3d.io.read_triangle_mesh(model)
-    mesh.merge_close_vertices(1e-6)
-    return mesh, read_poses(merged.replace(".ply", ".poses.txt")), seconds
-
-
 def open3d_model(views, pair_results):
     """Open3D's multiway registration: neighbouring global fits as odometry, the last one closing
     the loop, optimised as a pose graph; then screened Poisson of the merged cloud."""
-    start = time.perf_counter()
+    clock = Clock()
     reg = o3d.pipelines.registration
     clouds = [open3d_load(v, 0.7) for v in views]
     graph = reg.PoseGraph()
@@ -286,7 +262,7 @@ def open3d_model(views, pair_results):
         merged += o3d.geometry.PointCloud(cloud).transform(graph.nodes[k].pose)
     merged = merged.voxel_down_sample(0.4)
     mesh, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
-    return mesh, [np.asarray(node.pose) for node in graph.nodes], time.perf_counter() - start
+    return mesh, [np.asarray(node.pose) for node in graph.nodes], clock.read()
 
 
 def picoscan_pipeline(picoscan, views, work):
@@ -295,7 +271,7 @@ def picoscan_pipeline(picoscan, views, work):
     merged, model = os.path.join(work, "pipeline-merged.ply"), os.path.join(work, "pipeline-model.ply")
     clock = Clock(child=True)
     stitched = subprocess.run([picoscan, "stitch"] + views + ["--out", merged], capture_output=True, text=True)
-    if stitched.returncode != 0:
+    if not os.path.exists(merged):  # exit 3 with a merge written: some views left out, still a model
         print(stitched.stdout + stitched.stderr, file=sys.stderr)
         return None, [], clock.read()
     meshed = subprocess.run([picoscan, "mesh", merged, "--out", model], capture_output=True, text=True)
@@ -345,17 +321,29 @@ def pipeline_row(name, mesh, truth, true_volume, placed, seconds):
         to_mesh.max(), np.percentile(to_truth, 95), to_truth.max(), *seconds))
 
 
+def print_model_table(rows):
+    print("| model | views merged / right (of 8) | watertight | volume cm3 (vs true) | "
+          "truth -> mesh mean / p95 / max (mm) | mesh -> truth p95 / max (mm) | time wall / CPU (s) |")
+    print("|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+
+
+def part_views(args, part):
+    """A part's folder, true poses and view files, simulated first when missing."""
+    directory = os.path.join(args.data, part)
+    if not os.path.exists(os.path.join(directory, "true_poses.txt")):
+        print("simulating the %s part's views into %s" % (part, directory), file=sys.stderr)
+        simulate(os.path.abspath(args.build), directory, part)
+    truth = read_poses(os.path.join(directory, "true_poses.txt"))
+    return directory, truth, [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(len(truth))]
+
+
 def compare_pipelines(args, picoscan):
     """The --pipelines run: both whole pipelines on each part's views; prints the table."""
     o3d.utility.random.seed(1)  # the same points sampled on the true surface for every mesh
     table = []
     for part in args.parts.split(","):
-        directory = os.path.join(args.data, part)
-        if not os.path.exists(os.path.join(directory, "true_poses.txt")):
-            print("simulating the %s part's views into %s" % (part, directory), file=sys.stderr)
-            simulate(os.path.abspath(args.build), directory, part)
-        truth = read_poses(os.path.join(directory, "true_poses.txt"))
-        views = [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(len(truth))]
+        directory, truth, views = part_views(args, part)
         true_mesh = o3d.io.read_triangle_mesh(os.path.join(directory, "truth.stl"))
         true_mesh.merge_close_vertices(1e-6)
         true_volume = mesh_volume(true_mesh)
@@ -376,10 +364,7 @@ def compare_pipelines(args, picoscan):
         table.append(pipeline_row("%s: Open3D chained pairs + Poisson, cropped by density" % part, cropped, true_mesh,
                                   true_volume, placed, cropped_seconds))
         print(table[-1], file=sys.stderr)
-    print("| pipeline | views merged / right (of 8) | watertight | volume cm3 (vs true) | "
-          "truth -> mesh mean / p95 / max (mm) | mesh -> truth p95 / max (mm) | time wall / CPU (s) |")
-    print("|---|---|---|---|---|---|---|")
-    print("\n".join(table))
+    print_model_table(table)
 
 
 def main():
@@ -400,13 +385,8 @@ def main():
         return
     registration_table, model_table = [], []
     for part in args.parts.split(","):
-        directory = os.path.join(args.data, part)
-        if not os.path.exists(os.path.join(directory, "true_poses.txt")):
-            print("simulating the %s part's views into %s" % (part, directory), file=sys.stderr)
-            simulate(os.path.abspath(args.build), directory, part)
-        truth = read_poses(os.path.join(directory, "true_poses.txt"))
+        directory, truth, views = part_views(args, part)
         count = len(truth)
-        views = [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(count)]
         pairs = [(k, (k + 1) % count) for k in range(count)]
         rng = np.random.default_rng(1)
         tools = ("PicoScan", "PicoScan in-process", "Open3D") + (("PicoScan before",) if args.baseline else ())
@@ -448,14 +428,14 @@ def main():
             true_mesh.merge_close_vertices(1e-6)
             true_volume = mesh_volume(true_mesh)
             centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
-            mesh, poses, seconds = picoscan_model(picoscan, views, work)
+            mesh, poses, seconds = picoscan_pipeline(picoscan, views, work)
             if mesh is not None:
-                placed = "%d merged, %d right" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
-                model_table.append(model_row("%s: PicoScan stitch + mesh" % part, mesh, true_mesh, true_volume, placed, seconds))
+                placed = "%d / %d" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
+                model_table.append(pipeline_row("%s: PicoScan stitch + mesh" % part, mesh, true_mesh, true_volume, placed, seconds))
                 print(model_table[-1], file=sys.stderr)
             mesh, poses, seconds = open3d_model(views, open3d_found)
-            placed = "%d merged, %d right" % (count, right_views(truth, poses, centroids))
-            model_table.append(model_row("%s: Open3D pose graph + Poisson" % part, mesh, true_mesh, true_volume, placed, seconds))
+            placed = "%d / %d" % (count, right_views(truth, poses, centroids))
+            model_table.append(pipeline_row("%s: Open3D pose graph + Poisson" % part, mesh, true_mesh, true_volume, placed, seconds))
             print(model_table[-1], file=sys.stderr)
             print("%s: true volume %.2f cm3" % (part, true_volume / 1000), file=sys.stderr)
     print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
@@ -464,10 +444,7 @@ def main():
     print("\n".join(registration_table))
     if model_table:
         print()
-        print("| model | views of 8 | volume cm3 (vs true) | truth -> mesh mean / p95 / max (mm) | "
-              "mesh -> truth mean / p95 / max (mm) | time (s) |")
-        print("|---|---|---|---|---|---|")
-        print("\n".join(model_table))
+        print_model_table(model_table)
 
 
 if __name__ == "__main__":
