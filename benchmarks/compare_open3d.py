@@ -438,12 +438,12 @@ def main():
             model_table.append(pipeline_row("%s: Open3D pose graph + Poisson" % part, mesh, true_mesh, true_volume, placed, seconds))
             print(model_table[-1], file=sys.stderr)
             print("%s: true volume %.2f cm3" % (part, true_volume / 1000), file=sys.stderr)
-    print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
-          "shift error median / max (mm) | median time per pair, wall / CPU (s) |")
-    print("|---|---|---|---|---|")
-    print("\n".join(registration_table))
+    if registration_table:  # none with --model-only
+        print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
+              "shift error median / max (mm) | median time per pair, wall / CPU (s) |")
+        print("|---|---|---|---|---|")
+        print("\n".join(registration_table) + "\n")
     if model_table:
-        print()
         print_model_table(model_table)
 
 
