@@ -69,6 +69,32 @@ private:
     size_t calls_ = 0;
     std::exception_ptr cancel_;
 };
+
+// CGAL's grid simplification has no callback: its point map counts the reads (one per point for
+// the cell's hash, more for comparisons within a bucket) and reports every few thousand, so that
+// thinning a large cloud can be cancelled (the report throws; CGAL's set and the vector stay valid).
+class ThinningReport {
+public:
+    explicit ThinningReport(const StageReport& report) : report_(report) {}
+    void read() {
+        if (++reads_ % 16384 == 0) report_(0.0, "thinning the points");
+    }
+
+private:
+    const StageReport& report_;
+    size_t reads_ = 0;
+};
+struct ThinningPointMap {
+    using key_type = PointWithNormal;
+    using value_type = Point3;
+    using reference = const Point3&;
+    using category = boost::lvalue_property_map_tag;
+    ThinningReport* thinning;
+    friend reference get(const ThinningPointMap& map, const key_type& point) {
+        map.thinning->read();
+        return point.first;
+    }
+};
 }  // namespace
 
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
@@ -92,15 +118,17 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
         throw Error("point cloud", std::to_string(without_normal) + " of " +
                                        std::to_string(points.size() + without_normal) +
                                        " points have no valid normal (NaN or zero): their outside is unknown");
+    ThinningReport thinning(report);
+    const ThinningPointMap thinning_map{&thinning};
     if (spacing_mm > 0) {
-        points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
+        points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(thinning_map)), points.end());
     }
     // The budget: a coarser grid until at most max_points remain (the count falls with the
     // square of the spacing on a surface).
     for (double coarser = spacing_mm; max_points > 0 && points.size() > size_t(max_points);) {
         const double shrink = std::sqrt(double(points.size()) / double(max_points)) * 1.05;
         coarser = coarser > 0 ? coarser * shrink : 0.1;
-        points.erase(CGAL::grid_simplify_point_set(points, coarser, CGAL::parameters::point_map(PointMap())), points.end());
+        points.erase(CGAL::grid_simplify_point_set(points, coarser, CGAL::parameters::point_map(thinning_map)), points.end());
     }
     if (spacing_mm <= 0) {
         // Coincident points have no spacing to mesh at (and crash the reconstruction).

@@ -13,6 +13,7 @@ import numpy
 import Part
 
 import picoscan
+from picoscan_wb.progress import cancel_point, run_in_background
 
 MAX_FACETS = 2000000   # beyond this, Fit primitives or a coarser mesh
 CHECK_FACES = 20000    # up to here OpenCASCADE's BRepCheck confirms the solid too
@@ -64,19 +65,26 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
         model = picoscan.planar_face_model(core_mesh(mesh), face_options(merge_planes, noise_mm), progress)
     except picoscan.Error as error:
         raise picoscan.Error("%s: %s" % (label, str(error).replace("mesh: ", "", 1))) from None
+    # FreeCAD's steps release the GIL but cannot be stopped inside: Cancel is heard between them.
+    cancel_point(progress, 0.0, "solid: self-intersections")
     if mesh.hasSelfIntersections():
         raise picoscan.Error("%s: the mesh intersects itself; repair it first" % label)
     with tempfile.TemporaryDirectory() as folder:
         path = os.path.join(folder, "solid.brep")
+        cancel_point(progress, 0.0, "solid: writing the B-rep")
         picoscan.write_brep(model, path)
+        cancel_point(progress, 0.0, "solid: reading the B-rep")
         shape = Part.Shape()
         shape.read(path)
     volume = model.mesh_volume_mm3
+    cancel_point(progress, 0.0, "solid: volume")
     if shape.ShapeType != "Solid" or abs(shape.Volume - volume) > VOLUME_TOLERANCE * volume:
         raise _MergedFacesRefused("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
             label, shape.Volume, volume))
     if check_valid is None:
         check_valid = len(model.faces) <= CHECK_FACES
+    if check_valid:
+        cancel_point(progress, 0.0, "solid: OpenCASCADE's check")
     if check_valid and not shape.isValid():
         if merge_planes:
             raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged planar faces invalid" % label)
@@ -91,8 +99,11 @@ def solid_of_mesh(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=
 
 def make_solid(doc, mesh_object, merge_planes=True, noise_mm=0.0):
     """Adds a Part::Feature holding the solid. Raises picoscan.Error (document unchanged) when the
-    mesh cannot bound one; the message says why and what to do instead."""
-    solid, model, note = solid_with_model(mesh_object.Mesh, mesh_object.Label, merge_planes, noise_mm)
+    mesh cannot bound one; the message says why and what to do instead. The solid is made off the
+    GUI thread with the progress dialog (run_in_background); Cancel leaves the document unchanged."""
+    mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
+    solid, model, note = run_in_background("Making a solid of " + label, lambda progress: solid_with_model(
+        mesh, label, merge_planes, noise_mm, progress))
     feature = doc.addObject("Part::Feature", mesh_object.Name + "Solid")
     feature.Label = mesh_object.Label + " solid"
     feature.Shape = solid

@@ -724,6 +724,67 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertTrue(view.isValid())
         self.assertTrue(FreeCADGui.Control.activeDialog())  # the panel stays open for another try
 
+    def document_state(self):
+        """What Cancel must leave as it was: the objects, their recompute state, the undo stack."""
+        return ([(o.Name, tuple(sorted(o.State))) for o in self.doc.Objects], self.doc.UndoCount)
+
+    def command_cancelled_while_the_gui_answers(self, command, cancel_after_s):
+        """Runs `command` on the current selection, presses Cancel on its progress dialog after
+        cancel_after_s while a 20 ms timer measures how the GUI answers; asserts that the work
+        stopped within 1 s with a "cancelled" message and left the document as it was. Returns the
+        figures as a line."""
+        from PySide2 import QtCore
+
+        before = self.document_state()
+        ticks, record = [], {}
+        timer = QtCore.QTimer()
+        timer.timeout.connect(lambda: ticks.append(time.monotonic()))
+        timer.start(20)
+        self.cancel_after(cancel_after_s, record)
+        started = time.monotonic()
+        try:
+            FreeCADGui.runCommand(command)
+        finally:
+            ended = time.monotonic()
+            timer.stop()
+        process_events()
+        self.assertEqual(record.get("dialog"), "visible", "%s: the progress dialog was not shown" % command)
+        during = numpy.array([t for t in ticks if started <= t <= ended])
+        gaps = numpy.diff(numpy.concatenate([[started], during, [ended]]))
+        figures = "%s: %d timer events (every 20 ms) in %.2f s, longest gap %.3f s; Cancel at %.2f s stopped it %.3f s later" % (
+            command, len(during), ended - started, gaps.max(), record["pressed"] - started, ended - record["pressed"])
+        FreeCAD.Console.PrintMessage(figures + "\n")
+        self.assertTrue(any("cancelled" in text for _, _, text in self.messages), (command, self.messages))
+        self.assertLess(ended - record["pressed"], 1.0, figures)
+        # A blocked GUI thread shows one gap as long as the work.
+        self.assertLess(gaps.max(), 1.0, figures)
+        self.assertGreater(len(during), 0.25 * (ended - started) / 0.02, figures)
+        self.assertEqual(self.document_state(), before)
+        return figures
+
+    def test_k3_make_solid_answers_events_and_cancel_leaves_the_document_as_it_was(self):
+        """Make solid of a 64 440-facet sphere (every facet a face: the core's face building alone takes
+        seconds, the whole command tens of seconds) runs off the GUI thread; Cancel stops it."""
+        import Mesh
+
+        sphere = self.doc.addObject("Mesh::Feature", "BigSphere")
+        sphere.Mesh = Mesh.createSphere(10.0, 180)
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(sphere)
+        self.command_cancelled_while_the_gui_answers("PicoScan_MakeSolid", 1.0)
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Feature"], [])
+
+    def test_k4_fit_primitives_answers_events_and_cancel_leaves_the_document_as_it_was(self):
+        """Fit primitives on the shaft's ScanView (462 613 points: CGAL's RANSAC takes about 14 s under
+        load) runs off the GUI thread; Cancel stops it and adds nothing."""
+        view = scan_view.create(self.doc, self.captures, self.calibration, name="ShaftView")
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        self.command_cancelled_while_the_gui_answers("PicoScan_FitPrimitives", 1.0)
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId.startswith("Part::")], [])
+
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
