@@ -9,24 +9,15 @@ far) runs when the solid has up to CHECK_FACES faces."""
 import os
 import tempfile
 
-import numpy
 import Part
 
 import picoscan
+from picoscan_wb.objects.scan_mesh import core_mesh
 from picoscan_wb.progress import cancel_point, run_in_background
 
 MAX_FACETS = 2000000   # beyond this, Fit primitives or a coarser mesh
 CHECK_FACES = 20000    # up to here OpenCASCADE's BRepCheck confirms the solid too
 VOLUME_TOLERANCE = 1e-3
-
-
-def core_mesh(mesh):
-    """picoscan.Mesh of a FreeCAD mesh (placement applied)."""
-    vertices, facet_list = mesh.Topology
-    result = picoscan.Mesh()
-    result.vertices = numpy.array([tuple(p) for p in vertices], dtype=numpy.float32).reshape(-1, 3)
-    result.faces = numpy.array(facet_list, dtype=numpy.int32).reshape(-1, 3)
-    return result
 
 
 def face_options(merge_planes=True, noise_mm=0.0):
@@ -62,6 +53,7 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
         raise picoscan.Error("%s: %d facets, more than %d; use a coarser mesh or Fit primitives" % (
             label, mesh.CountFacets, MAX_FACETS))
     try:
+        # Through a binary STL, which releases the GIL (mesh.Topology builds Python objects holding it).
         model = picoscan.planar_face_model(core_mesh(mesh), face_options(merge_planes, noise_mm), progress)
     except picoscan.Error as error:
         raise picoscan.Error("%s: %s" % (label, str(error).replace("mesh: ", "", 1))) from None
