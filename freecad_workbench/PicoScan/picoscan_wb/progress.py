@@ -93,9 +93,12 @@ def run_in_background(title, work, should_cancel=None, poll=None):
     dialog.canceled.connect(dialog_cancelled.set)
     worker = threading.Thread(target=run, name="PicoScan " + title, daemon=True)
     worker.start()
+    started = time.monotonic()
     while worker.is_alive():
         if dialog.wasCanceled():  # also when cancelled by a call rather than the button
             dialog_cancelled.set()
+        if not dialog.isVisible() and time.monotonic() - started > 0.3:
+            dialog.show()  # Qt shows it only when it predicts a long wait; Cancel is offered for any wait
         dialog.setLabelText("%s: %s" % (title, state["stage"]) if state["stage"] else title)
         dialog.setValue(int(1000 * max(0.0, min(1.0, state["fraction"]))))
         if poll is not None:

@@ -779,12 +779,12 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Feature"], [])
 
     def test_k4_cross_section_with_band_answers_events_and_cancel_leaves_the_document_as_it_was(self):
-        """Cross-section with Band of a 125 000-facet sphere (17 cuts of it, each reporting every 65 536
+        """Cross-section with Band of a 205 000-facet sphere (17 cuts of it, each reporting every 65 536
         vertices and triangles) runs off the GUI thread; Cancel stops it, the panel stays open."""
         import Mesh
 
         sphere = self.doc.addObject("Mesh::Feature", "FineSphere")
-        sphere.Mesh = Mesh.createSphere(10.0, 250)
+        sphere.Mesh = Mesh.createSphere(10.0, 320)
         sphere.ViewObject.Visibility = False  # drawing it is not the work measured
         self.doc.recompute()
         FreeCADGui.Selection.clearSelection()
