@@ -659,6 +659,16 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     ServerRun run = run_meshlabserver(directory, first_session, "-w project.mlp -o fused_first.ply -l 2");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     EXPECT_NE(run.log.find("PicoScan saved 2 views in " + views), std::string::npos) << run.log;
+    // What the unsaved layers gave: each cleaned layer's point count, and the points fused.
+    std::vector<double> first_remain;
+    for (int i = 0; i < 2; ++i) {
+        const std::vector<double> remain =
+            numbers_after(run.log, "PicoScan saved Part view " + std::to_string(i) + " (", 1);
+        ASSERT_EQ(remain.size(), 1u) << run.log;
+        first_remain.push_back(remain[0]);
+    }
+    const std::vector<double> first_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
+    ASSERT_EQ(first_fused_points.size(), 1u) << run.log;
 
     // meshlabserver saved its own copies (VIEW_out.ply) and the project names them: they are not views.
     const std::vector<ProjectLayer> saved = read_project(directory + "/project.mlp");
@@ -706,6 +716,25 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const PoseDifference error = pose_difference(
         truth, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
         cv::Vec3d(middle[0], middle[1], middle[2]));
+
+    // The reopened layers are the unsaved ones: the same points fused, the same relative pose found.
+    const std::vector<double> reopened_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
+    ASSERT_EQ(reopened_fused_points.size(), 1u) << run.log;
+    EXPECT_EQ(reopened_fused_points[0], first_fused_points[0]);
+    EXPECT_EQ(first_fused_points[0], first_remain[0] + first_remain[1]);
+    const cv::Matx44d first_relative = inverse_rigid(nearest_rigid(saved[0].transform)) * nearest_rigid(saved[1].transform);
+    const PoseDifference first_error =
+        pose_difference(truth, first_relative, cv::Vec3d(middle[0], middle[1], middle[2]));
+    const PoseDifference between_sessions = pose_difference(
+        first_relative, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
+        cv::Vec3d(middle[0], middle[1], middle[2]));
+    std::printf("unsaved layers: %.0f + %.0f points after Clean, %.0f fused (reopened: %.0f); pose error %.4f deg, "
+                "%.4f mm (reopened %.4f deg, %.4f mm; between the sessions %.4f deg, %.4f mm)\n",
+                first_remain[0], first_remain[1], first_fused_points[0], reopened_fused_points[0], first_error.rotation_deg,
+                first_error.translation_mm, error.rotation_deg, error.translation_mm, between_sessions.rotation_deg,
+                between_sessions.translation_mm);
+    EXPECT_LT(between_sessions.rotation_deg, 0.01);
+    EXPECT_LT(between_sessions.translation_mm, 0.01);
 
     const Mesh first = read_ply(directory + "/fused_first.ply");
     const Mesh second = read_ply(directory + "/fused_reopened.ply");

@@ -336,7 +336,7 @@ class PicoScanAppTest(unittest.TestCase):
         shutil.copytree(self.captures, captures)
         view = scan_view.create(self.doc, captures, self.calibration)
         mesh = scan_mesh.create(self.doc, view, pixel_step=4)
-        poisson = scan_mesh.create(self.doc, view, method="Poisson", fill="Open", sample_spacing_mm=1.0, name="PoissonMesh")
+        poisson = scan_mesh.create(self.doc, view, method="Poisson", fill="Open", sample_spacing_mm=4.0, name="PoissonMesh")
         _, fitted = primitives.fit_primitives(self.doc, cloud_of(view), placement=view.Placement)
         table = measurements.create(self.doc, [obj for obj, _ in fitted])
         model = self.doc.addObject("Part::Cylinder", "ShaftModel")
@@ -345,8 +345,7 @@ class PicoScanAppTest(unittest.TestCase):
                                             FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
         self.doc.recompute()
         deviation = deviation_map.create(self.doc, view, model, tolerance_mm=0.05, max_distance_mm=1.0)
-        options = primitives.detection_options(planes=False, spheres=False, cones=False)
-        shaft = picoscan.detect_shapes(cloud_of(view), options)[0]
+        shaft = [shape for _, shape in fitted if shape.kind == picoscan.ShapeKind.Cylinder][0]
         before = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
         names = (view.Name, mesh.Name, deviation.Name)
         poisson_before = (poisson.Mesh.CountPoints, poisson.Mesh.CountFacets, poisson.Mesh.Area, poisson.Check)
@@ -381,7 +380,8 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertEqual(after[:2], before[:2])
         self.assertAlmostEqual(after[2], before[2], delta=1e-6)
         self.assertEqual(after[3], before[3])
-        again = picoscan.detect_shapes(cloud_of(view), options)[0]
+        again = [shape for shape in picoscan.detect_shapes(cloud_of(view), primitives.detection_options())
+                 if shape.kind == picoscan.ShapeKind.Cylinder][0]
         self.assertAlmostEqual(again.radius_mm, shaft.radius_mm, delta=1e-4)
         mesh.PixelStep = 8  # still parametric: a coarser grid from the stored view
         self.doc.recompute()
