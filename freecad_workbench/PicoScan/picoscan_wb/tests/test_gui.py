@@ -821,7 +821,7 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
         self.cancelled_while_the_gui_answers("Fit primitives", lambda: FreeCADGui.runCommand("PicoScan_FitPrimitives"),
-                                             1.0, max_cancel_s=6.0)
+                                             1.0, max_cancel_s=10.0)
         self.assertEqual([o for o in self.doc.Objects if o.TypeId.startswith("Part::")], [])
 
     def test_z_scan_mesh_and_screenshot(self):
