@@ -63,8 +63,7 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
         raise picoscan.Error("%s: the mesh intersects itself; repair it first" % label)
     with tempfile.TemporaryDirectory() as folder:
         path = os.path.join(folder, "solid.brep")
-        cancel_point(progress, 0.0, "solid: writing the B-rep")
-        picoscan.write_brep(model, path)
+        picoscan.write_brep(model, path, progress)
         cancel_point(progress, 0.0, "solid: reading the B-rep")
         shape = Part.Shape()
         shape.read(path)
