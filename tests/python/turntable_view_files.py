@@ -5,8 +5,10 @@ with write_view_ply. Used by test_fuse_stream.py (small camera, few views) and, 
 script, to measure what fusing full-resolution view files costs:
 
     /usr/bin/python3 turntable_view_files.py make FOLDER VIEWS [SCALE]
-    /usr/bin/time -v /usr/bin/python3 turntable_view_files.py fuse-files FOLDER
-    /usr/bin/time -v /usr/bin/python3 turntable_view_files.py fuse-whole FOLDER
+    /usr/bin/time -v /usr/bin/python3 turntable_view_files.py fuse-files FOLDER [open]
+    /usr/bin/time -v /usr/bin/python3 turntable_view_files.py fuse-whole FOLDER [open]
+(fuse-files: picoscan.fuse_view_files, one view at a time; fuse-whole: every view read first, then
+picoscan.fuse_views of the list; default MeshOptions, or with "open" fill open)
     /usr/bin/python3 turntable_view_files.py project FOLDER   (FOLDER/project.mlp for meshlabserver -p)
 """
 import glob
@@ -89,7 +91,8 @@ def write_meshlab_project(folder):
     layers = []
     for path in view_files(folder):
         pose = numpy.asarray(picoscan.read_view_ply(path).pose)
-        matrix = "\n".join(" ".join("%.12g" % value for value in row) for row in pose)
+        # Each number followed by a space: MeshLab splits the matrix at spaces only.
+        matrix = "\n".join("".join("%.12g " % value for value in row) for row in pose)
         name = os.path.basename(path)
         layers.append('  <MLMesh label="%s" filename="%s" visible="1">\n   <MLMatrix44>\n%s\n</MLMatrix44>\n  </MLMesh>\n' % (
             name, name, matrix))
@@ -108,13 +111,16 @@ def main(arguments):
     if len(arguments) == 2 and arguments[0] == "project":
         print("wrote", write_meshlab_project(arguments[1]))
         return 0
-    if len(arguments) == 2 and arguments[0] in ("fuse-files", "fuse-whole"):
+    if len(arguments) in (2, 3) and arguments[0] in ("fuse-files", "fuse-whole") and arguments[2:] in ([], ["open"]):
         paths = view_files(arguments[1])
+        options = picoscan.MeshOptions()
+        if arguments[2:] == ["open"]:
+            options.fill = picoscan.MeshFill.Open
         if arguments[0] == "fuse-files":
-            fused = picoscan.fuse_view_files(paths)
+            fused = picoscan.fuse_view_files(paths, options)
         else:
             views = [picoscan.read_view_ply(path) for path in paths]
-            fused = picoscan.fuse_views(views)
+            fused = picoscan.fuse_views(views, options)
         print("%s: %d views, %d points, %d vertices, %d faces; %s" % (
             arguments[0], len(paths), len(fused.merged), len(fused.mesh.vertices), len(fused.mesh.faces),
             fused.check.summary()))
