@@ -80,9 +80,9 @@ def make_view_files(folder, view_count, scale=1.0):
 
 
 def view_files(folder):
-    paths = sorted(glob.glob(os.path.join(folder, "view_*.ply")))
+    paths = sorted(glob.glob(os.path.join(folder, "view_[0-9][0-9].ply")))
     if not paths:
-        raise SystemExit("%s: no view_*.ply files (make them first)" % folder)
+        raise SystemExit("%s: no view_NN.ply files (make them first)" % folder)
     return paths
 
 
