@@ -11,8 +11,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <deque>
 #include <numeric>
 #include <map>
@@ -445,7 +443,6 @@ struct VertexPlanes {
     bool has(int p) const { return std::find(plane.begin(), plane.begin() + count, p) != plane.begin() + count; }
 };
 
-
 // Walls of a hole that no view saw (filled in: too few points around the vertex), where
 // Poisson narrowed the hole or bulged it out into the material by a millimetre. Such a
 // vertex goes onto the hole's fitted cylinder only where the cylinder has support: between
@@ -522,7 +519,7 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
             target[v] = hole.project(target[v]);
             surface_of[v] = int(h);
         }
-        for (int iteration = 0; iteration < 200; ++iteration)
+        for (int iteration = 0; iteration < 1000; ++iteration)
             for (int v : patch) {
                 cv::Vec3d mean(0, 0, 0);
                 for (int w : neighbours[v]) mean += target[w];
@@ -532,6 +529,7 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     }
     return moved;
 }
+
 }  // namespace
 
 SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
@@ -744,7 +742,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         std::sort(triple.begin(), triple.end());
         return corner_vertex.count(triple) > 0;
     };
-    std::vector<uint8_t> hole_debug(vertex_count, 0);  // DEBUG
     // The fitted surface each vertex is put on (-1: a line, a corner, or not moved): the fold
     // check judges faces lying on one such surface by the surface's own normal.
     std::vector<int> surface_of(vertex_count, -1);
@@ -788,8 +785,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         }
     }
     report.hole_vertices = fill_hole_walls(mesh, regions, positions, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
-    for (size_t v = 0; v < vertex_count; ++v)  // DEBUG
-        if (model[v].count == 0 && surface_of[v] >= 0) hole_debug[v] = 1;
 
     // 4. Split the edges that cross a line (neither end on a feature), each once.
     std::unordered_map<long long, int> split_vertex;
@@ -905,19 +900,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             const cv::Vec3i& face = faces[f];
             const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
             if (normal.dot(reference_normal(f)) < 0) {
-                bool any_hole = false;
-                for (int k = 0; k < 3; ++k) if (face[k] < (int)vertex_count && hole_debug[face[k]]) { hole_debug[face[k]] |= 2; any_hole = true; }
-                if (any_hole && round == 0 && std::getenv("HOLEWALL_DEBUG")) {
-                    std::fprintf(stderr, "  fold face %zu:", f);
-                    for (int k = 0; k < 3; ++k) {
-                        const int v = face[k];
-                        grid.within(safe[v], filled_reach, near);
-                        std::fprintf(stderr, " [v%d hole %d count %d pts %zu move %.3f n.r %.2f]", v, v < (int)vertex_count ? hole_debug[v] : -1,
-                                     v < (int)vertex_count ? model[v].count : -1, near.size(), cv::norm(target[v] - safe[v]),
-                                     v < (int)vertex_count ? vertex_normal[v].dot(cv::normalize(cv::Vec3d(safe[v][0] + 11, safe[v][1], 0))) : 0.0);
-                    }
-                    std::fprintf(stderr, "\n");
-                }
                 changed = send_back(face) || changed;
             }
         }
@@ -951,25 +933,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             write_positions();
             break;
         }
-        for (int f : crossing_faces) {
-            for (int k = 0; k < 3; ++k) if (faces[f][k] < (int)vertex_count && hole_debug[faces[f][k]]) hole_debug[faces[f][k]] |= 4;
-            send_back(faces[f]);
-        }
+        for (int f : crossing_faces) send_back(faces[f]);
         write_positions();
-    }
-    if (std::getenv("HOLEWALL_DEBUG")) {  // DEBUG
-        size_t back = 0, part = 0, full = 0;
-        double worst_left = 0;
-        for (size_t v = 0; v < vertex_count; ++v) {
-            if (!hole_debug[v]) continue;
-            if (share[v] == 0) ++back; else if (share[v] < 1) ++part; else ++full;
-            if (share[v] < 1) std::fprintf(stderr, "   hole v%zu share %.3f cause %d at %.2f %.2f %.2f moved %.3f\n", v, share[v], hole_debug[v], position[v][0], position[v][1], position[v][2], cv::norm(target[v] - safe[v]));
-            worst_left = std::max(worst_left, cv::norm(position[v] - target[v]));
-        }
-        std::fprintf(stderr, "sharpen: planes %zu edge_vertices %zu cut %zu corners %zu hole %zu reverted %zu; hole: full %zu part %zu back %zu, worst left %.3f mm\n",
-                     report.planes, report.edge_vertices, report.cut_edges, report.corners, report.hole_vertices, report.reverted, full, part, back, worst_left);
-        for (const Plane& p : regions.planes)
-            if (p.cylinder) std::fprintf(stderr, "  cylinder r %.4f out %d extent %.2f..%.2f axis %.3f %.3f %.3f\n", p.radius, p.outwards, p.low, p.high, p.axis[0], p.axis[1], p.axis[2]);
     }
     mesh = std::move(out);
     return report;
