@@ -143,7 +143,7 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
 // middle is put on its fitted wall (sharpen.cpp); the maxima are not (the rim where the hole's
 // unseen wall meets the bottom face, and a few edges, see docs/multiview.md). The limits below
 // are the figures reached with a margin: since the unseen wall goes onto the cylinder as one
-// relaxed patch (2026-11-23), 6.0 / 14.7 / 230-341 um and 14.6-14.8 / 227-320 um in four
+// relaxed patch (2026-11-23), 6.0 / 14.6-14.7 / 230-341 um and 14.6-14.8 / 227-424 um in five
 // runs listed in docs/multiview.md (the 1.0-1.4 mm spot on the hole's wall is gone); before
 // that, 6.0-6.1 / 14.7-14.8 / 274-336 um and 14.8-15.0 /
 // 354-1439 um in three runs since corners get
@@ -160,7 +160,7 @@ TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
     EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.020);
     EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.450);
     EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.020);
-    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.5);
+    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.6);
 }
 
 // Beyond the demo part: a stepped block and a hexagon with a peg, meshed by the same recipe.
