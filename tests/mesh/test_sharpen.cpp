@@ -141,3 +141,106 @@ TEST(MeshSharpen, SharpEdgesComeBackAndFilletsStayRound) {
     EXPECT_LT(worst_on_fillet, 0.080);
     EXPECT_GT(nearest_to_false_corner, 1.2);  // a sharpened fillet puts vertices at the corner
 }
+
+namespace {
+
+// A 20 x 20 x 14 mm block with a vertical through hole of radius 5 at its middle, scanned as a
+// part standing on the turntable and then on its side is: every outer face, the hole's wall all
+// round near its top (z 10-14) and its y < 0 half all the way down, but not its y > 0 half
+// below z = 10 (no view looks that far in on that side). `flat_y` > 0: the hole is a D, its
+// wall on the y > 0 side the flat y = flat_y all the way down (seen only near the top).
+constexpr double kHoleBlock = 20, kHoleBlockHeight = 14, kHoleRadius = 5, kSeenFromZ = 10;
+
+PointCloud holed_block_points(double flat_y, unsigned seed) {
+    const double spacing = 0.4, noise_mm = 0.01;
+    std::mt19937 random(seed);
+    std::normal_distribution<double> noise(0, noise_mm);
+    std::uniform_real_distribution<double> jitter(-0.5, 0.5);
+    PointCloud cloud;
+    auto add = [&](const cv::Vec3d& p, const cv::Vec3d& n) {
+        cloud.points.emplace_back(p + noise(random) * n);
+        cloud.normals.emplace_back(n);
+    };
+    auto in_hole = [&](double x, double y) { return std::hypot(x, y) < kHoleRadius && (flat_y <= 0 || y < flat_y); };
+    const double h = kHoleBlock / 2;
+    for (double a = -h + spacing / 2; a < h; a += spacing)
+        for (double b = spacing / 2; b < kHoleBlockHeight; b += spacing) {
+            const double u = a + jitter(random) * spacing, w = std::clamp(b + jitter(random) * spacing, 0.0, kHoleBlockHeight);
+            add(cv::Vec3d(-h, u, w), cv::Vec3d(-1, 0, 0));
+            add(cv::Vec3d(h, u, w), cv::Vec3d(1, 0, 0));
+            add(cv::Vec3d(u, -h, w), cv::Vec3d(0, -1, 0));
+            add(cv::Vec3d(u, h, w), cv::Vec3d(0, 1, 0));
+        }
+    for (double a = -h + spacing / 2; a < h; a += spacing)
+        for (double b = -h + spacing / 2; b < h; b += spacing) {
+            const double x = a + jitter(random) * spacing, y = b + jitter(random) * spacing;
+            if (in_hole(x, y)) continue;
+            add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
+            add(cv::Vec3d(x, y, kHoleBlockHeight), cv::Vec3d(0, 0, 1));
+        }
+    // The wall, by arc length around the round part and along the flat; its normals point into the hole.
+    auto seen = [&](double y, double z) { return z >= kSeenFromZ || y < 0; };
+    for (double z = spacing / 2; z < kHoleBlockHeight; z += spacing) {
+        for (double s = 0; s < 2 * CV_PI * kHoleRadius; s += spacing) {
+            const double angle = (s + jitter(random) * spacing) / kHoleRadius, zz = z + jitter(random) * spacing;
+            const cv::Vec3d radial(std::cos(angle), std::sin(angle), 0);
+            const cv::Vec3d p = kHoleRadius * radial;
+            if ((flat_y > 0 && p[1] > flat_y) || !seen(p[1], zz)) continue;
+            add(p + cv::Vec3d(0, 0, zz), -radial);
+        }
+        if (flat_y > 0 && z >= kSeenFromZ) {
+            const double half = std::sqrt(kHoleRadius * kHoleRadius - flat_y * flat_y);
+            for (double x = -half; x < half; x += spacing) add(cv::Vec3d(x + jitter(random) * spacing, flat_y, z), cv::Vec3d(0, -1, 0));
+        }
+    }
+    return cloud;
+}
+
+}  // namespace
+
+// The hole's wall that no view saw (its y > 0 half below z = 10): Poisson guesses it, and the
+// sharpening puts it on the cylinder fitted to the seen wall, where that wall was seen at the
+// same turn about the axis (here near the top). Built to fool it: a D-shaped hole, whose flat
+// side was seen only near the top, must keep its flat (not be forced round), and the unseen
+// wall stays marked filled either way.
+TEST(MeshSharpen, UnseenHoleWallGoesOntoTheFittedCylinderOnlyWhereTheWallIsRound) {
+    for (double flat_y : {0.0, 3.0}) {
+        const Mesh mesh = mesh_cloud(holed_block_points(flat_y, 5));
+        const MeshCheck check = check_mesh(mesh);
+        std::printf("%s hole: %s\n", flat_y > 0 ? "D-shaped" : "round", check.summary().c_str());
+        ASSERT_TRUE(check.closed_volume);
+        EXPECT_FALSE(check.self_intersecting);
+        // The unseen wall's vertices (y > 1, 1 mm clear of the seen band and of the bottom).
+        size_t unseen = 0, filled = 0, on_flat = 0, on_circle = 0;
+        double worst_off_wall = 0, sum_off_wall = 0;
+        for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+            const cv::Vec3d p(mesh.vertices[v]);
+            const double r = std::hypot(p[0], p[1]);
+            if (p[1] < 1 || p[2] < 1 || p[2] > kSeenFromZ - 1 || r > kHoleRadius + 2.5) continue;
+            ++unseen;
+            filled += mesh.measured[v] == 0;
+            const bool on_flat_side = flat_y > 0 && std::abs(p[0]) < 0.8 * std::sqrt(kHoleRadius * kHoleRadius - flat_y * flat_y);
+            const double off_wall = on_flat_side ? std::abs(p[1] - flat_y) : std::abs(r - kHoleRadius);
+            worst_off_wall = std::max(worst_off_wall, off_wall);
+            sum_off_wall += off_wall;
+            on_flat += on_flat_side;
+            on_circle += (on_flat_side || flat_y <= 0) && std::abs(r - kHoleRadius) < 0.02;
+        }
+        std::printf("%s hole: %zu unseen wall vertices, %zu marked filled; off the true wall: mean %.1f um, worst %.1f um; "
+                    "on the flat side %zu; within 20 um of the circle (on the flat side, for the D): %zu\n",
+                    flat_y > 0 ? "D-shaped" : "round", unseen, filled, 1000 * sum_off_wall / double(std::max<size_t>(unseen, 1)),
+                    1000 * worst_off_wall, on_flat, on_circle);
+        // Measured (2026-11-23): round, 1 168 unseen wall vertices, 958 put on the cylinder and 308
+        // pulled back by the fold check (Poisson narrowed this hole by up to 2.5 mm, half its
+        // radius, so its surface there folds when put on the wall), mean 0.46 mm off the wall;
+        // the D, 307 vertices on its flat side, none on the circle.
+        ASSERT_GT(unseen, 100u);
+        EXPECT_EQ(filled, unseen);  // invented, and said so
+        if (flat_y > 0) {
+            ASSERT_GT(on_flat, 100u);
+            EXPECT_LT(on_circle, on_flat / 50);  // not forced round (by chance a vertex may lie there)
+        } else {
+            EXPECT_GT(on_circle, unseen / 2);  // the round wall's unseen half on its cylinder
+        }
+    }
+}

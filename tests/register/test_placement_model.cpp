@@ -140,9 +140,12 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
 // The built-in part (plain grey), the demo's case. Issue 12's targets: volume within 0.5 %,
 // truth -> mesh mean 15 um, p95 40 um, max 150 um; mesh -> truth p95 40 um, max 150 um. The
 // volume, the means and the p95s are met since edges are sharpened and the hole's unseen
-// middle is put on its fitted wall (sharpen.cpp); the maxima are not (a filled-in spot of the
-// hole's wall that the fold check keeps off it, and a few edges, see docs/multiview.md). The
-// limits below are the figures reached (6.0-6.1 / 14.7-14.8 / 274-336 um and 14.8-15.0 /
+// middle is put on its fitted wall (sharpen.cpp); the maxima are not (the rim where the hole's
+// unseen wall meets the bottom face, and a few edges, see docs/multiview.md). The limits below
+// are the figures reached with a margin: since the unseen wall goes onto the cylinder as one
+// relaxed patch (2026-11-23), 6.0 / 14.6-14.7 / 230-341 um and 14.6-14.8 / 227-424 um in five
+// runs listed in docs/multiview.md (the 1.0-1.4 mm spot on the hole's wall is gone); before
+// that, 6.0-6.1 / 14.7-14.8 / 274-336 um and 14.8-15.0 /
 // 354-1439 um in three runs since corners get
 // a vertex and edge points are judged as the edge's; before that 7.6 / 15.9-16.0 / 400-428 um
 // and 15.9-16.0 / 1379-1507 um in three runs; before the sharpening 21 / 115 / 984 and 88 / 1426)
@@ -157,14 +160,15 @@ TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
     EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.020);
     EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.450);
     EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.020);
-    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 1.8);
+    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.6);
 }
 
 // Beyond the demo part: a stepped block and a hexagon with a peg, meshed by the same recipe.
 // Their views are merged with the true poses (their stitching is judged in test_placements),
 // which keeps this suite's time down and judges the meshing alone. Both placements see all of
 // them: nothing is filled in, and what is left is at a few corners and edges (reached, block /
-// hex, three runs: truth -> mesh mean 1.3 / 1.5-1.6 um, p95 3.0-3.1 / 2.0 um, max 268-292 /
+// hex, four runs since the fold check judges faces on a fitted surface by its normal: max
+// 255-332 / 142-230 um and 198-231 / 163-254 um, mean and p95 as below; before, three runs: truth -> mesh mean 1.3 / 1.5-1.6 um, p95 3.0-3.1 / 2.0 um, max 268-292 /
 // 126-210 um; mesh -> truth p95 2.9-3.0 / 2.0-2.1 um, max 181-254 / 149-193 um; before corners got a vertex and edge points were judged as
 // the edge's: mean 2.3-2.5 / 1.8 um, p95 3.5 / 2.7-2.8 um, max 367-398 / 188-265 um and p95
 // 3.3-3.5 / 2.7-2.8 um, max 244-265 / 184-210 um in three runs; before the sharpening mean

@@ -443,6 +443,93 @@ struct VertexPlanes {
     bool has(int p) const { return std::find(plane.begin(), plane.begin() + count, p) != plane.begin() + count; }
 };
 
+// Walls of a hole that no view saw (filled in: too few points around the vertex), where
+// Poisson narrowed the hole or bulged it out into the material by a millimetre. Such a
+// vertex goes onto the hole's fitted cylinder only where the cylinder has support: between
+// the ends of its seen wall along the axis, at a turn about the axis where the wall was seen
+// at some depth (a hole round at its mouth and flat further down on the side no view saw
+// keeps its flat, and a wall never seen at that turn keeps Poisson's guess), within half a
+// radius of the wall. The patch is grown over the mesh from the vertices whose surface faces
+// the axis (the faces a hole opens on face along it and are left alone), then relaxed on the
+// cylinder (each vertex to the mean of its neighbours, put back on it) so that a bulge
+// projected onto it does not fold: its vertices are invented, only their surface is fitted.
+size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vector<cv::Vec3d>& positions, const PointGrid& grid,
+                       const std::vector<VertexPlanes>& model, const std::vector<cv::Vec3d>& vertex_normal,
+                       double reach, double filled_reach, std::vector<cv::Vec3d>& target, std::vector<int>& surface_of) {
+    const size_t vertex_count = mesh.vertices.size();
+    std::vector<std::vector<int>> neighbours(vertex_count);
+    for (const cv::Vec3i& face : mesh.faces)
+        for (int k = 0; k < 3; ++k) {
+            neighbours[face[k]].push_back(face[(k + 1) % 3]);
+            neighbours[face[k]].push_back(face[(k + 2) % 3]);
+        }
+    for (std::vector<int>& list : neighbours) {
+        std::sort(list.begin(), list.end());
+        list.erase(std::unique(list.begin(), list.end()), list.end());
+    }
+    const double along_axis = std::cos(20.0 * CV_PI / 180.0);
+    std::vector<int> near;
+    size_t moved = 0;
+    for (size_t h = 0; h < regions.planes.size(); ++h) {
+        const Plane& hole = regions.planes[h];
+        if (!hole.cylinder || hole.outwards > 0) continue;
+        const cv::Vec3d e1 = cv::normalize(hole.axis.cross(std::abs(hole.axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
+        const cv::Vec3d e2 = hole.axis.cross(e1);
+        constexpr int kTurns = 36;  // 10 degrees each
+        auto turn_of = [&](const cv::Vec3d& x) {
+            const cv::Vec3d r = x - hole.centre;
+            const double angle = std::atan2(r.dot(e2), r.dot(e1));
+            return std::clamp(int((angle + CV_PI) / (2 * CV_PI) * kTurns), 0, kTurns - 1);
+        };
+        std::array<int, kTurns> seen{};
+        for (size_t i = 0; i < regions.label.size(); ++i)
+            if (regions.label[i] == int(h)) ++seen[turn_of(positions[i])];
+        auto candidate = [&](size_t v) {
+            if (model[v].count != 0 || surface_of[v] >= 0) return false;
+            const cv::Vec3d x(mesh.vertices[v]);
+            const double along = hole.axis.dot(x - hole.centre);
+            const double from_axis = cv::norm((x - hole.centre) - hole.axis * along);
+            if (along < hole.low || along > hole.high || from_axis < 0.5 * hole.radius ||
+                from_axis > hole.radius + std::max(reach, 0.5 * hole.radius) || seen[turn_of(x)] < 5 ||
+                std::abs(vertex_normal[v].dot(hole.axis)) > along_axis)
+                return false;
+            grid.within(x, filled_reach, near);
+            return near.size() < 3;
+        };
+        std::vector<uint8_t> in_patch(vertex_count, 0);
+        std::vector<int> patch;
+        for (size_t seed = 0; seed < vertex_count; ++seed) {
+            if (in_patch[seed] || vertex_normal[seed].dot(hole.normal_at(cv::Vec3d(mesh.vertices[seed]))) < kHoleWallFacing ||
+                !candidate(seed))
+                continue;
+            std::deque<int> queue{int(seed)};
+            in_patch[seed] = 1;
+            while (!queue.empty()) {
+                const int v = queue.front();
+                queue.pop_front();
+                patch.push_back(v);
+                for (int w : neighbours[v])
+                    if (!in_patch[w] && candidate(size_t(w))) {
+                        in_patch[w] = 1;
+                        queue.push_back(w);
+                    }
+            }
+        }
+        for (int v : patch) {
+            target[v] = hole.project(target[v]);
+            surface_of[v] = int(h);
+        }
+        for (int iteration = 0; iteration < 1000; ++iteration)
+            for (int v : patch) {
+                cv::Vec3d mean(0, 0, 0);
+                for (int w : neighbours[v]) mean += target[w];
+                target[v] = hole.project(mean * (1.0 / double(neighbours[v].size())));
+            }
+        moved += patch.size();
+    }
+    return moved;
+}
+
 }  // namespace
 
 SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
@@ -655,31 +742,12 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         std::sort(triple.begin(), triple.end());
         return corner_vertex.count(triple) > 0;
     };
+    // The fitted surface each vertex is put on (-1: a line, a corner, or not moved): the fold
+    // check judges faces lying on one such surface by the surface's own normal.
+    std::vector<int> surface_of(vertex_count, -1);
     for (size_t v = 0; v < vertex_count; ++v) {
         const VertexPlanes& vp = model[v];
-        if (vp.count == 0) {
-            // Surface the points do not make (filled in: too few of them around it), inside a
-            // hole between the parts of its wall that were seen, facing the hole's axis (Poisson
-            // narrows a hole's unseen middle, or bulges it out by a millimetre): onto the hole's
-            // cylinder. The faces a hole opens on face along its axis and are left alone.
-            const cv::Vec3d x = safe[v];
-            grid.within(x, filled_reach, near);
-            if (near.size() >= 3) continue;
-            for (const Plane& hole : regions.planes) {
-                if (!hole.cylinder || hole.outwards > 0) continue;
-                const double along = hole.axis.dot(x - hole.centre);
-                const cv::Vec3d across = (x - hole.centre) - hole.axis * along;
-                const double from_axis = cv::norm(across);
-                if (along < hole.low || along > hole.high || from_axis < 0.5 * hole.radius ||
-                    from_axis > hole.radius + std::max(reach, 0.5 * hole.radius) ||
-                    vertex_normal[v].dot(hole.normal_at(x)) < kHoleWallFacing)
-                    continue;
-                target[v] = hole.project(x);
-                ++report.hole_vertices;
-                break;
-            }
-            continue;
-        }
+        if (vp.count == 0) continue;  // no surface of the points here (filled in: see the holes below)
         if (on_feature[v]) continue;  // a corner
         const cv::Vec3d x = safe[v];
         cv::Vec3d moved;
@@ -711,8 +779,12 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         if (crossed.size() == 1) placed = onto_line(own, regions.planes[crossed[0]], moved, moved);
         else if (crossed.size() == 2) placed = corner_of(own, regions.planes[crossed[0]], regions.planes[crossed[1]], moved);
         else placed = true;
-        if (placed && cv::norm(moved - x) <= longest_move) target[v] = moved;
+        if (placed && cv::norm(moved - x) <= longest_move) {
+            target[v] = moved;
+            if (crossed.empty()) surface_of[v] = vp.plane[0];
+        }
     }
+    report.hole_vertices = fill_hole_walls(mesh, regions, positions, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
 
     // 4. Split the edges that cross a line (neither end on a feature), each once.
     std::unordered_map<long long, int> split_vertex;
@@ -798,6 +870,16 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         const cv::Vec3d a(mesh.vertices[face[0]]), b(mesh.vertices[face[1]]), c(mesh.vertices[face[2]]);
         original_normal[f] = (b - a).cross(c - a);
     }
+    // A face whose corners all go onto one fitted surface is judged by that surface's normal
+    // (a bulge put onto a hole's wall turns its faces by up to 90 degrees); others by the
+    // face they came from.
+    surface_of.resize(target.size(), -1);  // the split vertices: on lines
+    auto reference_normal = [&](size_t f) {
+        const cv::Vec3i& face = faces[f];
+        const int s = surface_of[face[0]];
+        if (s < 0 || surface_of[face[1]] != s || surface_of[face[2]] != s) return original_normal[parent[f]];
+        return regions.planes[s].normal_at((target[face[0]] + target[face[1]] + target[face[2]]) * (1.0 / 3));
+    };
     std::vector<cv::Vec3d> position = target;
     std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
     auto send_back = [&](const cv::Vec3i& face) {
@@ -817,7 +899,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (size_t f = 0; f < faces.size(); ++f) {
             const cv::Vec3i& face = faces[f];
             const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
-            if (normal.dot(original_normal[parent[f]]) < 0) {
+            if (normal.dot(reference_normal(f)) < 0) {
                 changed = send_back(face) || changed;
             }
         }
