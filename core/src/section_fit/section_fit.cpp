@@ -322,12 +322,30 @@ public:
                     consider(j, {a.first, a.count + b.count, fit(circle, a.first, a.count + b.count)}, separate);
                 }
             }
+            // A short piece of a side between two pieces of it (a bump where views overlap) is
+            // judged with both: the three joined into one.
+            const size_t middles = n < 4 ? (pts_.closed || n < 3 ? 0 : 1) : pts_.closed ? n : n - 2;
+            for (size_t j = 0; j < middles; ++j) {
+                const Span& a = spans[j];
+                const Span& b = spans[(j + 1) % n];
+                const Span& c = spans[(j + 2) % n];
+                const double separate = squared_sum(a.shape, a.first, a.count) + squared_sum(b.shape, b.first, b.count) +
+                                        squared_sum(c.shape, c.first, c.count);
+                const long total = a.count + b.count + c.count;
+                for (const bool circle : {false, true}) {
+                    if (circle && !a.shape.circle && !b.shape.circle && !c.shape.circle) continue;
+                    consider(j, {a.first, total, fit(circle, a.first, total)}, separate);
+                }
+            }
             if (best == n) return;
-            const bool joins_next = replacement.count > spans[best].count;
+            // The replacement starts where spans[best] does and takes the next one or two.
+            long left = replacement.count - spans[best].count;
             spans[best] = replacement;
-            if (joins_next) {
-                spans.erase(spans.begin() + long((best + 1) % n));
-                if (best + 1 == n) spans.insert(spans.begin(), spans.back()), spans.pop_back();
+            while (left > 0) {
+                const size_t next = (best + 1) % spans.size();
+                left -= spans[next].count;
+                spans.erase(spans.begin() + long(next));
+                if (next < best) --best;
             }
         }
     }
