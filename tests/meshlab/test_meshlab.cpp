@@ -1053,6 +1053,12 @@ TEST(MeshlabPlugin, FuseFillOpenLeavesTheUnseenSideOpenAndTableClosesIt) {
         const size_t report = run.log.find("PicoScan fused");
         ASSERT_NE(report, std::string::npos) << run.log;
         const std::string line = run.log.substr(report, run.log.find('\n', report) - report);
+        // The layers are handed to the core one at a time; every valid point of every view is fused.
+        size_t view_points = 0;
+        for (const std::string& file : files) view_points += size_t(read_view_ply(directory + "/" + file).valid_count());
+        const std::vector<double> fused_points = numbers_after(line, "layers (", 1);
+        ASSERT_EQ(fused_points.size(), 1u) << line;
+        EXPECT_EQ(size_t(fused_points[0]), view_points) << line;
         const Mesh fused = read_ply(directory + "/" + out);
         const std::vector<float> quality = ascii_ply_quality(directory + "/" + out);
         ASSERT_EQ(quality.size(), fused.vertices.size()) << out;

@@ -1631,3 +1631,71 @@ class PicoScanRegionFitTest(unittest.TestCase):
             self.region_fit.fit_region(self.doc, self.cloud, self.region_fit.pick_region(
                 self.cloud, (0.0, -18.0, 24.0), radius_mm=3.0, grow=False), self.region_fit.region_options(noise_mm=0.02))
         self.assertEqual([o.Name for o in self.doc.Objects], names)
+
+
+class PicoScanFuseFilesTest(unittest.TestCase):
+    """Posed view files (as MeshLab's Save Views for Project writes them) fused into a Mesh feature
+    by the core reading them one at a time, against the same views held whole."""
+
+    VIEWS = (0, 2, 4, 6)  # the demo part's turntable views 90 degrees apart, as the C++ suites cache them
+
+    @classmethod
+    def setUpClass(cls):
+        cache = os.path.join(os.environ.get("PICOSCAN_TEST_CACHE_DIR", ""), "turntable-v3-exact")
+        cached = [os.path.join(cache, "view_%d.ply" % i) for i in cls.VIEWS]
+        if not (os.environ.get("PICOSCAN_TEST_CACHE_DIR") and all(os.path.isfile(f) for f in cached)):
+            raise unittest.SkipTest("no cached turntable views at %s (the C++ suites write them)" % cache)
+        poses = [numpy.asarray(pose) for pose in picoscan.turntable_part_poses(picoscan.TurntablePlan())]
+        cls.folder = tempfile.mkdtemp(prefix="picoscan_fuse_files_")
+        cls.paths, cls.views = [], []
+        for source, index in zip(cached, cls.VIEWS):
+            view = picoscan.read_view_ply(source)
+            view.pose = poses[0] @ numpy.linalg.inv(poses[index])  # into view 0's frame
+            cls.paths.append(os.path.join(cls.folder, "view_%d.ply" % index))
+            picoscan.write_view_ply(view, cls.paths[-1])
+            cls.views.append(view)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder, ignore_errors=True)
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanFuseFilesTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def test_view_files_fuse_as_the_views_held_whole(self):
+        from picoscan_wb.operations import fuse
+
+        options = picoscan.MeshOptions()
+        options.method = picoscan.MeshMethod.AdvancingFront
+        options.sample_spacing_mm = 1.0
+        whole = picoscan.fuse_views(self.views, options)
+        feature, fused = fuse.fuse_view_files(self.doc, self.paths, method="AdvancingFront", sample_spacing_mm=1.0)
+        FreeCAD.Console.PrintMessage("fused %d view files: %d points, %d facets (views held whole: %d points, %d faces)\n"
+                                     % (len(self.paths), len(fused.merged), feature.Mesh.CountFacets, len(whole.merged),
+                                        len(whole.mesh.faces)))
+        self.assertEqual(len(fused.merged), sum(view.valid_count() for view in self.views))
+        self.assertTrue(numpy.array_equal(fused.merged.points, whole.merged.points))
+        self.assertEqual(feature.Mesh.CountFacets, len(fused.mesh.faces))
+        # The advancing front does not repeat itself exactly on the same cloud (a vertex or two).
+        self.assertAlmostEqual(len(fused.mesh.faces), len(whole.mesh.faces), delta=0.01 * len(whole.mesh.faces))
+        # Posed, the four sides surround the part: the mesh spans the true part across (x) and in
+        # depth (z) in view 0's camera frame; the views left in their own frames would not.
+        pose = numpy.asarray(picoscan.turntable_part_poses(picoscan.TurntablePlan())[0])
+        truth = numpy.asarray(picoscan.mechanical_part().vertices, dtype=numpy.float64) @ pose[:3, :3].T + pose[:3, 3]
+        box = feature.Mesh.BoundBox
+        for axis, low, high in ((0, box.XMin, box.XMax), (2, box.ZMin, box.ZMax)):
+            self.assertAlmostEqual(low, truth[:, axis].min(), delta=1.0)
+            self.assertAlmostEqual(high, truth[:, axis].max(), delta=1.0)
+
+    def test_a_missing_file_is_named_and_nothing_is_added(self):
+        from picoscan_wb.operations import fuse
+
+        missing = os.path.join(self.folder, "gone.ply")
+        with self.assertRaisesRegex(picoscan.Error, "gone.ply"):
+            fuse.fuse_view_files(self.doc, self.paths[:1] + [missing])
+        with self.assertRaisesRegex(picoscan.Error, "fill must be one of"):
+            fuse.fuse_view_files(self.doc, self.paths, fill="Cap")
+        self.assertEqual(self.doc.Objects, [])
