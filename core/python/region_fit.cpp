@@ -46,8 +46,14 @@ void bind_region_fit(py::module_& m) {
         .def_readonly("snapped", &RegionFit::snapped)
         .def_readonly("fitted_radius_mm", &RegionFit::fitted_radius_mm)
         .def_readonly("report", &RegionFit::report);
-    m.def("select_region", &select_region, py::arg("cloud"), py::arg("seed"), py::arg("selection") = RegionSelection(),
-          py::call_guard<py::gil_scoped_release>());
+    m.def(
+        "select_region",
+        [](const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return select_region(cloud, seed, selection, callback);
+        },
+        py::arg("cloud"), py::arg("seed"), py::arg("selection") = RegionSelection(), py::arg("progress") = py::none());
     m.def("select_in_polygon", &select_in_polygon, py::arg("cloud"), py::arg("cloud_to_screen"), py::arg("polygon"),
           py::call_guard<py::gil_scoped_release>());
     m.def(

@@ -56,9 +56,16 @@ void bind_section_fit(py::module_& m) {
         .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<SectionPolyline&>().points, self); },
                                "N x 2 (mm) in the cutting plane's frame")
         .def_readonly("closed", &SectionPolyline::closed);
-    m.def("cut_mesh", &cut_mesh, py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
-          py::call_guard<py::gil_scoped_release>(),
-          "The polylines where the plane through origin spanned by u and v cuts the mesh");
+    m.def(
+        "cut_mesh",
+        [](const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return cut_mesh(mesh, origin, u_axis, v_axis, callback);
+        },
+        py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"), py::arg("progress") = py::none(),
+        "The polylines where the plane through origin spanned by u and v cuts the mesh");
     m.def(
         "fit_section",
         [](const py::array& polyline, bool closed, const SectionFitOptions& options) {

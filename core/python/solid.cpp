@@ -46,7 +46,14 @@ void bind_solid(py::module_& m) {
         },
         py::arg("mesh"), py::arg("options") = PlanarFaceOptions(), py::arg("progress") = py::none());
     m.def("merged_face_defects", &merged_face_defects, py::arg("model"), py::arg("options") = PlanarFaceOptions());
-    m.def("write_brep", &write_brep, py::arg("model"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    m.def(
+        "write_brep",
+        [](const PlanarFaceModel& model, const std::string& path, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            write_brep(model, path, callback);
+        },
+        py::arg("model"), py::arg("path"), py::arg("progress") = py::none());
 }
 
 }  // namespace picoscan::python

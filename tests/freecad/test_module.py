@@ -98,6 +98,50 @@ class ModuleTest(unittest.TestCase):
         with self.assertRaisesRegex(picoscan.Error, "cancel"):
             picoscan.decode(self.captures, progress=lambda fraction, stage: False)
 
+    def test_cancel_points_inside_region_fit_cutting_and_thinning(self):
+        """The cancel points added for the workbench's Cancel: within a kind's least-squares fit (not
+        only between kinds), within cutting a mesh, and within Poisson's thinning of the points."""
+        cloud = picoscan.to_point_cloud(self.view)
+        region = list(range(len(cloud.points)))
+        seen = []
+
+        def stop_inside_a_kind(fraction, stage):
+            seen.append((round(fraction, 3), stage))
+            return round(fraction * 5, 6) == round(fraction * 5)  # kinds start at multiples of 0.2
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            picoscan.fit_region(cloud, region, picoscan.RegionFitOptions(), stop_inside_a_kind)
+        # The plane is fitted in one step; the sphere is refined iteratively and stopped in its first step.
+        self.assertEqual(seen, [(0.0, "fitting a plane"), (0.2, "fitting a sphere"), (0.3, "fitting a sphere")])
+
+        options = picoscan.MeshOptions()
+        options.method = picoscan.MeshMethod.Grid
+        options.grid.pixel_step = 1
+        mesh = picoscan.mesh_view(self.view, options)
+        self.assertGreater(len(mesh.vertices), 65536)
+        cuts = []
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            picoscan.cut_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), lambda f, s: cuts.append((f, s)) or False)
+        self.assertEqual(cuts, [(0.0, "cutting the mesh")])
+        self.assertGreater(len(picoscan.cut_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), lambda f, s: True)), 0)
+
+        self.assertGreater(len(cloud.points), 65536)
+        selecting = []
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            picoscan.select_region(cloud, tuple(cloud.points[0]), picoscan.grown_face_selection(),
+                                   lambda f, s: selecting.append(s) or False)
+        self.assertEqual(selecting, ["selecting the region"])
+
+        thinning = []
+
+        def stop_while_thinning(fraction, stage):
+            thinning.append((round(fraction, 3), stage))
+            return not (stage == "thinning the points" and fraction > 0)  # the first report comes before it
+        poisson = picoscan.MeshOptions()
+        poisson.sample_spacing_mm = 0.5
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            picoscan.mesh_points(cloud, poisson, stop_while_thinning)
+        self.assertEqual(thinning, [(0.0, "thinning the points"), (0.05, "thinning the points")])
+
     def test_long_calls_release_the_gil(self):
         # A Python thread keeps counting while the core decodes.
         ticks = []

@@ -28,8 +28,10 @@ struct RegionSelection {
 
 // Indices of the cloud's points in the region picked at `seed` (the nearest point to it starts
 // it). Throws Error("seed", ...) when the cloud is empty, Error("cloud", ...) when growing needs
-// normals it lacks, Error("radius_mm"/"max_gap_mm", ...) for bad options.
-std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection = {});
+// normals it lacks, Error("radius_mm"/"max_gap_mm", ...) for bad options, Error("cancelled", ...)
+// when `progress` answers false (it is told every 65 536 points looked at).
+std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection = {},
+                               const ProgressCallback& progress = nullptr);
 
 // Indices of the cloud's points whose projection by `cloud_to_screen` (a 4 x 4 projective map into
 // screen pixels: x, y, _, w; points with w <= 0 are behind the eye) falls inside `polygon` (a lasso
@@ -76,7 +78,8 @@ struct RegionFit {
 // Throws Error("region", ...) for fewer than 10 points or when no kind fits within
 // reject_factor x noise, Error("constraint", ...) for a constraint the kind cannot take,
 // Error("reference_direction", ...) for a zero direction.
-// `progress` is told before each kind is fitted; answering false cancels (Error("cancelled", ...)).
+// `progress` is told before each kind is fitted and at each iteration of its least-squares fit;
+// answering false cancels (Error("cancelled", ...)).
 RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options = {},
                      const ProgressCallback& progress = nullptr);
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "picoscan/cloud.h"
+#include "picoscan/progress.h"
 
 #include <opencv2/core.hpp>
 #include <string>
@@ -73,9 +74,10 @@ struct SectionPolyline {
     std::vector<cv::Vec2d> points;
     bool closed = false;  // the last point joins the first (which is not repeated)
 };
-// Throws Error("u_axis"/"v_axis", ...) unless they are orthonormal.
+// Throws Error("u_axis"/"v_axis", ...) unless they are orthonormal, Error("cancelled", ...) when
+// `progress` answers false (it is told every 65 536 vertices and triangles).
 std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis,
-                                      const cv::Vec3d& v_axis);
+                                      const cv::Vec3d& v_axis, const ProgressCallback& progress = nullptr);
 
 // Fits one polyline (closed: the last point joins the first; do not repeat the first point).
 // Throws Error("polyline", ...) for fewer than 4 distinct points or non-finite coordinates,

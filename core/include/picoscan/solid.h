@@ -69,7 +69,8 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
 std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options = {});
 
 // Writes the model as an OpenCASCADE BREP solid (vertices, straight edges, planar faces, one
-// shell). Written to a temporary file and renamed.
-void write_brep(const PlanarFaceModel& model, const std::string& path);
+// shell). Written to a temporary file and renamed. `progress` is told every 4096 vertices, edges and
+// faces; answering false stops it (Error("cancelled", ...), nothing written).
+void write_brep(const PlanarFaceModel& model, const std::string& path, const ProgressCallback& progress = nullptr);
 
 }  // namespace picoscan

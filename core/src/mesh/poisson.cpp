@@ -70,6 +70,33 @@ private:
     std::exception_ptr cancel_;
 };
 
+// Thinning has no callback of its own: each point read (by the one-per-cell partition, or by
+// CGAL's grid simplification through this point map: once for the cell's hash, more for
+// comparisons within a bucket) is counted, with a report every few thousand, so that thinning a
+// large cloud can be cancelled (the report throws; the containers stay valid).
+class ThinningReport {
+public:
+    explicit ThinningReport(const StageReport& report) : report_(report) {}
+    void read() {
+        if (++reads_ % 16384 == 0) report_(0.0, "thinning the points");
+    }
+
+private:
+    const StageReport& report_;
+    size_t reads_ = 0;
+};
+struct ThinningPointMap {
+    using key_type = PointWithNormal;
+    using value_type = Point3;
+    using reference = const Point3&;
+    using category = boost::lvalue_property_map_tag;
+    ThinningReport* thinning;
+    friend reference get(const ThinningPointMap& map, const key_type& point) {
+        map.thinning->read();
+        return point.first;
+    }
+};
+
 // The cell of a spacing_mm grid a point falls in, computed as CGAL's grid_simplify_point_set
 // computes it (floor of each coordinate over the spacing), so that cells compare alike.
 struct GridCell {
@@ -112,12 +139,15 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     usable.reserve(usable_count);
     for (size_t i = 0; i < cloud.points.size(); ++i)
         if (kind_of(i) == Kind::Usable) usable.push_back(static_cast<uint32_t>(i));
+    ThinningReport thinning(report);
+    const ThinningPointMap thinning_map{&thinning};
     if (spacing_mm > 0) {
         // One point per cell: the same points, in the same order, as grid_simplify_point_set on a
         // copy of the usable points (the same std::partition with the same test, on indices).
         std::unordered_set<GridCell, GridCellHash> occupied;
         usable.erase(std::partition(usable.begin(), usable.end(),
                                     [&](uint32_t i) {
+                                        thinning.read();
                                         const cv::Vec3f& p = cloud.points[i];
                                         return occupied
                                             .insert({std::floor(double(p[0]) / spacing_mm), std::floor(double(p[1]) / spacing_mm),
@@ -139,7 +169,7 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
     for (double coarser = spacing_mm; max_points > 0 && points.size() > size_t(max_points);) {
         const double shrink = std::sqrt(double(points.size()) / double(max_points)) * 1.05;
         coarser = coarser > 0 ? coarser * shrink : 0.1;
-        points.erase(CGAL::grid_simplify_point_set(points, coarser, CGAL::parameters::point_map(PointMap())), points.end());
+        points.erase(CGAL::grid_simplify_point_set(points, coarser, CGAL::parameters::point_map(thinning_map)), points.end());
     }
     if (spacing_mm <= 0) {
         // Coincident points have no spacing to mesh at (and crash the reconstruction).

@@ -49,7 +49,7 @@ PickedFit fit_at_point(const PointCloud& cloud, const cv::Vec3d& seed, const Pic
                        const ProgressCallback& progress) {
     validate(options);
     if (progress && !progress(0.0, "selecting the region")) throw Error("cancelled", "region fit cancelled");
-    return fit_selected(cloud, select_region(cloud, seed, options.selection), options, progress);
+    return fit_selected(cloud, select_region(cloud, seed, options.selection, progress), options, progress);
 }
 
 PickedFit fit_in_lasso(const PointCloud& cloud, const cv::Matx44d& cloud_to_screen, const std::vector<cv::Vec2d>& polygon,

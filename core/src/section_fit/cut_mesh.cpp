@@ -25,7 +25,13 @@ uint64_t edge_key(int a, int b) { return (uint64_t(std::min(a, b)) << 32) | uint
 }  // namespace
 
 std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis,
-                                      const cv::Vec3d& v_axis) {
+                                      const cv::Vec3d& v_axis, const ProgressCallback& progress) {
+    // A mesh of millions of triangles takes seconds: a cancel point every 65 536 vertices and triangles.
+    const double work = double(mesh.vertices.size() + mesh.faces.size()) + 1;
+    const auto report = [&](size_t done) {
+        if (progress && done % 65536 == 0 && !progress(double(done) / work, "cutting the mesh"))
+            throw Error("cancelled", "cutting the mesh was stopped");
+    };
     if (std::abs(cv::norm(u_axis) - 1) > 1e-9) throw Error("u_axis", "must be a unit vector");
     if (std::abs(cv::norm(v_axis) - 1) > 1e-9 || std::abs(u_axis.dot(v_axis)) > 1e-9)
         throw Error("v_axis", "must be a unit vector perpendicular to u_axis");
@@ -36,6 +42,7 @@ std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin,
     std::vector<int> welded(mesh.vertices.size());
     std::vector<cv::Vec3d> vertices;
     for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+        report(i);
         const auto inserted = index_of.emplace(mesh.vertices[i], int(vertices.size()));
         if (inserted.second) vertices.emplace_back(mesh.vertices[i]);
         welded[i] = inserted.first->second;
@@ -49,6 +56,7 @@ std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin,
     std::unordered_map<uint64_t, cv::Vec2d> crossing;
     std::unordered_map<uint64_t, std::vector<size_t>> segments_at;
     for (size_t f = 0; f < mesh.faces.size(); ++f) {
+        report(mesh.vertices.size() + f);
         int v[3];
         for (int k = 0; k < 3; ++k) {
             const int index = mesh.faces[f][k];

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <tuple>
 #include <utility>
@@ -135,6 +136,14 @@ std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDet
     if (!ransac.detect(parameters, callback)) throw Error("cancelled", "shape detection was stopped");
 
     std::vector<DetectedShape> shapes;
+    // Refining a shape of many inliers takes a while: a cancel point at each least-squares iteration.
+    const double shape_count = std::max<double>(1, double(std::distance(ransac.shapes().begin(), ransac.shapes().end())));
+    StepCheck refine_step;
+    if (progress)
+        refine_step = [&] {
+            if (!progress(0.9 + 0.1 * double(shapes.size()) / shape_count, "shapes"))
+                throw Error("cancelled", "shape detection was stopped");
+        };
     for (const auto& found : ransac.shapes()) {
         DetectedShape shape;
         for (std::size_t index : found->indices_of_assigned_points()) shape.inliers.push_back(std::get<2>(input[index]));
@@ -177,9 +186,9 @@ std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDet
         if (options.refine) {
             switch (shape.kind) {
                 case ShapeKind::Plane: refine_plane(shape, cloud); break;
-                case ShapeKind::Cylinder: refine_cylinder(shape, points); break;
-                case ShapeKind::Sphere: refine_sphere(shape, points); break;
-                case ShapeKind::Cone: refine_cone(shape, points); break;
+                case ShapeKind::Cylinder: refine_cylinder(shape, points, {}, refine_step); break;
+                case ShapeKind::Sphere: refine_sphere(shape, points, {}, refine_step); break;
+                case ShapeKind::Cone: refine_cone(shape, points, {}, refine_step); break;
             }
         }
         // A cone opens along its axis: point it from the apex towards the inliers.

@@ -103,8 +103,11 @@ Freedom freedom_for(const RegionFitOptions& options) {
 
 class Fitter {
 public:
-    Fitter(const std::vector<cv::Vec3d>& points, const std::vector<cv::Vec3d>& normals, const RegionFitOptions& options)
-        : points_(points), normals_(normals), options_(options), reference_(cv::normalize(options.reference_direction)) {}
+    // `step` is called at each least-squares iteration (a cancel point: it may throw).
+    Fitter(const std::vector<cv::Vec3d>& points, const std::vector<cv::Vec3d>& normals, const RegionFitOptions& options,
+           const StepCheck& step)
+        : points_(points), normals_(normals), options_(options), reference_(cv::normalize(options.reference_direction)),
+          step_(step) {}
 
     DetectedShape plane() const {
         DetectedShape shape;
@@ -146,13 +149,13 @@ public:
             shape.point = fit.centre;
             shape.radius_mm = fit.radius_mm;
         }
-        refine_sphere(shape, points_, freedom_for(options_));
+        refine_sphere(shape, points_, freedom_for(options_), step_);
         return shape;
     }
 
     DetectedShape cylinder() const {
         DetectedShape shape = cylinder_start();
-        refine_cylinder(shape, points_, freedom_for(options_));
+        refine_cylinder(shape, points_, freedom_for(options_), step_);
         return shape;
     }
 
@@ -199,7 +202,7 @@ public:
         shape.direction = slope > 0 ? axis : -axis;
         shape.point = cylinder.point - (intercept / slope) * axis;
         shape.half_angle_deg = std::atan(std::abs(slope)) * 180 / kPi;
-        refine_cone(shape, points_, freedom_for(options_));
+        refine_cone(shape, points_, freedom_for(options_), step_);
         if ((mean_of(points_) - shape.point).dot(shape.direction) < 0) shape.direction = -shape.direction;
         return shape.half_angle_deg >= options_.min_cone_half_angle_deg;
     }
@@ -228,6 +231,7 @@ private:
     const std::vector<cv::Vec3d>& normals_;
     const RegionFitOptions& options_;
     cv::Vec3d reference_;
+    const StepCheck& step_;
 };
 
 }  // namespace
@@ -242,7 +246,15 @@ std::string to_string(FitConstraint constraint) {
     return "unknown";
 }
 
-std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection) {
+std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection,
+                               const ProgressCallback& progress) {
+    // Growing over a large radius looks at millions of points: a cancel point every 65 536 of them.
+    size_t looked_at = 0;
+    const double work = 2.0 * double(cloud.points.size()) + 1;  // the nearest point, the ball, then growing
+    const auto look = [&] {
+        if (progress && ++looked_at % 65536 == 0 && !progress(std::min(1.0, double(looked_at) / work), "selecting the region"))
+            throw Error("cancelled", "selecting the region was stopped");
+    };
     if (cloud.points.empty()) throw Error("seed", "the cloud has no points to pick");
     if (!(selection.radius_mm > 0)) throw Error("radius_mm", "must be positive");
     if (selection.grow && !(selection.max_gap_mm > 0)) throw Error("max_gap_mm", "must be positive");
@@ -259,6 +271,7 @@ std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, c
     int nearest = -1;
     double nearest_distance = std::numeric_limits<double>::max();
     for (size_t i = 0; i < cloud.points.size(); ++i) {
+        look();
         const double d = cv::norm(cv::Vec3d(cloud.points[i]) - seed);
         if (d < nearest_distance) nearest_distance = d, nearest = int(i);
     }
@@ -271,8 +284,10 @@ std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, c
         return std::abs(local[0]) <= half[0] && std::abs(local[1]) <= half[1] && std::abs(local[2]) <= half[2];
     };
     std::vector<int> ball;
-    for (size_t i = 0; i < cloud.points.size(); ++i)
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        look();
         if (inside(cv::Vec3d(cloud.points[i]))) ball.push_back(int(i));
+    }
     if (!selection.grow) return ball;
 
     // Grow over the surface: neighbours within the gap whose normals turn less than the step.
@@ -288,6 +303,7 @@ std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, c
     std::unordered_map<int, char> reached{{nearest, 1}};
     std::vector<int> region{nearest};
     for (size_t next = 0; next < region.size(); ++next) {
+        look();
         const int i = region[next];
         const cv::Vec3f& p = cloud.points[i];
         const cv::Vec3f n = cv::normalize(cloud.normals[i]);
@@ -334,10 +350,17 @@ std::vector<int> select_in_polygon(const PointCloud& cloud, const cv::Matx44d& c
 RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, const RegionFitOptions& options,
                      const ProgressCallback& progress) {
     int stage = 0;
+    std::string fitting;
     const auto report_stage = [&](const char* kind) {
-        if (progress && !progress(stage++ / 5.0, std::string("fitting ") + kind))
-            throw Error("cancelled", "region fit cancelled");
+        fitting = std::string("fitting ") + kind;
+        if (progress && !progress(stage++ / 5.0, fitting)) throw Error("cancelled", "region fit cancelled");
     };
+    // Within a kind too: each least-squares iteration of a large region takes a while.
+    StepCheck step;
+    if (progress)
+        step = [&] {
+            if (!progress((stage - 0.5) / 5.0, fitting)) throw Error("cancelled", "region fit cancelled");
+        };
     if (region.size() < 10) throw Error("region", std::to_string(region.size()) + " points picked, at least 10 are needed");
     if (options.constraint != FitConstraint::Free && !(cv::norm(options.reference_direction) > 0))
         throw Error("reference_direction", "a constraint needs the reference feature's direction");
@@ -354,7 +377,7 @@ RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, co
     }
     if (points.size() < 10) throw Error("region", "fewer than 10 measured points picked");
 
-    const Fitter fitter(points, normals, options);
+    const Fitter fitter(points, normals, options, step);
     auto allowed = [&](ShapeKind kind, bool enabled) {
         return (options.automatic ? enabled : options.kind == kind) && takes(kind, options.constraint);
     };
@@ -374,7 +397,8 @@ RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, co
         try {
             candidates.push_back(fitter.sphere());
             result.sphere_rms_mm = rms_of(candidates.back(), points);
-        } catch (const Error&) {  // a flat region: no sphere through it
+        } catch (const Error& error) {  // a flat region: no sphere through it
+            if (error.subject() == "cancelled") throw;
         }
     }
     DetectedShape cylinder;
@@ -422,8 +446,9 @@ RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, co
             snapped.radius_mm = nominal / 2;
             Freedom freedom = freedom_for(options);
             freedom.size = false;
-            if (snapped.kind == ShapeKind::Cylinder) refine_cylinder(snapped, points, freedom);
-            else refine_sphere(snapped, points, freedom);
+            report_stage("the snapped size");
+            if (snapped.kind == ShapeKind::Cylinder) refine_cylinder(snapped, points, freedom, step);
+            else refine_sphere(snapped, points, freedom, step);
             const double snapped_rms = rms_of(snapped, points);
             if (snapped_rms <= threshold) {
                 result.shape = snapped;

@@ -24,7 +24,8 @@ double cone_distance(const cv::Vec3d& point, const cv::Vec3d& apex, const cv::Ve
 }
 
 void least_squares(int parameter_count, const std::function<void(const std::vector<double>&, std::vector<double>&)>& residuals,
-                   const std::function<void(const std::vector<double>&)>& apply, int iterations) {
+                   const std::function<void(const std::vector<double>&)>& apply, int iterations,
+                   const StepCheck& check_step) {
     if (parameter_count == 0) return;
     std::vector<double> delta(parameter_count, 0.0), current, moved;
     residuals(delta, current);
@@ -37,6 +38,7 @@ void least_squares(int parameter_count, const std::function<void(const std::vect
     double cost = cost_of(current), damping = 1e-4;
     const double step = 1e-7;
     for (int iteration = 0; iteration < iterations; ++iteration) {
+        if (check_step) check_step();
         cv::Mat jacobian(count, parameter_count, CV_64F);
         for (int p = 0; p < parameter_count; ++p) {
             std::fill(delta.begin(), delta.end(), 0.0);
@@ -82,7 +84,8 @@ std::vector<cv::Vec3d> tilt_directions(const cv::Vec3d& axis, const Freedom& fre
 
 }  // namespace
 
-void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom) {
+void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom,
+                     const StepCheck& step) {
     cv::Vec3d axis_point = shape.point, axis = shape.direction;
     double radius = shape.radius_mm;
     // Moves: axis tilt (0 to 2), axis shift perpendicular to it (0 or 2), radius (0 or 1).
@@ -107,13 +110,14 @@ void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points,
             out.resize(points.size());
             for (size_t i = 0; i < points.size(); ++i) out[i] = radial_distance(points[i], p, a) - r;
         },
-        [&](const std::vector<double>& d) { moved(d, axis_point, axis, radius); });
+        [&](const std::vector<double>& d) { moved(d, axis_point, axis, radius); }, 30, step);
     shape.point = axis_point;
     shape.direction = axis;
     shape.radius_mm = radius;
 }
 
-void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom) {
+void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom,
+                   const StepCheck& step) {
     cv::Vec3d centre = shape.point;
     double radius = shape.radius_mm;
     const int moves = !freedom.position ? 0 : freedom.along_axis_only ? 1 : 3;
@@ -132,12 +136,13 @@ void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points, c
             out.resize(points.size());
             for (size_t i = 0; i < points.size(); ++i) out[i] = cv::norm(points[i] - c) - r;
         },
-        [&](const std::vector<double>& d) { moved(d, centre, radius); });
+        [&](const std::vector<double>& d) { moved(d, centre, radius); }, 30, step);
     shape.point = centre;
     shape.radius_mm = radius;
 }
 
-void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom) {
+void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom,
+                 const StepCheck& step) {
     cv::Vec3d apex = shape.point, axis = shape.direction;
     double half_angle = shape.half_angle_deg * kPi / 180;
     // Moves: apex (3, or 1 along the axis when the axis line is fixed), axis tilt (0 to 2), half angle (0 or 1).
@@ -159,7 +164,7 @@ void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points, con
             out.resize(points.size());
             for (size_t i = 0; i < points.size(); ++i) out[i] = cone_distance(points[i], p, a, angle);
         },
-        [&](const std::vector<double>& d) { moved(d, apex, axis, half_angle); });
+        [&](const std::vector<double>& d) { moved(d, apex, axis, half_angle); }, 30, step);
     shape.point = apex;
     shape.direction = axis;
     shape.half_angle_deg = half_angle * 180 / kPi;

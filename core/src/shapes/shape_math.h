@@ -20,8 +20,11 @@ double cone_distance(const cv::Vec3d& point, const cv::Vec3d& apex, const cv::Ve
 // Levenberg-Marquardt with a forward-difference Jacobian. The model is re-linearised around its
 // current state at each step: `residuals(delta, out)` evaluates the model moved by `delta`,
 // `apply(delta)` makes that move permanent. Small parameter counts (<= 6) only.
+// `check_step`, when given, is called before each iteration (a cancel point: it may throw).
+using StepCheck = std::function<void()>;
 void least_squares(int parameter_count, const std::function<void(const std::vector<double>&, std::vector<double>&)>& residuals,
-                   const std::function<void(const std::vector<double>&)>& apply, int iterations = 30);
+                   const std::function<void(const std::vector<double>&)>& apply, int iterations = 30,
+                   const StepCheck& check_step = nullptr);
 
 // Which parts of a shape a refinement may move (constraints to another feature, a snapped size).
 struct Freedom {
@@ -32,8 +35,12 @@ struct Freedom {
     bool size = true;                    // radius (cylinder, sphere) or half angle (cone)
 };
 
-void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom = {});
-void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom = {});
-void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom = {});
+// `step` is least_squares' check_step (a cancel point).
+void refine_cylinder(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom = {},
+                     const StepCheck& step = nullptr);
+void refine_sphere(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom = {},
+                   const StepCheck& step = nullptr);
+void refine_cone(DetectedShape& shape, const std::vector<cv::Vec3d>& points, const Freedom& freedom = {},
+                 const StepCheck& step = nullptr);
 
 }  // namespace picoscan::shape_math

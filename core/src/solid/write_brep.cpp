@@ -27,19 +27,28 @@ cv::Vec3d perpendicular(const cv::Vec3d& normal) {
 
 }  // namespace
 
-void write_brep(const PlanarFaceModel& model, const std::string& path) {
+void write_brep(const PlanarFaceModel& model, const std::string& path, const ProgressCallback& progress) {
     if (model.faces.empty()) throw Error(path, "no faces to write");
+    // Tens of thousands of faces take seconds to format: a cancel point every 4096 shapes.
+    const double work = double(model.vertices.size() + 2 * model.edges.size() + 2 * model.faces.size()) + 1;
+    size_t written = 0;
+    const auto wrote = [&] {
+        if (progress && ++written % 4096 == 0 && !progress(double(written) / work, "solid: writing the B-rep"))
+            throw Error("cancelled", "writing the B-rep was stopped");
+    };
     std::string out;
     out.reserve(model.edges.size() * 200 + model.faces.size() * 200 + model.vertices.size() * 90);
     out += "DBRep_DrawableShape\n\nCASCADE Topology V1, (c) Matra-Datavision\nLocations 0\nCurve2ds 0\n";
     append(out, "Curves %zu\n", model.edges.size());
     for (const BrepEdge& edge : model.edges) {
+        wrote();
         const cv::Vec3d a = model.vertices[edge.start], direction = cv::normalize(model.vertices[edge.end] - a);
         append(out, "1 %.17g %.17g %.17g %.17g %.17g %.17g\n", a[0], a[1], a[2], direction[0], direction[1], direction[2]);
     }
     out += "Polygon3D 0\nPolygonOnTriangulations 0\n";
     append(out, "Surfaces %zu\n", model.faces.size());
     for (const BrepFace& face : model.faces) {
+        wrote();
         const cv::Vec3d& o = face.origin;
         const cv::Vec3d n = cv::normalize(face.normal), x = perpendicular(n), y = n.cross(x);
         append(out, "1 %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", o[0], o[1], o[2], n[0],
@@ -55,10 +64,12 @@ void write_brep(const PlanarFaceModel& model, const std::string& path) {
     auto vertex_ref = [&](int v) { return total - size_t(v); };
     auto edge_ref = [&](size_t e) { return total - vertex_count - e; };  // e counted from 0
     for (size_t v = 0; v < vertex_count; ++v) {
+        wrote();
         const cv::Vec3d& p = model.vertices[v];
         append(out, "Ve\n%.17g\n%.17g %.17g %.17g\n0 0\n\n0101101\n*\n", model.vertex_tolerance_mm[v], p[0], p[1], p[2]);
     }
     for (size_t e = 0; e < edge_count; ++e) {
+        wrote();
         const BrepEdge& edge = model.edges[e];
         const double length = cv::norm(model.vertices[edge.end] - model.vertices[edge.start]);
         append(out, "Ed\n %.17g 1 1 0\n1  %zu 0 0 %.17g\n0\n\n0101000\n+%zu 0 -%zu 0 *\n", edge.tolerance_mm, e + 1, length,
@@ -67,6 +78,7 @@ void write_brep(const PlanarFaceModel& model, const std::string& path) {
     size_t place = vertex_count + edge_count;  // shapes written so far
     std::vector<size_t> face_refs;
     for (size_t f = 0; f < model.faces.size(); ++f) {
+        wrote();
         const BrepFace& face = model.faces[f];
         std::string wires;
         for (const auto& wire : face.wires) {

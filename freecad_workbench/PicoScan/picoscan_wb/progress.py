@@ -41,14 +41,30 @@ class FreeCADProgress:
         return not (self.should_cancel and self.should_cancel())
 
 
-def run_in_background(title, work, should_cancel=None):
-    """Runs work(progress) -> result, where progress(fraction, stage) is handed to the core's long calls.
-    In the GUI the work runs on a worker thread (the core releases the GIL) while the GUI thread shows
-    a progress dialog with Cancel and keeps answering events; Cancel makes the core raise
-    picoscan.Error("cancelled: ..."). Headless, it simply runs. Exceptions of the work are re-raised here."""
+def cancel_point(progress, fraction, stage):
+    """Reports `stage` from Python work between core calls, and raises picoscan.Error("cancelled: ...")
+    when progress answers False (the Cancel button), as the core's calls do."""
+    if progress is not None and not progress(fraction, stage):
+        import picoscan
+
+        raise picoscan.Error("cancelled: " + stage)
+
+
+def run_in_background(title, work, should_cancel=None, poll=None):
+    """Runs work(progress) -> result, where progress(fraction, stage) is handed to the core's long calls
+    (and to cancel_point between them). The one way PicoScan runs long work: in the GUI the work runs on
+    a worker thread (the core releases the GIL) while the GUI thread shows a progress dialog with Cancel
+    and keeps answering events; Cancel makes the core raise picoscan.Error("cancelled: ..."). The work
+    must not touch document objects or widgets: read them before, change them after. poll(), if given,
+    runs on the GUI thread while the work runs (and once after), e.g. to show what the work found so
+    far. Headless, it simply runs. Exceptions of the work are re-raised here."""
     if not FreeCAD.GuiUp:
-        with FreeCADProgress(title, should_cancel) as progress:
-            return work(progress)
+        try:
+            with FreeCADProgress(title, should_cancel) as progress:
+                return work(progress)
+        finally:
+            if poll is not None:
+                poll()
     import threading
     import time
 
@@ -77,14 +93,21 @@ def run_in_background(title, work, should_cancel=None):
     dialog.canceled.connect(dialog_cancelled.set)
     worker = threading.Thread(target=run, name="PicoScan " + title, daemon=True)
     worker.start()
+    started = time.monotonic()
     while worker.is_alive():
         if dialog.wasCanceled():  # also when cancelled by a call rather than the button
             dialog_cancelled.set()
+        if not dialog.isVisible() and time.monotonic() - started > 0.3:
+            dialog.show()  # Qt shows it only when it predicts a long wait; Cancel is offered for any wait
         dialog.setLabelText("%s: %s" % (title, state["stage"]) if state["stage"] else title)
         dialog.setValue(int(1000 * max(0.0, min(1.0, state["fraction"]))))
+        if poll is not None:
+            poll()
         QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
         worker.join(0.02)
         time.sleep(0)
+    if poll is not None:
+        poll()
     dialog.reset()
     dialog.setParent(None)  # gone from the main window at once, not at the next deferred delete
     dialog.deleteLater()

@@ -11,7 +11,6 @@ import picoscan
 from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views, show_message
 from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
-from picoscan_wb.progress import FreeCADProgress
 
 
 def output_folder(doc, name):
@@ -107,9 +106,8 @@ class FitPrimitivesCommand(Command):
 
     def run(self):
         source = selected_clouds()[0]
-        with FreeCADProgress("Fitting primitives") as progress:
-            group, created = primitives.fit_primitives(source.Document, cloud_of(source), progress=progress,
-                                                       label="Primitives of " + source.Label, placement=source.Placement)
+        group, created = primitives.fit_primitives(source.Document, cloud_of(source), label="Primitives of " + source.Label,
+                                                   placement=source.Placement)
         for obj, shape in created:
             FreeCAD.Console.PrintMessage("%s: %s\n" % (obj.Label, shape))
         return group
@@ -352,8 +350,7 @@ class EncodingViewCommand(Command):
     def run(self):
         view = selected_scan_views()[0]
         folder = output_folder(view.Document, view.Name + "_encoding")
-        with FreeCADProgress("Decoding") as progress:
-            paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile, progress)
+        paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile)
         for path in paths.values():
             open_image(path)
         return paths

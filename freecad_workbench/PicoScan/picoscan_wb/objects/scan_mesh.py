@@ -88,7 +88,9 @@ class ScanMesh(DocumentObjectProxy):
         options.method = picoscan.MeshMethod.Grid
         options.grid.pixel_step = obj.PixelStep
         options.grid.max_edge_factor = obj.MaxEdgeFactor
-        result = freecad_mesh(picoscan.mesh_view(view, options))
+        # Off the GUI thread like the other methods: a full-resolution view has millions of facets.
+        result = run_in_background("Meshing " + obj.Label, lambda progress: freecad_mesh(
+            picoscan.mesh_view(view, options, progress)))
         return result, "%d facets, %d points, %s" % (result.CountFacets, result.CountPoints,
                                                       "closed" if result.isSolid() else "open (a single view is a surface)")
 

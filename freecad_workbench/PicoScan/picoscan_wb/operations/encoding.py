@@ -5,6 +5,7 @@ import os
 import numpy
 
 import picoscan
+from picoscan_wb.progress import cancel_point, run_in_background
 
 # Colours (BGR) of the pixel status values of picoscan.decode.
 STATUS_COLOURS = {
@@ -27,12 +28,19 @@ def false_colour(values, low, high, valid):
     return image
 
 
-def encoding_images(capture_folder, output_folder, manifest_file="", progress=None):
-    """Decodes the capture set and writes PNGs into output_folder. Returns {name: path}."""
+def encoding_images(capture_folder, output_folder, manifest_file=""):
+    """Decodes the capture set and writes PNGs into output_folder, off the GUI thread with the progress
+    dialog (Cancel: picoscan.Error "cancelled"). Returns {name: path}."""
     if not capture_folder or not os.path.isdir(capture_folder):
         raise picoscan.Error("%s: capture folder does not exist" % (capture_folder or "(no capture folder)"))
+    return run_in_background("Decoding", lambda progress: _write_encoding_images(
+        capture_folder, output_folder, manifest_file, progress))
+
+
+def _write_encoding_images(capture_folder, output_folder, manifest_file, progress):
     captures = picoscan.load_capture_set(capture_folder, manifest_file, progress)
     codes = picoscan.decode(captures, progress=progress)
+    cancel_point(progress, 1.0, "false-colour pictures")
     width, height = captures.sequence.projector_size
     valid = codes.mask > 0
     images = {

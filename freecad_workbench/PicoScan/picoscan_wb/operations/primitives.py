@@ -7,6 +7,7 @@ import FreeCAD
 from FreeCAD import Placement, Rotation, Vector
 
 import picoscan
+from picoscan_wb.progress import run_in_background
 
 
 def _vector(values):
@@ -86,11 +87,13 @@ def detection_options(planes=True, cylinders=True, spheres=True, cones=True, eps
     return options
 
 
-def fit_primitives(doc, cloud, options=None, progress=None, label="Fitted primitives", placement=None):
-    """Detects shapes in `cloud` (picoscan.PointCloud with normals) and adds one Part primitive per
-    shape, in a group; `placement` (the scan object's) moves them from the cloud's frame into the
-    document's. Returns (group, [(part object, picoscan.DetectedShape)])."""
-    shapes = picoscan.detect_shapes(cloud, options or detection_options(), progress)
+def fit_primitives(doc, cloud, options=None, label="Fitted primitives", placement=None):
+    """Detects shapes in `cloud` (picoscan.PointCloud with normals) off the GUI thread with the
+    progress dialog (Cancel: picoscan.Error "cancelled", document unchanged), then adds one Part
+    primitive per shape, in a group; `placement` (the scan object's) moves them from the cloud's
+    frame into the document's. Returns (group, [(part object, picoscan.DetectedShape)])."""
+    options = options or detection_options()
+    shapes = run_in_background("Fitting primitives", lambda progress: picoscan.detect_shapes(cloud, options, progress))
     if not shapes:
         raise picoscan.Error("%s: no plane, cylinder, sphere or cone with enough points was found" % label)
     points = cloud.points

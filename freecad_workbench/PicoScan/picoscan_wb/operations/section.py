@@ -7,6 +7,7 @@ import Part
 from FreeCAD import Placement, Rotation, Vector
 
 import picoscan
+from picoscan_wb.progress import cancel_point, run_in_background
 
 AXES = {"X": Vector(1, 0, 0), "Y": Vector(0, 1, 0), "Z": Vector(0, 0, 1)}
 
@@ -24,47 +25,65 @@ def section_plane(mesh, axis, offset_mm=None):
     return base, normal
 
 
-def section_polylines(mesh_object, axis, offset_mm=None):
-    """(placement of the cutting plane, [(N x 2 array in the plane, closed)]) of the mesh's section."""
-    from picoscan_wb.objects.scan_mesh import core_mesh
+def _plane_axes(base, axis):
+    """(placement of the cutting plane, its u axis, its v axis)."""
+    placement = Placement(base, Rotation(Vector(0, 0, 1), AXES[axis]))
+    return placement, placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
 
-    mesh = mesh_object.Mesh
-    base, normal = section_plane(mesh, axis, offset_mm)
-    placement = Placement(base, Rotation(Vector(0, 0, 1), normal))
-    u_axis, v_axis = placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
-    polylines = picoscan.cut_mesh(core_mesh(mesh), tuple(base), tuple(u_axis), tuple(v_axis))
+
+def section_polylines(mesh, core, label, axis, offset_mm=None, progress=None):
+    """(placement of the cutting plane, [(N x 2 array in the plane, closed)]) of the section of a FreeCAD
+    mesh (`core`: the same as a picoscan.Mesh)."""
+    base, _ = section_plane(mesh, axis, offset_mm)
+    placement, u_axis, v_axis = _plane_axes(base, axis)
+    polylines = picoscan.cut_mesh(core, tuple(base), tuple(u_axis), tuple(v_axis), progress)
     if not polylines:
         raise picoscan.Error("%s: the %s plane at %.2f mm does not cut the mesh" % (
-            mesh_object.Label, axis, getattr(base, axis.lower())))
+            label, axis, getattr(base, axis.lower())))
     # A shorter fragment (a grazing cut through a few facets) holds no shape.
     result = [(line.points, line.closed) for line in polylines if len(line.points) >= 4]
     if not result:
-        raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (
-            mesh_object.Label, axis))
+        raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (label, axis))
     return placement, result
 
 
-def parallel_cuts(mesh_object, axis, offset_mm, band_mm, count=16):
+def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=16, progress=None):
     """The section's 2D points at `count` other positions spread over +- band_mm around the plane
     (the same 2D frame: the plane only moves along its normal); empty when band_mm is 0."""
     if band_mm < 0:
         raise picoscan.Error("Band: must be 0 (one cut) or positive, is %g mm" % band_mm)
     if band_mm == 0:
         return []
-    from picoscan_wb.objects.scan_mesh import core_mesh
-
-    mesh = core_mesh(mesh_object.Mesh)
-    base, _ = section_plane(mesh_object.Mesh, axis, offset_mm)
-    placement = Placement(base, Rotation(Vector(0, 0, 1), AXES[axis]))
-    u_axis, v_axis = placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
+    base, _ = section_plane(mesh, axis, offset_mm)
+    _, u_axis, v_axis = _plane_axes(base, axis)
     cuts = []
     for step in range(count + 1):
         shift = band_mm * (2.0 * step / count - 1.0)
         if step == count // 2:
             continue  # the section itself
         origin = base + AXES[axis] * shift
-        cuts += [line.points for line in picoscan.cut_mesh(mesh, tuple(origin), tuple(u_axis), tuple(v_axis))]
+        this_cut = None if progress is None else (
+            lambda fraction, stage, step=step: progress((step + fraction) / (count + 1.0), "parallel cuts"))
+        cuts += [line.points for line in picoscan.cut_mesh(core, tuple(origin), tuple(u_axis), tuple(v_axis), this_cut)]
     return cuts
+
+
+def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=0.0, progress=None):
+    """(placement of the cutting plane, [picoscan.SectionFit], one per polyline) of a FreeCAD mesh (not
+    a document object: this runs on the worker thread)."""
+    from picoscan_wb.objects.scan_mesh import core_mesh
+
+    cancel_point(progress, 0.0, "cutting the mesh")
+    core = core_mesh(mesh)
+    placement, polylines = section_polylines(mesh, core, label, axis, offset_mm, progress)
+    others = parallel_cuts(mesh, core, axis, offset_mm, band_mm, progress=progress)
+    options = fit_options(tolerance_mm)
+    fits = []
+    for index, (points, closed) in enumerate(polylines):
+        cancel_point(progress, index / float(len(polylines)), "fitting lines and arcs")
+        fits.append(picoscan.fit_extruded_section(points, closed, others, options) if others else
+                    picoscan.fit_section(points, closed, options))
+    return placement, fits
 
 
 def fit_options(tolerance_mm=0.0):
@@ -208,12 +227,11 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     Sketcher and to pad. With band_mm > 0 the outline is taken as prismatic within +- band_mm of the
     plane (a pad's sides): each element is refitted with the points of 16 parallel cuts there
     (picoscan.fit_extruded_section). Raises picoscan.Error (document unchanged) when the plane
-    misses the mesh."""
-    placement, polylines = section_polylines(mesh_object, axis, offset_mm)
-    others = parallel_cuts(mesh_object, axis, offset_mm, band_mm)
-    options = fit_options(tolerance_mm)
-    fits = [picoscan.fit_extruded_section(points, closed, others, options) if others else
-            picoscan.fit_section(points, closed, options) for points, closed in polylines]
+    misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
+    picoscan.Error "cancelled", document unchanged)."""
+    mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
+    placement, fits = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
+        mesh, label, axis, offset_mm, tolerance_mm, band_mm, progress))
     sketch = doc.addObject("Sketcher::SketchObject", name)
     try:
         sketch.Placement = placement
@@ -286,12 +304,17 @@ def hybrid_vs_binary_plot(scan_view_object, axis, position_mm, path):
     from picoscan_wb.operations.reconstruct import reconstruct
 
     hybrid, calibration = scan_view_object.Proxy.scan_view(scan_view_object)
-    binary = reconstruct(scan_view_object.CaptureFolder, scan_view_object.CalibrationFile, scan_view_object.ManifestFile,
-                         binary_only=True, second_capture_folder=getattr(scan_view_object, "SecondCaptureFolder", ""))[0]
-    depths = hybrid.points[..., 2]
-    # Half a pixel footprint at the typical depth: one row (or column) of pixels per profile.
-    half_width = 0.5 * float(numpy.nanmedian(depths)) / hybrid.focal_px()
+    folders = (scan_view_object.CaptureFolder, scan_view_object.CalibrationFile, scan_view_object.ManifestFile,
+               getattr(scan_view_object, "SecondCaptureFolder", ""))
     placement = scan_view_object.Placement
-    profiles = [("hybrid (Gray + phase)", profile_points(hybrid, axis, position_mm, half_width, placement)),
-                ("binary (Gray only)", profile_points(binary, axis, position_mm, half_width, placement))]
-    return plot_profiles(profiles, axis, position_mm, path, camera_frame=placement.isIdentity())
+
+    def work(progress):  # off the GUI thread: decoding the captures again takes seconds
+        binary = reconstruct(*folders[:3], binary_only=True, second_capture_folder=folders[3], progress=progress)[0]
+        depths = hybrid.points[..., 2]
+        # Half a pixel footprint at the typical depth: one row (or column) of pixels per profile.
+        half_width = 0.5 * float(numpy.nanmedian(depths)) / hybrid.focal_px()
+        profiles = [("hybrid (Gray + phase)", profile_points(hybrid, axis, position_mm, half_width, placement)),
+                    ("binary (Gray only)", profile_points(binary, axis, position_mm, half_width, placement))]
+        cancel_point(progress, 1.0, "plotting the profiles")
+        return plot_profiles(profiles, axis, position_mm, path, camera_frame=placement.isIdentity())
+    return run_in_background("Profile plot", work)

@@ -9,23 +9,15 @@ far) runs when the solid has up to CHECK_FACES faces."""
 import os
 import tempfile
 
-import numpy
 import Part
 
 import picoscan
+from picoscan_wb.objects.scan_mesh import core_mesh
+from picoscan_wb.progress import cancel_point, run_in_background
 
 MAX_FACETS = 2000000   # beyond this, Fit primitives or a coarser mesh
 CHECK_FACES = 20000    # up to here OpenCASCADE's BRepCheck confirms the solid too
 VOLUME_TOLERANCE = 1e-3
-
-
-def core_mesh(mesh):
-    """picoscan.Mesh of a FreeCAD mesh (placement applied)."""
-    vertices, facet_list = mesh.Topology
-    result = picoscan.Mesh()
-    result.vertices = numpy.array([tuple(p) for p in vertices], dtype=numpy.float32).reshape(-1, 3)
-    result.faces = numpy.array(facet_list, dtype=numpy.int32).reshape(-1, 3)
-    return result
 
 
 def face_options(merge_planes=True, noise_mm=0.0):
@@ -61,22 +53,29 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
         raise picoscan.Error("%s: %d facets, more than %d; use a coarser mesh or Fit primitives" % (
             label, mesh.CountFacets, MAX_FACETS))
     try:
+        # Through a binary STL, which releases the GIL (mesh.Topology builds Python objects holding it).
         model = picoscan.planar_face_model(core_mesh(mesh), face_options(merge_planes, noise_mm), progress)
     except picoscan.Error as error:
         raise picoscan.Error("%s: %s" % (label, str(error).replace("mesh: ", "", 1))) from None
+    # FreeCAD's steps release the GIL but cannot be stopped inside: Cancel is heard between them.
+    cancel_point(progress, 0.0, "solid: self-intersections")
     if mesh.hasSelfIntersections():
         raise picoscan.Error("%s: the mesh intersects itself; repair it first" % label)
     with tempfile.TemporaryDirectory() as folder:
         path = os.path.join(folder, "solid.brep")
-        picoscan.write_brep(model, path)
+        picoscan.write_brep(model, path, progress)
+        cancel_point(progress, 0.0, "solid: reading the B-rep")
         shape = Part.Shape()
         shape.read(path)
     volume = model.mesh_volume_mm3
+    cancel_point(progress, 0.0, "solid: volume")
     if shape.ShapeType != "Solid" or abs(shape.Volume - volume) > VOLUME_TOLERANCE * volume:
         raise _MergedFacesRefused("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
             label, shape.Volume, volume))
     if check_valid is None:
         check_valid = len(model.faces) <= CHECK_FACES
+    if check_valid:
+        cancel_point(progress, 0.0, "solid: OpenCASCADE's check")
     if check_valid and not shape.isValid():
         if merge_planes:
             raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged planar faces invalid" % label)
@@ -91,8 +90,11 @@ def solid_of_mesh(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=
 
 def make_solid(doc, mesh_object, merge_planes=True, noise_mm=0.0):
     """Adds a Part::Feature holding the solid. Raises picoscan.Error (document unchanged) when the
-    mesh cannot bound one; the message says why and what to do instead."""
-    solid, model, note = solid_with_model(mesh_object.Mesh, mesh_object.Label, merge_planes, noise_mm)
+    mesh cannot bound one; the message says why and what to do instead. The solid is made off the
+    GUI thread with the progress dialog (run_in_background); Cancel leaves the document unchanged."""
+    mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
+    solid, model, note = run_in_background("Making a solid of " + label, lambda progress: solid_with_model(
+        mesh, label, merge_planes, noise_mm, progress))
     feature = doc.addObject("Part::Feature", mesh_object.Name + "Solid")
     feature.Label = mesh_object.Label + " solid"
     feature.Shape = solid

@@ -8,7 +8,7 @@ from PySide import QtGui
 
 import picoscan
 from picoscan_wb.commands.base import INPUT_ERRORS, show_message
-from picoscan_wb.progress import FreeCADProgress
+from picoscan_wb.progress import cancel_point, run_in_background
 
 
 class CalibrateTaskPanel:
@@ -67,26 +67,33 @@ class CalibrateTaskPanel:
                 raise picoscan.Error("%s: capture folder does not exist" % folder)
         self.report.clear()
         self.report_lines = []
-        observations = []
-        with FreeCADProgress("Observing board poses") as progress:
+        found = []  # report lines the worker adds; shown on the GUI thread as they come
+
+        def show_found():
+            for line in found[len(self.report_lines):]:
+                self.log(line)
+
+        def work(progress):  # off the GUI thread: loading and observing every pose takes seconds each
+            observations = []
             for index, folder in enumerate(folders):
+                cancel_point(progress, index / float(len(folders)), "observing board poses")
                 observation = picoscan.observe_pose(picoscan.load_capture_set(folder), board)
                 observations.append(observation)
-                self.log("%s: %d corners, %d with projector points%s" % (
+                found.append("%s: %d corners, %d with projector points%s" % (
                     os.path.basename(folder), observation.corner_count, observation.projector_corner_count,
                     " - " + observation.problem if observation.problem else ""))
-                progress((index + 1) / len(folders), "poses")
-        report = picoscan.calibrate_rig(observations)
-        self.log("camera RMS %.3f px, projector RMS %.3f px, stereo RMS %.3f px" % (
-            report.camera_rms_px, report.projector_rms_px, report.stereo_rms_px))
-        for pose in report.poses:
-            if not pose.used:
-                self.log("%s not used: %s" % (pose.name, pose.reason))
-        for warning in report.warnings:
-            self.log("warning: " + warning)
-        picoscan.write_calibration(report.calibration, output)
-        picoscan.write_calibration_report(report, board, os.path.splitext(output)[0] + "_report.html")
-        self.log("written: " + output)
+            report = picoscan.calibrate_rig(observations, progress=progress)
+            found.append("camera RMS %.3f px, projector RMS %.3f px, stereo RMS %.3f px" % (
+                report.camera_rms_px, report.projector_rms_px, report.stereo_rms_px))
+            found.extend("%s not used: %s" % (pose.name, pose.reason) for pose in report.poses if not pose.used)
+            found.extend("warning: " + warning for warning in report.warnings)
+            cancel_point(progress, 1.0, "writing the calibration")
+            picoscan.write_calibration(report.calibration, output)
+            picoscan.write_calibration_report(report, board, os.path.splitext(output)[0] + "_report.html")
+            found.append("written: " + output)
+            return report
+
+        report = run_in_background("Calibrating", work, poll=show_found)
         self.result = report
         return report
 

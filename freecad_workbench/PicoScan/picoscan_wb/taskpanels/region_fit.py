@@ -219,7 +219,8 @@ class FitRegionTaskPanel:
         self.timer.start()
 
     def selected_region(self):
-        """Indices of the region's points (the same selection the fit will use)."""
+        """Indices of the region's points (the same selection the fit will use), selected off the GUI
+        thread (a large cloud takes a while; the progress dialog shows only after 0.3 s)."""
         cloud = self.points()
         options = self.options()
         if self.region_kind() == "lasso":
@@ -228,10 +229,12 @@ class FitRegionTaskPanel:
             import numpy
 
             matrix = numpy.array(self.source.Placement.toMatrix().A).reshape(4, 4)
-            return picoscan.select_in_polygon(cloud, [tuple(r) for r in self.lasso_matrix @ matrix],
-                                              self.lasso)
-        local = self.source.Placement.inverse().multVec(FreeCAD.Vector(*self.seed))
-        return picoscan.select_region(cloud, tuple(local), options.selection)
+            screen, polygon = [tuple(r) for r in self.lasso_matrix @ matrix], list(self.lasso)
+            select = lambda progress: picoscan.select_in_polygon(cloud, screen, polygon)  # noqa: E731
+        else:
+            local = tuple(self.source.Placement.inverse().multVec(FreeCAD.Vector(*self.seed)))
+            select = lambda progress: picoscan.select_region(cloud, local, options.selection, progress)  # noqa: E731
+        return run_in_background("Selecting the region", select)
 
     def update_preview(self):
         try:
@@ -272,6 +275,7 @@ class FitRegionTaskPanel:
 
     # ---- OK and Cancel ----
     def compute(self):
+        self.timer.stop()  # no preview starts while the fit runs
         options = self.options()
         cloud = self.points()
         placement = self.source.Placement

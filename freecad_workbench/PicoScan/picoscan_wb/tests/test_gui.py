@@ -735,6 +735,95 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertTrue(view.isValid())
         self.assertTrue(FreeCADGui.Control.activeDialog())  # the panel stays open for another try
 
+    def document_state(self):
+        """What Cancel must leave as it was: the objects, their recompute state, the undo stack."""
+        return ([(o.Name, tuple(sorted(o.State))) for o in self.doc.Objects], self.doc.UndoCount)
+
+    def cancelled_while_the_gui_answers(self, name, start, cancel_after_s, max_cancel_s=1.0):
+        """Runs start() (a command on the current selection, a panel's OK), presses Cancel on its
+        progress dialog after cancel_after_s while a 20 ms timer measures how the GUI answers; asserts
+        that the work stopped within max_cancel_s with a "cancelled" message and left the document as
+        it was. Returns the figures as a line."""
+        from PySide2 import QtCore
+
+        for _ in range(3):  # what is pending (a new object drawn, a panel laid out) is not the work measured
+            process_events()
+        before = self.document_state()
+        ticks, record = [], {}
+        timer = QtCore.QTimer()
+        timer.timeout.connect(lambda: ticks.append(time.monotonic()))
+        timer.start(20)
+        self.cancel_after(cancel_after_s, record)
+        started = time.monotonic()
+        try:
+            start()
+        finally:
+            ended = time.monotonic()
+            timer.stop()
+        process_events()
+        self.assertEqual(record.get("dialog"), "visible", "%s: the progress dialog was not shown" % name)
+        during = numpy.array([t for t in ticks if started <= t <= ended])
+        gaps = numpy.diff(numpy.concatenate([[started], during, [ended]]))
+        figures = "%s: %d timer events (every 20 ms) in %.2f s, longest gap %.3f s; Cancel at %.2f s stopped it %.3f s later" % (
+            name, len(during), ended - started, gaps.max(), record["pressed"] - started, ended - record["pressed"])
+        FreeCAD.Console.PrintMessage(figures + "\n")
+        self.assertTrue(any("cancelled" in text for _, _, text in self.messages), (name, self.messages))
+        self.assertLess(ended - record["pressed"], max_cancel_s, figures)
+        # A blocked GUI thread shows one gap as long as the work; a GUI that answers, none above a second.
+        self.assertLess(gaps.max(), 1.0, figures)
+        self.assertGreaterEqual(len(during), int(ended - started), figures)
+        self.assertEqual(self.document_state(), before)
+        return figures
+
+    def test_k3_make_solid_answers_events_and_cancel_leaves_the_document_as_it_was(self):
+        """Make solid of a 64 440-facet sphere (every facet a face: the core's face building alone takes
+        seconds, the whole command tens of seconds) runs off the GUI thread; Cancel stops it."""
+        import Mesh
+
+        sphere = self.doc.addObject("Mesh::Feature", "BigSphere")
+        sphere.Mesh = Mesh.createSphere(10.0, 180)
+        sphere.ViewObject.Visibility = False  # drawing it (seconds under Xvfb's software GL) is not the work measured
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(sphere)
+        self.cancelled_while_the_gui_answers("Make solid", lambda: FreeCADGui.runCommand("PicoScan_MakeSolid"), 1.0)
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Feature"], [])
+
+    def test_k4_cross_section_with_band_answers_events_and_cancel_leaves_the_document_as_it_was(self):
+        """Cross-section with Band of a 205 000-facet sphere (17 cuts of it, each reporting every 65 536
+        vertices and triangles) runs off the GUI thread; Cancel stops it, the panel stays open."""
+        import Mesh
+
+        sphere = self.doc.addObject("Mesh::Feature", "FineSphere")
+        sphere.Mesh = Mesh.createSphere(10.0, 320)
+        sphere.ViewObject.Visibility = False  # drawing it is not the work measured
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(sphere)
+        FreeCADGui.runCommand("PicoScan_CrossSection")
+        process_events()
+        panel = COMMANDS["PicoScan_CrossSection"].panel
+        panel.band.setValue(5.0)
+        accepted = []
+        self.cancelled_while_the_gui_answers("Cross-section", lambda: accepted.append(panel.accept()), 1.0)
+        self.assertEqual(accepted, [False])
+        self.assertTrue(FreeCADGui.Control.activeDialog())  # the panel stays open for another try
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"], [])
+
+    def test_k5_fit_primitives_answers_events_and_cancel_leaves_the_document_as_it_was(self):
+        """Fit primitives on the shaft's ScanView (462 613 points: CGAL's RANSAC takes 8 to 14 s) runs
+        off the GUI thread; Cancel stops it and adds nothing. CGAL reports only between its iterations:
+        its octree and single iterations (seconds each on this cloud under load) cannot be stopped
+        inside, hence the wider bound."""
+        view = scan_view.create(self.doc, self.captures, self.calibration, name="ShaftView")
+        view.ViewObject.Visibility = False  # drawing it is not the work measured
+        self.doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        self.cancelled_while_the_gui_answers("Fit primitives", lambda: FreeCADGui.runCommand("PicoScan_FitPrimitives"),
+                                             1.0, max_cancel_s=10.0)
+        self.assertEqual([o for o in self.doc.Objects if o.TypeId.startswith("Part::")], [])
+
     def test_z_scan_mesh_and_screenshot(self):
         FreeCADGui.runCommand("PicoScan_Scan")
         process_events()
