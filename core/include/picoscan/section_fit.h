@@ -17,8 +17,14 @@ namespace picoscan {
 enum class SectionElementKind { Line, Arc, Circle };
 
 struct SectionFitOptions {
-    // Largest distance of a point to its element. 0: 5 x the noise estimated from the polyline
-    // (the median RMS of line fits over noise_window_mm), at least min_tolerance_mm.
+    // Largest distance of a point to its element while the elements are grown. 0: 5 x the noise
+    // estimated from the polyline (the median RMS of line fits, or circle fits where they fit
+    // twice as well, over noise_window_mm), at least min_tolerance_mm. A cut of a scan mesh
+    // wavers along a side by more than that short-range noise, so neighbours are then joined
+    // where one fit raises their squared residuals less than 2 times with an RMS still within
+    // the tolerance: such an element's largest distance (max_mm) may exceed the tolerance, its
+    // RMS never does. Elements spanning less than 1 mm, and arcs of less than 1 mm radius between
+    // lines, are taken as corners a mesh rounded and go to their neighbours.
     double tolerance_mm = 0;
     double min_tolerance_mm = 0.005;
     double noise_window_mm = 2.0;     // the noise is measured over runs this long (at least 9 points)

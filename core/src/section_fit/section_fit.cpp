@@ -192,13 +192,30 @@ public:
             const Span line = grow(false, position, limit);
             const Span arc = grow(true, position, limit);
             Span chosen = arc.count > line.count * 1.1 ? arc : line;
-            if (chosen.count == 0) {
-                // Too few points left for an element of their own: they join the previous one.
-                if (spans.empty())
-                    throw Error("polyline", "no line or arc fits its first points within the tolerance of " +
+            if (chosen.count == 0 && spans.empty()) {
+                // Stray points before the first element: they join it (its fit is made without them).
+                if (limit <= std::min(options_.min_line_points, options_.min_arc_points))
+                    throw Error("polyline", "no line or arc fits its points within the tolerance of " +
                                                 std::to_string(tolerance_) + " mm");
-                spans.back().count += limit;
-                break;
+                ++position;
+                continue;
+            }
+            if (spans.empty()) {
+                chosen.count += chosen.first - start;
+                chosen.first = start;
+            }
+            if (chosen.count == 0) {
+                const long fewest = std::min(options_.min_line_points, options_.min_arc_points);
+                if (limit < fewest) {  // too few points left for an element of their own
+                    spans.back().count += limit;
+                    break;
+                }
+                // No element starts here (a stray point at a corner): it joins the previous element and
+                // the next one starts after it. (Giving it all the points left made one "line" of a
+                // whole outline.) Whether every element holds its points is checked at the end.
+                spans.back().count += 1;
+                position += 1;
+                continue;
             }
             spans.push_back(chosen);
             position += chosen.count;
@@ -270,15 +287,125 @@ public:
         }
     }
 
+    // Splits and arcs the points do not ask for. A cut of a scan mesh wavers along a side (views
+    // merged with small offsets, noise shared along each facet) by more than its short-range
+    // noise, so the tolerance taken from that noise splits a straight side into pieces, some
+    // fitted as very flat arcs. A split stays only where joining its two neighbours into one line
+    // (or circle, when one is an arc) raises their squared residuals more than kSplitGain times,
+    // or the joined fit's RMS above the tolerance; an arc stays an arc on the same terms. A real
+    // corner, chamfer or fillet raises them hundreds of times.
+    void drop_unfounded_splits(std::vector<Span>& spans) const {
+        constexpr double kSplitGain = 2.0;
+        for (;;) {
+            const size_t n = spans.size();
+            double best_gain = kSplitGain;
+            size_t best = n;
+            Span replacement;
+            const auto consider = [&](size_t j, const Span& joined, double separate) {
+                const double sum = squared_sum(joined.shape, joined.first, joined.count);
+                if (!fits_on_average(joined) || sum > best_gain * std::max(separate, floor_sum(joined.count))) return;
+                best_gain = sum / std::max(separate, floor_sum(joined.count));
+                best = j;
+                replacement = joined;
+            };
+            for (size_t j = 0; j < n; ++j) {  // an arc that is as good as a line
+                const Span& a = spans[j];
+                if (a.shape.circle) consider(j, {a.first, a.count, fit(false, a.first, a.count)}, squared_sum(a.shape, a.first, a.count));
+            }
+            const size_t joints = n < 2 ? 0 : pts_.closed ? n : n - 1;
+            for (size_t j = 0; j < joints; ++j) {
+                const Span& a = spans[j];
+                const Span& b = spans[(j + 1) % n];
+                const double separate = squared_sum(a.shape, a.first, a.count) + squared_sum(b.shape, b.first, b.count);
+                for (const bool circle : {false, true}) {
+                    if (circle && !a.shape.circle && !b.shape.circle) continue;
+                    consider(j, {a.first, a.count + b.count, fit(circle, a.first, a.count + b.count)}, separate);
+                }
+            }
+            // A short piece of a side between two pieces of it (a bump where views overlap) is
+            // judged with both: the three joined into one.
+            const size_t middles = n < 4 ? (pts_.closed || n < 3 ? 0 : 1) : pts_.closed ? n : n - 2;
+            for (size_t j = 0; j < middles; ++j) {
+                const Span& a = spans[j];
+                const Span& b = spans[(j + 1) % n];
+                const Span& c = spans[(j + 2) % n];
+                const double separate = squared_sum(a.shape, a.first, a.count) + squared_sum(b.shape, b.first, b.count) +
+                                        squared_sum(c.shape, c.first, c.count);
+                const long total = a.count + b.count + c.count;
+                for (const bool circle : {false, true}) {
+                    if (circle && !a.shape.circle && !b.shape.circle && !c.shape.circle) continue;
+                    consider(j, {a.first, total, fit(circle, a.first, total)}, separate);
+                }
+            }
+            if (best == n) return;
+            // The replacement starts where spans[best] does and takes the next one or two.
+            long left = replacement.count - spans[best].count;
+            spans[best] = replacement;
+            while (left > 0) {
+                const size_t next = (best + 1) % spans.size();
+                left -= spans[next].count;
+                spans.erase(spans.begin() + long(next));
+                if (next < best) --best;
+            }
+        }
+    }
+
+    // Elements spanning less than kSmallestElementMm, and arcs of a smaller radius between two
+    // lines (or a line and an open end), are corners a mesh rounded or frayed (its surface
+    // follows an edge only to within a few sample spacings), not fillets or facets: their points
+    // go to the neighbours, half to each, for refine() to place the split.
+    void drop_rounded_corners(std::vector<Span>& spans) const {
+        constexpr double kSmallestElementMm = 1.0;
+        for (size_t j = 0; j < spans.size() && spans.size() > 1;) {
+            const size_t n = spans.size();
+            const bool has_before = pts_.closed || j > 0, has_after = pts_.closed || j + 1 < n;
+            const Span& arc = spans[j];
+            const bool lines_around = (!has_before || !spans[(j + n - 1) % n].shape.circle) &&
+                                      (!has_after || !spans[(j + 1) % n].shape.circle);
+            const bool tiny = cv::norm(pts_[arc.first + arc.count - 1] - pts_[arc.first]) < kSmallestElementMm;
+            const bool small_arc = arc.shape.circle && arc.shape.radius < kSmallestElementMm && lines_around;
+            if (!tiny && !small_arc) {
+                ++j;
+                continue;
+            }
+            const long to_before = has_after ? (has_before ? arc.count / 2 : 0) : arc.count;
+            if (has_before) spans[(j + n - 1) % n].count += to_before;
+            if (has_after) {
+                Span& next = spans[(j + 1) % n];
+                next.first -= arc.count - to_before;
+                next.count += arc.count - to_before;
+            }
+            for (const size_t k : {(j + n - 1) % n, (j + 1) % n})
+                if (k != j) spans[k].shape = fit(spans[k].shape.circle, spans[k].first, spans[k].count);
+            spans.erase(spans.begin() + long(j));
+        }
+    }
+
     const Points& points() const { return pts_; }
 
 private:
+    double squared_sum(const Shape& shape, long first, long count) const {
+        double sum = 0;
+        for (long i = first; i < first + count; ++i) sum += std::pow(shape.distance(pts_[i]), 2);
+        return sum;
+    }
+    // Noise-free points fit exactly: below a tenth of the tolerance, residuals count as that.
+    double floor_sum(long count) const { return double(count) * std::pow(0.1 * tolerance_, 2); }
+    bool fits_on_average(const Span& span) const {
+        const Shape& shape = span.shape;
+        if (!shape.ok) return false;
+        if (shape.circle && (shape.radius > options_.max_arc_radius_mm ||
+                             std::abs(swept_angle(pts_, span.first, span.count, shape.centre)) > 2 * kPi + 0.1))
+            return false;
+        return std::sqrt(squared_sum(shape, span.first, span.count) / double(span.count)) <= tolerance_;
+    }
+
     Points pts_;
     const SectionFitOptions& options_;
     double tolerance_;
 };
 
-// The noise of the polyline: the median RMS of line fits over short windows (corners and curves
+// The noise of the polyline: the median RMS of line (or circle) fits over short windows (corners and curves
 // only raise a few windows, so the median sees the straight, noisy runs). A window spans at least
 // window_mm and 9 points: a cut through a mesh has many points per facet, whose noise is shared by
 // neighbours, so a window of a few points would see too little of it.
@@ -293,12 +420,18 @@ double estimate_noise(const Points& pts, double window_mm) {
             ++count;
         }
         if (count < 9 || (!pts.closed && i + count > n)) break;
-        const Shape line = fit_line(pts, i, count);
-        if (line.ok) {
+        // A line, or a circle where it fits at least twice as well: on a small hole or a fillet a
+        // line's residuals are the curve's sagitta, not noise (a 10 mm hole read as 0.17 mm of
+        // noise); on a straight run a circle would follow the waviness and read too little.
+        double line_rms = HUGE_VAL, circle_rms = HUGE_VAL;
+        for (const Shape& shape : {fit_line(pts, i, count), fit_circle(pts, i, count)}) {
+            if (!shape.ok) continue;
             double sum = 0;
-            for (long k = i; k < i + count; ++k) sum += std::pow(line.distance(pts[k]), 2);
-            rms.push_back(std::sqrt(sum / double(count - 2)));
+            for (long k = i; k < i + count; ++k) sum += std::pow(shape.distance(pts[k]), 2);
+            (shape.circle ? circle_rms : line_rms) = std::sqrt(sum / double(count - (shape.circle ? 3 : 2)));
         }
+        const double best = circle_rms < 0.5 * line_rms ? circle_rms : line_rms;
+        if (best < HUGE_VAL) rms.push_back(best);
         i += std::max<long>(1, count / 3);
     }
     if (rms.empty()) return 0;
@@ -698,6 +831,12 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
     fitter.refine(spans);
     fitter.merge(spans);
     fitter.refine(spans);
+    for (size_t before = 0; before != spans.size();) {  // each pass can make more of the other's cases
+        before = spans.size();
+        fitter.drop_rounded_corners(spans);
+        fitter.drop_unfounded_splits(spans);
+        fitter.refine(spans);
+    }
     // The final fits leave out a tenth of the points at each end that is a corner or an open end:
     // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
     // a point off. Tangent ends keep their points: a fillet needs all of its short arc.
@@ -751,6 +890,22 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
             trimmed[before].shape = line_before;
             trimmed[j].shape = arc;
             trimmed[after].shape = line_after;
+        }
+        // An element whose fitted points (its ends trimmed as above) scatter by more than the
+        // tolerance is not a fit: refuse it rather than hand it over (a wrong sketch must not look
+        // like a measured one).
+        for (size_t j = 0; j < count; ++j) {
+            const auto [first, number] = fitted[j];
+            double sum = 0;
+            for (long i = first; i < first + number; ++i) sum += std::pow(trimmed[j].shape.distance(pts[i]), 2);
+            const double rms = std::sqrt(sum / double(std::max<long>(number, 1)));
+            if (rms > result.tolerance_mm)
+                throw Error("polyline", std::string("the ") + (trimmed[j].shape.circle ? "arc" : "line") +
+                                            " fitted to points " + std::to_string(((first % n) + n) % n) + " to " +
+                                            std::to_string(((first + number - 1) % n + n) % n) + " has an RMS of " +
+                                            std::to_string(rms) + " mm, above the tolerance of " +
+                                            std::to_string(result.tolerance_mm) +
+                                            " mm: the section cannot be split into lines and arcs there");
         }
         spans = trimmed;
     }
