@@ -193,12 +193,20 @@ public:
             const Span arc = grow(true, position, limit);
             Span chosen = arc.count > line.count * 1.1 ? arc : line;
             if (chosen.count == 0) {
-                // Too few points left for an element of their own: they join the previous one.
                 if (spans.empty())
                     throw Error("polyline", "no line or arc fits its first points within the tolerance of " +
                                                 std::to_string(tolerance_) + " mm");
-                spans.back().count += limit;
-                break;
+                const long fewest = std::min(options_.min_line_points, options_.min_arc_points);
+                if (limit < fewest) {  // too few points left for an element of their own
+                    spans.back().count += limit;
+                    break;
+                }
+                // No element starts here (a stray point at a corner): it joins the previous element and
+                // the next one starts after it. (Giving it all the points left made one "line" of a
+                // whole outline.) Whether every element holds its points is checked at the end.
+                spans.back().count += 1;
+                position += 1;
+                continue;
             }
             spans.push_back(chosen);
             position += chosen.count;
@@ -751,6 +759,22 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
             trimmed[before].shape = line_before;
             trimmed[j].shape = arc;
             trimmed[after].shape = line_after;
+        }
+        // An element whose fitted points (its ends trimmed as above) scatter by more than the
+        // tolerance is not a fit: refuse it rather than hand it over (a wrong sketch must not look
+        // like a measured one).
+        for (size_t j = 0; j < count; ++j) {
+            const auto [first, number] = fitted[j];
+            double sum = 0;
+            for (long i = first; i < first + number; ++i) sum += std::pow(trimmed[j].shape.distance(pts[i]), 2);
+            const double rms = std::sqrt(sum / double(std::max<long>(number, 1)));
+            if (rms > result.tolerance_mm)
+                throw Error("polyline", std::string("the ") + (trimmed[j].shape.circle ? "arc" : "line") +
+                                            " fitted to points " + std::to_string(((first % n) + n) % n) + " to " +
+                                            std::to_string(((first + number - 1) % n + n) % n) + " has an RMS of " +
+                                            std::to_string(rms) + " mm, above the tolerance of " +
+                                            std::to_string(result.tolerance_mm) +
+                                            " mm: the section cannot be split into lines and arcs there");
         }
         spans = trimmed;
     }
