@@ -1609,14 +1609,13 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
     """Issue 14 item 4 from the simulated scan itself: the demo part's nine turntable views (the core's
     turntable session, 16 phase shifts, camera noise sigma = 1 DN, cleaned; the cache the C++ suites
     fill) merged into one cloud and put in its part frame (the core's part_frame on the turntable's
-    axis). The outline is a sketch drawn on the four side planes fitted at picked points, padded from
+    axis). The outline is a fitted Cross-section (Band) of a Poisson mesh of the scan, padded from
     the part frame's base to the fitted top plane; the hole a Pocket and the boss a Pad of the
     cylinders Fit primitives finds, the boss up to its fitted top; the chamfer a PartDesign Chamfer
     whose legs come from three fitted planes; then the deviation map of the scan against that body.
     Each dimension is compared with the simulator's truth. Not done here (docs/freecad.md): the
-    outline from a fitted Cross-section of a Poisson mesh of this scan (the core's fit_section splits
-    it wrongly at most heights), and the views merged by Stitch instead of the simulator's poses
-    (stitching nine views took 140 s under load, more than this suite can spend)."""
+    views merged by Stitch instead of the simulator's poses (stitching nine views took 140 s under
+    load, more than this suite can spend)."""
 
     VIEWS = range(9)
 
@@ -1691,6 +1690,15 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         scan.Points = scan_view.points_of(self.thinned(cloud, 4))
         FreeCAD.Console.PrintMessage("rebuild from the simulated scan: %d points, part frame from its %s\n" % (
             len(cloud), frame.basis))
+        # Mesh (Poisson, as Mesh does for a Stitch) of every 4th point, and the fitted outline section
+        # (Cross-section across Z at mid height, Band 10 mm).
+        options = picoscan.MeshOptions()
+        options.method = picoscan.MeshMethod.Poisson
+        options.sample_spacing_mm = 1.0
+        surface = self.doc.addObject("Mesh::Feature", "ScanMesh")
+        surface.Mesh = scan_mesh.freecad_mesh(picoscan.mesh_points(self.thinned(cloud, 4), options, None))
+        outline = section.cross_section(self.doc, surface, axis="Z", offset_mm=12.0, name="Outline", band_mm=10.0)
+        FreeCAD.Console.PrintMessage("  outline section:\n    %s\n" % "\n    ".join(outline.FitReport))
         meshed = time.monotonic()
         # Fitted features, picked on the scan as a user does (truth: 50 x 36 x 24 block, hole 10 mm at
         # (-11, 0), boss 14 mm at (12, -2) up to 32 mm, chamfer 8 x 8 mm at the (+x, +y) edge). The
@@ -1702,8 +1710,6 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         right = self.fit(at(25.0, -4.0, 12.0), "plane", "Right")
         back = self.fit(at(-4.0, 18.0, 12.0), "plane", "Back")
         chamfer = self.fit(at(21.0, 14.0, 12.0), "plane", "Chamfer")
-        left = self.fit(at(-25.0, 4.0, 12.0), "plane", "Left")
-        front = self.fit(at(4.0, -18.0, 12.0), "plane", "Front")
         # The cylinders by Fit primitives (the core's RANSAC and least squares over the whole scan):
         # Fit at picked point's cylinder fit does not converge on the boss's short ring (RMS 0.8 mm).
         _, found = primitives.fit_primitives(self.doc, cloud, label="Primitives of the scan")
@@ -1714,18 +1720,28 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         boss = [obj for radius, obj in cylinders if 6 < radius < 8][0]
         top_z, boss_top_z = top.Placement.Base.z, boss_top.Placement.Base.z  # Z is the part frame's up
 
-        # The block: a sketch of the outline drawn on the four fitted sides (their traces meet at the
-        # corners); the chamfer and the hole are features of their own below.
-        fitted_sides = [self.line_2d(plane) for plane in (front, right, back, left)]
-        corners = [self.crossing(fitted_sides[k - 1], fitted_sides[k]) for k in range(4)]
+        # The block: the fitted outline, edited as a user does in Sketcher: the hole's trace and the
+        # chamfer go (a Pocket and a Chamfer make them; the Poisson surface rounds the corners, so a
+        # corner may hold a short extra element too), and the four sides are drawn to meet where the
+        # fitted sides cross.
+        segments = [g for g in outline.Geometry if g.TypeId == "Part::GeomLineSegment"]
+        sides = [g for g in segments if g.length() > 20]  # in the outline's order
+        self.assertEqual(len(sides), 4, outline.FitReport)
+        base = numpy.array([outline.Placement.Base.x, outline.Placement.Base.y])
+        fitted_sides = [(numpy.array([g.StartPoint.x, g.StartPoint.y]) + base,
+                         numpy.array([g.EndPoint.x - g.StartPoint.x, g.EndPoint.y - g.StartPoint.y]) / g.length())
+                        for g in sides]
+        lengths = [g.length() for g in sides]
+        corners = [self.crossing(fitted_sides[k - 1], fitted_sides[k]) - base for k in range(4)]
         import Sketcher
-        outline = self.doc.addObject("Sketcher::SketchObject", "Outline")
+        outline.deleteAllGeometry()
         for k in range(4):
             outline.addGeometry(Part.LineSegment(FreeCAD.Vector(*corners[k], 0), FreeCAD.Vector(*corners[(k + 1) % 4], 0)))
         for k in range(4):
             outline.addConstraint(Sketcher.Constraint("Coincident", k, 2, (k + 1) % 4, 1))
         self.assertEqual(outline.solve(), 0)
-        front_line, right_line_fit, back_line_fit, left_line = fitted_sides
+        by_length = sorted(range(4), key=lambda k: -lengths[k])  # the fitted 50, 42, 36 and 28 mm sides
+        front_line, back_line_fit, left_line, right_line_fit = [fitted_sides[k] for k in by_length]
         body = self.doc.addObject("PartDesign::Body", "Body")
         body.addObject(outline)
         block = body.newObject("PartDesign::Pad", "Block")
