@@ -873,8 +873,18 @@ class PicoScanGuiTest(unittest.TestCase):
         panel.method.setCurrentText("Poisson")
         panel.sample_spacing.setValue(2.0)
         panel.target_faces.setValue(4000)
-        self.assertTrue(panel.accept(), self.messages)
+        # CGAL's surface mesher sometimes stops on this view with "assertion violation ... already
+        # inserted on surface" (the same input succeeds on another run): the panel stays open with the
+        # message, and OK is pressed again, as a user would. Three failures in a row fail the test.
+        for attempt in range(3):
+            if panel.accept():
+                break
+            FreeCAD.Console.PrintWarning("walkthrough, Poisson mesh attempt %d refused: %s\n" % (
+                attempt + 1, self.messages[-1][2].splitlines()[0]))
+            self.assertIn("already inserted on surface", self.messages[-1][2])
+            self.messages.clear()
         surface = panel.created
+        self.assertIsNotNone(surface, self.messages)
         self.assertTrue(surface.Mesh.isSolid())
         before = len(self.doc.Objects)
         run("PicoScan_MakeSolid", surface)
