@@ -1633,7 +1633,6 @@ class PicoScanRegionFitTest(unittest.TestCase):
         self.assertEqual([o.Name for o in self.doc.Objects], names)
 
 
-<<<<<<< HEAD
 class PicoScanMakeSolidSizeTest(unittest.TestCase):
     """Make solid of big meshes: a noisy closed mesh of the demo part's block gives a solid
     OpenCASCADE's isValid() accepts, of the mesh's volume within 0.1 %; and a curved mesh (a sphere,
@@ -1696,18 +1695,10 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
     load, more than this suite can spend)."""
 
     VIEWS = range(9)
-=======
-class PicoScanFuseFilesTest(unittest.TestCase):
-    """Posed view files (as MeshLab's Save Views for Project writes them) fused into a Mesh feature
-    by the core reading them one at a time, against the same views held whole."""
-
-    VIEWS = (0, 2, 4, 6)  # the demo part's turntable views 90 degrees apart, as the C++ suites cache them
->>>>>>> main
 
     @classmethod
     def setUpClass(cls):
         cache = os.path.join(os.environ.get("PICOSCAN_TEST_CACHE_DIR", ""), "turntable-v3-exact")
-<<<<<<< HEAD
         files = [os.path.join(cache, "view_%d.ply" % i) for i in cls.VIEWS]
         cls.missing = "" if all(os.path.isfile(f) for f in files) else (
             "the demo part's turntable views are not cached at %s (the C++ suites write them)" % cache)
@@ -1914,7 +1905,17 @@ class PicoScanFuseFilesTest(unittest.TestCase):
         for name, value, true in measured:
             self.assertAlmostEqual(value, true, delta=0.25 if name in from_base else 0.02, msg=name)
         self.assertLessEqual(deviation.MeanAbsDeviation.Value, 0.015)
-=======
+
+
+class PicoScanFuseFilesTest(unittest.TestCase):
+    """Posed view files (as MeshLab's Save Views for Project writes them) fused into a Mesh feature
+    by the core reading them one at a time, against the same views held whole."""
+
+    VIEWS = (0, 2, 4, 6)  # the demo part's turntable views 90 degrees apart, as the C++ suites cache them
+
+    @classmethod
+    def setUpClass(cls):
+        cache = os.path.join(os.environ.get("PICOSCAN_TEST_CACHE_DIR", ""), "turntable-v3-exact")
         cached = [os.path.join(cache, "view_%d.ply" % i) for i in cls.VIEWS]
         if not (os.environ.get("PICOSCAN_TEST_CACHE_DIR") and all(os.path.isfile(f) for f in cached)):
             raise unittest.SkipTest("no cached turntable views at %s (the C++ suites write them)" % cache)
@@ -1972,4 +1973,3 @@ class PicoScanFuseFilesTest(unittest.TestCase):
         with self.assertRaisesRegex(picoscan.Error, "fill must be one of"):
             fuse.fuse_view_files(self.doc, self.paths, fill="Cap")
         self.assertEqual(self.doc.Objects, [])
->>>>>>> main
