@@ -897,3 +897,130 @@ class PicoScanGuiTest(unittest.TestCase):
             subprocess.run(["import", "-window", "root", temporary], check=True)
             os.replace(temporary, path)
             self.assertGreater(os.path.getsize(path), 50000)
+
+    def walkthrough_screenshot(self, name, select=()):
+        """A screenshot of the whole window for docs/freecad.md's walkthrough, 800 pixels wide and
+        palette-reduced, into PICOSCAN_WALKTHROUGH_DIR (nothing when it is not set)."""
+        folder = os.environ.get("PICOSCAN_WALKTHROUGH_DIR")
+        if not folder:
+            return
+        FreeCADGui.Selection.clearSelection()
+        for obj in select:
+            FreeCADGui.Selection.addSelection(obj)
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        view3d.viewIsometric()
+        view3d.fitAll()
+        for _ in range(5):
+            process_events()
+        os.makedirs(folder, exist_ok=True)
+        path = os.path.join(folder, "walkthrough-%s.png" % name)
+        temporary = path + ".tmp.png"
+        subprocess.run(["import", "-window", "root", temporary], check=True)
+        subprocess.run(["convert", temporary, "-resize", "800x600", "-strip", "-colors", "128", "PNG8:" + temporary],
+                       check=True)
+        os.replace(temporary, path)
+        self.assertGreater(os.path.getsize(path), 10000)
+
+    def test_y_walkthrough_scan_to_cad_every_command_in_order(self):
+        """docs/freecad.md's walkthrough as a user runs it, every step through FreeCADGui.runCommand:
+        Scan (simulated demo part), Clean scan, Mesh (Grid), Part frame, Cross-section, Fit primitives,
+        Mesh (Poisson) and Make solid, Measurements, Deviation map; a screenshot after each."""
+        FreeCADGui.getMainWindow().showMaximized()
+
+        def run(command, *selection):
+            FreeCADGui.Selection.clearSelection()
+            for obj in selection:
+                FreeCADGui.Selection.addSelection(obj)
+            self.assertTrue(FreeCADGui.Command.get(command).isActive(), command)
+            FreeCADGui.runCommand(command)
+            process_events()
+            return COMMANDS[command]
+
+        panel = run("PicoScan_Scan").panel
+        panel.scene.setCurrentText("Demo part")
+        panel.folder.setText(os.path.join(self.folder, "walkthrough"))
+        self.assertTrue(panel.accept(), self.messages)
+        view = panel.created
+        points = view.PointCount
+        self.assertGreater(points, 100000)
+        self.walkthrough_screenshot("1-scan", [view])
+        run("PicoScan_Clean", view)
+        self.assertTrue(view.Clean)
+        self.assertIn("removed", view.CleanReport)
+        self.assertLess(view.PointCount, points)
+        panel = run("PicoScan_Mesh", view).panel
+        self.assertTrue(panel.accept(), self.messages)
+        grid = panel.created
+        self.assertGreater(grid.Mesh.CountFacets, 50000)
+        self.walkthrough_screenshot("2-mesh", [grid])
+        run("PicoScan_PartFrame", view)
+        self.doc.recompute()
+        self.assertIn("base plane", view.PartFrame)
+        self.assertAlmostEqual(grid.Placement.Rotation.Angle, view.Placement.Rotation.Angle, delta=1e-9)  # follows
+        self.walkthrough_screenshot("3-part-frame", [view])
+        panel = run("PicoScan_CrossSection", grid).panel  # across Y through the middle (the defaults)
+        self.assertTrue(panel.accept(), self.messages)
+        sketch = panel.created
+        self.assertGreaterEqual(sketch.GeometryCount, 2, sketch.FitReport)
+        self.walkthrough_screenshot("4-cross-section", [sketch])
+        run("PicoScan_FitPrimitives", view)
+        groups = [o for o in self.doc.Objects if o.TypeId == "App::DocumentObjectGroup" and o.Label.startswith("Primitives")]
+        self.assertEqual(len(groups), 1, self.messages)
+        fitted = [o for o in groups[0].Group if getattr(o, "FitKind", "") in ("Plane", "Cylinder")]
+        self.assertGreaterEqual(len(fitted), 2)
+        self.walkthrough_screenshot("5-fit", [groups[0]])
+        panel = run("PicoScan_Mesh", view).panel
+        panel.method.setCurrentText("Poisson")
+        panel.sample_spacing.setValue(2.5)
+        panel.target_faces.setValue(4000)
+        # The Poisson mesh of this view sometimes stops with CGAL's "assertion violation ... already
+        # inserted on surface" or leaves points out ("covers only 82 %"), and the same input succeeds
+        # on another run (seen after merging main at 18:10): the panel stays open with the message, and
+        # OK is pressed again, as a user would. Three failures in a row fail the test.
+        for attempt in range(3):
+            if panel.accept():
+                break
+            FreeCAD.Console.PrintWarning("walkthrough, Poisson mesh attempt %d refused: %s\n" % (
+                attempt + 1, self.messages[-1][2].splitlines()[0]))
+            self.assertRegex(self.messages[-1][2], "already inserted on surface|Poisson surface covers only")
+            self.messages.clear()
+        surface = panel.created
+        self.assertIsNotNone(surface, self.messages)
+        self.assertTrue(surface.Mesh.isSolid())
+        before = len(self.doc.Objects)
+        run("PicoScan_MakeSolid", surface)
+        solids = [o for o in self.doc.Objects if hasattr(o, "SolidReport")]
+        FreeCAD.Console.PrintMessage("walkthrough, Make solid: %s\n" % (
+            solids[0].SolidReport if solids else "refused: %s" % self.messages))
+        if solids:
+            self.assertTrue(solids[0].Shape.isValid())
+            self.walkthrough_screenshot("6-make-solid", [solids[0]])
+        else:  # a single view's Poisson surface may cross itself: refused with a message, nothing added
+            self.assertEqual(len(self.doc.Objects), before)
+            self.assertIn("intersects itself", self.messages[-1][2])
+            self.messages.clear()
+        surface.ViewObject.Visibility = False  # the single view's Poisson guess hides the scene
+        run("PicoScan_Measurements", groups[0])
+        tables = [o for o in self.doc.Objects if hasattr(o, "Table") and hasattr(o, "CsvFile")]
+        self.assertEqual(len(tables), 1, self.messages)
+        self.assertGreater(len(tables[0].Table), 0)
+        self.assertTrue(os.path.isfile(tables[0].CsvFile))
+        self.walkthrough_screenshot("7-measurements", [tables[0]])
+        # The fitted sphere as the model (a fitted plane as wide as the table tessellates into far too
+        # many triangles).
+        reference = solids[0] if solids else [o for o in groups[0].Group if getattr(o, "FitKind", "") == "Sphere"][0]
+        run("PicoScan_DeviationMap", view, reference)
+        maps = [o for o in self.doc.Objects if hasattr(o, "MeanAbsDeviation")]
+        self.assertEqual(len(maps), 1, self.messages)
+        # As a user would in the property editor: points farther than 1 mm from the model (the rest
+        # of the scene) are not measured (grey); the map recomputes.
+        maps[0].MaxDistance = 1.0
+        self.doc.recompute()
+        FreeCAD.Console.PrintMessage("walkthrough, deviation map of the scan against %s: %s\n" % (
+            reference.Label, maps[0].Summary))
+        self.assertGreater(maps[0].PointCount, 1000)
+        if not solids:  # the sphere: its points are within the fit's noise
+            self.assertLess(maps[0].MeanAbsDeviation.Value, 0.05)
+        view.ViewObject.Visibility = False
+        self.walkthrough_screenshot("8-deviation-map", [maps[0]])
+        self.assertEqual(self.messages, [])
