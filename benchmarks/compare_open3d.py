@@ -32,10 +32,17 @@ then the vertices of the lowest 1 % of Poisson density removed. The same distanc
 both meshes against the true part (truth -> mesh over the whole true surface, mesh -> truth
 per vertex), with the volume, whether the mesh is watertight, and the wall and CPU time.
 
+Two placements (--placements, run on its own): the same whole pipelines on 16 views of each
+part, 8 standing and 8 laid on its side (turned 20 degrees, so that the face it stood on is
+seen). PicoScan: 'stitch STANDING... --then SIDE...' then 'mesh'. Open3D: each placement
+chained as above, the second placement's merged cloud registered onto the first's by the
+same FPFH + RANSAC + ICP, then its Poisson.
+
 Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
         [--baseline OLD/picoscan]  (an earlier build on the same pairs, global registration: before and after)
     /usr/bin/python3 benchmarks/compare_open3d.py --pipelines  (the whole pipelines only)
+    /usr/bin/python3 benchmarks/compare_open3d.py --placements  (the whole pipelines, two placements)
 """
 import argparse
 import os
@@ -68,27 +75,34 @@ def write_poses(path, poses):
                 f.write(" ".join("%.9f" % v for v in row) + "\n")
 
 
-def simulate(build, directory, part_kind):
-    """8 turntable views of the mechanical part (painted or plain), their truth, the true mesh."""
+def simulate(build, directory, part_kind, placements=("views",)):
+    """8 turntable views of the mechanical part (painted or plain) per placement, their truth
+    and the true mesh. Placements: "views" (the part standing, the pairs' views), or
+    "standing" and "side" (then laid on its side, turned 20 degrees, so that the face it stood
+    on is seen; independent camera noise)."""
     picoscan = picoscan_module(build)
-    os.makedirs(os.path.join(directory, "views"), exist_ok=True)
     part = picoscan.mechanical_part()
-    options = picoscan.TurntableScanOptions()
-    options.plan.top_view = False
-    if part_kind == "plain":
-        part.colours = np.zeros((0, 3), np.uint8)  # no paint: uniform albedo
-        options.part_albedo = 0.6                  # grey plastic
-    written = []
+    part_to_camera = []
+    for placement in placements:
+        os.makedirs(os.path.join(directory, placement), exist_ok=True)
+        options = picoscan.TurntableScanOptions()
+        options.plan.top_view = False
+        if part_kind == "plain":
+            part.colours = np.zeros((0, 3), np.uint8)  # no paint: uniform albedo
+            options.part_albedo = 0.6                  # grey plastic
+        if placement == "side":
+            options.plan.placement = picoscan.PartPlacement.OnItsSide
+            options.plan.placement_turn_deg = 20
+            options.camera.seed = 101
 
-    def on_view(simulated):
-        path = os.path.join(directory, "views", simulated.name + ".ply")
-        picoscan.write_view_ply(simulated.view, path, False)
-        written.append(path)
-        print("  %s: %d points" % (path, simulated.cleaning.remaining), file=sys.stderr)
+        def on_view(simulated):
+            path = os.path.join(directory, placement, simulated.name + ".ply")
+            picoscan.write_view_ply(simulated.view, path, False)
+            print("  %s: %d points" % (path, simulated.cleaning.remaining), file=sys.stderr)
 
-    part_to_camera = [np.asarray(p) for p in picoscan.simulate_turntable_scan(
-        part, picoscan.seed_rig_calibration(), options, on_view)]
-    truth = picoscan.transformed(part, part_to_camera[0])  # model frame: view 0's camera
+        part_to_camera += [np.asarray(p) for p in picoscan.simulate_turntable_scan(
+            part, picoscan.seed_rig_calibration(), options, on_view)]
+    truth = picoscan.transformed(part, part_to_camera[0])  # model frame: the first view's camera
     picoscan.write_stl(truth, os.path.join(directory, "truth.stl"), False)
     write_poses(os.path.join(directory, "true_poses.txt"),
                 [part_to_camera[0] @ np.linalg.inv(p) for p in part_to_camera])
@@ -171,7 +185,13 @@ def open3d_load(path, voxel_mm):
 
 def open3d_global(fixed, moving):
     clock = Clock()
-    target, source = open3d_load(fixed, 0.7), open3d_load(moving, 0.7)
+    transform = open3d_register(open3d_load(fixed, 0.7), open3d_load(moving, 0.7))
+    return transform, clock.read()
+
+
+def open3d_register(target, source):
+    """Open3D's global registration of two clouds (0.7 mm voxels): FPFH on 2 mm voxels,
+    mutual-filter RANSAC, point-to-plane ICP. The source -> target transform."""
     target_coarse, source_coarse = target.voxel_down_sample(2.0), source.voxel_down_sample(2.0)
     search = o3d.geometry.KDTreeSearchParamHybrid(radius=6.0, max_nn=100)
     target_features = o3d.pipelines.registration.compute_fpfh_feature(target_coarse, search)
@@ -184,7 +204,7 @@ def open3d_global(fixed, moving):
         reg.RANSACConvergenceCriteria(100000, 0.999))
     fine = reg.registration_icp(source, target, 1.5, coarse.transformation, reg.TransformationEstimationPointToPlane(),
                                 reg.ICPConvergenceCriteria(max_iteration=100))
-    return fine.transformation, clock.read()
+    return fine.transformation
 
 
 def open3d_icp(fixed, moving, initial):
@@ -265,12 +285,14 @@ def open3d_model(views, pair_results):
     return mesh, [np.asarray(node.pose) for node in graph.nodes], clock.read()
 
 
-def picoscan_pipeline(picoscan, views, work):
-    """'picoscan stitch' of every view (no guess), then 'picoscan mesh' with its defaults, timed
-    as the two processes (wall, and CPU of the children)."""
+def picoscan_pipeline(picoscan, views, work, then=()):
+    """'picoscan stitch' of every view (no guess; a second placement's views after --then),
+    then 'picoscan mesh' with its defaults, timed as the two processes (wall, and CPU of the
+    children)."""
     merged, model = os.path.join(work, "pipeline-merged.ply"), os.path.join(work, "pipeline-model.ply")
     clock = Clock(child=True)
-    stitched = subprocess.run([picoscan, "stitch"] + views + ["--out", merged], capture_output=True, text=True)
+    placements = ["--then"] + list(then) if then else []
+    stitched = subprocess.run([picoscan, "stitch"] + views + placements + ["--out", merged], capture_output=True, text=True)
     if not os.path.exists(merged):  # exit 3 with a merge written: some views left out, still a model
         print(stitched.stdout + stitched.stderr, file=sys.stderr)
         return None, [], clock.read()
@@ -284,14 +306,9 @@ def picoscan_pipeline(picoscan, views, work):
     return mesh, read_poses(merged.replace(".ply", ".poses.txt")), seconds
 
 
-def open3d_pipeline(views):
-    """Open3D's pipeline as its tutorials give it: each neighbouring pair by open3d_global
-    (FPFH + RANSAC + point-to-plane ICP), the poses chained from view 0, the clouds (with the
-    views' normals, turned with them) merged and thinned to 0.4 mm, Poisson at depth 9. Gives
-    the raw Poisson mesh and the one cropped by density (the vertices of the lowest 1 % of
-    density removed, as the Poisson tutorial does), the poses, and the wall and CPU seconds of
-    everything up to the raw mesh and up to the cropped one."""
-    clock = Clock()
+def open3d_chain(views):
+    """Each neighbouring pair by open3d_global, the poses chained from the first view; the
+    poses and the views' clouds (with their normals) merged in the first view's frame."""
     poses = [np.eye(4)]
     for k in range(len(views) - 1):
         transform, _ = open3d_global(views[k], views[k + 1])  # view k+1 -> view k
@@ -299,6 +316,25 @@ def open3d_pipeline(views):
     merged = o3d.geometry.PointCloud()
     for view, pose in zip(views, poses):
         merged += open3d_load(view, 0.7).transform(pose)
+    return poses, merged
+
+
+def open3d_pipeline(views, then=()):
+    """Open3D's pipeline as its tutorials give it: each neighbouring pair by open3d_global
+    (FPFH + RANSAC + point-to-plane ICP), the poses chained from view 0, the clouds (with the
+    views' normals, turned with them) merged and thinned to 0.4 mm, Poisson at depth 9. A
+    second placement (`then`) is chained the same way, and its merged cloud registered onto
+    the first's by the same global registration. Gives the raw Poisson mesh and the one
+    cropped by density (the vertices of the lowest 1 % of density removed, as the Poisson
+    tutorial does), the poses, and the wall and CPU seconds of everything up to the raw mesh
+    and up to the cropped one."""
+    clock = Clock()
+    poses, merged = open3d_chain(views)
+    if then:
+        then_poses, then_merged = open3d_chain(list(then))
+        joined = np.asarray(open3d_register(merged, then_merged))  # second placement -> first
+        poses += [joined @ pose for pose in then_poses]
+        merged += then_merged.transform(joined)
     merged = merged.voxel_down_sample(0.4)
     raw, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
     raw_seconds = clock.read()
@@ -321,50 +357,57 @@ def pipeline_row(name, mesh, truth, true_volume, placed, seconds):
         to_mesh.max(), np.percentile(to_truth, 95), to_truth.max(), *seconds))
 
 
-def print_model_table(rows):
-    print("| model | views merged / right (of 8) | watertight | volume cm3 (vs true) | "
-          "truth -> mesh mean / p95 / max (mm) | mesh -> truth p95 / max (mm) | time wall / CPU (s) |")
+def print_model_table(rows, views=8):
+    print("| model | views merged / right (of %d) | watertight | volume cm3 (vs true) | "
+          "truth -> mesh mean / p95 / max (mm) | mesh -> truth p95 / max (mm) | time wall / CPU (s) |" % views)
     print("|---|---|---|---|---|---|---|")
     print("\n".join(rows))
 
 
-def part_views(args, part):
-    """A part's folder, true poses and view files, simulated first when missing."""
-    directory = os.path.join(args.data, part)
+def part_views(args, part, placements=("views",)):
+    """A part's folder, true poses and view files (those of each placement in turn), simulated
+    first when missing."""
+    directory = os.path.join(args.data, part if placements == ("views",) else part + "-" + "-".join(placements))
     if not os.path.exists(os.path.join(directory, "true_poses.txt")):
         print("simulating the %s part's views into %s" % (part, directory), file=sys.stderr)
-        simulate(os.path.abspath(args.build), directory, part)
+        simulate(os.path.abspath(args.build), directory, part, placements)
     truth = read_poses(os.path.join(directory, "true_poses.txt"))
-    return directory, truth, [os.path.join(directory, "views", "view_%d.ply" % k) for k in range(len(truth))]
+    per_placement = len(truth) // len(placements)
+    return directory, truth, [os.path.join(directory, placement, "view_%d.ply" % k)
+                              for placement in placements for k in range(per_placement)]
 
 
-def compare_pipelines(args, picoscan):
-    """The --pipelines run: both whole pipelines on each part's views; prints the table."""
+def compare_pipelines(args, picoscan, placements=("views",)):
+    """The --pipelines and --placements runs: both whole pipelines on each part's views (with
+    two placements, both tools get the standing views, then the side views); prints the table."""
     o3d.utility.random.seed(1)  # the same points sampled on the true surface for every mesh
     table = []
     for part in args.parts.split(","):
-        directory, truth, views = part_views(args, part)
+        directory, truth, views = part_views(args, part, placements)
+        then = []
+        if len(placements) == 2:
+            views, then = views[:len(views) // 2], views[len(views) // 2:]
         true_mesh = o3d.io.read_triangle_mesh(os.path.join(directory, "truth.stl"))
         true_mesh.merge_close_vertices(1e-6)
         true_volume = mesh_volume(true_mesh)
         print("%s: true volume %.2f cm3" % (part, true_volume / 1000), file=sys.stderr)
-        centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
+        centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views + then]
         with tempfile.TemporaryDirectory() as work:
-            mesh, poses, seconds = picoscan_pipeline(picoscan, views, work)
+            mesh, poses, seconds = picoscan_pipeline(picoscan, views, work, then)
         placed = "%d / %d" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
         if mesh is None:
             table.append("| %s: PicoScan stitch + mesh | %s | failed | - | - | - | %.0f / %.0f |" % (part, placed, *seconds))
         else:
             table.append(pipeline_row("%s: PicoScan stitch + mesh" % part, mesh, true_mesh, true_volume, placed, seconds))
         print(table[-1], file=sys.stderr)
-        raw, cropped, poses, raw_seconds, cropped_seconds = open3d_pipeline(views)
+        raw, cropped, poses, raw_seconds, cropped_seconds = open3d_pipeline(views, then)
         placed = "%d / %d" % (len(poses), right_views(truth, poses, centroids))
         table.append(pipeline_row("%s: Open3D chained pairs + Poisson" % part, raw, true_mesh, true_volume, placed, raw_seconds))
         print(table[-1], file=sys.stderr)
         table.append(pipeline_row("%s: Open3D chained pairs + Poisson, cropped by density" % part, cropped, true_mesh,
                                   true_volume, placed, cropped_seconds))
         print(table[-1], file=sys.stderr)
-    print_model_table(table)
+    print_model_table(table, len(placements) * 8)
 
 
 def main():
@@ -378,10 +421,12 @@ def main():
     parser.add_argument("--baseline", help="another picoscan binary (an earlier build) run on the same pairs")
     parser.add_argument("--pipelines", action="store_true",
                         help="only the whole pipelines: PicoScan stitch + mesh against Open3D's chained pairs + Poisson")
+    parser.add_argument("--placements", action="store_true",
+                        help="only the whole pipelines on two placements (standing, then on its side) of 8 views each")
     args = parser.parse_args()
     picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
-    if args.pipelines:
-        compare_pipelines(args, picoscan)
+    if args.pipelines or args.placements:
+        compare_pipelines(args, picoscan, ("standing", "side") if args.placements else ("views",))
         return
     registration_table, model_table = [], []
     for part in args.parts.split(","):

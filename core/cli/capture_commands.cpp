@@ -369,3 +369,9 @@ std::vector<Command> capture_commands() {
 }
 
 }  // namespace picoscan::cli
+
+// The capture module's entry point (picoscan_capture.so): main.cpp loads the module and calls
+// this only for these commands, so the others never load videoio and Qt.
+extern "C" __attribute__((visibility("default"))) void picoscan_capture_commands(std::vector<picoscan::cli::Command>* commands) {
+    *commands = picoscan::cli::capture_commands();
+}

@@ -4,10 +4,12 @@
 
 #include "picoscan/error.h"
 
+#include <dlfcn.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -27,11 +29,51 @@ A typical session:
                        --out part.ply --mesh part.stl
 )";
 
-std::vector<Command> all_commands() {
+std::vector<Command> builtin_commands() {
     std::vector<Command> commands;
-    for (auto group : {pattern_commands, scan_commands, calibration_commands, model_commands, capture_commands})
+    for (auto group : {pattern_commands, scan_commands, calibration_commands, model_commands})
         for (Command& command : group()) commands.push_back(std::move(command));
     return commands;
+}
+
+// The commands that need a camera or a screen, from the capture module (picoscan_capture.so
+// beside this program, or installed under PICOSCAN_CAPTURE_MODULE_DIR relative to it): only
+// they load OpenCV's videoio and Qt. The module stays loaded, its commands' code in use. On
+// failure: none, and `problem` says why.
+std::vector<Command> capture_module_commands(std::string& problem) {
+    std::error_code error;
+    const std::filesystem::path program = std::filesystem::read_symlink("/proc/self/exe", error);
+    if (error) {
+        problem = "cannot find this program's file (/proc/self/exe): " + error.message();
+        return {};
+    }
+    for (const std::filesystem::path& folder : {program.parent_path(), program.parent_path() / PICOSCAN_CAPTURE_MODULE_DIR}) {
+        const std::filesystem::path module = folder / "picoscan_capture.so";
+        if (!std::filesystem::exists(module)) continue;
+        void* handle = dlopen(module.c_str(), RTLD_NOW | RTLD_LOCAL);
+        if (!handle) {
+            problem = dlerror();
+            return {};
+        }
+        using Entry = void (*)(std::vector<Command>*);
+        const auto entry = reinterpret_cast<Entry>(dlsym(handle, "picoscan_capture_commands"));
+        if (!entry) {
+            problem = module.string() + ": no picoscan_capture_commands in it";
+            return {};
+        }
+        std::vector<Command> commands;
+        entry(&commands);
+        return commands;
+    }
+    problem = "picoscan_capture.so is neither beside " + program.string() + " nor in " +
+              (program.parent_path() / PICOSCAN_CAPTURE_MODULE_DIR).lexically_normal().string();
+    return {};
+}
+
+const Command* find_command(const std::vector<Command>& commands, const std::string& name) {
+    for (const Command& candidate : commands)
+        if (candidate.name == name) return &candidate;
+    return nullptr;
 }
 
 void print_usage(const std::vector<Command>& commands, FILE* stream) {
@@ -80,17 +122,22 @@ std::string flag_for_field(const std::string& field) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::vector<Command> commands = all_commands();
+    std::vector<Command> commands = builtin_commands();
     const std::string name = argc > 1 ? argv[1] : "";
-    if (name.empty() || name == "--help" || name == "-h" || name == "help") {
-        print_usage(commands, name.empty() ? stderr : stdout);
+    const bool listing = name.empty() || name == "--help" || name == "-h" || name == "help";
+    std::string module_problem;
+    if (listing || !find_command(commands, name))
+        for (Command& command : capture_module_commands(module_problem)) commands.push_back(std::move(command));
+    if (listing) {
+        FILE* stream = name.empty() ? stderr : stdout;
+        print_usage(commands, stream);
+        if (!module_problem.empty()) std::fprintf(stream, "\nThe capture commands are missing: %s\n", module_problem.c_str());
         return name.empty() ? 2 : 0;
     }
-    const Command* command = nullptr;
-    for (const Command& candidate : commands)
-        if (candidate.name == name) command = &candidate;
+    const Command* command = find_command(commands, name);
     if (!command) {
-        std::fprintf(stderr, "picoscan: unknown command '%s' (see picoscan --help)\n", name.c_str());
+        std::fprintf(stderr, "picoscan: unknown command '%s' (see picoscan --help)%s%s\n", name.c_str(),
+                     module_problem.empty() ? "" : "; the capture commands could not be loaded: ", module_problem.c_str());
         return 2;
     }
     // After a progress bar, an error starts on a fresh line.

@@ -123,9 +123,13 @@ bool same_pose(const cv::Matx44d& a, const cv::Matx44d& b, const ViewData& movin
     return d.rotation_deg <= max_deg && d.translation_mm <= max_mm;
 }
 
+// ICP from `start`, judged. With earlier fits of this pair given, a run that reaches one of
+// them stops there: `joined` is then its index, and the candidate is that fit's.
 PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, const detail::CoarseAlignment& start,
-                               const RegistrationOptions& options, bool guided) {
-    const detail::IcpResult icp = detail::icp_point_to_plane(fixed.samples, moving.samples, start.transform, options);
+                               const RegistrationOptions& options, bool guided, const detail::EarlierFits& earlier = {},
+                               int* joined = nullptr) {
+    const detail::IcpResult icp = detail::icp_point_to_plane(fixed.samples, moving.samples, start.transform, options, earlier);
+    if (joined) *joined = icp.joined;
     PairRegistration candidate;
     candidate.transform = icp.transform;
     candidate.overlap = icp.overlap;
@@ -135,6 +139,7 @@ PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, co
     candidate.feature_matches = start.matches;
     candidate.ransac_inliers = start.inliers;
     candidate.stability = icp.stability;
+    if (icp.joined >= 0) return candidate;  // that fit was judged when first reached
     judge(candidate, options, fixed, moving, guided);
     return candidate;
 }
@@ -177,6 +182,9 @@ PairRegistration register_samples(const ViewData& fixed, const ViewData& moving,
     PairRegistration best_refused;
     bool tried = false;
     const bool painted = fixed.textured && moving.textured;
+    // Every fit ICP converged to, accepted or not: a later start that reaches one ends there
+    // and is judged as it was (plain parts give a dozen starts, most leading to the same fit).
+    detail::EarlierFits earlier{{}, moving.centroid};
     // Refines and judges each start; true once paint that lines up well settles the pair.
     auto settled_by = [&](const std::vector<detail::CoarseAlignment>& starts) {
         for (const detail::CoarseAlignment& start : starts) {
@@ -186,8 +194,12 @@ PairRegistration register_samples(const ViewData& fixed, const ViewData& moving,
                 return same_pose(a.transform, start.transform, moving, 2.0, 2.0);
             });
             if (known) continue;
-            const PairRegistration candidate = icp_candidate(fixed, moving, start, options, initial_guess.has_value());
+            int joined = -1;
+            const PairRegistration candidate =
+                icp_candidate(fixed, moving, start, options, initial_guess.has_value(), earlier, &joined);
             tried = true;
+            if (joined >= 0) continue;  // judged already, when that fit was first reached
+            if (candidate.converged) earlier.transforms.push_back(candidate.transform);
             if (!candidate.problem.empty()) {
                 if (best_refused.problem.empty() || candidate.overlap > best_refused.overlap) best_refused = candidate;
                 continue;

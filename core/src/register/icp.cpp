@@ -98,11 +98,12 @@ int nearest_partner(const PointGrid& grid, const std::vector<cv::Vec3d>& fixed, 
 }  // namespace
 
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
-                             const RegistrationOptions& options) {
-    return icp_point_to_plane({{&fixed, &moving}}, initial, options);
+                             const RegistrationOptions& options, const EarlierFits& earlier) {
+    return icp_point_to_plane({{&fixed, &moving}}, initial, options, earlier);
 }
 
-IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options) {
+IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options,
+                             const EarlierFits& earlier) {
     IcpResult result;
     result.transform = initial;
     std::vector<std::unique_ptr<PointGrid>> grids;
@@ -192,6 +193,11 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
             result.converged = true;
             break;
         }
+        for (size_t f = 0; f < earlier.transforms.size() && result.joined < 0; ++f) {
+            const PoseDifference apart = pose_difference(earlier.transforms[f], result.transform, earlier.centroid);
+            if (apart.rotation_deg <= kJoinDeg && apart.translation_mm <= kJoinMm) result.joined = static_cast<int>(f);
+        }
+        if (result.joined >= 0) break;
     }
     return result;
 }

@@ -49,15 +49,25 @@ struct IcpResult {
     // Smallest / largest eigenvalue of the point-to-plane system (centred, rotation scaled by
     // the spread): near 0 when the overlap lets the views slide (planes, a cylinder).
     double stability = 0;
+    int joined = -1;     // the index of the earlier fit it stopped at (see EarlierFits), or -1
 };
+// Fits ICP already converged to for the same pair: a run that comes within kJoinDeg and
+// kJoinMm of one (at the moving view's centroid) stops there, since it would end on that fit
+// (ICP from 2 degrees and 2 mm off ends on it; register_samples skips such starts altogether).
+struct EarlierFits {
+    std::vector<cv::Matx44d> transforms;  // moving -> fixed
+    cv::Vec3d centroid{0, 0, 0};          // of the moving view, its own frame
+};
+constexpr double kJoinDeg = 0.5, kJoinMm = 0.5;
 // Point-to-plane ICP with trimmed correspondences, starting from `initial`.
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
-                             const RegistrationOptions& options);
+                             const RegistrationOptions& options, const EarlierFits& earlier = {});
 
 // The same, for several pairs of views related by one shared transform (the step of a
 // turntable takes every view k+1 into view k's frame, since the camera stays where it is).
 struct SamplePair { const SurfaceSamples* fixed; const SurfaceSamples* moving; };
-IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options);
+IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options,
+                             const EarlierFits& earlier = {});
 
 // Rotation and translation -> 4x4 transform, and the inverse of such a transform.
 cv::Matx44d rigid_transform(const cv::Matx33d& rotation, const cv::Vec3d& translation);
