@@ -826,9 +826,11 @@ void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList&
     validate(options);
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
     if (layers.empty()) throw Error("Fuse and Mesh", "needs at least one visible PicoScan layer");
-    std::vector<ScanView> views;
-    for (MeshModel* layer : layers) views.push_back(layer_view(*layer));  // pose = the layer's transform
-    const FuseResult fused = fuse_views(views, options, meshlab_progress(callback));
+    // Each layer's organised view (pose = the layer's transform) is rebuilt when the core asks
+    // for it and let go once its points are merged: one pixel grid at a time, not a second copy
+    // of every layer (32 full views would be 1.9 GB).
+    const FuseResult fused = fuse_views(
+        layers.size(), [&](size_t index) { return layer_view(*layers[index]); }, options, meshlab_progress(callback));
     const QString label = options.method == MeshMethod::AdvancingFront ? "Fused mesh (advancing front)"
                           : options.fill == MeshFill::Poisson        ? "Fused mesh (Poisson)"
                                                                      : "Fused mesh (Poisson, fill " + kFillNames[fill].toLower() + ")";

@@ -26,10 +26,10 @@ bool has_camera_attribute(CMeshO& mesh) {
 }
 
 // MeshLab's camera of a layer read from a file: focal in pixels = FocalMm / PixelSizeMm.
-bool has_saved_camera(MeshModel& layer) {
+bool has_shot(MeshModel& layer) {
     const auto& intrinsics = layer.cm.shot.Intrinsics;
-    return layer.hasDataMask(MeshModel::MM_CAMERA) && intrinsics.ViewportPx[0] > 0 && intrinsics.ViewportPx[1] > 0 &&
-           intrinsics.FocalMm > 0 && intrinsics.PixelSizeMm[0] > 0 && intrinsics.PixelSizeMm[1] > 0;
+    return intrinsics.ViewportPx[0] > 0 && intrinsics.ViewportPx[1] > 0 && intrinsics.FocalMm > 0 &&
+           intrinsics.PixelSizeMm[0] > 0 && intrinsics.PixelSizeMm[1] > 0;
 }
 
 LayerCamera layer_camera(MeshModel& layer) {
@@ -46,6 +46,38 @@ LayerCamera layer_camera(MeshModel& layer) {
     camera.distortion_count = 4;
     for (int i = 0; i < 4; ++i) camera.distortion[i] = intrinsics.k[i];
     return camera;
+}
+
+// A layer read from a PLY with MeshLab's camera element (as the GUI saves a layer by default) has the
+// camera in cm.shot, but MeshLab does not mark the layer as having one (its PLY reader's load mask
+// leaves the camera out). So the camera is judged by the points: each sampled vertex's texture
+// coordinates must be a whole pixel of the viewport, and the camera must see the vertex there
+// (median reprojection error below half a pixel; the saved camera keeps k1 k2 p1 p2 only, which
+// leaves the median of a real lens well inside that). A textured mesh's UVs, or a camera of another
+// program, fail this.
+bool has_saved_camera(MeshModel& layer) {
+    if (!layer.hasDataMask(MeshModel::MM_VERTTEXCOORD) || !has_shot(layer) || layer.cm.vn == 0) return false;
+    const LayerCamera camera = layer_camera(layer);
+    const double fx = camera.matrix[0], fy = camera.matrix[4], cx = camera.matrix[2], cy = camera.matrix[5];
+    const double k1 = camera.distortion[0], k2 = camera.distortion[1], p1 = camera.distortion[2], p2 = camera.distortion[3];
+    const int step = std::max(1, layer.cm.vn / 20000);
+    std::vector<double> errors;
+    int index = 0;
+    for (const CVertexO& vertex : layer.cm.vert) {
+        if (vertex.IsD() || index++ % step != 0) continue;
+        const double u = vertex.cT().U(), v = vertex.cT().V(), z = vertex.cP()[2];
+        if (std::abs(u - std::round(u)) > 1e-3 || std::abs(v - std::round(v)) > 1e-3 || u < 0 || v < 0 ||
+            u >= camera.width || v >= camera.height || !(z > 0))
+            return false;
+        const double x = vertex.cP()[0] / z, y = vertex.cP()[1] / z, r2 = x * x + y * y;
+        const double radial = 1 + k1 * r2 + k2 * r2 * r2;
+        const double xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
+        const double yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
+        errors.push_back(std::hypot(fx * xd + cx - u, fy * yd + cy - v));
+    }
+    if (errors.empty()) return false;
+    std::nth_element(errors.begin(), errors.begin() + long(errors.size() / 2), errors.end());
+    return errors[errors.size() / 2] < 0.5;
 }
 
 // The pixel a vertex came from (its texture coordinates), or -1 outside the grid.

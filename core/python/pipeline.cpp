@@ -1,10 +1,38 @@
 #include "bindings.h"
 
+#include "picoscan/error.h"
 #include "picoscan/pipeline.h"
 
 #include <pybind11/functional.h>
 
+#include <memory>
+
 namespace picoscan::python {
+
+namespace {
+
+// A Python callable view_at(index) -> ScanView as the core's ViewSource, called with the GIL
+// held; an answer that is not a ScanView is refused with what it was.
+ViewSource view_source_from(const py::object& callable) {
+    if (!PyCallable_Check(callable.ptr())) throw Error("view_at", "must be a callable taking a view index, got " +
+                                                                   std::string(py::str(py::type::of(callable).attr("__name__"))));
+    // Copies of the core's std::function share this holder; it is released with the GIL held.
+    std::shared_ptr<py::object> holder(new py::object(callable), [](py::object* object) {
+        py::gil_scoped_acquire gil;
+        delete object;
+    });
+    return [holder](size_t index) {
+        py::gil_scoped_acquire gil;
+        const py::object view = (*holder)(index);
+        if (!py::isinstance<ScanView>(view))
+            throw Error("view_at", "must return a picoscan.ScanView, returned " +
+                                       std::string(py::str(py::type::of(view).attr("__name__"))) + " for view " +
+                                       std::to_string(index));
+        return view.cast<ScanView>();
+    };
+}
+
+}  // namespace
 
 void bind_pipeline(py::module_& m) {
     py::class_<SecondCamera>(m, "SecondCamera", "A second camera on the same projector, calibrated with it.")
@@ -78,6 +106,26 @@ void bind_pipeline(py::module_& m) {
         },
         py::arg("views"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none(),
         "Posed views merged (each through its pose) and meshed, with the mesh's check.");
+    m.def(
+        "fuse_views",
+        [](size_t view_count, const py::object& view_at, const MeshOptions& options, const py::object& progress) {
+            const ViewSource source = view_source_from(view_at);
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return fuse_views(view_count, source, options, callback);
+        },
+        py::arg("view_count"), py::arg("view_at"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none(),
+        "The same, the views asked for one at a time: view_at(i) returns view i (e.g. read from its file), "
+        "and each is let go before the next is asked for, so 16-32 full views need not fit in memory at once.");
+    m.def(
+        "fuse_view_files",
+        [](const std::vector<std::string>& paths, const MeshOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return fuse_view_files(paths, options, callback);
+        },
+        py::arg("paths"), py::arg("options") = MeshOptions(), py::arg("progress") = py::none(),
+        "fuse_views over view PLY files (write_view_ply, each with its pose), read one at a time.");
 
     py::class_<CleanScanOptions>(m, "CleanScanOptions")
         .def(py::init<>())

@@ -10,6 +10,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cmath>
+#include <limits>
+#include <random>
 #include <filesystem>
 #include <fstream>
 
@@ -96,6 +99,43 @@ TEST(Export, MeshVerticesTakeTheWhiteFrameColours) {
     const Mesh back = read_ply(path);
     ASSERT_EQ(back.colours.size(), mesh.colours.size());
     EXPECT_EQ(back.colours[0], mesh.colours[0]);
+}
+
+// Each vertex takes the colour of the one input point nearest to it (looked up from the
+// vertices' side, without a copy of the cloud): every point a colour of its own, so a vertex
+// that took a point merely near it, not the nearest, shows. Checked against a search of all points.
+TEST(Export, EachVertexTakesTheColourOfItsNearestPoint) {
+    PointCloud ball;
+    std::mt19937 random(7);
+    std::normal_distribution<double> gauss(0, 1);
+    std::uniform_int_distribution<int> level(0, 255);
+    for (int i = 0; i < 6000; ++i) {
+        cv::Vec3d d(gauss(random), gauss(random), gauss(random));
+        d = cv::normalize(d);
+        ball.points.emplace_back(cv::Vec3f(d * 15.0));
+        ball.normals.emplace_back(cv::Vec3f(d));
+        ball.colours.emplace_back(uchar(level(random)), uchar(level(random)), uchar(level(random)));
+    }
+    ball.points[10] = cv::Vec3f(std::nanf(""), 0, 0);  // unmeasured points take part in nothing
+    MeshOptions options;
+    options.sample_spacing_mm = 0;
+    options.fill = MeshFill::Open;
+    const Mesh mesh = mesh_cloud(ball, options);
+    ASSERT_EQ(mesh.colours.size(), mesh.vertices.size());
+    ASSERT_GT(mesh.vertices.size(), 1000u);
+    size_t same = 0;
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+        double best = std::numeric_limits<double>::max();
+        size_t nearest = 0;
+        for (size_t i = 0; i < ball.points.size(); ++i) {
+            if (!is_finite_point(ball.points[i])) continue;
+            const cv::Vec3d d = cv::Vec3d(ball.points[i]) - cv::Vec3d(mesh.vertices[v]);
+            if (d.dot(d) < best) best = d.dot(d), nearest = i;
+        }
+        same += mesh.colours[v] == ball.colours[nearest] ? 1 : 0;
+    }
+    std::printf("%zu of %zu vertices took the colour of their nearest point\n", same, mesh.vertices.size());
+    EXPECT_EQ(same, mesh.vertices.size());
 }
 
 // Six labelled tiles; the filled-in bottom shows orange in the bottom tile and not from the top.

@@ -18,6 +18,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -601,6 +602,67 @@ TEST(MeshlabPlugin, LayerSavedWithoutItsCameraIsRefused) {
     EXPECT_NE(run.log.find("scan.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
 }
 
+// A layer as MeshLab's GUI saves it with its default PLY options (File > Save Project asks for each
+// new layer's file): points, normals, quality, the pixels as texture_u/texture_v and MeshLab's camera
+// element (focal, centre, viewport, no PicoScan view beside it). Reopened, it cleans as the CLI
+// cleans the view it came from: the camera saved with the layer is enough.
+TEST(MeshlabPlugin, LayerSavedWithMeshlabsCameraCleansAsCli) {
+    const std::string directory = make_temp_dir("meshlab_gui_saved_layer");
+    test_support::two_placement_scan(test_support::PlacementPart::GreyMechanical);  // the shared cached views
+    const std::string view_file =
+        std::string(PICOSCAN_TEST_CACHE_DIR) + "/half-v1-grey-mechanical-standing/view_0.ply";
+    const ScanView view = read_view_ply(view_file);
+    // `shift` moves every point's pixel along x: built to fool it, a camera that does not see the points there.
+    const auto meshlab_ply = [&view](int shift) {
+    std::ostringstream ply;
+    ply << "ply\nformat ascii 1.0\nelement camera 1\n";
+    for (const char* name : {"view_px", "view_py", "view_pz", "x_axisx", "x_axisy", "x_axisz", "y_axisx", "y_axisy",
+                             "y_axisz", "z_axisx", "z_axisy", "z_axisz", "focal", "scalex", "scaley", "centerx",
+                             "centery"})
+        ply << "property float " << name << "\n";
+    ply << "property int viewportx\nproperty int viewporty\n";
+    for (const char* name : {"k1", "k2", "k3", "k4"}) ply << "property float " << name << "\n";
+    ply << "element vertex " << view.valid_count() << "\n";
+    for (const char* name : {"x", "y", "z", "nx", "ny", "nz", "quality", "texture_u", "texture_v"})
+        ply << "property float " << name << "\n";
+    ply << "element face 0\nproperty list uchar int vertex_indices\nend_header\n";
+    const cv::Matx33d& k = view.camera_matrix;
+    ply << std::setprecision(9) << "0 0 0 1 0 0 0 1 0 0 0 1 " << k(0, 0) << " 1 " << k(0, 0) / k(1, 1) << " " << k(0, 2)
+        << " " << k(1, 2) << " " << view.points.cols << " " << view.points.rows << " 0 0 0 0\n";
+    for (int y = 0; y < view.points.rows; ++y)
+        for (int x = 0; x < view.points.cols; ++x) {
+            const cv::Vec3f& p = view.points.at<cv::Vec3f>(y, x);
+            if (!std::isfinite(p[0])) continue;
+            const cv::Vec3f& n = view.normals.at<cv::Vec3f>(y, x);
+            ply << p[0] << " " << p[1] << " " << p[2] << " " << n[0] << " " << n[1] << " " << n[2] << " "
+                << view.quality.at<float>(y, x) << " " << x + shift << " " << y << "\n";
+        }
+    return ply.str();
+    };
+    write_file(directory + "/Part_view_0.ply", meshlab_ply(0));
+    ServerRun run = run_meshlabserver(directory, clean(), "-i Part_view_0.ply -o plugin_clean.ply -m vn");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_EQ(run.log.find("taken from the view file"), std::string::npos) << run.log;  // its own camera did it
+    std::string cli_log;
+    ASSERT_EQ(run_command(test_support::cli_path() + " clean " + view_file + " --out " + directory + "/cli_clean.ply", &cli_log), 0)
+        << cli_log;
+    const Mesh by_plugin = read_ply(directory + "/plugin_clean.ply"), by_cli = read_ply(directory + "/cli_clean.ply");
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    std::printf("layer saved with MeshLab's camera: %d points; plugin clean keeps %zu (removed %.0f), CLI clean of its view "
+                "keeps %zu, max distance %.2g mm\n",
+                view.valid_count(), by_plugin.vertices.size(), removed[0], by_cli.vertices.size(),
+                max_distance(by_plugin.vertices, by_cli.vertices));
+    EXPECT_GT(removed[0], 0);
+    ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
+    EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
+    write_file(directory + "/shifted.ply", meshlab_ply(1));
+    run = run_meshlabserver(directory, clean(), "-i shifted.ply -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("shifted.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
+    EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
+}
+
 // A project (.mlp) of view PLYs in `directory`, in layer order, each labelled by its file name
 // and at the identity transform.
 // A project of the files, each layer's transform the identity or the one given.
@@ -659,6 +721,16 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     ServerRun run = run_meshlabserver(directory, first_session, "-w project.mlp -o fused_first.ply -l 2");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     EXPECT_NE(run.log.find("PicoScan saved 2 views in " + views), std::string::npos) << run.log;
+    // What the unsaved layers gave: each cleaned layer's point count, and the points fused.
+    std::vector<double> first_remain;
+    for (int i = 0; i < 2; ++i) {
+        const std::vector<double> remain =
+            numbers_after(run.log, "PicoScan saved Part view " + std::to_string(i) + " (", 1);
+        ASSERT_EQ(remain.size(), 1u) << run.log;
+        first_remain.push_back(remain[0]);
+    }
+    const std::vector<double> first_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
+    ASSERT_EQ(first_fused_points.size(), 1u) << run.log;
 
     // meshlabserver saved its own copies (VIEW_out.ply) and the project names them: they are not views.
     const std::vector<ProjectLayer> saved = read_project(directory + "/project.mlp");
@@ -706,6 +778,25 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const PoseDifference error = pose_difference(
         truth, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
         cv::Vec3d(middle[0], middle[1], middle[2]));
+
+    // The reopened layers are the unsaved ones: the same points fused, the same relative pose found.
+    const std::vector<double> reopened_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
+    ASSERT_EQ(reopened_fused_points.size(), 1u) << run.log;
+    EXPECT_EQ(reopened_fused_points[0], first_fused_points[0]);
+    EXPECT_EQ(first_fused_points[0], first_remain[0] + first_remain[1]);
+    const cv::Matx44d first_relative = inverse_rigid(nearest_rigid(saved[0].transform)) * nearest_rigid(saved[1].transform);
+    const PoseDifference first_error =
+        pose_difference(truth, first_relative, cv::Vec3d(middle[0], middle[1], middle[2]));
+    const PoseDifference between_sessions = pose_difference(
+        first_relative, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
+        cv::Vec3d(middle[0], middle[1], middle[2]));
+    std::printf("unsaved layers: %.0f + %.0f points after Clean, %.0f fused (reopened: %.0f); pose error %.4f deg, "
+                "%.4f mm (reopened %.4f deg, %.4f mm; between the sessions %.4f deg, %.4f mm)\n",
+                first_remain[0], first_remain[1], first_fused_points[0], reopened_fused_points[0], first_error.rotation_deg,
+                first_error.translation_mm, error.rotation_deg, error.translation_mm, between_sessions.rotation_deg,
+                between_sessions.translation_mm);
+    EXPECT_LT(between_sessions.rotation_deg, 0.01);
+    EXPECT_LT(between_sessions.translation_mm, 0.01);
 
     const Mesh first = read_ply(directory + "/fused_first.ply");
     const Mesh second = read_ply(directory + "/fused_reopened.ply");
@@ -962,6 +1053,12 @@ TEST(MeshlabPlugin, FuseFillOpenLeavesTheUnseenSideOpenAndTableClosesIt) {
         const size_t report = run.log.find("PicoScan fused");
         ASSERT_NE(report, std::string::npos) << run.log;
         const std::string line = run.log.substr(report, run.log.find('\n', report) - report);
+        // The layers are handed to the core one at a time; every valid point of every view is fused.
+        size_t view_points = 0;
+        for (const std::string& file : files) view_points += size_t(read_view_ply(directory + "/" + file).valid_count());
+        const std::vector<double> fused_points = numbers_after(line, "layers (", 1);
+        ASSERT_EQ(fused_points.size(), 1u) << line;
+        EXPECT_EQ(size_t(fused_points[0]), view_points) << line;
         const Mesh fused = read_ply(directory + "/" + out);
         const std::vector<float> quality = ascii_ply_quality(directory + "/" + out);
         ASSERT_EQ(quality.size(), fused.vertices.size()) << out;

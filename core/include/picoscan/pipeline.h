@@ -309,6 +309,11 @@ FuseResult fuse_views(const std::vector<ScanView>& views, const MeshOptions& opt
 // The result is the same as from the views held whole.
 FuseResult fuse_views(size_t view_count, const ViewSource& view_at, const MeshOptions& options = {},
                       const ProgressCallback& progress = nullptr);
+// The same over view PLY files (write_view_ply, each with its pose), read one at a time: the
+// hosts' way to fuse views kept on disk. Throws Error naming a file that is missing or is not
+// a view PLY.
+FuseResult fuse_view_files(const std::vector<std::string>& paths, const MeshOptions& options = {},
+                           const ProgressCallback& progress = nullptr);
 
 // ---- Validation ---------------------------------------------------------------------------
 // Each throws Error naming the offending field (e.g. "decode.min_modulation") when a value is

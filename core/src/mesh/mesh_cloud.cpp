@@ -253,22 +253,28 @@ void onto_points(Mesh& mesh, const std::vector<detail::PointWithNormal>& points,
 }
 
 // Each vertex takes the white-frame colour of the nearest input point; vertices far from
-// every point (filled surface) are grey.
+// every point (filled surface) are grey. The grid is built over the vertices and the points
+// pass by once, so nothing the size of the cloud (millions of merged points) is copied; each
+// vertex keeps the nearest point (the first of equally near ones).
 void colour_from_points(Mesh& mesh, const PointCloud& cloud, double reach_mm) {
     if (cloud.colours.size() != cloud.points.size()) return;
-    std::vector<cv::Vec3d> points;
-    std::vector<size_t> source;
-    points.reserve(cloud.points.size());
-    for (size_t i = 0; i < cloud.points.size(); ++i)
-        if (is_finite_point(cloud.points[i])) {
-            points.emplace_back(cloud.points[i]);
-            source.push_back(i);
-        }
-    const detail::PointGrid grid(points, reach_mm);
+    std::vector<cv::Vec3d> vertices(mesh.vertices.begin(), mesh.vertices.end());
+    const detail::PointGrid grid(vertices, reach_mm);
+    std::vector<double> nearest(vertices.size(), reach_mm * reach_mm);  // squared distance, strictly within reach
     mesh.colours.assign(mesh.vertices.size(), cv::Vec3b(150, 150, 150));
-    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
-        const int nearest = grid.nearest(cv::Vec3d(mesh.vertices[v]), reach_mm);
-        if (nearest >= 0) mesh.colours[v] = cloud.colours[source[static_cast<size_t>(nearest)]];
+    std::vector<int> near;
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        if (!is_finite_point(cloud.points[i])) continue;
+        const cv::Vec3d point(cloud.points[i]);
+        grid.within(point, reach_mm, near);
+        for (int v : near) {
+            const cv::Vec3d d = vertices[static_cast<size_t>(v)] - point;
+            const double distance = d.dot(d);
+            if (distance < nearest[static_cast<size_t>(v)]) {
+                nearest[static_cast<size_t>(v)] = distance;
+                mesh.colours[static_cast<size_t>(v)] = cloud.colours[i];
+            }
+        }
     }
 }
 

@@ -71,32 +71,71 @@ private:
     size_t calls_ = 0;
     std::exception_ptr cancel_;
 };
+
+// The cell of a spacing_mm grid a point falls in, computed as CGAL's grid_simplify_point_set
+// computes it (floor of each coordinate over the spacing), so that cells compare alike.
+struct GridCell {
+    double x, y, z;
+    bool operator==(const GridCell& other) const { return x == other.x && y == other.y && z == other.z; }
+};
+struct GridCellHash {
+    size_t operator()(const GridCell& cell) const {
+        const std::hash<double> hash;
+        return hash(cell.x) ^ (hash(cell.y) * 0x9e3779b97f4a7c15ULL) ^ (hash(cell.z) * 0xc2b2ae3d27d4eb4fULL);
+    }
+};
 }  // namespace
 
 std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spacing_mm, int max_points,
                                             double& average_spacing_mm, const StageReport& report) {
-    std::vector<PointWithNormal> points;
-    points.reserve(cloud.points.size());
+    if (cloud.points.size() > std::numeric_limits<uint32_t>::max())
+        throw Error("point cloud", "has " + std::to_string(cloud.points.size()) + " points; at most 4294967295 can be meshed");
     const bool has_normals = cloud.normals.size() == cloud.points.size();
-    size_t without_normal = 0;
-    for (size_t i = 0; i < cloud.points.size(); ++i) {
-        const cv::Vec3f& p = cloud.points[i];
-        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
-        const cv::Vec3f n = has_normals ? cloud.normals[i] : cv::Vec3f(0, 0, 0);
+    auto finite = [](const cv::Vec3f& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); };
+    enum class Kind { Unmeasured, WithoutNormal, Usable };
+    auto kind_of = [&](size_t i) {
+        if (!finite(cloud.points[i])) return Kind::Unmeasured;
         // The given normal says which side the sensor saw; without it a PCA normal's sign is a guess.
-        if (has_normals && !(std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]) && cv::norm(n) > 0)) {
-            ++without_normal;
-            continue;
-        }
+        if (has_normals && !(finite(cloud.normals[i]) && cv::norm(cloud.normals[i]) > 0)) return Kind::WithoutNormal;
+        return Kind::Usable;
+    };
+    size_t usable_count = 0, without_normal = 0;
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        const Kind kind = kind_of(i);
+        usable_count += kind == Kind::Usable;
+        without_normal += kind == Kind::WithoutNormal;
+    }
+    if (has_normals && without_normal * 10 > usable_count + without_normal)
+        throw Error("point cloud", std::to_string(without_normal) + " of " + std::to_string(usable_count + without_normal) +
+                                       " points have no valid normal (NaN or zero): their outside is unknown");
+    // The usable points as indices into the cloud (4 bytes each, where a copy of a merged cloud
+    // of millions of points as CGAL pairs takes 48): the cloud is thinned before it is copied.
+    std::vector<uint32_t> usable;
+    usable.reserve(usable_count);
+    for (size_t i = 0; i < cloud.points.size(); ++i)
+        if (kind_of(i) == Kind::Usable) usable.push_back(static_cast<uint32_t>(i));
+    if (spacing_mm > 0) {
+        // One point per cell: the same points, in the same order, as grid_simplify_point_set on a
+        // copy of the usable points (the same std::partition with the same test, on indices).
+        std::unordered_set<GridCell, GridCellHash> occupied;
+        usable.erase(std::partition(usable.begin(), usable.end(),
+                                    [&](uint32_t i) {
+                                        const cv::Vec3f& p = cloud.points[i];
+                                        return occupied
+                                            .insert({std::floor(double(p[0]) / spacing_mm), std::floor(double(p[1]) / spacing_mm),
+                                                     std::floor(double(p[2]) / spacing_mm)})
+                                            .second;
+                                    }),
+                     usable.end());
+    }
+    std::vector<PointWithNormal> points;
+    points.reserve(usable.size());
+    for (uint32_t i : usable) {
+        const cv::Vec3f& p = cloud.points[i];
+        const cv::Vec3f n = has_normals ? cloud.normals[i] : cv::Vec3f(0, 0, 0);
         points.emplace_back(Point3(p[0], p[1], p[2]), Vector3(n[0], n[1], n[2]));
     }
-    if (has_normals && without_normal * 10 > points.size() + without_normal)
-        throw Error("point cloud", std::to_string(without_normal) + " of " +
-                                       std::to_string(points.size() + without_normal) +
-                                       " points have no valid normal (NaN or zero): their outside is unknown");
-    if (spacing_mm > 0) {
-        points.erase(CGAL::grid_simplify_point_set(points, spacing_mm, CGAL::parameters::point_map(PointMap())), points.end());
-    }
+    std::vector<uint32_t>().swap(usable);
     // The budget: a coarser grid until at most max_points remain (the count falls with the
     // square of the spacing on a surface).
     for (double coarser = spacing_mm; max_points > 0 && points.size() > size_t(max_points);) {
@@ -111,6 +150,7 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
                                  [](const PointWithNormal& a, const PointWithNormal& b) { return a.first == b.first; }),
                      points.end());
     }
+    points.shrink_to_fit();  // the budget's thinning keeps the room of the points before it, through Poisson
     if (points.size() < 20) return points;
     report(0.0, "estimating normals");
     // Re-estimated normals are smoother than per-pixel ones; the sensor's side says which way.

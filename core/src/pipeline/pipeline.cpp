@@ -2,6 +2,7 @@
 #include "picoscan/pipeline.h"
 
 #include "picoscan/error.h"
+#include "picoscan/io.h"
 #include "picoscan/multi_camera.h"
 
 #include <algorithm>
@@ -327,6 +328,11 @@ FuseResult fuse_views(size_t view_count, const ViewSource& view_at, const MeshOp
     report(1.0, "checking the mesh");
     result.check = check_mesh(result.mesh);
     return result;
+}
+
+FuseResult fuse_view_files(const std::vector<std::string>& paths, const MeshOptions& options,
+                           const ProgressCallback& progress) {
+    return fuse_views(paths.size(), [&](size_t index) { return read_view_ply(paths[index]); }, options, progress);
 }
 
 // ---- Validation --------------------------------------------------------------------------

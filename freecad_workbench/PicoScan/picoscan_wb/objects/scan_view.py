@@ -7,7 +7,7 @@ import Points
 
 import picoscan
 from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors
-from picoscan_wb.operations.reconstruct import reconstruct, stereo_summary
+from picoscan_wb.operations.reconstruct import check_second_folder, read_any_calibration, reconstruct, stereo_summary
 from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::ScanView"
@@ -66,7 +66,11 @@ def _stored_view(obj):
                              "parameters; restore them or the captures" % (obj.Label, obj.CaptureFolder))
     FreeCAD.Console.PrintLog("%s: capture folder %s is gone; using the view kept in the document\n" % (
         obj.Label, obj.CaptureFolder))
-    calibration = picoscan.read_calibration(obj.CalibrationFile) if os.path.isfile(obj.CalibrationFile or "") else None
+    calibration = None
+    if os.path.isfile(obj.CalibrationFile or ""):
+        # The stored view was decoded with the calibration's kind: a stereo view needs its second folder named.
+        check_second_folder(obj.CalibrationFile, obj.SecondCaptureFolder, folder_must_exist=False)
+        calibration = read_any_calibration(obj.CalibrationFile)
     return picoscan.read_view_ply(stored), calibration, None, None
 
 

@@ -11,18 +11,26 @@ def is_stereo_calibration(calibration_file):
     return picoscan.calibration_kind(calibration_file) == picoscan.CalibrationKind.Stereo
 
 
-def check_second_folder(calibration_file, second_capture_folder):
+def check_second_folder(calibration_file, second_capture_folder, folder_must_exist=True):
     """Raises picoscan.Error (naming SecondCaptureFolder) when the second folder does not fit the
-    calibration's kind: required for a stereo calibration, refused for a camera-projector one."""
+    calibration's kind: required for a stereo calibration, refused for a camera-projector one. A view
+    kept in the document needs the folder named, not its captures (folder_must_exist False)."""
     if is_stereo_calibration(calibration_file):
         if not second_capture_folder:
             raise picoscan.Error("SecondCaptureFolder: %s is a stereo calibration (two cameras): give the second "
                                  "camera's capture folder" % calibration_file)
-        if not os.path.isdir(second_capture_folder):
+        if folder_must_exist and not os.path.isdir(second_capture_folder):
             raise picoscan.Error("%s: second capture folder does not exist" % second_capture_folder)
     elif second_capture_folder:
         raise picoscan.Error("SecondCaptureFolder: %s is a camera-projector calibration; reconstructing with a second "
                              "camera needs a stereo calibration of both cameras" % calibration_file)
+
+
+def read_any_calibration(calibration_file):
+    """picoscan.StereoCalibration for a stereo calibration file, picoscan.Calibration otherwise."""
+    if is_stereo_calibration(calibration_file):
+        return picoscan.read_stereo_calibration(calibration_file)
+    return picoscan.read_calibration(calibration_file)
 
 
 def reconstruct(capture_folder, calibration_file, manifest_file="", min_contrast=15.0, min_modulation=4.0,

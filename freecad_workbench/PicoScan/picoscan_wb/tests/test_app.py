@@ -336,32 +336,52 @@ class PicoScanAppTest(unittest.TestCase):
         shutil.copytree(self.captures, captures)
         view = scan_view.create(self.doc, captures, self.calibration)
         mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        poisson = scan_mesh.create(self.doc, view, method="Poisson", fill="Open", sample_spacing_mm=4.0, name="PoissonMesh")
+        _, fitted = primitives.fit_primitives(self.doc, cloud_of(view), placement=view.Placement)
+        table = measurements.create(self.doc, [obj for obj, _ in fitted])
         model = self.doc.addObject("Part::Cylinder", "ShaftModel")
         model.Radius, model.Height = SHAFT_RADIUS_MM, 80
         model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400),
                                             FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), FreeCAD.Vector(0, 1, 0)))
         self.doc.recompute()
         deviation = deviation_map.create(self.doc, view, model, tolerance_mm=0.05, max_distance_mm=1.0)
-        options = primitives.detection_options(planes=False, spheres=False, cones=False)
-        shaft = picoscan.detect_shapes(cloud_of(view), options)[0]
+        shaft = [shape for _, shape in fitted if shape.kind == picoscan.ShapeKind.Cylinder][0]
         before = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
         names = (view.Name, mesh.Name, deviation.Name)
+        poisson_before = (poisson.Mesh.CountPoints, poisson.Mesh.CountFacets, poisson.Mesh.Area, poisson.Check)
+        table_before = list(table.Table)
+        self.assertGreaterEqual(len(table_before), 2, table_before)  # the shaft and the wall: a diameter, an axis angle
+        self.assertGreater(poisson_before[1], 1000)
+        poisson_name, table_name = poisson.Name, table.Name
         path = os.path.join(self.folder, "self_contained.FCStd")
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
         shutil.rmtree(captures)
         self.doc = FreeCAD.openDocument(path)
         view, mesh, deviation = (self.doc.getObject(name) for name in names)
-        view.touch()
+        poisson, table = self.doc.getObject(poisson_name), self.doc.getObject(table_name)
+        poisson.Mesh, table.Table = Mesh.Mesh(), []  # emptied: what they show next is recomputed
+        for obj in (view, poisson, table):
+            obj.touch()
         self.doc.recompute()
-        self.assertTrue(all(o.isValid() for o in (view, mesh, deviation)),
-                        [o.getStatusString() for o in (view, mesh, deviation)])
+        self.assertTrue(all(o.isValid() for o in (view, mesh, deviation, poisson, table)),
+                        [o.getStatusString() for o in (view, mesh, deviation, poisson, table)])
+        # The Poisson mesh is remade from the stored view (recomputed, not just reloaded), the table from the
+        # fitted features: the same figures as before saving.
+        poisson_after = (poisson.Mesh.CountPoints, poisson.Mesh.CountFacets, poisson.Mesh.Area, poisson.Check)
+        FreeCAD.Console.PrintMessage("without captures: Poisson points, facets, area, check: %s -> %s; measurements %s -> %s\n"
+                                     % (poisson_before, poisson_after, table_before, list(table.Table)))
+        self.assertEqual(poisson_after[:2], poisson_before[:2])
+        self.assertAlmostEqual(poisson_after[2], poisson_before[2], delta=1e-6 * poisson_before[2])
+        self.assertEqual(poisson_after[3], poisson_before[3])
+        self.assertEqual(list(table.Table), table_before)
         after = (view.PointCount, mesh.Mesh.CountFacets, deviation.MeanAbsDeviation.Value, deviation.PointCount)
         FreeCAD.Console.PrintMessage("without captures: points, facets, mean |d|, measured: %s -> %s\n" % (before, after))
         self.assertEqual(after[:2], before[:2])
         self.assertAlmostEqual(after[2], before[2], delta=1e-6)
         self.assertEqual(after[3], before[3])
-        again = picoscan.detect_shapes(cloud_of(view), options)[0]
+        again = [shape for shape in picoscan.detect_shapes(cloud_of(view), primitives.detection_options())
+                 if shape.kind == picoscan.ShapeKind.Cylinder][0]
         self.assertAlmostEqual(again.radius_mm, shaft.radius_mm, delta=1e-4)
         mesh.PixelStep = 8  # still parametric: a coarser grid from the stored view
         self.doc.recompute()
@@ -441,6 +461,63 @@ class PicoScanStereoTest(unittest.TestCase):
         self.doc.recompute()
         self.assertFalse(view.isValid())
         self.assertIn("SecondCaptureFolder", view.getStatusString())
+
+    def test_stereo_view_recomputes_without_its_second_capture_folder(self):
+        """A saved stereo ScanView whose second camera's captures are deleted recomputes from the view kept in
+        the .FCStd (with the stereo calibration), its grid mesh too; clearing SecondCaptureFolder then says why
+        in one line and keeps the points."""
+        second = os.path.join(self.folder, "doomed_camera2")
+        shutil.copytree(self.second, second)
+        view = scan_view.create(self.doc, self.first, self.calibration, second_capture_folder=second)
+        mesh = scan_mesh.create(self.doc, view, pixel_step=2)
+        fit, _ = self.sphere_fit(view)
+        before = (view.PointCount, mesh.Mesh.CountFacets, fit.radius_mm, tuple(fit.centre))
+        names = (view.Name, mesh.Name)
+        path = os.path.join(self.folder, "stereo_self_contained.FCStd")
+        self.doc.saveAs(path)
+        FreeCAD.closeDocument(self.doc.Name)
+        shutil.rmtree(second)
+        self.doc = FreeCAD.openDocument(path)
+        view, mesh = (self.doc.getObject(name) for name in names)
+        mesh.Mesh = Mesh.Mesh()  # emptied: what it shows next is recomputed from the stored view
+        view.touch()
+        mesh.touch()
+        self.doc.recompute()
+        self.assertTrue(view.isValid() and mesh.isValid(), (view.getStatusString(), mesh.getStatusString()))
+        fit, _ = self.sphere_fit(view)
+        after = (view.PointCount, mesh.Mesh.CountFacets, fit.radius_mm, tuple(fit.centre))
+        FreeCAD.Console.PrintMessage("stereo without its second folder: points, facets, radius, centre: %s -> %s\n"
+                                     % (before, after))
+        self.assertEqual(after[:2], before[:2])
+        self.assertAlmostEqual(after[2], before[2], delta=1e-6)
+        self.assertLess(numpy.linalg.norm(numpy.subtract(after[3], before[3])), 1e-6)
+        self.assertEqual(type(view.Proxy.scan_view(view)[1]), picoscan.StereoCalibration)
+        # Clearing the second folder: the stereo calibration needs it, stored view or not.
+        view.SecondCaptureFolder = ""
+        self.doc.recompute()
+        self.assertFalse(view.isValid())
+        self.assertRegex(view.getStatusString(), "^SecondCaptureFolder: .*stereo.yml is a stereo calibration")
+        self.assertEqual(view.Points.CountPoints, before[0])
+
+    def test_clearing_the_second_folder_prints_one_line_not_a_traceback(self):
+        """What the Report view shows: a separate freecadcmd runs brief_errors_script.py on the stereo captures."""
+        import subprocess
+
+        workbench = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "brief_errors_script.py")
+        environment = dict(os.environ, PICOSCAN_WORKBENCH=workbench, PICOSCAN_STEREO_CAPTURES=self.first,
+                           PICOSCAN_STEREO_SECOND=self.second, PICOSCAN_STEREO_CALIBRATION=self.calibration)
+        environment.pop("PICOSCAN_CAPTURES", None)
+        run = subprocess.run(["freecadcmd", script], env=environment, capture_output=True, text=True, timeout=300)
+        output = run.stdout + run.stderr
+        self.assertIn("DONE", output, output[-3000:])
+        cleared = "SecondCaptureFolder: %s is a stereo calibration (two cameras): give the second camera's capture " \
+                  "folder" % self.calibration
+        self.assertIn("STEREO CLEARED VALID False: " + cleared, output)
+        self.assertIn("STEREO REOPENED CLEARED VALID False: " + cleared, output)
+        self.assertIn("<class 'picoscan.Error'>: " + cleared, output)
+        self.assertNotIn("Traceback", output, output[-3000:])
+        self.assertNotIn('File "', output)
 
     def test_progress_reports_the_stereo_stages_and_cancel_stops_matching(self):
         # The progress the GUI's dialog shows (and its Cancel answers) while the work runs off the GUI thread.
@@ -1554,3 +1631,71 @@ class PicoScanRegionFitTest(unittest.TestCase):
             self.region_fit.fit_region(self.doc, self.cloud, self.region_fit.pick_region(
                 self.cloud, (0.0, -18.0, 24.0), radius_mm=3.0, grow=False), self.region_fit.region_options(noise_mm=0.02))
         self.assertEqual([o.Name for o in self.doc.Objects], names)
+
+
+class PicoScanFuseFilesTest(unittest.TestCase):
+    """Posed view files (as MeshLab's Save Views for Project writes them) fused into a Mesh feature
+    by the core reading them one at a time, against the same views held whole."""
+
+    VIEWS = (0, 2, 4, 6)  # the demo part's turntable views 90 degrees apart, as the C++ suites cache them
+
+    @classmethod
+    def setUpClass(cls):
+        cache = os.path.join(os.environ.get("PICOSCAN_TEST_CACHE_DIR", ""), "turntable-v3-exact")
+        cached = [os.path.join(cache, "view_%d.ply" % i) for i in cls.VIEWS]
+        if not (os.environ.get("PICOSCAN_TEST_CACHE_DIR") and all(os.path.isfile(f) for f in cached)):
+            raise unittest.SkipTest("no cached turntable views at %s (the C++ suites write them)" % cache)
+        poses = [numpy.asarray(pose) for pose in picoscan.turntable_part_poses(picoscan.TurntablePlan())]
+        cls.folder = tempfile.mkdtemp(prefix="picoscan_fuse_files_")
+        cls.paths, cls.views = [], []
+        for source, index in zip(cached, cls.VIEWS):
+            view = picoscan.read_view_ply(source)
+            view.pose = poses[0] @ numpy.linalg.inv(poses[index])  # into view 0's frame
+            cls.paths.append(os.path.join(cls.folder, "view_%d.ply" % index))
+            picoscan.write_view_ply(view, cls.paths[-1])
+            cls.views.append(view)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder, ignore_errors=True)
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanFuseFilesTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def test_view_files_fuse_as_the_views_held_whole(self):
+        from picoscan_wb.operations import fuse
+
+        options = picoscan.MeshOptions()
+        options.method = picoscan.MeshMethod.AdvancingFront
+        options.sample_spacing_mm = 1.0
+        whole = picoscan.fuse_views(self.views, options)
+        feature, fused = fuse.fuse_view_files(self.doc, self.paths, method="AdvancingFront", sample_spacing_mm=1.0)
+        FreeCAD.Console.PrintMessage("fused %d view files: %d points, %d facets (views held whole: %d points, %d faces)\n"
+                                     % (len(self.paths), len(fused.merged), feature.Mesh.CountFacets, len(whole.merged),
+                                        len(whole.mesh.faces)))
+        self.assertEqual(len(fused.merged), sum(view.valid_count() for view in self.views))
+        self.assertTrue(numpy.array_equal(fused.merged.points, whole.merged.points))
+        self.assertEqual(feature.Mesh.CountFacets, len(fused.mesh.faces))
+        # The advancing front does not repeat itself exactly on the same cloud (a vertex or two).
+        self.assertAlmostEqual(len(fused.mesh.faces), len(whole.mesh.faces), delta=0.01 * len(whole.mesh.faces))
+        # Posed, the four sides surround the part: the mesh spans the true part across (x) and in
+        # depth (z) in view 0's camera frame; the views left in their own frames would not.
+        pose = numpy.asarray(picoscan.turntable_part_poses(picoscan.TurntablePlan())[0])
+        truth = numpy.asarray(picoscan.mechanical_part().vertices, dtype=numpy.float64) @ pose[:3, :3].T + pose[:3, 3]
+        box = feature.Mesh.BoundBox
+        for axis, low, high in ((0, box.XMin, box.XMax), (2, box.ZMin, box.ZMax)):
+            self.assertAlmostEqual(low, truth[:, axis].min(), delta=1.0)
+            self.assertAlmostEqual(high, truth[:, axis].max(), delta=1.0)
+
+    def test_a_missing_file_is_named_and_nothing_is_added(self):
+        from picoscan_wb.operations import fuse
+
+        missing = os.path.join(self.folder, "gone.ply")
+        with self.assertRaisesRegex(picoscan.Error, "gone.ply"):
+            fuse.fuse_view_files(self.doc, self.paths[:1] + [missing])
+        with self.assertRaisesRegex(picoscan.Error, "fill must be one of"):
+            fuse.fuse_view_files(self.doc, self.paths, fill="Cap")
+        self.assertEqual(self.doc.Objects, [])

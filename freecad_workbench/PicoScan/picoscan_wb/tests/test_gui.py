@@ -223,6 +223,17 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(added), 1)
         self.assertEqual(added[0].SecondCaptureFolder, second)
         self.assertEqual(added[0].PointCount, view.PointCount)
+        # SecondCaptureFolder cleared in the GUI: the object is refused in one line, no traceback in the Report view.
+        report = FreeCADGui.getMainWindow().findChild(QtWidgets.QTextEdit, "Report view")
+        shown = len(report.toPlainText())
+        added[0].SecondCaptureFolder = ""
+        self.doc.recompute()
+        process_events()
+        self.assertFalse(added[0].isValid())
+        new_lines = report.toPlainText()[shown:]
+        self.assertIn("SecondCaptureFolder: %s is a stereo calibration" % added[0].CalibrationFile, new_lines)
+        self.assertNotIn("Traceback", new_lines)
+        self.assertNotIn('File "', new_lines)
         # Both cameras of the stereo calibration with the scan, for docs/freecad.md.
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
