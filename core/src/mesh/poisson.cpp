@@ -13,6 +13,7 @@
 #include <CGAL/IO/facets_in_complex_2_to_triangle_mesh.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/repair_self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
@@ -448,6 +449,9 @@ void close_invented_surface(SurfaceMesh& mesh, const DataProximity& proximity) {
     }
     mesh.remove_property_map(component);
     mesh.collect_garbage();
+    // With holes, the mesher's surface may come out inside out (seen once in three runs of the
+    // same view: -189.5 cm^3); closed, it is turned to face out.
+    if (CGAL::is_closed(mesh) && !PMP::is_outward_oriented(mesh)) PMP::reverse_face_orientations(mesh);
 }
 
 }  // namespace
