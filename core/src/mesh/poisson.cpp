@@ -18,6 +18,7 @@
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Implicit_surface_3.h>
+#include <CGAL/exceptions.h>
 #include <CGAL/Poisson_reconstruction_function.h>
 #include <CGAL/Surface_mesh_default_triangulation_3.h>
 #include <CGAL/Surface_mesher/Standard_criteria.h>
@@ -523,6 +524,11 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     const size_t evaluation_cap = static_cast<size_t>(kEvaluationsPerFace * faces);
     struct OverBudget {};
     const DataProximity proximity(points, 2 * triangle_size);
+    // The mesher starts from points on rays in random directions (CGAL's default generator,
+    // seeded from the clock): a fixed seed makes the mesh repeatable, and a start that hits one
+    // of its own vertices (CGAL: "already inserted on surface") is tried again from other rays.
+    unsigned seed = 1;
+    constexpr unsigned kSeeds = 3;
     for (int attempt = 0;; ++attempt) {
         report(0.3, "Poisson: meshing the surface");
         size_t evaluations = 0;
@@ -539,8 +545,16 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
         const GradedCriteria<Triangulation> criteria(20.0, triangle_size, distance, proximity);
         Triangulation triangulation;
         Complex complex(triangulation);
+        CGAL::get_default_random() = CGAL::Random(seed);
         try {
             CGAL::make_surface_mesh(complex, surface, criteria, CGAL::Manifold_with_boundary_tag());
+        } catch (const CGAL::Failure_exception& failure) {
+            if (seed == kSeeds)
+                throw Error("Poisson reconstruction", "the surface mesher failed from " + std::to_string(kSeeds) +
+                                                          " random starts: " + failure.message());
+            ++seed;
+            --attempt;  // the same triangle size from other rays
+            continue;
         } catch (const OverBudget&) {
             if (attempt == 3)
                 throw Error("Poisson reconstruction", "the surface exceeds the face budget (mesh.max_faces) even with "
