@@ -790,12 +790,13 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Part::Feature"], [])
 
     def test_k4_cross_section_with_band_answers_events_and_cancel_leaves_the_document_as_it_was(self):
-        """Cross-section with Band of a 205 000-facet sphere (17 cuts of it, each reporting every 65 536
-        vertices and triangles) runs off the GUI thread; Cancel stops it, the panel stays open."""
+        """Cross-section with Band of a 460 000-facet sphere (17 cuts of it, each reporting every 65 536
+        vertices and triangles) runs off the GUI thread; Cancel stops it, the panel stays open. (A
+        205 000-facet sphere was cut within a second on an idle machine, before Cancel was pressed.)"""
         import Mesh
 
         sphere = self.doc.addObject("Mesh::Feature", "FineSphere")
-        sphere.Mesh = Mesh.createSphere(10.0, 320)
+        sphere.Mesh = Mesh.createSphere(10.0, 480)
         sphere.ViewObject.Visibility = False  # drawing it is not the work measured
         self.doc.recompute()
         FreeCADGui.Selection.clearSelection()
@@ -805,7 +806,7 @@ class PicoScanGuiTest(unittest.TestCase):
         panel = COMMANDS["PicoScan_CrossSection"].panel
         panel.band.setValue(5.0)
         accepted = []
-        self.cancelled_while_the_gui_answers("Cross-section", lambda: accepted.append(panel.accept()), 1.0)
+        self.cancelled_while_the_gui_answers("Cross-section", lambda: accepted.append(panel.accept()), 0.6)
         self.assertEqual(accepted, [False])
         self.assertTrue(FreeCADGui.Control.activeDialog())  # the panel stays open for another try
         self.assertEqual([o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"], [])
