@@ -3,6 +3,7 @@
 // within 20 um; constraints are proposed only where the points allow them.
 #include "picoscan/error.h"
 #include "picoscan/section_fit.h"
+#include "section_counts.h"
 
 #include <gtest/gtest.h>
 
@@ -55,18 +56,6 @@ double direction_deg(const cv::Vec2d& a, const cv::Vec2d& b) { return std::atan2
 double angle_error_deg(double a, double b) {
     double d = std::fmod(std::abs(a - b), 180.0);
     return std::min(d, 180 - d);
-}
-
-int count(const SectionFit& fit, SectionElementKind kind) {
-    int n = 0;
-    for (const auto& e : fit.elements) n += e.kind == kind;
-    return n;
-}
-
-int count(const SectionFit& fit, SectionConstraintKind kind) {
-    int n = 0;
-    for (const auto& c : fit.constraints) n += c.kind == kind;
-    return n;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 // corners the mesh rounds off, stray points there, the hole seen only in part.
 #include "picoscan/mesh.h"
 #include "picoscan/section_fit.h"
+#include "section_counts.h"
 #include "support/turntable_scan.h"
 
 #include <gtest/gtest.h>
@@ -77,12 +78,6 @@ double worst_angle_error_deg(const SectionFit& fit) {
     }
     for (size_t k = 0; k < kOutline.size(); ++k) EXPECT_EQ(matched[k], 1) << "side " << k;
     return worst;
-}
-
-int count(const SectionFit& fit, SectionElementKind kind) {
-    int n = 0;
-    for (const auto& e : fit.elements) n += e.kind == kind;
-    return n;
 }
 
 }  // namespace
