@@ -144,15 +144,17 @@ TEST(DetectShapes, CancelStopsWithinASecondEvenInsideCgalsScoring) {
     for (const double cancel_after_s : {0.5, 1.5}) {
         // Counted from the detection proper: CGAL's octrees (0.3-0.7 s on an idle machine, about
         // 1.2 s at load 12) come first and cannot be stopped inside.
-        int calls = 0;
+        bool started = false;
         Clock::time_point detecting, last;
         double longest_gap_s = 0;
-        const ProgressCallback progress = [&](double, const std::string&) {
+        const ProgressCallback progress = [&](double, const std::string& stage) {
             const Clock::time_point now = Clock::now();
-            if (++calls == 2) detecting = now;  // the first call comes before the octrees
-            if (calls > 2) longest_gap_s = std::max(longest_gap_s, seconds(now - last));
+            if (stage == "shapes: octrees") return true;
+            if (!started) detecting = last = now;
+            started = true;
+            longest_gap_s = std::max(longest_gap_s, seconds(now - last));
             last = now;
-            return calls <= 2 || seconds(now - detecting) < cancel_after_s;
+            return seconds(now - detecting) < cancel_after_s;
         };
         double stopped_after_s = 0;
         try {

@@ -174,10 +174,10 @@ std::vector<DetectedShape> detect_shapes(const PointCloud& cloud, const ShapeDet
     if (options.cylinders) ransac.add_shape_factory<StoppableShape<RansacCylinder>>();
     if (options.spheres) ransac.add_shape_factory<StoppableShape<RansacSphere>>();
     if (options.cones) ransac.add_shape_factory<StoppableShape<RansacCone>>();
-    DetectionProgress detection(progress);
-    // CGAL's octrees (0.6 s for 460 000 points on an idle machine) cannot be stopped inside.
-    if (!detection.keep_going(0.0)) throw Error("cancelled", "shape detection was stopped");
+    // CGAL's octrees (0.3-0.7 s for 460 000 points on an idle machine) cannot be stopped inside.
+    if (progress && !progress(0.0, "shapes: octrees")) throw Error("cancelled", "shape detection was stopped");
     ransac.preprocess();
+    DetectionProgress detection(progress);
 
     EfficientRansac::Parameters parameters;
     parameters.probability = options.probability;
