@@ -114,3 +114,29 @@ def run_in_background(title, work, should_cancel=None, poll=None):
     if state["error"] is not None:
         raise state["error"]
     return state["result"]
+
+
+def run_on_gui_thread(title, action):
+    """Runs action() -> result on the GUI thread, for work FreeCAD does only there and cannot stop
+    (its view provider meshing a big shape to draw it), with the progress dialog showing `title`
+    (busy, without Cancel) so that the user sees what the GUI waits for. Headless, it simply runs."""
+    if not FreeCAD.GuiUp:
+        return action()
+    from PySide2 import QtCore, QtWidgets
+
+    import FreeCADGui
+
+    dialog = QtWidgets.QProgressDialog(title, None, 0, 0, FreeCADGui.getMainWindow())
+    dialog.setWindowTitle("PicoScan")
+    dialog.setObjectName("PicoScanProgress")
+    dialog.setWindowModality(QtCore.Qt.WindowModal)
+    dialog.setMinimumDuration(0)
+    dialog.show()
+    for _ in range(3):  # laid out and painted before the GUI thread is taken
+        QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
+    try:
+        return action()
+    finally:
+        dialog.reset()
+        dialog.setParent(None)
+        dialog.deleteLater()

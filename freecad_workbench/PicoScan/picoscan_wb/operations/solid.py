@@ -5,15 +5,22 @@ would touch or cross itself, leave its plane or nest wrongly: `model.refused_mer
 and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`);
 FreeCAD reads it back. No sewing: the time grows linearly with the facets. The solid's volume is
 checked against the mesh's, and OpenCASCADE's own validity check (BRepCheck, the slowest part by
-far) runs when the solid has up to CHECK_FACES faces."""
+far) runs when the solid has up to CHECK_FACES faces; both run in another process (brep_check.py)
+while this one reads the B-rep."""
+import json
 import os
+import subprocess
+import sys
 import tempfile
+import threading
+import time
 
 import Part
 
 import picoscan
 from picoscan_wb.objects.scan_mesh import core_mesh
-from picoscan_wb.progress import cancel_point, run_in_background
+from picoscan_wb.operations import brep_check
+from picoscan_wb.progress import cancel_point, run_in_background, run_on_gui_thread
 
 MAX_FACETS = 2000000   # beyond this, Fit primitives or a coarser mesh
 CHECK_FACES = 20000    # up to here OpenCASCADE's BRepCheck confirms the solid too
@@ -57,30 +64,70 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
         model = picoscan.planar_face_model(core_mesh(mesh), face_options(merge_planes, noise_mm), progress)
     except picoscan.Error as error:
         raise picoscan.Error("%s: %s" % (label, str(error).replace("mesh: ", "", 1))) from None
-    # FreeCAD's steps release the GIL but cannot be stopped inside: Cancel is heard between them.
+    # FreeCAD's Mesh check holds the GIL (0.1 s for 64 000 facets) and cannot be stopped inside.
     cancel_point(progress, 0.0, "solid: self-intersections")
     if mesh.hasSelfIntersections():
         raise picoscan.Error("%s: the mesh intersects itself; repair it first" % label)
+    if check_valid is None:
+        check_valid = len(model.faces) <= CHECK_FACES
     with tempfile.TemporaryDirectory() as folder:
         path = os.path.join(folder, "solid.brep")
         picoscan.write_brep(model, path, progress)
-        cancel_point(progress, 0.0, "solid: reading the B-rep")
-        shape = Part.Shape()
-        shape.read(path)
+        shape, checked = _read_and_check(path, label, check_valid, progress)
     volume = model.mesh_volume_mm3
-    cancel_point(progress, 0.0, "solid: volume")
-    if shape.ShapeType != "Solid" or abs(shape.Volume - volume) > VOLUME_TOLERANCE * volume:
+    if checked["type"] != "Solid" or abs(checked["volume"] - volume) > VOLUME_TOLERANCE * volume:
         raise _MergedFacesRefused("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
-            label, shape.Volume, volume))
-    if check_valid is None:
-        check_valid = len(model.faces) <= CHECK_FACES
-    if check_valid:
-        cancel_point(progress, 0.0, "solid: OpenCASCADE's check")
-    if check_valid and not shape.isValid():
+            label, checked["volume"], volume))
+    if check_valid and not checked["valid"]:
         if merge_planes:
             raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged planar faces invalid" % label)
         raise picoscan.Error("%s: OpenCASCADE finds the solid built from this mesh invalid" % label)
     return shape, model
+
+
+def _read_and_check(path, label, check_valid, progress):
+    """(Part.Shape of the BREP file at path, brep_check's answer about it). FreeCAD's Part calls
+    hold Python's GIL: reading the text B-rep, the volume and the validity check run in another
+    process, which Cancel stops at once; this one only reads the binary copy the child writes
+    (the one step left here that holds the GIL, about 0.5 s for 64 000 faces)."""
+    binary_path = path + ".bin"
+    command = [os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2]), brep_check.__file__,
+               os.path.dirname(Part.__file__), path, binary_path, "1" if check_valid else "0"]
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+
+    def read_lines():
+        for line in child.stdout:
+            lines.append(line.strip())
+    reader = threading.Thread(target=read_lines, name="PicoScan B-rep check", daemon=True)
+    reader.start()
+    shape = None
+    try:
+        while True:
+            stages = [answer.get("stage") for answer in _json_lines(lines)]
+            if shape is None and "binary written" in stages:
+                cancel_point(progress, 0.0, "solid: reading the B-rep")
+                shape = Part.Shape()
+                shape.importBinary(binary_path)
+                continue
+            if child.poll() is not None and not reader.is_alive():
+                break
+            cancel_point(progress, 0.0, "solid: %s (checked in another process)" % (
+                stages[-1] if stages else "starting"))
+            time.sleep(0.05)
+    except BaseException:  # Cancel (or anything else): the child stops now
+        child.kill()
+        child.wait()
+        raise
+    answers = _json_lines(lines)
+    if child.returncode != 0 or shape is None or not answers or "type" not in answers[-1]:
+        raise picoscan.Error("%s: FreeCAD could not check the solid written for it (%s)" % (
+            label, (lines or ["exit code %d" % child.returncode])[-1]))
+    return shape, answers[-1]
+
+
+def _json_lines(lines):
+    return [json.loads(line) for line in list(lines) if line.startswith("{")]
 
 
 def solid_of_mesh(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=None):
@@ -97,7 +144,10 @@ def make_solid(doc, mesh_object, merge_planes=True, noise_mm=0.0):
         mesh, label, merge_planes, noise_mm, progress))
     feature = doc.addObject("Part::Feature", mesh_object.Name + "Solid")
     feature.Label = mesh_object.Label + " solid"
-    feature.Shape = solid
+    # Drawing: FreeCAD's view provider meshes every face on the GUI thread (seconds for tens of
+    # thousands of faces), which nothing can move or stop; the dialog says what the GUI waits for.
+    run_on_gui_thread("Drawing the solid of %s (%d faces)" % (label, len(model.faces)),
+                      lambda: setattr(feature, "Shape", solid))
     feature.addProperty("App::PropertyString", "SolidReport", "Solid", "How the faces were made", 1)
     feature.SolidReport = model.summary() + ("; " + note if note else "")
     return feature
