@@ -22,7 +22,7 @@ def main(freecad_lib, path, binary_path, check_valid):
     import FreeCAD  # noqa: F401 (Part needs FreeCAD loaded first)
     import Part
 
-    say(stage="reading the B-rep")
+    say(stage="parsing the B-rep")
     shape = Part.Shape()
     shape.read(path)
     shape.exportBinary(binary_path + ".tmp")
