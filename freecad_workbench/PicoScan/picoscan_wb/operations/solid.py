@@ -91,8 +91,10 @@ def _read_and_check(path, label, check_valid, progress):
     process, which Cancel stops at once; this one only reads the binary copy the child writes
     (the one step left here that holds the GIL, about 0.5 s for 64 000 faces)."""
     binary_path = path + ".bin"
-    command = [os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2]), brep_check.__file__,
-               os.path.dirname(Part.__file__), path, binary_path, "1" if check_valid else "0"]
+    python = os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2])  # FreeCAD's own Python
+    if not os.path.isfile(python):
+        raise picoscan.Error("%s: cannot check the solid: FreeCAD's Python interpreter %s is missing" % (label, python))
+    command = [python, brep_check.__file__, os.path.dirname(Part.__file__), path, binary_path, "1" if check_valid else "0"]
     child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
 
