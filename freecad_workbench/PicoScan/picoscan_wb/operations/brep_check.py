@@ -8,6 +8,7 @@ writes the shape in OpenCASCADE's binary format, which FreeCAD reads in about ha
 text one (0.48 s against 0.84 s for 64 440 faces): the one read left in the GUI's process.
 Prints one JSON line per stage ({"stage": ...}; "binary written" once BINARY_BREP is complete) and
 the answer last ({"type": ..., "volume": ..., "valid": ...})."""
+import importlib
 import json
 import os
 import sys
@@ -19,7 +20,7 @@ def say(**fields):
 
 def main(freecad_lib, path, binary_path, check_valid):
     sys.path.append(freecad_lib)
-    import FreeCAD  # noqa: F401 (Part needs FreeCAD loaded first)
+    importlib.import_module("FreeCAD")  # FreeCAD's application first: Part alone exits silently
     import Part
 
     say(stage="parsing the B-rep")
