@@ -1792,6 +1792,12 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         t = numpy.linalg.solve(numpy.column_stack([u, -v]), q - p)[0]
         return p + t * u
 
+    @staticmethod
+    def worst_pose_error(poses, truths, centres):
+        """Worst (degrees, mm) of view -> model poses against the true ones, at each view's points."""
+        errors = [picoscan.pose_difference(pose, truth, centre) for pose, truth, centre in zip(poses, truths, centres)]
+        return max(e.rotation_deg for e in errors), max(e.translation_mm for e in errors)
+
     def stitched_scan(self):
         """The two placements' views stitched by the Stitch object; returns (the Stitch, the true
         part -> model transform). Asserts every view's pose against the simulator's truth."""
@@ -1812,21 +1818,30 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         # Each view's pose (view -> model, the model being the first view's camera frame) against the
         # truth, at the view's points: a placement joined wrongly (its near-twin turned over) or a
         # round that drifted fails here.
-        worst = (0.0, 0.0)
-        for view, pose, part_to_camera in zip(views, merged.ViewPoses, true_poses):
-            truth = true_poses[0] @ numpy.linalg.inv(part_to_camera)
-            error = picoscan.pose_difference(numpy.array(pose.toMatrix().A).reshape(4, 4), truth,
-                                             numpy.asarray(cloud_of(view).points).mean(axis=0))
-            worst = (max(worst[0], error.rotation_deg), max(worst[1], error.translation_mm))
+        poses = [numpy.array(pose.toMatrix().A).reshape(4, 4) for pose in merged.ViewPoses]
+        centres = [numpy.asarray(cloud_of(view).points).mean(axis=0) for view in views]
+        truths = [true_poses[0] @ numpy.linalg.inv(part_to_camera) for part_to_camera in true_poses]
+        worst = self.worst_pose_error(poses, truths, centres)
         FreeCAD.Console.PrintMessage("  worst pose error of the %d views: %.4f deg, %.4f mm\n" % ((len(views),) + worst))
         self.assertLess(worst[0], 0.05)
         self.assertLess(worst[1], 0.05)
+        # Built to fool the check: the second placement tilted by 0.1 degrees about the part's middle
+        # (the bottom 44 um off at its ends: the heights and the map would move by that) must fail it.
+        tilt = numpy.eye(4)
+        tilt[:3, :3] = numpy.asarray(FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 0.1).toMatrix().A).reshape(4, 4)[:3, :3]
+        middle = numpy.eye(4)
+        middle[:3, 3] = (true_poses[0] @ numpy.array([0.0, 0.0, 16.0, 1.0]))[:3]
+        tilted = middle @ tilt @ numpy.linalg.inv(middle)
+        wrong = poses[:len(self.standing_files)] + [tilted @ pose for pose in poses[len(self.standing_files):]]
+        self.assertGreater(self.worst_pose_error(wrong, truths, centres)[0], 0.05)
         return merged, true_poses[0]
 
     def test_rebuild_from_two_placements_stitched(self):
-        started = time.monotonic()
+        # Wall-clock and CPU seconds (all threads) of each stage: CPU depends less on the machine's load.
+        clock = lambda: (time.monotonic(), time.process_time())  # noqa: E731
+        started = clock()
         merged, part_to_model = self.stitched_scan()
-        stitched = time.monotonic()
+        stitched = clock()
         model_cloud = cloud_of(merged)  # the Stitch's own frame (view 0's camera); its Placement: the part frame
 
         def move_to_document():
@@ -1866,7 +1881,7 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         surface.Mesh = scan_mesh.freecad_mesh(picoscan.mesh_points(self.thinned(cloud, 8), options, None))
         outline = section.cross_section(self.doc, surface, axis="Z", offset_mm=12.0, name="Outline", band_mm=10.0)
         FreeCAD.Console.PrintMessage("  outline section:\n    %s\n" % "\n    ".join(outline.FitReport))
-        meshed = time.monotonic()
+        meshed = clock()
         bottom = self.fit(at(0.0, -10.0, 0.0), "plane", "Bottom")
         top = self.fit(at(-18.0, 8.0, 24.0), "plane", "Top")
         boss_top = self.fit(at(12.0, -2.0, 32.0), "plane", "Boss top")
@@ -1959,7 +1974,7 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
             chamfer_feature.FlipDirection = True  # Size went along the other face
             self.doc.recompute()
         self.assertTrue(body.Shape.isValid())
-        built = time.monotonic()
+        built = clock()
 
         # The body's dimensions, measured on it as a drawing gives them, against the simulator's truth.
         distance_to = lambda line, point: abs(numpy.cross(line[1], numpy.asarray(point) - line[0]))  # noqa: E731
@@ -1982,10 +1997,11 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
             FreeCAD.Console.PrintMessage("  rebuilt %s: %.4f mm (truth %.1f, error %+.1f um)\n" % (
                 name, value, true, 1000 * (value - true)))
         deviation = deviation_map.create(self.doc, scan, body, tolerance_mm=0.05)
-        FreeCAD.Console.PrintMessage(
-            "  scan against the rebuilt body: %s\n  times: stitch %.1f s, mesh %.1f s, fits and body %.1f s, "
-            "map %.1f s\n" % (deviation.Summary, stitched - started, meshed - stitched, built - meshed,
-                              time.monotonic() - built))
+        done = clock()
+        FreeCAD.Console.PrintMessage("  scan against the rebuilt body: %s\n  times (wall, CPU): %s\n" % (
+            deviation.Summary, ", ".join("%s %.1f s, %.1f s" % (stage, end[0] - begin[0], end[1] - begin[1]) for stage, begin, end in (
+                ("views and stitch", started, stitched), ("datums, mesh and section", stitched, meshed),
+                ("fits and body", meshed, built), ("map", built, done)))))
         for name, value, true in measured:
             self.assertAlmostEqual(value, true, delta=0.02, msg=name)
         self.assertLessEqual(deviation.MeanAbsDeviation.Value, 0.015)
