@@ -632,9 +632,9 @@ GrownFace grow_face(const PointCloud& cloud, const cv::Vec3d& seed, const Region
     RegionFitOptions free = fit;
     free.constraint = FitConstraint::Free;
 
-    // Fits of up to 4000 of the given points (every n-th: the growing fits only need the shape).
+    // Fits of up to 1500 of the given points (every n-th: the growing fits only need the shape).
     const auto fit_points = [&](ShapeKind kind, const std::vector<int>& members, DetectedShape& shape) {
-        const size_t stride = std::max<size_t>(1, members.size() / 4000);
+        const size_t stride = std::max<size_t>(1, members.size() / 1500);
         std::vector<cv::Vec3d> p, n;
         for (size_t k = 0; k < members.size(); k += stride) {
             p.push_back(points[size_t(members[k])]);
@@ -677,23 +677,50 @@ GrownFace grow_face(const PointCloud& cloud, const cv::Vec3d& seed, const Region
     stage(0.1, "growing the face");
 
     // Each kind grown from its start: flood over the points near its surface, refit, again.
-    std::vector<char> member(points.size());  // 0: not looked at, 1: on the face, 2: off it
+    // The face floods from cube to neighbouring cube (of max_gap_mm, the 26 around), taking each
+    // cube's points that lie on the shape: every point is looked at once per flood.
+    std::unordered_map<int64_t, int> cube_at;
+    std::vector<std::vector<int>> cube_points;
+    std::vector<cv::Vec3i> cube_cell;
+    std::vector<int> cube_of(points.size());
+    const auto cube_key = [](const cv::Vec3i& c) { return (int64_t(c[0]) * 73856093) ^ (int64_t(c[1]) * 19349663) ^ (int64_t(c[2]) * 83492791); };
+    for (size_t j = 0; j < points.size(); ++j) {
+        const cv::Vec3i cell(int(std::floor(points[j][0] / selection.max_gap_mm)), int(std::floor(points[j][1] / selection.max_gap_mm)),
+                             int(std::floor(points[j][2] / selection.max_gap_mm)));
+        const auto [at, added] = cube_at.emplace(cube_key(cell), int(cube_points.size()));
+        if (added) cube_points.emplace_back(), cube_cell.push_back(cell);
+        cube_points[size_t(at->second)].push_back(int(j));
+        cube_of[j] = at->second;
+    }
+    std::vector<char> member(points.size()), cube_queued(cube_points.size());
     const auto flood = [&](const DetectedShape& shape) {
         std::fill(member.begin(), member.end(), 0);
+        std::fill(cube_queued.begin(), cube_queued.end(), 0);
         const auto fits = [&](size_t j) {
-            const bool on = std::abs(shape_distance(shape, points[j])) <= on_face &&
-                            std::abs(normals[j].dot(surface_normal(shape, points[j]))) >= min_cosine;
-            member[j] = on ? 1 : 2;
-            return on;
+            return std::abs(shape_distance(shape, points[j])) <= on_face &&
+                   std::abs(normals[j].dot(surface_normal(shape, points[j]))) >= min_cosine;
         };
-        // From the seed ball's points on the shape (the picked point itself may be an outlier).
-        std::vector<int> region;
+        // From the cubes of the seed ball's points on the shape (the picked point may be an outlier).
+        std::vector<int> queue, region;
         for (int j : seed_ball)
-            if (fits(size_t(j))) region.push_back(j);
-        for (size_t next = 0; next < region.size(); ++next) {
-            grid.within(points[size_t(region[next])], selection.max_gap_mm, found);
-            for (int j : found)
-                if (!member[size_t(j)] && fits(size_t(j))) region.push_back(j);
+            if (!cube_queued[size_t(cube_of[size_t(j)])] && fits(size_t(j))) {
+                cube_queued[size_t(cube_of[size_t(j)])] = 1;
+                queue.push_back(cube_of[size_t(j)]);
+            }
+        for (size_t next = 0; next < queue.size(); ++next) {
+            const int cube = queue[next];
+            bool any = false;
+            for (int j : cube_points[size_t(cube)])
+                if (fits(size_t(j))) region.push_back(j), any = true;
+            if (!any) continue;
+            for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dz = -1; dz <= 1; ++dz) {
+                        const auto found_cube = cube_at.find(cube_key(cube_cell[size_t(cube)] + cv::Vec3i(dx, dy, dz)));
+                        if (found_cube == cube_at.end() || cube_queued[size_t(found_cube->second)]) continue;
+                        cube_queued[size_t(found_cube->second)] = 1;
+                        queue.push_back(found_cube->second);
+                    }
         }
         std::sort(region.begin(), region.end());
         return region;
