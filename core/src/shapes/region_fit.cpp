@@ -184,6 +184,7 @@ public:
         for (const cv::Vec3d& n : normals_) mean += n;
         const cv::Vec3d axis = smallest_axis(normals_, mean / double(normals_.size()));
         circle_start(shape, points_, constrained_axis(axis));
+        if (options_.constraint == FitConstraint::Coaxial) shape.point = options_.reference_point;  // refined with the axis held
         return shape;
     }
 
