@@ -274,26 +274,60 @@ const PointCloud& demo_scan() {
 
 }  // namespace
 
+// The figures the issue asks of the rebuild (20 um) hold for features fitted where the user points
+// on the real simulated scan: the boss's short side and the hole's partly seen wall from a point
+// anywhere on them, the chamfer, the boss's top and the block's faces; picks on an edge refused.
 TEST(PickedFace, DemoPartScanBossHoleChamferAndTopsFromPickedPoints) {
     const PointCloud& cloud = demo_scan();
-    struct Pick {
-        const char* name;
-        cv::Vec3d seed;
+    const auto fitted = [&](const cv::Vec3d& seed, ShapeKind kind) {
+        const PickedFit picked = fit_at_point(cloud, seed);
+        std::printf("picked at (%g, %g, %g): %zu points; %s\n", seed[0], seed[1], seed[2], picked.region.size(), picked.fit.report.c_str());
+        EXPECT_EQ(picked.fit.shape.kind, kind) << picked.fit.report;
+        return picked;
     };
-    for (const Pick& pick : {Pick{"boss side", {19, -2, 28}}, Pick{"boss side", {5, -2, 27}}, Pick{"boss top", {12, -2, 32}},
-                             Pick{"chamfer", {21, 14, 12}}, Pick{"block top", {-18, 8, 24}}, Pick{"hole wall", {-16, 0, 21}},
-                             Pick{"hole wall", {-6, 0, 21}}, Pick{"hole wall", {-11, 5, 21}}, Pick{"hole wall", {-11, -5, 21}},
-                             Pick{"right face", {25, -4, 12}}, Pick{"edge", {25, 0, 24}}, Pick{"boss rim", {19, -2, 32}}}) {
+    // Truth (MechanicalPartShape): boss 14 mm at (12, -2) from z = 24 to 32, hole 10 mm at (-11, 0).
+    for (const cv::Vec3d& seed : {cv::Vec3d(19, -2, 28), cv::Vec3d(5, -2, 27), cv::Vec3d(12, 5, 31)}) {
+        const PickedFit boss = fitted(seed, ShapeKind::Cylinder);
+        const DetectedShape& shape = boss.fit.shape;
+        EXPECT_NEAR(2 * shape.radius_mm, 14.0, 0.02);
+        EXPECT_LT(angle_deg(shape.direction, {0, 0, 1}), 0.05);
+        EXPECT_LT(cv::norm((shape.point - cv::Vec3d(12, -2, 0)).cross(shape.direction)), 0.02);
+        // The whole side and nothing of the boss's top or the block's: its points span the height.
+        size_t off = 0;
+        double low = 1e9, high = -1e9;
+        for (int i : boss.region) {
+            const cv::Vec3d p(cloud.points[size_t(i)]);
+            off += std::abs(std::hypot(p[0] - 12, p[1] + 2) - 7) > 0.1;
+            low = std::min(low, p[2]), high = std::max(high, p[2]);
+        }
+        EXPECT_LT(off, boss.region.size() / 200) << off << " of " << boss.region.size() << " points off the boss's side";
+        EXPECT_LT(low, 25.0);
+        EXPECT_GT(high, 31.0);
+    }
+    for (const cv::Vec3d& seed : {cv::Vec3d(-16, 0, 21), cv::Vec3d(-6, 0, 21), cv::Vec3d(-11, 5, 21)}) {
+        const DetectedShape hole = fitted(seed, ShapeKind::Cylinder).fit.shape;
+        EXPECT_NEAR(2 * hole.radius_mm, 10.0, 0.02);
+        EXPECT_LT(angle_deg(hole.direction, {0, 0, 1}), 0.05);
+        EXPECT_LT(cv::norm((hole.point - cv::Vec3d(-11, 0, 0)).cross(hole.direction)), 0.02);
+    }
+    const DetectedShape boss_top = fitted({12, -2, 32}, ShapeKind::Plane).fit.shape;
+    EXPECT_NEAR(boss_top.point[2], 32.0, 0.02);
+    EXPECT_LT(angle_deg(boss_top.direction, {0, 0, 1}), 0.05);
+    const DetectedShape top = fitted({-18, 8, 24}, ShapeKind::Plane).fit.shape;
+    EXPECT_NEAR(top.point[2], 24.0, 0.02);
+    EXPECT_LT(angle_deg(top.direction, {0, 0, 1}), 0.05);
+    const DetectedShape chamfer = fitted({21, 14, 12}, ShapeKind::Plane).fit.shape;
+    EXPECT_LT(angle_deg(chamfer.direction, {1, 1, 0}), 0.05);
+    EXPECT_NEAR((chamfer.point - cv::Vec3d(21, 14, 0)).dot(cv::normalize(cv::Vec3d(1, 1, 0))), 0.0, 0.02);
+    const DetectedShape right = fitted({25, -4, 12}, ShapeKind::Plane).fit.shape;
+    EXPECT_NEAR(right.point[0], 25.0, 0.02);
+    // On the edge between the block's top and its right face, and on the boss's top rim.
+    for (const cv::Vec3d& seed : {cv::Vec3d(25, 0, 24), cv::Vec3d(19, -2, 32)}) {
         try {
-            const std::clock_t t0 = std::clock();
-            const PickedFit picked = fit_at_point(cloud, pick.seed);
-            const DetectedShape& s = picked.fit.shape;
-            std::printf("%s: %zu points, %.3f s: %s r %.4f point (%.4f %.4f %.4f) dir (%.5f %.5f %.5f) rms %.4f\n  %s\n", pick.name,
-                        picked.region.size(), double(std::clock() - t0) / CLOCKS_PER_SEC, to_string(s.kind).c_str(), s.radius_mm,
-                        s.point[0], s.point[1], s.point[2], s.direction[0], s.direction[1], s.direction[2], s.rms_mm,
-                        picked.fit.report.c_str());
+            const PickedFit picked = fit_at_point(cloud, seed);
+            ADD_FAILURE() << "an edge pick was fitted: " << picked.fit.report;
         } catch (const Error& error) {
-            std::printf("%s: refused: %s\n", pick.name, error.what());
+            EXPECT_EQ(error.subject(), "seed") << error.what();
         }
     }
 }
