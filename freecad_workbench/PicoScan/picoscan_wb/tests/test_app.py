@@ -1688,7 +1688,8 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
     fill) merged into one cloud and put in its part frame (the core's part_frame on the turntable's
     axis). The outline is a fitted Cross-section (Band) of a Poisson mesh of the scan, padded from
     the part frame's base to the fitted top plane; the hole a Pocket and the boss a Pad of the
-    cylinders Fit primitives finds, the boss up to its fitted top; the chamfer a PartDesign Chamfer
+    cylinders Fit at picked point fits to the faces grown from a point on each, the boss up to its
+    fitted top; the chamfer a PartDesign Chamfer
     whose legs come from three fitted planes; then the deviation map of the scan against that body.
     Each dimension is compared with the simulator's truth. Not done here (docs/freecad.md): the
     views merged by Stitch instead of the simulator's poses (stitching nine views took 140 s under
@@ -1739,6 +1740,14 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
             label, kind, len(picked.region), picked.fit.shape.rms_mm))
         return feature
 
+    def fit_face(self, seed, label):
+        """The face grown from a point picked on the scan, of the kind that fits it (Fit at picked
+        point's defaults: the core's grow_face, then fit_at_point), added as a Part primitive."""
+        picked = region_fit.fit_at_point(self.cloud_in_frame, seed, region_fit.picked_options())
+        feature = region_fit.add_fitted(self.doc, self.cloud_in_frame, picked.fit, label=label)
+        FreeCAD.Console.PrintMessage("  fitted %s: %d points; %s\n" % (label, len(picked.region), picked.fit.report))
+        return feature
+
     @staticmethod
     def line_2d(feature):
         """(point, unit direction) in the document's XY of a fitted vertical plane's trace."""
@@ -1787,14 +1796,11 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         right = self.fit(at(25.0, -4.0, 12.0), "plane", "Right")
         back = self.fit(at(-4.0, 18.0, 12.0), "plane", "Back")
         chamfer = self.fit(at(21.0, 14.0, 12.0), "plane", "Chamfer")
-        # The cylinders by Fit primitives (the core's RANSAC and least squares over the whole scan):
-        # Fit at picked point's cylinder fit does not converge on the boss's short ring (RMS 0.8 mm).
-        _, found = primitives.fit_primitives(self.doc, cloud, label="Primitives of the scan")
-        cylinders = sorted([(shape.radius_mm, obj) for obj, shape in found if shape.kind == picoscan.ShapeKind.Cylinder],
-                           key=lambda item: item[0])
-        FreeCAD.Console.PrintMessage("  Fit primitives: %s\n" % ", ".join(str(shape) for _, shape in found))
-        hole = [obj for radius, obj in cylinders if 4 < radius < 6][0]
-        boss = [obj for radius, obj in cylinders if 6 < radius < 8][0]
+        # The cylinders by Fit at picked point with its defaults (the face grown from a point on the
+        # boss's short side and on the hole's partly seen wall, its kind chosen automatically).
+        hole = self.fit_face(at(-16.0, 0.0, 21.0), "Hole")
+        boss = self.fit_face(at(19.0, -2.0, 28.0), "Boss")
+        self.assertEqual((hole.TypeId, boss.TypeId), ("Part::Cylinder", "Part::Cylinder"))
         top_z, boss_top_z = top.Placement.Base.z, boss_top.Placement.Base.z  # Z is the part frame's up
 
         # The block: the fitted outline, edited as a user does in Sketcher: the hole's trace and the
