@@ -22,20 +22,22 @@ struct RegionSelection {
     // the ball of radius_mm.
     cv::Vec3d box_half_size_mm{0, 0, 0};
     cv::Matx33d box_axes = cv::Matx33d::eye();
-    bool grow = false;               // true: only those reached over the surface from the seed
-    double max_gap_mm = 1.0;         // growing: neighbours nearer than this
-    double max_normal_step_deg = 20; // select_region's growing: normals of neighbours agree within this
+    bool grow = false;               // true: the face at the seed, grown as the kind that fits it (grow_face)
+    double max_gap_mm = 1.0;         // growing: from cube to neighbouring cube of this size
+    double max_normal_step_deg = 20; // growing: a point's normal agrees with the fitted shape's within this
 };
 
 // The face at a picked point, grown by fitting (fit_at_point with `grow`): the largest ball
 // around the point (seed_radius_mm, halved while it holds an edge) that one kind fits within
 // reject_factor x the noise starts each allowed kind; each is then grown over the surface
-// (neighbours within max_gap_mm) to the points within max(4, reject_factor) x the noise of it
-// whose normals agree with its own within max_normal_step_deg, refitted and regrown until it
-// settles, then again from its fit on the largest face another kind grew.
-// Smoothed normals that turn gradually over an edge do not carry it across, as they would
-// carry select_region's growing. The simplest kind whose face holds at least 90 % of the
-// largest one's points is taken (a flat chamfer: a plane; a short boss: a cylinder).
+// (from cube to neighbouring cube of max_gap_mm) to the points within max(4, reject_factor) x
+// the noise of it whose normals agree with its own within max_normal_step_deg, refitted and
+// regrown until it settles, then again from its fit on the largest face another kind grew.
+// A scanner's normals turn gradually over an edge; the distance to the fitted shape does not,
+// so the face stops there (growing by normal steps ran from the demo part's short boss onto its
+// top and the block). Of the kinds whose face it fits within accept_factor x the noise, the
+// simplest whose face holds at least 90 % of the largest one's points is taken (a flat chamfer:
+// a plane; a short boss: a cylinder).
 struct GrownFace {
     std::vector<int> region;         // the cloud's points on the face, sorted
     ShapeKind kind = ShapeKind::Plane;
@@ -45,7 +47,8 @@ struct GrownFace {
 };
 
 // Indices of the cloud's points in the region picked at `seed` (the nearest point to it starts
-// it). Throws Error("seed", ...) when the cloud is empty, Error("cloud", ...) when growing needs
+// it); with `grow`, grow_face's with the automatic kinds and the noise estimated. Throws
+// Error("seed", ...) when the cloud is empty, Error("cloud", ...) when growing needs
 // normals it lacks, Error("radius_mm"/"max_gap_mm", ...) for bad options, Error("cancelled", ...)
 // when `progress` answers false (it is told every 65 536 points looked at).
 std::vector<int> select_region(const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection = {},
