@@ -8,6 +8,7 @@ void bind_region_fit(py::module_& m) {
     py::class_<RegionSelection>(m, "RegionSelection")
         .def(py::init<>())
         .def_readwrite("radius_mm", &RegionSelection::radius_mm)
+        .def_readwrite("seed_radius_mm", &RegionSelection::seed_radius_mm)
         .def_readwrite("box_half_size_mm", &RegionSelection::box_half_size_mm)
         .def_readwrite("box_axes", &RegionSelection::box_axes)
         .def_readwrite("grow", &RegionSelection::grow)
@@ -54,6 +55,24 @@ void bind_region_fit(py::module_& m) {
             return select_region(cloud, seed, selection, callback);
         },
         py::arg("cloud"), py::arg("seed"), py::arg("selection") = RegionSelection(), py::arg("progress") = py::none());
+    py::class_<GrownFace>(m, "GrownFace")
+        .def_readonly("region", &GrownFace::region)
+        .def_readonly("kind", &GrownFace::kind)
+        .def_readonly("noise_mm", &GrownFace::noise_mm)
+        .def_readonly("seed_radius_mm", &GrownFace::seed_radius_mm)
+        .def_readonly("report", &GrownFace::report);
+    m.def(
+        "grow_face",
+        [](const PointCloud& cloud, const cv::Vec3d& seed, const RegionSelection& selection, const RegionFitOptions& fit,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return grow_face(cloud, seed, selection, fit, callback);
+        },
+        py::arg("cloud"), py::arg("seed"), py::arg("selection") = RegionSelection(), py::arg("fit") = RegionFitOptions(),
+        py::arg("progress") = py::none());
+    m.def("estimate_noise", &estimate_noise, py::arg("cloud"), py::arg("centre"), py::arg("radius_mm"),
+          py::call_guard<py::gil_scoped_release>());
     m.def("select_in_polygon", &select_in_polygon, py::arg("cloud"), py::arg("cloud_to_screen"), py::arg("polygon"),
           py::call_guard<py::gil_scoped_release>());
     m.def(

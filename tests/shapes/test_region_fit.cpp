@@ -252,3 +252,90 @@ TEST(RegionFit, BoxAndLassoSelectExactlyThePointsInsideAndTheRecipeFitsThem) {
     options.selection.radius_mm = 0;
     EXPECT_THROW(fit_at_point(scan.cloud, cv::Vec3d(5, 0, 5), options), Error);
 }
+
+TEST(RegionFit, PlaneSphereAndConeConstraintsHoldAndSpheresSnap) {
+    // A plane tilted 0.5 degrees from z: parallel to z it becomes exactly z (RMS shows the tilt),
+    // perpendicular to x its normal has no x part.
+    Scan floor(0.01);
+    const cv::Vec3d tilted = cv::normalize(cv::Vec3d(std::tan(0.5 * kPi / 180), 0, 1));
+    const auto [u, v] = std::make_pair(cv::normalize(cv::Vec3d(1, 0, 0) - tilted[0] * tilted), cv::Vec3d(0, 1, 0));
+    for (int i = 0; i <= 50; ++i)
+        for (int j = 0; j <= 50; ++j) floor.add((i * 0.2 - 5) * u + (j * 0.2 - 5) * v, tilted);
+    RegionFitOptions options;
+    options.automatic = false;
+    options.kind = ShapeKind::Plane;
+    options.constraint = FitConstraint::Parallel;
+    options.reference_direction = cv::Vec3d(0, 0, 2);  // any length
+    const RegionFit parallel = fit_region(floor.cloud, all_of(floor.cloud), options);
+    EXPECT_NEAR(parallel.shape.direction[2], 1.0, 1e-12);
+    // 5 mm either side of the middle, 0.5 degrees: a ramp of RMS 5 x tan(0.5°) / sqrt(3) = 25 um.
+    EXPECT_NEAR(parallel.shape.rms_mm, std::hypot(5 * std::tan(0.5 * kPi / 180) / std::sqrt(3.0), 0.01), 0.003);
+    options.constraint = FitConstraint::Perpendicular;
+    options.reference_direction = cv::Vec3d(1, 0, 0);
+    const RegionFit square = fit_region(floor.cloud, all_of(floor.cloud), options);
+    EXPECT_LT(std::abs(square.shape.direction[0]), 1e-12);
+    EXPECT_GT(std::abs(square.shape.direction[2]), 0.9999);
+
+    // A sphere cap of radius 12.52 centred 0.3 mm off the z axis: coaxial with z, its centre is on
+    // the axis; free, it snaps to 25.0 mm on a 0.5 mm step (within 0.05 mm) and not on 0.3 mm.
+    Scan ball(0.01);
+    const cv::Vec3d centre(0.3, 0, 50);
+    for (int i = 0; i <= 40; ++i)
+        for (int j = 0; j <= 40; ++j) {
+            const double theta = (10 + 60.0 * i / 40) * kPi / 180, phi = (120.0 * j / 40) * kPi / 180;
+            const cv::Vec3d n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+            ball.add(centre + 12.52 * n, n);
+        }
+    RegionFitOptions on_axis;
+    on_axis.automatic = false;
+    on_axis.kind = ShapeKind::Sphere;
+    on_axis.constraint = FitConstraint::Coaxial;
+    on_axis.reference_point = cv::Vec3d(0, 0, 7);
+    on_axis.reference_direction = cv::Vec3d(0, 0, 1);
+    const RegionFit coaxial = fit_region(ball.cloud, all_of(ball.cloud), on_axis);
+    EXPECT_LT(std::hypot(coaxial.shape.point[0], coaxial.shape.point[1]), 1e-9) << coaxial.report;
+    EXPECT_GT(coaxial.shape.rms_mm, 0.05);  // 0.3 mm off the true centre shows
+    RegionFitOptions snap;
+    snap.snap_step_mm = 0.5;
+    snap.snap_tolerance_mm = 0.05;
+    const RegionFit snapped = fit_region(ball.cloud, all_of(ball.cloud), snap);
+    ASSERT_EQ(snapped.shape.kind, ShapeKind::Sphere) << snapped.report;
+    EXPECT_NEAR(snapped.fitted_radius_mm, 12.52, 0.005);
+    EXPECT_TRUE(snapped.snapped) << snapped.report;
+    EXPECT_DOUBLE_EQ(snapped.shape.radius_mm, 12.5);
+    EXPECT_LT(cv::norm(snapped.shape.point - centre), 0.05);
+    snap.snap_step_mm = 0.3;  // nearest multiple 24.9 mm: 0.14 mm away
+    const RegionFit not_snapped = fit_region(ball.cloud, all_of(ball.cloud), snap);
+    EXPECT_FALSE(not_snapped.snapped) << not_snapped.report;
+    EXPECT_NE(not_snapped.report.find("not snapped"), std::string::npos) << not_snapped.report;
+
+    // A 45 degree countersink whose axis is tilted 1 degree from z: parallel to z holds the axis
+    // exactly, coaxial with an axis 0.2 mm away puts it there; a cone cannot be perpendicular.
+    Scan countersink(0.01);
+    const double half_angle = 45 * kPi / 180;
+    const cv::Vec3d axis = cv::normalize(cv::Vec3d(std::tan(kPi / 180), 0, 1));
+    const cv::Vec3d across = cv::normalize(cv::Vec3d(0, 1, 0).cross(axis)), side = axis.cross(across);
+    for (int i = 0; i <= 40; ++i)
+        for (int j = 0; j <= 90; ++j) {
+            const double along = 4 + 6.0 * i / 40, phi = 2 * kPi * j / 90;
+            const cv::Vec3d radial = std::cos(phi) * across + std::sin(phi) * side;
+            countersink.add(along * axis + along * std::tan(half_angle) * radial,
+                            std::cos(half_angle) * radial - std::sin(half_angle) * axis);
+        }
+    RegionFitOptions cone;
+    cone.automatic = false;
+    cone.kind = ShapeKind::Cone;
+    cone.constraint = FitConstraint::Parallel;
+    cone.reference_direction = cv::Vec3d(0, 0, 1);
+    const RegionFit cone_parallel = fit_region(countersink.cloud, all_of(countersink.cloud), cone);
+    EXPECT_NEAR(std::abs(cone_parallel.shape.direction[2]), 1.0, 1e-12) << cone_parallel.report;
+    cone.constraint = FitConstraint::Coaxial;
+    cone.reference_point = cv::Vec3d(0.2, 0, 0);
+    cone.reference_direction = axis;
+    const RegionFit cone_coaxial = fit_region(countersink.cloud, all_of(countersink.cloud), cone);
+    EXPECT_LT(cv::norm((cone_coaxial.shape.point - cv::Vec3d(0.2, 0, 0)).cross(axis)), 1e-9) << cone_coaxial.report;
+    EXPECT_NEAR(std::abs(cone_coaxial.shape.direction.dot(axis)), 1.0, 1e-12);
+    EXPECT_NEAR(cone_coaxial.shape.half_angle_deg, 45, 0.5);
+    cone.constraint = FitConstraint::Perpendicular;
+    EXPECT_THROW(fit_region(countersink.cloud, all_of(countersink.cloud), cone), Error);
+}

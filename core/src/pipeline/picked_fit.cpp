@@ -27,6 +27,7 @@ void validate(const PickedFitOptions& options) {
     const RegionSelection& selection = options.selection;
     check_finite_positive(selection.radius_mm, "radius_mm");
     check_finite_positive(selection.max_gap_mm, "max_gap_mm");
+    check_finite_positive(selection.seed_radius_mm, "seed_radius_mm");
     if (!(selection.max_normal_step_deg > 0 && selection.max_normal_step_deg < 180))
         throw Error("max_normal_step_deg", "must be in (0, 180) degrees");
     for (int i = 0; i < 3; ++i)
@@ -49,7 +50,15 @@ PickedFit fit_at_point(const PointCloud& cloud, const cv::Vec3d& seed, const Pic
                        const ProgressCallback& progress) {
     validate(options);
     if (progress && !progress(0.0, "selecting the region")) throw Error("cancelled", "region fit cancelled");
-    return fit_selected(cloud, select_region(cloud, seed, options.selection, progress), options, progress);
+    if (!options.selection.grow) return fit_selected(cloud, select_region(cloud, seed, options.selection, progress), options, progress);
+    // The face grown as one kind is fitted as that kind (with the constraint and snapping asked for).
+    const GrownFace face = grow_face(cloud, seed, options.selection, options.fit, progress);
+    PickedFitOptions as_grown = options;
+    as_grown.fit.automatic = false;
+    as_grown.fit.kind = face.kind;
+    PickedFit result = fit_selected(cloud, face.region, as_grown, progress);
+    result.fit.report = face.report + "; " + result.fit.report;
+    return result;
 }
 
 PickedFit fit_in_lasso(const PointCloud& cloud, const cv::Matx44d& cloud_to_screen, const std::vector<cv::Vec2d>& polygon,

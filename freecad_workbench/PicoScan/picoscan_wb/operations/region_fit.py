@@ -1,5 +1,6 @@
 """Fitting where the user points: a plane, cylinder, sphere or cone fitted to the region of a scan
-around a picked point (or to given point indices), by the core's `select_region` and `fit_region`.
+around a picked point (or to given point indices), by the core's `grow_face` (the face at the point,
+grown as the kind that fits it), `select_region` and `fit_region`.
 The core chooses the kind from the residuals against the scan's noise (a flat chamfer is a plane),
 holds constraints to another fitted feature (parallel, perpendicular, coaxial) and snaps diameters
 to nominal sizes on request. The result is an ordinary Part primitive, like Fit primitives'."""
@@ -54,9 +55,9 @@ def region_options(kind=None, noise_mm=0.0, constraint=None, reference=None, pla
 
 def pick_region(cloud, seed, radius_mm=30.0, grow=True, placement=None, max_gap_mm=1.0):
     """Indices of the cloud's points around `seed` (document coordinates; `placement` is the scan
-    object's): within radius_mm of it and, with grow, reached over the smooth surface from it
-    (neighbours within max_gap_mm whose normals turn by less than 20 degrees): by default the face
-    the point is on, up to its edges."""
+    object's): within radius_mm of it and, with grow, the face the point is on up to its edges, grown
+    as the plane, sphere, cylinder or cone that fits it best (the core's grow_face: neighbours within
+    max_gap_mm that lie on the fitted shape within 3 x the scan's noise)."""
     selection = picoscan.RegionSelection()
     selection.radius_mm = radius_mm
     selection.grow = grow
@@ -67,7 +68,8 @@ def pick_region(cloud, seed, radius_mm=30.0, grow=True, placement=None, max_gap_
 
 def picked_options(region="grown", radius_mm=30.0, box_half_size_mm=(5.0, 5.0, 5.0), placement=None, **fit_options):
     """picoscan.PickedFitOptions for the core's fit_at_point: region "grown" (the face under the point,
-    within radius_mm), "ball" (every point within radius_mm) or "box" (box_half_size_mm along the
+    within radius_mm, grown as the kind that fits it; a point on an edge or a face too small to tell
+    its kind is refused with the reason), "ball" (every point within radius_mm) or "box" (box_half_size_mm along the
     document's axes, around the point); fit_options as for region_options."""
     options = picoscan.PickedFitOptions()
     selection = picoscan.grown_face_selection()
@@ -88,6 +90,13 @@ def picked_options(region="grown", radius_mm=30.0, box_half_size_mm=(5.0, 5.0, 5
 
 
 REGIONS = ("grown", "ball", "box")
+
+
+def grown_face(cloud, seed, options, placement=None, progress=None):
+    """The face the grown region of `options` (picked_options) takes at `seed` (document coordinates):
+    picoscan.GrownFace, the points fit_at_point fits (for the panel's preview)."""
+    local = (placement or FreeCAD.Placement()).inverse().multVec(FreeCAD.Vector(*seed))
+    return picoscan.grow_face(cloud, tuple(local), options.selection, options.fit, progress)
 
 
 def fit_at_point(cloud, seed, options, placement=None, progress=None):

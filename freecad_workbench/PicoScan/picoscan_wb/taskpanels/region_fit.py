@@ -69,9 +69,10 @@ class FitRegionTaskPanel:
 
         self.region = QtGui.QComboBox()
         self.region.addItems([text for text, _ in REGIONS])
-        self.region.setToolTip("Which points are fitted: the face under the point up to its edges (normals turn "
-                               "by less than 20 degrees between neighbours within 1 mm), every point within the "
-                               "radius, a box along the document's axes, or the points under a lasso")
+        self.region.setToolTip("Which points are fitted: the face under the point up to its edges (grown as the "
+                               "plane, sphere, cylinder or cone that fits it, over points within 3 x the scan's "
+                               "noise of it; a point on an edge is refused), every point within the radius, a box "
+                               "along the document's axes, or the points under a lasso")
         layout.addRow("Region", self.region)
         self.radius = length_box(30.0, 10000, tip="Grown face and ball: points farther from the picked point "
                                                   "are left out")
@@ -96,12 +97,14 @@ class FitRegionTaskPanel:
 
         self.kind = QtGui.QComboBox()
         self.kind.addItems([text for text, _ in KINDS])
-        self.kind.setToolTip("Automatic: the simplest of plane, sphere, cylinder and cone whose RMS is within "
-                             "1.5 x the noise (or 1.1 x the best RMS)")
+        self.kind.setToolTip("Automatic: for a grown face, the simplest of plane, sphere, cylinder and cone whose "
+                             "grown face holds 90 % of the largest one's points; for a ball, box or lasso, the "
+                             "simplest whose RMS is within 1.5 x the noise (or 1.1 x the best RMS)")
         layout.addRow("Kind", self.kind)
-        self.noise = length_box(0.0, 10, special="from the best fit",
+        self.noise = length_box(0.0, 10, special="from the scan",
                                 tip="The scan's noise (sigma). Given, a region no kind fits within 3 x it (two "
-                                    "faces at once) is refused; 0: the best fit's RMS stands for it")
+                                    "faces at once) is refused; 0: a grown face estimates it from the scan "
+                                    "around the point, a ball, box or lasso takes the best fit's RMS")
         layout.addRow("Noise", self.noise)
         self.constraint = QtGui.QComboBox()
         self.constraint.addItems([text for text, _ in CONSTRAINTS])
@@ -231,6 +234,9 @@ class FitRegionTaskPanel:
             matrix = numpy.array(self.source.Placement.toMatrix().A).reshape(4, 4)
             screen, polygon = [tuple(r) for r in self.lasso_matrix @ matrix], list(self.lasso)
             select = lambda progress: picoscan.select_in_polygon(cloud, screen, polygon)  # noqa: E731
+        elif self.region_kind() == "grown":  # the face the fit will take: grown as the kind that fits it
+            seed, placement = self.seed, self.source.Placement
+            select = lambda progress: region_fit.grown_face(cloud, seed, options, placement, progress).region  # noqa: E731
         else:
             local = tuple(self.source.Placement.inverse().multVec(FreeCAD.Vector(*self.seed)))
             select = lambda progress: picoscan.select_region(cloud, local, options.selection, progress)  # noqa: E731

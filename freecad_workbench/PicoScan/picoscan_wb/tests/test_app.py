@@ -1738,7 +1738,8 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
     bottom, now measured, the front and the left side), so every height is measured from the
     bottom's data. The outline is a fitted Cross-section (Band) of a Poisson mesh of the scan,
     padded from the bottom to the fitted top plane; the hole a Pocket and the boss a Pad of the
-    cylinders Fit primitives finds, the boss up to its fitted top; the chamfer a PartDesign Chamfer
+    cylinders Fit at picked point fits to the faces grown from a point on each, the boss up to its
+    fitted top; the chamfer a PartDesign Chamfer
     whose legs come from three fitted planes; then the deviation map of the scan against that
     body. Each dimension is compared with the simulator's truth."""
 
@@ -1767,6 +1768,14 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         result.points = numpy.ascontiguousarray(numpy.asarray(cloud.points)[::stride])
         result.normals = numpy.ascontiguousarray(numpy.asarray(cloud.normals)[::stride])
         return result
+
+    def fit_face(self, seed, label):
+        """The face grown from a point picked on the scan, of the kind that fits it (Fit at picked
+        point's defaults: the core's grow_face, then fit_at_point), added as a Part primitive."""
+        picked = region_fit.fit_at_point(self.cloud_in_frame, seed, region_fit.picked_options())
+        feature = region_fit.add_fitted(self.doc, self.cloud_in_frame, picked.fit, label=label)
+        FreeCAD.Console.PrintMessage("  fitted %s: %d points; %s\n" % (label, len(picked.region), picked.fit.report))
+        return feature
 
     def fit(self, seed, kind, label):
         """A plane fitted at a point picked on the scan (the core's fit_at_point, as Fit at picked point
@@ -1888,14 +1897,11 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         right = self.fit(at(25.0, -4.0, 12.0), "plane", "Right")
         back = self.fit(at(-4.0, 18.0, 12.0), "plane", "Back")
         chamfer = self.fit(at(21.0, 14.0, 12.0), "plane", "Chamfer")
-        # The cylinders by Fit primitives (the core's RANSAC and least squares over every other point):
-        # Fit at picked point's cylinder fit does not converge on the boss's short ring (RMS 0.8 mm).
-        _, found = primitives.fit_primitives(self.doc, self.thinned(cloud, 2), label="Primitives of the scan")
-        cylinders = sorted([(shape.radius_mm, obj) for obj, shape in found if shape.kind == picoscan.ShapeKind.Cylinder],
-                           key=lambda item: item[0])
-        FreeCAD.Console.PrintMessage("  Fit primitives: %s\n" % ", ".join(str(shape) for _, shape in found))
-        hole = [obj for radius, obj in cylinders if 4 < radius < 6][0]
-        boss = [obj for radius, obj in cylinders if 6 < radius < 8][0]
+        # The cylinders by Fit at picked point with its defaults (the face grown from a point on the
+        # boss's short side and on the hole's partly seen wall, its kind chosen automatically).
+        hole = self.fit_face(at(-16.0, 0.0, 21.0), "Hole")
+        boss = self.fit_face(at(19.0, -2.0, 28.0), "Boss")
+        self.assertEqual((hole.TypeId, boss.TypeId), ("Part::Cylinder", "Part::Cylinder"))
         # Heights of the fitted planes where their points are (their faces' centres).
         bottom_z, top_z, boss_top_z = (plane.Shape.CenterOfMass.z for plane in (bottom, top, boss_top))
 
