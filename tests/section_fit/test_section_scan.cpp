@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <tuple>
 
 using namespace picoscan;
@@ -31,20 +32,26 @@ double angle_error_deg(double a, double b) {
     return std::min(d, 180 - d);
 }
 
-// The band mesh of the whole scan, every second point (one mesh for every test of the suite).
+// The band mesh of a whole scan merged by its true poses, every second point, each moved along
+// its normal by Gaussian noise of `extra_noise_mm` (0: none).
+Mesh band_mesh(const test_support::TurntableScan& scan, double extra_noise_mm) {
+    std::vector<ScanView> views = scan.views;
+    for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.part_to_camera[i].inv();
+    const PointCloud merged = merge_views(views);
+    std::mt19937 random(3);
+    std::normal_distribution<float> noise(0.0f, float(extra_noise_mm));
+    PointCloud thinned;
+    for (size_t i = 0; i < merged.points.size(); i += 2) {
+        const float shift = extra_noise_mm > 0 ? noise(random) : 0.0f;
+        thinned.points.push_back(merged.points[i] + shift * merged.normals[i]);
+        thinned.normals.push_back(merged.normals[i]);
+    }
+    return band_surface(thinned, 0.3);
+}
+
+// The demo part's (one mesh for every test of the suite).
 const Mesh& scan_mesh() {
-    static const Mesh mesh = [] {
-        const test_support::TurntableScan& scan = test_support::turntable_scan();
-        std::vector<ScanView> views = scan.views;
-        for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.part_to_camera[i].inv();
-        const PointCloud merged = merge_views(views);
-        PointCloud thinned;
-        for (size_t i = 0; i < merged.points.size(); i += 2) {
-            thinned.points.push_back(merged.points[i]);
-            thinned.normals.push_back(merged.normals[i]);
-        }
-        return band_surface(thinned, 0.3);
-    }();
+    static const Mesh mesh = band_mesh(test_support::turntable_scan(), 0);
     return mesh;
 }
 
@@ -196,4 +203,46 @@ TEST(SectionFitScan, HoleAndBossCutsGiveTheirRadiusWithinTwentyMicrons) {
     }
     EXPECT_EQ(lines, 5);
     EXPECT_EQ(circles, 1);
+}
+
+// Another shape and other noise: the plain grey hexagonal prism (20 mm sides, 18 mm high, its
+// corners at 0, 60, ... degrees) with a peg on top (a 32-gon of 3.5 mm corner radius at (8, 3), z =
+// 18 .. 24), 8 turntable views, no paint (so no speckle bumps), as scanned and with 0.03 mm of
+// Gaussian noise added to every point along its normal.
+TEST(SectionFitScan, HexagonAndPegOfAPlainPartAtTwoNoiseLevels) {
+    const test_support::TurntableScan& scan = test_support::plain_turntable_scan(test_support::PlainPart::HexWithPeg);
+    // A circle fitted to the 32-gon's outline has about its mean distance from the centre.
+    const double half_side = kPi / 32, peg_radius = 3.5 * std::cos(half_side) * (1 + half_side * half_side / 6);
+    for (const double extra_noise : {0.0, 0.03}) {
+        const Mesh mesh = band_mesh(scan, extra_noise);
+        double worst_angle = 0;
+        for (double z = 2; z <= 16.01; z += 2) {
+            SectionPolyline outline;
+            for (SectionPolyline& cut : cut_mesh(mesh, {0, 0, z}, {1, 0, 0}, {0, 1, 0}))
+                if (cut.points.size() > outline.points.size()) outline = std::move(cut);
+            const SectionFit fit = fit_section(outline.points, true);
+            EXPECT_EQ(count(fit, SectionElementKind::Line), 6) << "noise " << extra_noise << ", z = " << z;
+            ASSERT_EQ(fit.elements.size(), 6u) << "noise " << extra_noise << ", z = " << z;
+            for (const SectionElement& e : fit.elements) {
+                // Each side runs at 120 + 60 k degrees.
+                const double error = std::abs(std::remainder(direction_deg(e.start, e.end) - 120, 60.0));
+                worst_angle = std::max(worst_angle, error);
+            }
+        }
+        double worst_radius = 0;
+        for (const double z : {19.0, 21.0, 23.0}) {
+            SectionPolyline peg;
+            for (SectionPolyline& cut : cut_mesh(mesh, {0, 0, z}, {1, 0, 0}, {0, 1, 0}))
+                if (cut.points.size() > peg.points.size()) peg = std::move(cut);
+            const SectionFit fit = fit_section(peg.points, peg.closed);
+            ASSERT_EQ(fit.elements.size(), 1u) << "noise " << extra_noise << ", z = " << z;
+            EXPECT_EQ(fit.elements[0].kind, SectionElementKind::Circle) << "noise " << extra_noise << ", z = " << z;
+            EXPECT_LT(cv::norm(fit.elements[0].centre - cv::Vec2d(8, 3)), 0.020);
+            worst_radius = std::max(worst_radius, std::abs(fit.elements[0].radius_mm - peg_radius));
+        }
+        std::printf("hexagon with peg, %.2f mm added noise: 6 lines at z = 2 .. 16 mm, worst angle %.4f deg; peg radius worst %.1f um off %.4f mm\n",
+                    extra_noise, worst_angle, 1000 * worst_radius, peg_radius);
+        EXPECT_LT(worst_angle, 0.05) << "noise " << extra_noise;
+        EXPECT_LT(worst_radius, 0.020) << "noise " << extra_noise;
+    }
 }
