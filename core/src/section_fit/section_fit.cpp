@@ -841,8 +841,12 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
     }
     // A closed cut that ends as one arc all round is a circle: a hole's cut in a scan has bumps
     // beyond the tolerance (so the circle was not taken at once above), which the joining then
-    // found unfounded.
-    if (closed && spans.size() == 1 && spans[0].shape.circle) return whole_circle(whole);
+    // found unfounded. Held to the same terms as every element: its RMS within the tolerance.
+    if (closed && spans.size() == 1 && spans[0].shape.circle) {
+        double sum = 0;
+        for (long i = 0; i < n; ++i) sum += std::pow(whole.distance(pts[i]), 2);
+        if (std::sqrt(sum / double(n)) <= result.tolerance_mm) return whole_circle(whole);
+    }
     // The final fits leave out a tenth of the points at each end that is a corner or an open end:
     // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
     // a point off. Tangent ends keep their points: a fillet needs all of its short arc.
