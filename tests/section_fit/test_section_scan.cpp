@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <tuple>
 
 using namespace picoscan;
@@ -22,6 +23,7 @@ constexpr double kPi = 3.14159265358979323846;
 
 // The demo part's outline (MechanicalPartShape defaults), counter-clockwise: its sides' directions.
 const std::vector<cv::Vec2d> kOutline = {{-25, -18}, {25, -18}, {25, 10}, {17, 18}, {-25, 18}};
+constexpr size_t kChamferSide = 2;  // from (25, 10) to (17, 18): 11.3 mm
 
 double direction_deg(const cv::Vec2d& a, const cv::Vec2d& b) { return std::atan2(b[1] - a[1], b[0] - a[0]) * 180 / kPi; }
 
@@ -30,20 +32,26 @@ double angle_error_deg(double a, double b) {
     return std::min(d, 180 - d);
 }
 
-// The band mesh of the whole scan, every second point (one mesh for every test of the suite).
+// The band mesh of a whole scan merged by its true poses, every second point, each moved along
+// its normal by Gaussian noise of `extra_noise_mm` (0: none).
+Mesh band_mesh(const test_support::TurntableScan& scan, double extra_noise_mm) {
+    std::vector<ScanView> views = scan.views;
+    for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.part_to_camera[i].inv();
+    const PointCloud merged = merge_views(views);
+    std::mt19937 random(3);
+    std::normal_distribution<float> noise(0.0f, float(extra_noise_mm));
+    PointCloud thinned;
+    for (size_t i = 0; i < merged.points.size(); i += 2) {
+        const float shift = extra_noise_mm > 0 ? noise(random) : 0.0f;
+        thinned.points.push_back(merged.points[i] + shift * merged.normals[i]);
+        thinned.normals.push_back(merged.normals[i]);
+    }
+    return band_surface(thinned, 0.3);
+}
+
+// The demo part's (one mesh for every test of the suite).
 const Mesh& scan_mesh() {
-    static const Mesh mesh = [] {
-        const test_support::TurntableScan& scan = test_support::turntable_scan();
-        std::vector<ScanView> views = scan.views;
-        for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.part_to_camera[i].inv();
-        const PointCloud merged = merge_views(views);
-        PointCloud thinned;
-        for (size_t i = 0; i < merged.points.size(); i += 2) {
-            thinned.points.push_back(merged.points[i]);
-            thinned.normals.push_back(merged.normals[i]);
-        }
-        return band_surface(thinned, 0.3);
-    }();
+    static const Mesh mesh = band_mesh(test_support::turntable_scan(), 0);
     return mesh;
 }
 
@@ -55,10 +63,14 @@ SectionPolyline outline_cut(double z) {
     return longest;
 }
 
-// Each fitted line against the side of the outline it runs along: the largest angle error, or
-// a failure when a line matches no side or two lines match one.
-double worst_angle_error_deg(const SectionFit& fit) {
-    double worst = 0;
+// Each fitted line against the side of the outline it runs along: the largest angle error of the
+// four sides and the chamfer's (side 2), or a failure when a line matches no side or two lines
+// match one.
+struct SideErrors {
+    double worst_side = 0, chamfer = 0;
+};
+SideErrors angle_errors_deg(const SectionFit& fit) {
+    SideErrors errors;
     std::vector<int> matched(kOutline.size(), 0);
     for (const SectionElement& e : fit.elements) {
         const double fitted = direction_deg(e.start, e.end);
@@ -74,44 +86,59 @@ double worst_angle_error_deg(const SectionFit& fit) {
             continue;
         }
         ++matched[side];
-        worst = std::max(worst, angle_error_deg(fitted, direction_deg(kOutline[side], kOutline[(side + 1) % kOutline.size()])));
+        const double error = angle_error_deg(fitted, direction_deg(kOutline[side], kOutline[(side + 1) % kOutline.size()]));
+        double& worst = side == kChamferSide ? errors.chamfer : errors.worst_side;
+        worst = std::max(worst, error);
     }
     for (size_t k = 0; k < kOutline.size(); ++k) EXPECT_EQ(matched[k], 1) << "side " << k;
-    return worst;
+    return errors;
 }
 
 }  // namespace
 
+// One cut at every 1.5 mm of the block's height. The long sides (28 mm and more) hold 0.05 degrees
+// from one cut; the 11.3 mm chamfer does not: its error is the scatter of the few independent
+// samples one cut holds. The scan's points themselves have bumps of about 0.025 mm at the same
+// places in every view (phase errors at the paint's speckles), and a line fitted to the raw points
+// within 0.1 mm of the cut's height is off by as much (0.013-0.054 degrees at z = 4, 9, 12, 15, 20),
+// so no fit of one cut can promise 0.05 degrees there. A band of 17 cuts does (fit_extruded_section).
 TEST(SectionFitScan, OutlineCutsAreFiveLinesAtTheRightAngles) {
-    for (const double z : {4.0, 9.0, 12.0, 15.0, 20.0}) {
+    double worst_side = 0, worst_chamfer = 0;
+    for (double z = 1.5; z <= 22.51; z += 1.5) {
         const SectionPolyline cut = outline_cut(z);
         // Where the mesh has a hole the cut is one open chain round the outline: its gap is bridged.
         const double gap = cut.closed ? 0 : cv::norm(cut.points.front() - cut.points.back());
         ASSERT_LT(gap, 3) << "z = " << z;
         const SectionFit fit = fit_section(cut.points, true);
-        const double worst = fit.elements.size() == 5 ? worst_angle_error_deg(fit) : 180;
-        std::printf("z = %4.1f mm: %zu points, gap %.2f mm, noise %.4f mm, tolerance %.4f mm, %zu elements, worst line angle %.4f deg\n",
-                    z, cut.points.size(), gap, fit.noise_mm, fit.tolerance_mm, fit.elements.size(), worst);
+        ASSERT_EQ(fit.elements.size(), 5u) << "z = " << z;
         EXPECT_EQ(count(fit, SectionElementKind::Line), 5) << "z = " << z;
-        EXPECT_EQ(fit.elements.size(), 5u) << "z = " << z;
-        EXPECT_LT(worst, 0.1) << "z = " << z;  // one cut: see the band fit below for 0.05
+        const SideErrors errors = angle_errors_deg(fit);
+        std::printf("z = %4.1f mm: %zu points, gap %.2f mm, noise %.4f mm, tolerance %.4f mm, 5 lines, worst side angle %.4f deg, chamfer %.4f deg\n",
+                    z, cut.points.size(), gap, fit.noise_mm, fit.tolerance_mm, errors.worst_side, errors.chamfer);
+        EXPECT_LT(errors.worst_side, 0.05) << "z = " << z;
+        EXPECT_LT(errors.chamfer, 0.15) << "z = " << z;
+        worst_side = std::max(worst_side, errors.worst_side);
+        worst_chamfer = std::max(worst_chamfer, errors.chamfer);
     }
+    std::printf("one cut, z = 1.5 .. 22.5 mm: worst side %.4f deg, worst chamfer %.4f deg\n", worst_side, worst_chamfer);
 
-    std::vector<std::vector<cv::Vec2d>> parallel;
-    for (double z = 4; z <= 20.01; z += 1) {
-        if (std::abs(z - 12) < 0.01) continue;
-        parallel.push_back(outline_cut(z).points);
+    // Bands of 17 cuts 0.5 mm apart round three heights: every line within 0.05 degrees.
+    for (const double middle : {6.0, 12.0, 18.0}) {
+        std::vector<std::vector<cv::Vec2d>> parallel;
+        for (double z = middle - 4; z <= middle + 4.01; z += 0.5)
+            if (std::abs(z - middle) > 0.01) parallel.push_back(outline_cut(z).points);
+        const SectionFit fit = fit_extruded_section(outline_cut(middle).points, true, parallel);
+        ASSERT_EQ(fit.elements.size(), 5u) << "band at z = " << middle;
+        EXPECT_EQ(count(fit, SectionElementKind::Line), 5);
+        const SideErrors errors = angle_errors_deg(fit);
+        std::printf("band of 17 cuts round z = %4.1f mm: 5 lines, worst side %.4f deg, chamfer %.4f deg\n", middle,
+                    errors.worst_side, errors.chamfer);
+        EXPECT_LT(std::max(errors.worst_side, errors.chamfer), 0.05) << "band at z = " << middle;
     }
-    const SectionPolyline cut = outline_cut(12);
-    const SectionFit fit = fit_extruded_section(cut.points, true, parallel);
-    ASSERT_EQ(fit.elements.size(), 5u);
-    EXPECT_EQ(count(fit, SectionElementKind::Line), 5);
-    const double worst = worst_angle_error_deg(fit);
-    std::printf("band of 17 cuts (z = 4 .. 20 mm): 5 lines, worst angle %.4f deg\n", worst);
-    EXPECT_LT(worst, 0.05);
 
     // Built to fool it: the cut with a 3 mm gap at the chamfer's corner (no point shows where the
     // sides meet), and the cut opened at a corner (an open chain, its ends at the corner).
+    const SectionPolyline cut = outline_cut(12);
     std::vector<cv::Vec2d> gapped, opened;
     for (const cv::Vec2d& p : cut.points)
         if (cv::norm(p - cv::Vec2d(25, 10)) > 1.5) gapped.push_back(p);
@@ -121,29 +148,101 @@ TEST(SectionFitScan, OutlineCutsAreFiveLinesAtTheRightAngles) {
     for (size_t i = 0; i < cut.points.size(); ++i) opened.push_back(cut.points[(corner + i) % cut.points.size()]);
     for (const auto& [name, points, closed] : {std::tuple{"gap at a corner", gapped, true}, std::tuple{"open chain", opened, false}}) {
         const SectionFit fooled = fit_section(points, closed);
-        const double worst_fooled = fooled.elements.size() == 5 ? worst_angle_error_deg(fooled) : 180;
-        std::printf("%s: %zu points, %zu elements, worst angle %.4f deg\n", name, points.size(), fooled.elements.size(), worst_fooled);
-        for (const auto& e : fooled.elements)
-            std::printf("  %s n=%d (%.3f,%.3f)->(%.3f,%.3f) r=%.3f rms %.4f\n", to_string(e.kind).c_str(), e.point_count, e.start[0], e.start[1], e.end[0], e.end[1], e.radius_mm, e.rms_mm);
+        ASSERT_EQ(fooled.elements.size(), 5u) << name;
         EXPECT_EQ(count(fooled, SectionElementKind::Line), 5) << name;
-        EXPECT_EQ(fooled.elements.size(), 5u) << name;
-        EXPECT_LT(worst_fooled, 0.1) << name;
+        const SideErrors errors = angle_errors_deg(fooled);
+        std::printf("%s: %zu points, 5 lines, worst side %.4f deg, chamfer %.4f deg\n", name, points.size(), errors.worst_side,
+                    errors.chamfer);
+        EXPECT_LT(errors.worst_side, 0.05) << name;
+        EXPECT_LT(errors.chamfer, 0.15) << name;
     }
+}
 
-    // Measured, not asserted: the hole (10 mm, centre (-11, 0), 24 mm deep) is seen from the
-    // turntable only in slivers, open arcs of a few mm whose radius is known to a tenth of a mm.
-    for (const double z : {4.0, 9.0, 12.0, 15.0, 20.0}) {
-        for (const SectionPolyline& piece : cut_mesh(scan_mesh(), {0, 0, z}, {1, 0, 0}, {0, 1, 0})) {
-            if (piece.points.size() < 20 || cv::norm(piece.points[0] - cv::Vec2d(-11, 0)) > 7) continue;
-            try {
-                const SectionFit hole = fit_section(piece.points, piece.closed);
-                for (const auto& e : hole.elements)
-                    std::printf("hole z=%.0f: %zu pts noise %.4f tol %.4f: %s r=%.4f c=(%.4f,%.4f) n=%d rms %.4f\n", z,
-                                piece.points.size(), hole.noise_mm, hole.tolerance_mm, to_string(e.kind).c_str(),
-                                e.radius_mm, e.centre[0], e.centre[1], e.point_count, e.rms_mm);
-            } catch (const std::exception& error) {
-                std::printf("hole z=%.0f: %s\n", z, error.what());
+// The hole (10 mm, centre (-11, 0)) and the boss (14 mm, centre (12, -2), z = 24 .. 32). The
+// turntable views look down at 25 degrees, so they see the hole's wall only down to about 4.7 mm
+// below the top (z = 19.3): below about z = 20 each view gives an open sliver of it (arcs of a few
+// mm, radii 4.5-5.8 mm) and no radius is asserted there. From z = 20.5 the views together see
+// most of it (an open arc, its gap 6.5 mm at z = 20.5 and 1.3 mm at z = 21.5), from z = 22 all of
+// it (a closed cut, one circle). The boss is seen all round above z = 24.5.
+TEST(SectionFitScan, HoleAndBossCutsGiveTheirRadiusWithinTwentyMicrons) {
+    const auto piece_round = [](double z, const cv::Vec2d& centre, double radius) {
+        SectionPolyline longest;
+        for (SectionPolyline& piece : cut_mesh(scan_mesh(), {0, 0, z}, {1, 0, 0}, {0, 1, 0})) {
+            double worst = 0;
+            for (const cv::Vec2d& p : piece.points) worst = std::max(worst, std::abs(cv::norm(p - centre) - radius));
+            if (worst < 1 && piece.points.size() > longest.points.size()) longest = std::move(piece);
+        }
+        return longest;
+    };
+    const cv::Vec2d hole_centre(-11, 0), boss_centre(12, -2);
+    for (const auto& [z, centre, radius, kind] :
+         {std::tuple{20.5, hole_centre, 5.0, SectionElementKind::Arc}, std::tuple{21.5, hole_centre, 5.0, SectionElementKind::Arc},
+          std::tuple{22.0, hole_centre, 5.0, SectionElementKind::Circle}, std::tuple{23.0, hole_centre, 5.0, SectionElementKind::Circle},
+          std::tuple{25.0, boss_centre, 7.0, SectionElementKind::Circle}, std::tuple{28.0, boss_centre, 7.0, SectionElementKind::Circle},
+          std::tuple{31.0, boss_centre, 7.0, SectionElementKind::Circle}}) {
+        const SectionPolyline piece = piece_round(z, centre, radius);
+        ASSERT_GT(piece.points.size(), 100u) << "z = " << z;
+        const SectionFit fit = fit_section(piece.points, piece.closed);
+        ASSERT_EQ(fit.elements.size(), 1u) << "z = " << z;
+        const SectionElement& e = fit.elements[0];
+        std::printf("%s at z = %4.1f mm: %s of %zu points (gap %.2f mm), radius %.4f mm (%+.1f um), centre off by %.1f um, RMS %.4f mm\n",
+                    radius < 6 ? "hole" : "boss", z, to_string(e.kind).c_str(), piece.points.size(),
+                    piece.closed ? 0.0 : cv::norm(piece.points.front() - piece.points.back()), e.radius_mm,
+                    1000 * (e.radius_mm - radius), 1000 * cv::norm(e.centre - centre), e.rms_mm);
+        EXPECT_EQ(e.kind, kind) << "z = " << z;
+        EXPECT_NEAR(e.radius_mm, radius, 0.020) << "z = " << z;
+        EXPECT_LT(cv::norm(e.centre - centre), 0.020) << "z = " << z;
+    }
+    // The outline with the hole at z = 22: 5 lines round it and one circle.
+    int lines = 0, circles = 0;
+    for (const SectionPolyline& piece : cut_mesh(scan_mesh(), {0, 0, 22}, {1, 0, 0}, {0, 1, 0})) {
+        if (piece.points.size() < 100) continue;
+        const SectionFit fit = fit_section(piece.points, true);
+        lines += count(fit, SectionElementKind::Line);
+        circles += count(fit, SectionElementKind::Circle) + count(fit, SectionElementKind::Arc);
+    }
+    EXPECT_EQ(lines, 5);
+    EXPECT_EQ(circles, 1);
+}
+
+// Another shape and other noise: the plain grey hexagonal prism (20 mm sides, 18 mm high, its
+// corners at 0, 60, ... degrees) with a peg on top (a 32-gon of 3.5 mm corner radius at (8, 3), z =
+// 18 .. 24), 8 turntable views, no paint (so no speckle bumps), as scanned and with 0.03 mm of
+// Gaussian noise added to every point along its normal.
+TEST(SectionFitScan, HexagonAndPegOfAPlainPartAtTwoNoiseLevels) {
+    const test_support::TurntableScan& scan = test_support::plain_turntable_scan(test_support::PlainPart::HexWithPeg);
+    // A circle fitted to the 32-gon's outline has about its mean distance from the centre.
+    const double half_side = kPi / 32, peg_radius = 3.5 * std::cos(half_side) * (1 + half_side * half_side / 6);
+    for (const double extra_noise : {0.0, 0.03}) {
+        const Mesh mesh = band_mesh(scan, extra_noise);
+        double worst_angle = 0;
+        for (double z = 2; z <= 16.01; z += 2) {
+            SectionPolyline outline;
+            for (SectionPolyline& cut : cut_mesh(mesh, {0, 0, z}, {1, 0, 0}, {0, 1, 0}))
+                if (cut.points.size() > outline.points.size()) outline = std::move(cut);
+            const SectionFit fit = fit_section(outline.points, true);
+            EXPECT_EQ(count(fit, SectionElementKind::Line), 6) << "noise " << extra_noise << ", z = " << z;
+            ASSERT_EQ(fit.elements.size(), 6u) << "noise " << extra_noise << ", z = " << z;
+            for (const SectionElement& e : fit.elements) {
+                // Each side runs at 120 + 60 k degrees.
+                const double error = std::abs(std::remainder(direction_deg(e.start, e.end) - 120, 60.0));
+                worst_angle = std::max(worst_angle, error);
             }
         }
+        double worst_radius = 0;
+        for (const double z : {19.0, 21.0, 23.0}) {
+            SectionPolyline peg;
+            for (SectionPolyline& cut : cut_mesh(mesh, {0, 0, z}, {1, 0, 0}, {0, 1, 0}))
+                if (cut.points.size() > peg.points.size()) peg = std::move(cut);
+            const SectionFit fit = fit_section(peg.points, peg.closed);
+            ASSERT_EQ(fit.elements.size(), 1u) << "noise " << extra_noise << ", z = " << z;
+            EXPECT_EQ(fit.elements[0].kind, SectionElementKind::Circle) << "noise " << extra_noise << ", z = " << z;
+            EXPECT_LT(cv::norm(fit.elements[0].centre - cv::Vec2d(8, 3)), 0.020);
+            worst_radius = std::max(worst_radius, std::abs(fit.elements[0].radius_mm - peg_radius));
+        }
+        std::printf("hexagon with peg, %.2f mm added noise: 6 lines at z = 2 .. 16 mm, worst angle %.4f deg; peg radius worst %.1f um off %.4f mm\n",
+                    extra_noise, worst_angle, 1000 * worst_radius, peg_radius);
+        EXPECT_LT(worst_angle, 0.05) << "noise " << extra_noise;
+        EXPECT_LT(worst_radius, 0.020) << "noise " << extra_noise;
     }
 }

@@ -805,8 +805,8 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
     SectionFitter fitter(polyline, closed, options, result.tolerance_mm);
     const long n = long(polyline.size());
 
-    Shape whole = fit_circle(pts, 0, n);
-    if (closed && fitter.fits(whole, 0, n)) {
+    // The whole closed polyline as one circle.
+    const auto whole_circle = [&](Shape whole) {
         whole = refit_with_parallel_cuts(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true);
         SectionElement circle;
         circle.kind = SectionElementKind::Circle;
@@ -824,7 +824,9 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
         circle.rms_mm = std::sqrt(sum / double(n));
         result.elements.push_back(circle);
         return result;
-    }
+    };
+    const Shape whole = fit_circle(pts, 0, n);
+    if (closed && fitter.fits(whole, 0, n)) return whole_circle(whole);
 
     std::vector<Span> spans = fitter.cover(0);
     if (closed && spans.size() > 1) spans = fitter.cover(spans[1].first);  // start at a real joint
@@ -836,6 +838,14 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
         fitter.drop_rounded_corners(spans);
         fitter.drop_unfounded_splits(spans);
         fitter.refine(spans);
+    }
+    // A closed cut that ends as one arc all round is a circle: a hole's cut in a scan has bumps
+    // beyond the tolerance (so the circle was not taken at once above), which the joining then
+    // found unfounded. Held to the same terms as every element: its RMS within the tolerance.
+    if (closed && spans.size() == 1 && spans[0].shape.circle) {
+        double sum = 0;
+        for (long i = 0; i < n; ++i) sum += std::pow(whole.distance(pts[i]), 2);
+        if (std::sqrt(sum / double(n)) <= result.tolerance_mm) return whole_circle(whole);
     }
     // The final fits leave out a tenth of the points at each end that is a corner or an open end:
     // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
