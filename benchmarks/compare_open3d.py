@@ -22,14 +22,17 @@ Model, all 8 views of each part: PicoScan 'stitch' (no guess) then 'mesh' (Poiss
 default fill), against Open3D's multiway registration (the neighbouring global results as a
 pose graph with the loop closed, optimised) then its screened Poisson (depth 9). Both
 meshes are judged against the true part: the volume, and the distances truth -> mesh (over
-the whole true surface, the unseen bottom included) and mesh -> truth.
+the whole outer surface of the true part, the unseen bottom included) and mesh -> truth. The
+true part is built of solids standing on each other (the boss is sunk 1 mm into the block):
+the faces where they meet lie inside the part and are left out, and its volume is that of
+the union (see TruePart).
 
 Whole pipelines (--pipelines, run on its own), all 8 views of each part, from the view files
 to the mesh: PicoScan 'stitch' (no guess) then 'mesh' (Poisson, its default fill), against
 Open3D's own pipeline as its tutorials give it: FPFH + RANSAC + point-to-plane ICP for each
 neighbouring pair, the poses chained from view 0, the clouds merged, its Poisson (depth 9),
 then the vertices of the lowest 1 % of Poisson density removed. The same distance code judges
-both meshes against the true part (truth -> mesh over the whole true surface, mesh -> truth
+both meshes against the true part (truth -> mesh over its whole outer surface, mesh -> truth
 per vertex), with the volume, whether the mesh is watertight, and the wall and CPU time.
 
 Two placements (--placements, run on its own): the same whole pipelines on 16 views of each
