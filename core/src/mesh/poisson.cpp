@@ -21,22 +21,17 @@
 #include <CGAL/exceptions.h>
 #include <CGAL/Poisson_reconstruction_function.h>
 #include <CGAL/Surface_mesh_default_triangulation_3.h>
-#include <CGAL/Surface_mesher/Sphere_oracle_3.h>
 #include <CGAL/Surface_mesher/Standard_criteria.h>
-#include <CGAL/point_generators_3.h>
 #include <CGAL/make_surface_mesh.h>
 #include <CGAL/property_map.h>
 
 #include <opencv2/core.hpp>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <exception>
 #include <functional>
 #include <limits>
 #include <map>
-#include <unordered_map>
 #include <unordered_set>
 
 namespace picoscan::detail {
@@ -437,175 +432,6 @@ private:
     CGAL::Surface_mesher::Standard_criteria<Criterion> criteria_;
 };
 
-// The zero level of the Poisson function as the surface mesher sees it: the function, the ball
-// the mesher stays in and the precision of each surface point. Every evaluation is counted (and
-// reported, and stopped past the budget by the exception `evaluate` throws); the values at the
-// Voronoi vertices are kept, since the mesher tests each of a cell's four facets, and tests them
-// again whenever a neighbouring vertex is inserted (they are its dual edges' ends).
-class PoissonLevel {
-public:
-    using Function = CGAL::Poisson_reconstruction_function<ReportingKernel>;
-    using Evaluate = std::function<void(size_t evaluations)>;
-
-    PoissonLevel(const Function& function, const Kernel::Sphere_3& ball, double precision_mm, Evaluate on_evaluation)
-        : function_(function), ball_(ball), precision_(precision_mm), on_evaluation_(std::move(on_evaluation)) {}
-    PoissonLevel(const PoissonLevel&) = delete;
-    PoissonLevel& operator=(const PoissonLevel&) = delete;
-
-    const Kernel::Sphere_3& ball() const { return ball_; }
-    double precision() const { return precision_; }
-    size_t evaluations() const { return evaluations_; }
-
-    double operator()(const Point3& p) const {
-        if (++evaluations_ % 20000 == 0) on_evaluation_(evaluations_);
-        return CGAL::to_double(function_(p));
-    }
-    // The value at a Voronoi vertex, evaluated once (the same cell gives the same coordinates).
-    double at_vertex(const Point3& p) const {
-        const auto [kept, inserted] = vertex_values_.try_emplace(VertexKey{p.x(), p.y(), p.z()}, 0.0);
-        if (inserted) kept->second = (*this)(p);
-        return kept->second;
-    }
-
-private:
-    struct VertexKey {
-        double x, y, z;
-        bool operator==(const VertexKey& other) const { return x == other.x && y == other.y && z == other.z; }
-    };
-    struct VertexKeyHash {
-        size_t operator()(const VertexKey& key) const {
-            const std::hash<double> hash;
-            return hash(key.x) ^ (hash(key.y) * 0x9e3779b97f4a7c15ULL) ^ (hash(key.z) * 0xc2b2ae3d27d4eb4fULL);
-        }
-    };
-    const Function& function_;
-    Kernel::Sphere_3 ball_;
-    double precision_;
-    Evaluate on_evaluation_;
-    mutable size_t evaluations_ = 0;
-    mutable std::unordered_map<VertexKey, double, VertexKeyHash> vertex_values_;
-};
-
-// The surface mesher's oracle on a PoissonLevel (the role of CGAL's Implicit_surface_oracle_3).
-// A facet's dual edge crosses the surface where the function changes sign (inside: negative); the
-// crossing is narrowed to a bracket shorter than the level's precision, as CGAL's bisection does,
-// but by a safeguarded false position (the Illinois variant): the function is linear inside each
-// tetrahedron of the Poisson triangulation, so a few evaluations bracket the root where bisection
-// takes 15 to 25.
-class PoissonLevelOracle {
-public:
-    using Geom_traits = Kernel;
-    using Point_3 = Point3;
-    using Segment_3 = Kernel::Segment_3;
-    using Ray_3 = Kernel::Ray_3;
-    using Line_3 = Kernel::Line_3;
-    using Intersection_point = Point3;
-    using Surface_3 = PoissonLevel;
-
-    class Intersect_3 {
-    public:
-        CGAL::Object operator()(const Surface_3& level, const Segment_3& segment) const {
-            Point3 a = segment.source(), b = segment.target();
-            const double at_a = level.at_vertex(a), at_b = level.at_vertex(b);
-            if (inside(at_a) == inside(at_b)) return CGAL::Object();
-            const Point3 from = a, to = b;
-            if (!Clip().clip_segment(level.ball(), a, b)) return CGAL::Object();
-            return crossing(level, a, a == from ? at_a : level(a), b, b == to ? at_b : level(b));
-        }
-        CGAL::Object operator()(const Surface_3& level, const Ray_3& ray) const {
-            Point3 a, b;
-            if (!Clip().clip_ray(level.ball(), ray, a, b)) return CGAL::Object();
-            return crossing(level, a, a == ray.source() ? level.at_vertex(a) : level(a), b, level(b));
-        }
-        CGAL::Object operator()(const Surface_3& level, const Line_3& line) const {
-            Point3 a, b;
-            if (!Clip().clip_line(level.ball(), line, a, b)) return CGAL::Object();
-            return crossing(level, a, level(a), b, level(b));
-        }
-
-    private:
-        using Sphere = CGAL::Surface_mesher::Sphere_oracle_3<Kernel>;
-        // CGAL's clipping of a segment, ray or line to a ball.
-        static Sphere::Intersect_3 Clip() {
-            static const Sphere sphere;
-            return sphere.intersect_3_object();
-        }
-        static bool inside(double value) { return value < 0; }
-
-        // A point within half the level's precision of a zero of the function on [a, b], whose
-        // ends have the values at_a and at_b; none when their signs agree.
-        static CGAL::Object crossing(const Surface_3& level, const Point3& a, double at_a, const Point3& b, double at_b) {
-            if (inside(at_a) == inside(at_b)) return CGAL::Object();
-            const Vector3 along = b - a;
-            const double length = std::sqrt(along.squared_length());
-            // The bracket [low, high] along a -> b, as fractions of the length.
-            const double precision = std::min(1.0, level.precision() / length);
-            double low = 0, high = 1, at_low = at_a, at_high = at_b;
-            int last_moved = 0;  // -1: low, +1: high
-            bool bisect = false;
-            while (high - low >= precision) {
-                const double width = high - low;
-                double t = 0.5 * (low + high);
-                if (!bisect)
-                    t = std::clamp(low + width * at_low / (at_low - at_high), low + 0.25 * precision, high - 0.25 * precision);
-                const double at_t = level(a + t * along);
-                const bool moves_low = inside(at_t) == inside(at_low);
-                // Illinois: the end that stays twice has its value halved, so that the next
-                // false position moves towards it.
-                if (moves_low) {
-                    low = t, at_low = at_t;
-                    if (last_moved == -1) at_high *= 0.5;
-                } else {
-                    high = t, at_high = at_t;
-                    if (last_moved == 1) at_low *= 0.5;
-                }
-                last_moved = moves_low ? -1 : 1;
-                // Where the guess was good the zero lies within the precision of it: one more
-                // evaluation beside it, towards the other end, closes the bracket.
-                const double probe = moves_low ? t + 0.9 * precision : t - 0.9 * precision;
-                if (!bisect && probe > low && probe < high) {
-                    const double at_probe = level(a + probe * along);
-                    if (inside(at_probe) == inside(at_low)) low = probe, at_low = at_probe;
-                    else high = probe, at_high = at_probe;
-                }
-                // Bisect next when the bracket did not at least halve (a kink between the ends).
-                bisect = !bisect && high - low > 0.5 * width;
-            }
-            return CGAL::make_object(a + (0.5 * (low + high)) * along);
-        }
-    };
-
-    // The first points: where rays from a point inside the surface to random points of the ball
-    // cross it, as CGAL's default oracle starts (from another point inside when a ray misses).
-    class Construct_initial_points {
-    public:
-        template <class Output>
-        Output operator()(const Surface_3& level, Output out, int count = 20) const {
-            const Point3 centre = level.ball().center();
-            const double radius = std::sqrt(level.ball().squared_radius());
-            CGAL::Random_points_on_sphere_3<Point3> on_sphere(radius);
-            CGAL::Random_points_in_sphere_3<Point3> in_sphere(radius);
-            Point3 start = centre;
-            const Intersect_3 intersect;
-            while (count > 0) {
-                const Point3 end = *on_sphere++ + (centre - CGAL::ORIGIN);
-                const CGAL::Object found = intersect(level, Kernel::Segment_3(start, end));
-                if (const Point3* p = CGAL::object_cast<Point3>(&found)) {
-                    *out++ = *p;
-                    --count;
-                } else {
-                    start = *in_sphere++ + (centre - CGAL::ORIGIN);
-                }
-            }
-            return out;
-        }
-    };
-
-    Intersect_3 intersect_3_object() const { return {}; }
-    Construct_initial_points construct_initial_points_object() const { return {}; }
-    bool is_in_volume(const Surface_3& level, const Point3& p) const { return level(p) < 0; }
-};
-
 // The surface mesher finds the surface where the implicit function changes sign along the
 // edges of its Voronoi diagram: where a coarse cell's edge crosses the closing bubble twice (far
 // from the data, where the triangles are large) it misses a facet, and leaves a hole there
@@ -705,37 +531,23 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     constexpr unsigned kSeeds = 3;
     for (int attempt = 0;; ++attempt) {
         report(0.3, "Poisson: meshing the surface");
+        size_t evaluations = 0;
+        const std::function<Kernel::FT(Point3)> level = [&](const Point3& p) {
+            if (++evaluations % 20000 == 0) {
+                report(0.3 + 0.4 * double(evaluations) / double(evaluation_cap), "Poisson: meshing the surface");
+                if (evaluations > evaluation_cap) throw OverBudget{};
+            }
+            return function(p);
+        };
         const double distance = settings.distance * std::max(settings.spacing_mm, triangle_size / settings.triangle_size);
+        const Surface surface(level, Kernel::Sphere_3(function.get_inner_point(), sphere_radius * sphere_radius),
+                              distance / 1000.0 / sphere_radius);
         const GradedCriteria<Triangulation> criteria(20.0, triangle_size, distance, proximity);
         Triangulation triangulation;
         Complex complex(triangulation);
         CGAL::get_default_random() = CGAL::Random(seed);
-        const Kernel::Sphere_3 ball(function.get_inner_point(), sphere_radius * sphere_radius);
-        size_t evaluations = 0;
-        const auto count = [&](size_t done) {
-            evaluations = done;
-            if (std::getenv("PICOSCAN_POISSON_STATS") && done % 1000000 == 0)
-                std::fprintf(stderr, "  %zu evaluations, %zu vertices\n", done, size_t(triangulation.number_of_vertices()));
-            report(0.3 + 0.4 * double(done) / double(evaluation_cap), "Poisson: meshing the surface");
-            if (done > evaluation_cap) throw OverBudget{};
-        };
         try {
-            if (std::getenv("PICOSCAN_POISSON_BISECT")) {
-                const std::function<Kernel::FT(Point3)> level = [&](const Point3& p) {
-                    if (++evaluations % 20000 == 0) count(evaluations);
-                    return function(p);
-                };
-                const Surface surface(level, ball, distance / 1000.0 / sphere_radius);
-                CGAL::make_surface_mesh(complex, surface, criteria, CGAL::Manifold_with_boundary_tag());
-            } else {
-                const PoissonLevel level(function, ball, distance / 1000.0, count);
-                CGAL::make_surface_mesh(complex, level, PoissonLevelOracle(), criteria, CGAL::Manifold_with_boundary_tag());
-                evaluations = level.evaluations();
-            }
-            if (std::getenv("PICOSCAN_POISSON_STATS"))
-                std::fprintf(stderr, "poisson mesher: %zu evaluations, %zu vertices, %zu facets, %.1f per facet\n", evaluations,
-                             size_t(triangulation.number_of_vertices()), size_t(complex.number_of_facets()),
-                             double(evaluations) / double(std::max<size_t>(1, complex.number_of_facets())));
+            CGAL::make_surface_mesh(complex, surface, criteria, CGAL::Manifold_with_boundary_tag());
         } catch (const CGAL::Failure_exception& failure) {
             if (seed == kSeeds)
                 throw Error("Poisson reconstruction", "the surface mesher failed from " + std::to_string(kSeeds) +
