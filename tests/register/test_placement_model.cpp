@@ -10,10 +10,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
 #include <random>
+#include <string>
 
 using namespace picoscan;
 using test_support::kViewsPerPlacement;
@@ -75,6 +77,64 @@ TruePart true_part(PlacementPart part) {
     throw std::logic_error("no true volume for this part");
 }
 
+// Where a deviation lies on the true part: the point, and the faces of the truth within
+// 0.1 mm of it by their outward normals (one: a face; two: an edge; three: a corner). A
+// faceted cylinder's facets count as one surface when their normals are within 15 degrees.
+std::string place_on_truth(const Mesh& truth, const cv::Vec3f& at) {
+    auto closest_on_triangle = [](const cv::Vec3d& p, const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+        // Ericson, Real-Time Collision Detection, 5.1.5 (the regions of the triangle).
+        const cv::Vec3d ab = b - a, ac = c - a, ap = p - a;
+        const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+        if (d1 <= 0 && d2 <= 0) return a;
+        const cv::Vec3d bp = p - b;
+        const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+        if (d3 >= 0 && d4 <= d3) return b;
+        const double vc = d1 * d4 - d3 * d2;
+        if (vc <= 0 && d1 >= 0 && d3 <= 0) return cv::Vec3d(a + ab * (d1 / (d1 - d3)));
+        const cv::Vec3d cp = p - c;
+        const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+        if (d6 >= 0 && d5 <= d6) return c;
+        const double vb = d5 * d2 - d1 * d6;
+        if (vb <= 0 && d2 >= 0 && d6 <= 0) return cv::Vec3d(a + ac * (d2 / (d2 - d6)));
+        const double va = d3 * d6 - d5 * d4;
+        if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return cv::Vec3d(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+        const double denom = 1 / (va + vb + vc);
+        return cv::Vec3d(a + ab * (vb * denom) + ac * (vc * denom));
+    };
+    const cv::Vec3d p(at);
+    std::vector<std::pair<double, cv::Vec3d>> faces;  // distance, outward normal
+    double nearest = 1e30;
+    for (const cv::Vec3i& f : truth.faces) {
+        const cv::Vec3d a(truth.vertices[f[0]]), b(truth.vertices[f[1]]), c(truth.vertices[f[2]]);
+        const cv::Vec3d n = (b - a).cross(c - a);
+        if (cv::norm(n) < 1e-12) continue;
+        const double d = cv::norm(closest_on_triangle(p, a, b, c) - p);
+        nearest = std::min(nearest, d);
+        faces.emplace_back(d, cv::normalize(n));
+    }
+    std::vector<cv::Vec3d> surfaces;
+    for (const auto& [d, n] : faces) {
+        if (d > nearest + 0.1) continue;
+        bool known = false;
+        for (const cv::Vec3d& s : surfaces) known = known || s.dot(n) > std::cos(15 * kPi / 180);
+        if (!known) surfaces.push_back(n);
+    }
+    char text[400];
+    int used = std::snprintf(text, sizeof text, "at (%.2f, %.2f, %.2f), %.3f mm from the truth, %s", p[0], p[1], p[2],
+                             nearest, surfaces.size() == 1 ? "a face" : surfaces.size() == 2 ? "an edge" : "a corner");
+    for (const cv::Vec3d& n : surfaces)
+        used += std::snprintf(text + used, sizeof text - size_t(used), " (%.2f %.2f %.2f)", n[0], n[1], n[2]);
+    return text;
+}
+
+// The sample farthest from the other surface.
+size_t farthest(const DeviationMap& map) {
+    size_t worst = 0;
+    for (size_t i = 0; i < map.distances_mm.size(); ++i)
+        if (std::abs(map.distances_mm[i]) > std::abs(map.distances_mm[worst])) worst = i;
+    return worst;
+}
+
 struct ModelAccuracy {
     double volume_mm3 = 0, true_volume_mm3 = 0;
     double volume_error() const { return volume_mm3 / true_volume_mm3 - 1; }
@@ -118,8 +178,11 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
     std::vector<cv::Vec3f> outer;
     for (const cv::Vec3f& p : surface_samples(scan.part, 4.0))
         if (!truth.inner(p)) outer.push_back(p);
-    accuracy.truth_to_mesh = measure_deviation(outer, mesh).statistics;
-    accuracy.mesh_to_truth = measure_deviation(surface_samples(mesh, 4.0), scan.part).statistics;
+    const DeviationMap truth_to_mesh = measure_deviation(outer, mesh);
+    const std::vector<cv::Vec3f> mesh_samples = surface_samples(mesh, 4.0);
+    const DeviationMap mesh_to_truth = measure_deviation(mesh_samples, scan.part);
+    accuracy.truth_to_mesh = truth_to_mesh.statistics;
+    accuracy.mesh_to_truth = mesh_to_truth.statistics;
     const std::string name = test_support::placement_part_name(part);
     std::printf("%s, two placements, %s: %d of %zu views merged; %s\n", name.c_str(),
                 stitch_views_first ? "stitched" : "true poses", accuracy.views_merged, scan.views.size(),
@@ -132,6 +195,11 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
     std::printf("%s: mesh -> truth over %zu points of the mesh: mean %.1f um, p95 %.1f um, max %.1f um\n", name.c_str(),
                 accuracy.mesh_to_truth.count, 1000 * accuracy.mesh_to_truth.mean_abs_mm,
                 1000 * accuracy.mesh_to_truth.p95_abs_mm, 1000 * accuracy.mesh_to_truth.max_abs_mm);
+    const size_t worst_truth = farthest(truth_to_mesh), worst_mesh = farthest(mesh_to_truth);
+    std::printf("%s: truth -> mesh max %+.1f um %s\n", name.c_str(), 1000 * truth_to_mesh.distances_mm[worst_truth],
+                place_on_truth(scan.part, outer[worst_truth]).c_str());
+    std::printf("%s: mesh -> truth max %+.1f um %s\n", name.c_str(), 1000 * mesh_to_truth.distances_mm[worst_mesh],
+                place_on_truth(scan.part, mesh_samples[worst_mesh]).c_str());
     return accuracy;
 }
 
