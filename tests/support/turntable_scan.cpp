@@ -236,11 +236,6 @@ const TurntableScan& two_placement_scan(PlacementPart part) {
     return scans.emplace(part, std::move(scan)).first->second;
 }
 
-namespace {
-
-long long cell_key(long long x, long long y, long long z) { return (x * 73856093LL) ^ (y * 19349663LL) ^ (z * 83492791LL); }
-
-// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
 cv::Vec3d closest_on_triangle(const cv::Vec3d& p, const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
     const cv::Vec3d ab = b - a, ac = c - a, ap = p - a;
     const double d1 = ab.dot(ap), d2 = ac.dot(ap);
@@ -260,6 +255,10 @@ cv::Vec3d closest_on_triangle(const cv::Vec3d& p, const cv::Vec3d& a, const cv::
     const double denominator = 1.0 / (va + vb + vc);
     return a + ab * (vb * denominator) + ac * (vc * denominator);
 }
+
+namespace {
+
+long long cell_key(long long x, long long y, long long z) { return (x * 73856093LL) ^ (y * 19349663LL) ^ (z * 83492791LL); }
 
 }  // namespace
 

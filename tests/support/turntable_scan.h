@@ -47,6 +47,9 @@ const TurntableScan& two_placement_scan(PlacementPart part);
 // The seed rig with its camera at half the resolution (800 x 600).
 Calibration half_resolution_seed_rig();
 
+// The point of triangle abc closest to p (Ericson, Real-Time Collision Detection, 5.1.5).
+cv::Vec3d closest_on_triangle(const cv::Vec3d& p, const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c);
+
 // Distances (mm) from points to the nearest triangle of a finely tessellated mesh; points
 // farther than `reach_mm` from every triangle get reach_mm.
 class MeshDistance {

@@ -12,6 +12,7 @@
 #include <array>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <numeric>
 #include <map>
 #include <unordered_map>
@@ -83,9 +84,12 @@ constexpr size_t kLeastRegionPoints = 100;  // a gently curved surface makes sma
 // Share of the points around a vertex that must lie on its planes for the edge to be sharpened
 // (a fillet's points lie between them).
 constexpr double kLeastAgreement = 0.9;
-// Points within this of two surfaces meeting at an edge count as on them (a camera pixel at
-// the edge sees both faces and rounds the edge by about this; a fillet's middle lies farther).
-constexpr double kEdgeBlurMm = 0.25;
+// Points within this of the line where two surfaces meet count as on them: a camera pixel at
+// the edge sees both faces, so the points there cut a convex edge (or fill a concave one) by
+// up to about 0.45 mm (the half-resolution seed camera: 0.37-0.44 mm from the line where two
+// faces meet, 0.1-0.4 mm off each face). A fillet's middle lies 0.41 of its radius from that
+// line: fillets of 1.2 mm radius and more stay round.
+constexpr double kEdgeBlurMm = 0.5;
 // A filled-in vertex goes onto a hole's wall only when its surface faces the hole's axis
 // (cosine of 75 degrees: a bulge Poisson made tilts its surface by tens of degrees).
 constexpr double kHoleWallFacing = 0.25;
@@ -423,6 +427,15 @@ bool onto_line(const Plane& a, const Plane& b, const cv::Vec3d& x, cv::Vec3d& ou
     return true;
 }
 
+// How far x lies from the line where surfaces a and b meet, from its distances to both (exact
+// for planes; a cylinder by its tangent plane at x); infinite when they are nearly parallel.
+double from_line(const Plane& a, const Plane& b, const cv::Vec3d& x) {
+    const double cosine = a.normal_at(x).dot(b.normal_at(x));
+    if (std::abs(cosine) > 0.98) return std::numeric_limits<double>::infinity();
+    const double da = a.distance(x), db = b.distance(x);
+    return std::sqrt(std::max(0.0, (da * da + db * db - 2 * cosine * da * db) / (1 - cosine * cosine)));
+}
+
 // The point where three planes meet; false when they do not meet in one well-defined point.
 bool corner_of(const Plane& a, const Plane& b, const Plane& c, cv::Vec3d& out) {
     if (a.cylinder || b.cylinder || c.cylinder) return false;
@@ -443,17 +456,48 @@ struct VertexPlanes {
     bool has(int p) const { return std::find(plane.begin(), plane.begin() + count, p) != plane.begin() + count; }
 };
 
+// A hole's wall (a cylinder facing its axis) and the turns about its axis at which its points
+// were seen, at any depth: where a wall was seen at that turn it goes on round the hole there
+// (a hole round at its mouth and flat further down on the side no view saw keeps its flat).
+struct HoleWall {
+    int surface = -1;  // index in Regions::planes
+    cv::Vec3d e1, e2;  // square to the axis
+    static constexpr int kTurns = 36;  // 10 degrees each
+    std::array<int, kTurns> seen{};
+    int turn_of(const Plane& hole, const cv::Vec3d& x) const {
+        const cv::Vec3d r = x - hole.centre;
+        const double angle = std::atan2(r.dot(e2), r.dot(e1));
+        return std::clamp(int((angle + CV_PI) / (2 * CV_PI) * kTurns), 0, kTurns - 1);
+    }
+    bool seen_at(const Plane& hole, const cv::Vec3d& x) const { return seen[turn_of(hole, x)] >= 5; }
+};
+
+std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::Vec3d>& positions) {
+    std::vector<HoleWall> walls;
+    for (size_t h = 0; h < regions.planes.size(); ++h) {
+        const Plane& hole = regions.planes[h];
+        if (!hole.cylinder || hole.outwards > 0) continue;
+        HoleWall wall;
+        wall.surface = int(h);
+        wall.e1 = cv::normalize(hole.axis.cross(std::abs(hole.axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
+        wall.e2 = hole.axis.cross(wall.e1);
+        for (size_t i = 0; i < regions.label.size(); ++i)
+            if (regions.label[i] == int(h)) ++wall.seen[wall.turn_of(hole, positions[i])];
+        walls.push_back(wall);
+    }
+    return walls;
+}
+
 // Walls of a hole that no view saw (filled in: too few points around the vertex), where
 // Poisson narrowed the hole or bulged it out into the material by a millimetre. Such a
 // vertex goes onto the hole's fitted cylinder only where the cylinder has support: between
 // the ends of its seen wall along the axis, at a turn about the axis where the wall was seen
-// at some depth (a hole round at its mouth and flat further down on the side no view saw
-// keeps its flat, and a wall never seen at that turn keeps Poisson's guess), within half a
-// radius of the wall. The patch is grown over the mesh from the vertices whose surface faces
-// the axis (the faces a hole opens on face along it and are left alone), then relaxed on the
-// cylinder (each vertex to the mean of its neighbours, put back on it) so that a bulge
-// projected onto it does not fold: its vertices are invented, only their surface is fitted.
-size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vector<cv::Vec3d>& positions, const PointGrid& grid,
+// at some depth (HoleWall), within half a radius of the wall. The patch is grown over the
+// mesh from the vertices whose surface faces the axis (the faces a hole opens on face along
+// it and are left alone), then relaxed on the cylinder (each vertex to the mean of its
+// neighbours, put back on it) so that a bulge projected onto it does not fold: its vertices
+// are invented, only their surface is fitted.
+size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vector<HoleWall>& walls, const PointGrid& grid,
                        const std::vector<VertexPlanes>& model, const std::vector<cv::Vec3d>& vertex_normal,
                        double reach, double filled_reach, std::vector<cv::Vec3d>& target, std::vector<int>& surface_of) {
     const size_t vertex_count = mesh.vertices.size();
@@ -470,27 +514,16 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     const double along_axis = std::cos(20.0 * CV_PI / 180.0);
     std::vector<int> near;
     size_t moved = 0;
-    for (size_t h = 0; h < regions.planes.size(); ++h) {
+    for (const HoleWall& wall : walls) {
+        const int h = wall.surface;
         const Plane& hole = regions.planes[h];
-        if (!hole.cylinder || hole.outwards > 0) continue;
-        const cv::Vec3d e1 = cv::normalize(hole.axis.cross(std::abs(hole.axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0)));
-        const cv::Vec3d e2 = hole.axis.cross(e1);
-        constexpr int kTurns = 36;  // 10 degrees each
-        auto turn_of = [&](const cv::Vec3d& x) {
-            const cv::Vec3d r = x - hole.centre;
-            const double angle = std::atan2(r.dot(e2), r.dot(e1));
-            return std::clamp(int((angle + CV_PI) / (2 * CV_PI) * kTurns), 0, kTurns - 1);
-        };
-        std::array<int, kTurns> seen{};
-        for (size_t i = 0; i < regions.label.size(); ++i)
-            if (regions.label[i] == int(h)) ++seen[turn_of(positions[i])];
         auto candidate = [&](size_t v) {
             if (model[v].count != 0 || surface_of[v] >= 0) return false;
             const cv::Vec3d x(mesh.vertices[v]);
             const double along = hole.axis.dot(x - hole.centre);
             const double from_axis = cv::norm((x - hole.centre) - hole.axis * along);
             if (along < hole.low || along > hole.high || from_axis < 0.5 * hole.radius ||
-                from_axis > hole.radius + std::max(reach, 0.5 * hole.radius) || seen[turn_of(x)] < 5 ||
+                from_axis > hole.radius + std::max(reach, 0.5 * hole.radius) || !wall.seen_at(hole, x) ||
                 std::abs(vertex_normal[v].dot(hole.axis)) > along_axis)
                 return false;
             grid.within(x, filled_reach, near);
@@ -517,7 +550,7 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
         }
         for (int v : patch) {
             target[v] = hole.project(target[v]);
-            surface_of[v] = int(h);
+            surface_of[v] = h;
         }
         for (int iteration = 0; iteration < 1000; ++iteration)
             for (int v : patch) {
@@ -551,6 +584,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     report.planes = regions.planes.size();
     if (regions.planes.size() < 2) return report;
     const double agree = 2 * regions.tolerance;
+    const std::vector<HoleWall> walls = hole_walls(regions, positions);
     // A vertex further than this from where its planes put it is left alone (not an edge Poisson rounded).
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
 
@@ -580,6 +614,24 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             ++counts[slot];
         }
         if (crowded) continue;
+        // A hole's wall no view saw down to the face it opens on: the wall goes on to that face
+        // where it was seen at this turn, so that the rim is an edge between them and not
+        // Poisson's rounding (the face's points then decide, as at any edge).
+        for (const HoleWall& wall : walls) {
+            const Plane& hole = regions.planes[wall.surface];
+            const double along = hole.axis.dot(x - hole.centre);
+            if (std::abs(hole.distance(x)) > reach || along < hole.low - reach || along > hole.high + reach ||
+                !wall.seen_at(hole, x))
+                continue;
+            int slot = 0;
+            while (slot < found && ids[slot] != wall.surface) ++slot;
+            if (slot == found) {
+                if (found == 8) continue;
+                ids[found] = wall.surface;
+                counts[found++] = 0;
+            }
+            counts[slot] = std::max(counts[slot], 3);
+        }
         // Nearly coincident planes are one face (a face grown as two regions): keep the larger.
         std::vector<int> planes;
         for (int s = 0; s < found; ++s) {
@@ -625,7 +677,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             bool at_line = false;
             for (int c = 0; c < vp.count; ++c)
                 for (int e = c + 1; e < vp.count; ++e)
-                    at_line = at_line || (off[c] < kEdgeBlurMm && off[e] < kEdgeBlurMm);
+                    at_line = at_line || from_line(regions.planes[vp.plane[c]], regions.planes[vp.plane[e]], positions[k]) < kEdgeBlurMm;
             if (nearest < agree || at_line) ++on_planes;
             if (regions.label[k] == vp.plane[0])
                 for (int c = 1; c < vp.count; ++c) {
@@ -784,7 +836,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             if (crossed.empty()) surface_of[v] = vp.plane[0];
         }
     }
-    report.hole_vertices = fill_hole_walls(mesh, regions, positions, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
+    report.hole_vertices = fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
 
     // 4. Split the edges that cross a line (neither end on a feature), each once.
     std::unordered_map<long long, int> split_vertex;
@@ -792,10 +844,15 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         if (on_feature[crossing.a] || on_feature[crossing.b]) continue;
         const cv::Vec3d xa(mesh.vertices[crossing.a]), xb(mesh.vertices[crossing.b]);
         const cv::Vec3d on_edge = xa + crossing.t * (xb - xa);
+        // The line is within reach of the edge as it is, or as its ends go (a deeply rounded
+        // rim: both ends move onto their surfaces). Otherwise the edge is not split: a vertex
+        // left where Poisson rounded it, between neighbours moved onto both surfaces, would
+        // stand out of them as a spike.
+        const cv::Vec3d chord = target[crossing.a] + crossing.t * (target[crossing.b] - target[crossing.a]);
         cv::Vec3d moved;
         if (!onto_line(regions.planes[crossing.plane_a], regions.planes[crossing.plane_b], on_edge, moved) ||
-            cv::norm(moved - on_edge) > longest_move)
-            moved = on_edge;
+            std::min(cv::norm(moved - on_edge), cv::norm(moved - chord)) > longest_move)
+            continue;
         split_vertex.emplace(key, static_cast<int>(safe.size()));
         safe.push_back(on_edge);
         target.push_back(moved);
