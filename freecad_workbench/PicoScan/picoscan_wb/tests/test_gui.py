@@ -997,12 +997,13 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertTrue(os.path.isfile(tables[0].CsvFile))
         FreeCAD.Console.PrintMessage("walkthrough, Measurements: %d rows, e.g. %s\n" % (
             len(tables[0].Table), "; ".join(tables[0].Table[:3])))
-        # The rows as a user reads them: File > Import of the CSV opens it in a FreeCAD Spreadsheet.
+        # The rows as a user reads them: the CSV imported into a FreeCAD Spreadsheet (Spreadsheet
+        # workbench: a new sheet, then its Import).
         mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
         windows_before = set(mdi.subWindowList())
-        FreeCADGui.insert(tables[0].CsvFile, self.doc.Name)
-        sheets = [o for o in self.doc.Objects if o.TypeId == "Spreadsheet::Sheet"]
-        self.assertEqual(len(sheets), 1)
+        sheets = [self.doc.addObject("Spreadsheet::Sheet", "MeasurementsSheet")]
+        sheets[0].importFile(tables[0].CsvFile, ",")
+        self.doc.recompute()
         sheets[0].ViewObject.doubleClicked()  # its table in a tab
         process_events()
         for row, line in enumerate(tables[0].Table, start=2):  # row 1: the header
