@@ -1004,7 +1004,10 @@ class PicoScanGuiTest(unittest.TestCase):
         sheets = [self.doc.addObject("Spreadsheet::Sheet", "MeasurementsSheet")]
         sheets[0].importFile(tables[0].CsvFile, ",")
         self.doc.recompute()
-        sheets[0].ViewObject.doubleClicked()  # its table in a tab
+        sheets[0].ViewObject.doubleClicked()  # its table in a tab, brought to the front
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(sheets[0].Label):
+                mdi.setActiveSubWindow(window)
         process_events()
         for row, line in enumerate(tables[0].Table, start=2):  # row 1: the header
             value = float(sheets[0].get("D%d" % row))
