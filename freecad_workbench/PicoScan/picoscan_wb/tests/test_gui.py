@@ -978,18 +978,20 @@ class PicoScanGuiTest(unittest.TestCase):
             os.replace(temporary, path)
             self.assertGreater(os.path.getsize(path), 50000)
 
-    def walkthrough_screenshot(self, name, select=()):
+    def walkthrough_screenshot(self, name, select=(), isometric=True):
         """A screenshot of the whole window for docs/freecad.md's walkthrough, 800 pixels wide and
-        palette-reduced, into PICOSCAN_WALKTHROUGH_DIR (nothing when it is not set)."""
+        palette-reduced, into PICOSCAN_WALKTHROUGH_DIR (nothing when it is not set). isometric: the
+        active 3D view is turned isometric and fitted first (False for another tab, a spreadsheet)."""
         folder = os.environ.get("PICOSCAN_WALKTHROUGH_DIR")
         if not folder:
             return
         FreeCADGui.Selection.clearSelection()
         for obj in select:
             FreeCADGui.Selection.addSelection(obj)
-        view3d = FreeCADGui.ActiveDocument.ActiveView
-        view3d.viewIsometric()
-        view3d.fitAll()
+        if isometric:
+            view3d = FreeCADGui.ActiveDocument.ActiveView
+            view3d.viewIsometric()
+            view3d.fitAll()
         for _ in range(5):
             process_events()
         os.makedirs(folder, exist_ok=True)
@@ -1071,7 +1073,31 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(tables), 1, self.messages)
         self.assertGreater(len(tables[0].Table), 0)
         self.assertTrue(os.path.isfile(tables[0].CsvFile))
-        self.walkthrough_screenshot("7-measurements", [tables[0]])
+        FreeCAD.Console.PrintMessage("walkthrough, Measurements: %d rows, e.g. %s\n" % (
+            len(tables[0].Table), "; ".join(tables[0].Table[:3])))
+        # The rows as a user reads them: the CSV imported into a FreeCAD Spreadsheet (Spreadsheet
+        # workbench: a new sheet, then its Import).
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        windows_before = set(mdi.subWindowList())
+        sheets = [self.doc.addObject("Spreadsheet::Sheet", "MeasurementsSheet")]
+        sheets[0].importFile(tables[0].CsvFile, ",")
+        self.doc.recompute()
+        sheets[0].ViewObject.doubleClicked()  # its table in a tab, brought to the front
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(sheets[0].Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
+        for row, line in enumerate(tables[0].Table, start=2):  # row 1: the header
+            value = float(sheets[0].get("D%d" % row))
+            numbers = [float(word) for word in line.replace(":", " ").split() if word.lstrip("-").replace(".", "", 1).isdigit()]
+            self.assertTrue(any(abs(n - value) <= 6e-5 for n in numbers), (row, value, line))  # the Table's rows, in order
+        self.walkthrough_screenshot("7-measurements", [tables[0]], isometric=False)
+        for window in set(mdi.subWindowList()) - windows_before:
+            window.close()
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(self.doc.Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
         # The fitted sphere as the model (a fitted plane as wide as the table tessellates into far too
         # many triangles; the solid is the single view's Poisson guess, not a model of the part).
         reference = [o for o in groups[0].Group if getattr(o, "FitKind", "") == "Sphere"][0]
