@@ -348,6 +348,25 @@ TEST(MeshBudget, SimplifiedPoissonMeshDoesNotCrossItself) {
 // filled), and the filled holes crossed the bubble's other sheet (about 300 pairs of faces before
 // the repair). The mesh must be one closed component that does not cross itself, with the unseen
 // side marked filled. Two different parts: the mechanical part and the plain stepped block.
+// The same points give the same mesh, also the second time in one process (FreeCAD, MeshLab):
+// CGAL's mesher orders its queues by handle, and with memory addresses as handles the order
+// followed the heap's state (three meshings of one view in one process gave three meshes).
+TEST(MeshFill, PoissonGivesTheSameMeshAgainInOneProcess) {
+    const ScanView& view = test_support::plain_turntable_scan(test_support::PlainPart::SteppedBlock).views[0];
+    MeshOptions options;
+    options.fill = MeshFill::Poisson;
+    options.sample_spacing_mm = 2.0;
+    const Mesh first = mesh_view(view, options);
+    std::vector<std::vector<char>> churn;  // the heap in another state for the second meshing
+    for (int i = 0; i < 2000; ++i) churn.emplace_back(size_t(64 + (i * 7919) % 4096));
+    for (size_t i = 0; i < churn.size(); i += 2) churn[i].clear(), churn[i].shrink_to_fit();
+    const Mesh second = mesh_view(view, options);
+    std::printf("stepped block view 0 at 2 mm, twice: %zu and %zu vertices\n", first.vertices.size(), second.vertices.size());
+    ASSERT_EQ(first.vertices.size(), second.vertices.size());
+    EXPECT_TRUE(first.vertices == second.vertices);
+    EXPECT_TRUE(first.faces == second.faces);
+}
+
 TEST(MeshFill, PoissonClosesASingleView) {
     const std::vector<std::pair<std::string, const ScanView*>> views = {
         {"mechanical view 2", &test_support::disturbed_turntable_scan().views[2]},

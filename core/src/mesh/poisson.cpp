@@ -20,7 +20,10 @@
 #include <CGAL/Implicit_surface_3.h>
 #include <CGAL/exceptions.h>
 #include <CGAL/Poisson_reconstruction_function.h>
-#include <CGAL/Surface_mesh_default_triangulation_3.h>
+#include <CGAL/Delaunay_triangulation_cell_base_with_circumcenter_3.h>
+#include <CGAL/Robust_circumcenter_traits_3.h>
+#include <CGAL/Surface_mesh_cell_base_3.h>
+#include <CGAL/Surface_mesh_vertex_base_3.h>
 #include <CGAL/Surface_mesher/Standard_criteria.h>
 #include <CGAL/make_surface_mesh.h>
 #include <CGAL/property_map.h>
@@ -485,6 +488,34 @@ void close_invented_surface(SurfaceMesh& mesh, const DataProximity& proximity) {
     if (CGAL::is_closed(mesh) && !PMP::is_outward_oriented(mesh)) PMP::reverse_face_orientations(mesh);
 }
 
+// A vertex or cell of the surface mesher's triangulation that carries its creation number.
+// CGAL's containers then order handles by it instead of by memory address: the mesher keeps
+// its bad vertices and facets in sets ordered by handle, so with addresses the same input gave
+// different meshes depending on the heap's state (13 576 or 13 586 vertices, one process).
+template <class Base>
+class TimeStamped : public Base {
+public:
+    template <class Tds>
+    struct Rebind_TDS {
+        using Other = TimeStamped<typename Base::template Rebind_TDS<Tds>::Other>;
+    };
+    using Has_timestamp = CGAL::Tag_true;
+    using Base::Base;
+    std::size_t time_stamp() const { return time_stamp_; }
+    void set_time_stamp(std::size_t stamp) { time_stamp_ = stamp; }
+
+private:
+    std::size_t time_stamp_ = std::size_t(-1);  // unset: the container numbers it when it is created
+};
+
+using MesherTraits = CGAL::Robust_circumcenter_traits_3<Kernel>;
+using MesherTriangulation = CGAL::Delaunay_triangulation_3<
+    MesherTraits,
+    CGAL::Triangulation_data_structure_3<
+        TimeStamped<CGAL::Surface_mesh_vertex_base_3<MesherTraits>>,
+        TimeStamped<CGAL::Delaunay_triangulation_cell_base_with_circumcenter_3<
+            MesherTraits, CGAL::Surface_mesh_cell_base_3<MesherTraits>>>>>;
+
 }  // namespace
 
 Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSettings& settings, const StageReport& report) {
@@ -492,7 +523,7 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
     // Boissonnat & Oudot on its zero level, as CGAL's poisson_surface_reconstruction_delaunay,
     // with the progress reported and the surface's triangle size bounded by the face budget.
     using Function = CGAL::Poisson_reconstruction_function<ReportingKernel>;
-    using Triangulation = CGAL::Surface_mesher::Surface_mesh_default_triangulation_3_generator<Kernel>::Type;
+    using Triangulation = MesherTriangulation;
     using Complex = CGAL::Surface_mesh_complex_2_in_triangulation_3<Triangulation>;
     using Surface = CGAL::Implicit_surface_3<Kernel, std::function<Kernel::FT(Point3)>>;
 
