@@ -24,7 +24,8 @@ void bind_section_fit(py::module_& m) {
         .def_readwrite("min_arc_points", &SectionFitOptions::min_arc_points)
         .def_readwrite("max_arc_radius_mm", &SectionFitOptions::max_arc_radius_mm)
         .def_readwrite("tangent_angle_deg", &SectionFitOptions::tangent_angle_deg)
-        .def_readwrite("snap_angle_deg", &SectionFitOptions::snap_angle_deg);
+        .def_readwrite("snap_angle_deg", &SectionFitOptions::snap_angle_deg)
+        .def_readwrite("min_polyline_points", &SectionFitOptions::min_polyline_points);
     py::class_<SectionElement>(m, "SectionElement")
         .def_readonly("kind", &SectionElement::kind)
         .def_readonly("start", &SectionElement::start)
@@ -52,6 +53,18 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("closed", &SectionFit::closed)
         .def_readonly("tolerance_mm", &SectionFit::tolerance_mm)
         .def_readonly("noise_mm", &SectionFit::noise_mm);
+    py::class_<LeftOutPolyline>(m, "LeftOutPolyline")
+        .def_readonly("index", &LeftOutPolyline::index)
+        .def_readonly("point_count", &LeftOutPolyline::point_count)
+        .def_readonly("closed", &LeftOutPolyline::closed)
+        .def_readonly("centre", &LeftOutPolyline::centre)
+        .def_readonly("reason", &LeftOutPolyline::reason);
+    py::class_<SectionFits>(m, "SectionFits")
+        .def_readonly("fits", &SectionFits::fits)
+        .def_readonly("fitted_index", &SectionFits::fitted_index)
+        .def_readonly("left_out", &SectionFits::left_out)
+        .def_readonly("noise_mm", &SectionFits::noise_mm)
+        .def_readonly("tolerance_mm", &SectionFits::tolerance_mm);
     py::class_<SectionPolyline>(m, "SectionPolyline")
         .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<SectionPolyline&>().points, self); },
                                "N x 2 (mm) in the cutting plane's frame")
@@ -86,6 +99,21 @@ void bind_section_fit(py::module_& m) {
         },
         py::arg("polyline"), py::arg("closed"), py::arg("parallel_cuts"), py::arg("options") = SectionFitOptions(),
         "fit_section of a prismatic outline, each element refitted with the points of parallel cuts (N x 2 arrays)");
+    m.def(
+        "fit_section_polylines",
+        [](const std::vector<std::pair<py::array, bool>>& polylines, const std::vector<py::array>& parallel_cuts,
+           const SectionFitOptions& options) {
+            std::vector<SectionPolyline> lines;
+            for (const auto& [points, closed] : polylines)
+                lines.push_back({array_to_vector<cv::Vec2d>(points, "polylines"), closed});
+            std::vector<std::vector<cv::Vec2d>> cuts;
+            for (const py::array& cut : parallel_cuts) cuts.push_back(array_to_vector<cv::Vec2d>(cut, "parallel_cuts"));
+            py::gil_scoped_release release;
+            return fit_section_polylines(lines, cuts, options);
+        },
+        py::arg("polylines"), py::arg("parallel_cuts") = std::vector<py::array>(), py::arg("options") = SectionFitOptions(),
+        "A section's polylines ([(N x 2 array, closed)]) fitted with one noise and tolerance; too small or too noisy "
+        "ones left out with the reason (left_out)");
 }
 
 }  // namespace picoscan::python

@@ -438,3 +438,80 @@ TEST(SectionFit, JoiningKeepsARealBendAndAWaveringFilletStaysOneArc) {
         }
     }
 }
+
+// A section's polylines judged as one (fit_section_polylines), with inputs built to fool a fit of
+// each loop on its own: beside the demo outline, a crumb a Poisson surface leaves (35 points round
+// 3.2 mm, 0.3 mm of noise: its own noise sets a tolerance of 1.5 mm, within which it is "a
+// circle") and a 6-point crumb must be left out, each with its reason; a real 2 mm hole of 25
+// points must be kept as one circle within 20 um. Leaving out the outline itself is an error.
+TEST(SectionFit, ASectionLeavesOutCrumbsAndKeepsASmallRealHole) {
+    for (const double sigma : {0.0, 0.01, 0.02}) {
+        for (const unsigned seed : {1u, 2u, 3u}) {
+            SCOPED_TRACE("sigma " + std::to_string(sigma) + ", seed " + std::to_string(seed));
+            Outline outline(sigma, 0.3);
+            outline.random.seed(seed);
+            for (size_t i = 0; i < kDemoCorners.size(); ++i) outline.line(kDemoCorners[i], kDemoCorners[(i + 1) % kDemoCorners.size()]);
+            Outline hole(sigma, 2 * kPi * 1.0 / 25);  // 2 mm across, 25 points
+            hole.random.seed(seed + 10);
+            hole.arc({8, -4}, 1.0, 0, 360);
+            Outline blob(0.3, 2 * kPi * 3.2 / 35);
+            blob.random.seed(seed + 20);
+            blob.arc({-11, 2}, 3.2, 0, 360);
+            Outline crumb(0.05, 0.2);
+            crumb.random.seed(seed + 30);
+            crumb.arc({0, 10}, 0.2, 0, 360);
+            ASSERT_EQ(hole.points.size(), 25u);
+            ASSERT_EQ(blob.points.size(), 35u);
+            ASSERT_EQ(crumb.points.size(), 6u);
+            // On its own, the blob is fitted as a circle with its own (large) tolerance: the defect.
+            const SectionFit alone = fit_section(blob.points, true);
+            EXPECT_EQ(alone.elements.size(), 1u);
+            EXPECT_GT(alone.tolerance_mm, 0.5);
+
+            const std::vector<SectionPolyline> polylines = {
+                {outline.points, true}, {blob.points, true}, {hole.points, true}, {crumb.points, true}};
+            const SectionFits section = fit_section_polylines(polylines);
+            std::printf("section, sigma %.2f, seed %u: noise %.4f mm, tolerance %.4f mm\n", sigma, seed, section.noise_mm,
+                        section.tolerance_mm);
+            for (const LeftOutPolyline& left : section.left_out)
+                std::printf("  left out %d (%d points): %s\n", left.index, left.point_count, left.reason.c_str());
+            EXPECT_LE(section.tolerance_mm, std::max(0.005, 5 * 1.3 * sigma));
+            ASSERT_EQ(section.fitted_index, (std::vector<int>{0, 2}));
+            ASSERT_EQ(section.left_out.size(), 2u);
+            EXPECT_EQ(section.left_out[0].index, 1);
+            EXPECT_EQ(section.left_out[0].point_count, 35);
+            EXPECT_NE(section.left_out[0].reason.find("scatter"), std::string::npos) << section.left_out[0].reason;
+            EXPECT_LT(cv::norm(section.left_out[0].centre - cv::Vec2d(-11, 2)), 0.3);
+            EXPECT_EQ(section.left_out[1].index, 3);
+            EXPECT_EQ(section.left_out[1].point_count, 6);
+            EXPECT_NE(section.left_out[1].reason.find("fewer points than the 16"), std::string::npos) << section.left_out[1].reason;
+
+            const SectionFit& block = section.fits[0];
+            EXPECT_EQ(block.elements.size(), 5u);
+            EXPECT_EQ(count(block, SectionElementKind::Line), 5);
+            EXPECT_EQ(block.tolerance_mm, section.tolerance_mm);
+            const SectionFit& small = section.fits[1];
+            ASSERT_EQ(small.elements.size(), 1u);
+            EXPECT_EQ(small.elements[0].kind, SectionElementKind::Circle);
+            EXPECT_NEAR(small.elements[0].radius_mm, 1.0, 0.02);
+            EXPECT_NEAR(small.elements[0].centre[0], 8.0, 0.02);
+            EXPECT_NEAR(small.elements[0].centre[1], -4.0, 0.02);
+        }
+    }
+    // The outline itself too noisy for the tolerance the user sets: an error, not a sketch of the rest.
+    Outline outline(0.05, 0.3);
+    for (size_t i = 0; i < kDemoCorners.size(); ++i) outline.line(kDemoCorners[i], kDemoCorners[(i + 1) % kDemoCorners.size()]);
+    Outline hole(0.0, 0.3);
+    hole.arc({-11, 0}, 5, 0, 360);
+    SectionFitOptions tight;
+    tight.tolerance_mm = 0.01;
+    try {
+        fit_section_polylines({{hole.points, true}, {outline.points, true}}, {}, tight);
+        ADD_FAILURE() << "no error";
+    } catch (const Error& error) {
+        EXPECT_NE(std::string(error.what()).find("the section's biggest polyline (" + std::to_string(outline.points.size()) + " points)"),
+                  std::string::npos)
+            << error.what();
+    }
+    EXPECT_THROW(fit_section_polylines({}), Error);
+}

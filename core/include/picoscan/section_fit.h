@@ -40,6 +40,9 @@ struct SectionFitOptions {
     // directions closer than this there (not a cusp).
     double tangent_angle_deg = 2.0;
     double snap_angle_deg = 2.0;      // constraints are only tried for directions closer than this
+    // fit_section_polylines: a polyline of fewer points is no feature of the part (a crumb of a
+    // mesh, a few facets grazed): it is left out, with the reason.
+    int min_polyline_points = 16;
 };
 
 struct SectionElement {
@@ -99,6 +102,32 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, cons
 SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool closed,
                                 const std::vector<std::vector<cv::Vec2d>>& parallel_cuts,
                                 const SectionFitOptions& options = {});
+
+// A section's polylines fitted as one: one noise for all (the median over the short runs of every
+// polyline of at least min_polyline_points, so mostly the biggest one's), one tolerance from it
+// (or the one given). A polyline is left out, with a one-line reason, when it has fewer than
+// min_polyline_points points, when its own noise is above that tolerance (a crumb of a mesh,
+// e.g. a small loop a Poisson surface leaves inside the part, whose own noise would set a
+// tolerance loose enough to fit it as a circle), or when it cannot be split into elements
+// within the tolerance. Throws Error("polyline", ...) when the biggest polyline is left out
+// (a sketch without its outline must not look like a fit), Error("polylines", ...) when none is
+// given, Error("tolerance_mm", ...) for a negative tolerance.
+struct LeftOutPolyline {
+    int index = 0;                     // in the polylines given
+    int point_count = 0;               // distinct points
+    bool closed = false;
+    cv::Vec2d centre{0, 0};            // the mean of its points, to find it
+    std::string reason;
+};
+struct SectionFits {
+    std::vector<SectionFit> fits;      // in the order of the polylines, each with the section's noise and tolerance
+    std::vector<int> fitted_index;     // the polyline each fit is of
+    std::vector<LeftOutPolyline> left_out;
+    double noise_mm = 0, tolerance_mm = 0;
+};
+SectionFits fit_section_polylines(const std::vector<SectionPolyline>& polylines,
+                                  const std::vector<std::vector<cv::Vec2d>>& parallel_cuts = {},
+                                  const SectionFitOptions& options = {});
 
 std::string to_string(SectionElementKind kind);
 std::string to_string(SectionConstraintKind kind);

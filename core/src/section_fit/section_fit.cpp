@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 
 namespace picoscan {
@@ -409,9 +410,9 @@ private:
 // only raise a few windows, so the median sees the straight, noisy runs). A window spans at least
 // window_mm and 9 points: a cut through a mesh has many points per facet, whose noise is shared by
 // neighbours, so a window of a few points would see too little of it.
-double estimate_noise(const Points& pts, double window_mm) {
+// The RMS of each window is appended to `rms` (pooled over several polylines by the caller).
+void window_noises(const Points& pts, double window_mm, std::vector<double>& rms) {
     const long n = long(pts.size());
-    std::vector<double> rms;
     for (long i = 0; i < n; ) {
         long count = 1;
         double length = 0;
@@ -434,9 +435,18 @@ double estimate_noise(const Points& pts, double window_mm) {
         if (best < HUGE_VAL) rms.push_back(best);
         i += std::max<long>(1, count / 3);
     }
-    if (rms.empty()) return 0;
-    std::nth_element(rms.begin(), rms.begin() + long(rms.size() / 2), rms.end());
-    return rms[rms.size() / 2];
+}
+
+double median(std::vector<double> values) {
+    if (values.empty()) return 0;
+    std::nth_element(values.begin(), values.begin() + long(values.size() / 2), values.end());
+    return values[values.size() / 2];
+}
+
+double estimate_noise(const Points& pts, double window_mm) {
+    std::vector<double> rms;
+    window_noises(pts, window_mm, rms);
+    return median(rms);
 }
 
 cv::Vec2d perpendicular_foot(const Shape& line, const cv::Vec2d& p) {
@@ -784,24 +794,36 @@ private:
     std::vector<int> assignment_;
 };
 
-SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, const SectionFitOptions& options,
-                            const std::vector<std::vector<cv::Vec2d>>& parallel_cuts) {
+void check_tolerance(const SectionFitOptions& options) {
     if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
         throw Error("tolerance_mm", "must be 0 (from the noise) or positive");
+}
+
+// The polyline without repeated points (closed: nor the first point repeated at the end).
+std::vector<cv::Vec2d> distinct_points(const std::vector<cv::Vec2d>& input, bool closed) {
     std::vector<cv::Vec2d> polyline;
     for (const cv::Vec2d& p : input) {
         if (!std::isfinite(p[0]) || !std::isfinite(p[1])) throw Error("polyline", "has a non-finite point");
         if (polyline.empty() || cv::norm(p - polyline.back()) > 1e-9) polyline.push_back(p);
     }
     if (closed && polyline.size() > 1 && cv::norm(polyline.front() - polyline.back()) <= 1e-9) polyline.pop_back();
-    if (polyline.size() < 4) throw Error("polyline", "needs at least 4 distinct points, has " + std::to_string(polyline.size()));
+    return polyline;
+}
 
+double tolerance_for(double noise_mm, const SectionFitOptions& options) {
+    return options.tolerance_mm > 0 ? options.tolerance_mm : std::max(options.min_tolerance_mm, 5 * noise_mm);
+}
+
+// Fits a polyline of distinct points with the tolerance that `noise_mm` (the polyline's own or
+// the whole section's) and the options give.
+SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
+                            const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double noise_mm) {
+    if (polyline.size() < 4) throw Error("polyline", "needs at least 4 distinct points, has " + std::to_string(polyline.size()));
     SectionFit result;
     result.closed = closed;
     const Points pts{polyline, closed};
-    result.noise_mm = estimate_noise(pts, options.noise_window_mm);
-    result.tolerance_mm =
-        options.tolerance_mm > 0 ? options.tolerance_mm : std::max(options.min_tolerance_mm, 5 * result.noise_mm);
+    result.noise_mm = noise_mm;
+    result.tolerance_mm = tolerance_for(noise_mm, options);
     SectionFitter fitter(polyline, closed, options, result.tolerance_mm);
     const long n = long(polyline.size());
 
@@ -968,12 +990,72 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& input, bool closed, co
 }  // namespace
 
 SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options) {
-    return fit_section_with(polyline, closed, options, {});
+    return fit_extruded_section(polyline, closed, {}, options);
 }
 
-SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool closed,
+SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& input, bool closed,
                                 const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options) {
-    return fit_section_with(polyline, closed, options, parallel_cuts);
+    check_tolerance(options);
+    const std::vector<cv::Vec2d> polyline = distinct_points(input, closed);
+    return fit_section_with(polyline, closed, options, parallel_cuts, estimate_noise({polyline, closed}, options.noise_window_mm));
+}
+
+SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
+                                  const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options) {
+    check_tolerance(options);
+    if (input.empty()) throw Error("polylines", "none given");
+    std::vector<std::vector<cv::Vec2d>> polylines;
+    for (const SectionPolyline& polyline : input) polylines.push_back(distinct_points(polyline.points, polyline.closed));
+    const auto big_enough = [&](size_t k) { return long(polylines[k].size()) >= std::max(4, options.min_polyline_points); };
+
+    SectionFits result;
+    std::vector<double> windows;
+    for (size_t k = 0; k < polylines.size(); ++k)
+        if (big_enough(k)) window_noises({polylines[k], input[k].closed}, options.noise_window_mm, windows);
+    result.noise_mm = median(windows);
+    result.tolerance_mm = tolerance_for(result.noise_mm, options);
+
+    const auto number = [](double value) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.4f", value);
+        return std::string(text);
+    };
+    for (size_t k = 0; k < polylines.size(); ++k) {
+        const std::vector<cv::Vec2d>& points = polylines[k];
+        const bool closed = input[k].closed;
+        std::string reason;
+        if (!big_enough(k)) {
+            reason = "fewer points than the " + std::to_string(std::max(4, options.min_polyline_points)) +
+                     " a feature of the part needs (min_polyline_points)";
+        } else if (const double own = estimate_noise({points, closed}, options.noise_window_mm); own > result.tolerance_mm) {
+            reason = "its points scatter by " + number(own) + " mm about short line or arc fits, more than the section's "
+                     "tolerance of " + number(result.tolerance_mm) + " mm";
+        } else {
+            try {
+                result.fits.push_back(fit_section_with(points, closed, options, parallel_cuts, result.noise_mm));
+                result.fitted_index.push_back(int(k));
+                continue;
+            } catch (const Error& e) {
+                reason = std::string(e.what()).substr(e.subject().empty() ? 0 : e.subject().size() + 2);
+            }
+        }
+        LeftOutPolyline left;
+        left.index = int(k);
+        left.point_count = int(points.size());
+        left.closed = closed;
+        for (const cv::Vec2d& p : points) left.centre += p / double(std::max<size_t>(points.size(), 1));
+        left.reason = reason;
+        result.left_out.push_back(left);
+    }
+    // Leaving out the section's biggest polyline would hand over a sketch without its outline.
+    const size_t biggest = size_t(std::max_element(polylines.begin(), polylines.end(), [](const auto& a, const auto& b) {
+                                      return a.size() < b.size();
+                                  }) - polylines.begin());
+    for (const LeftOutPolyline& left : result.left_out)
+        if (size_t(left.index) == biggest)
+            throw Error("polyline", "the section's biggest polyline (" + std::to_string(left.point_count) +
+                                        " points) cannot be fitted: " + left.reason);
+    return result;
 }
 
 }  // namespace picoscan

@@ -3,6 +3,7 @@ and a profile plot comparing the hybrid (Gray + phase) scan with the binary (Gra
 import os
 
 import numpy
+import FreeCAD
 import Part
 from FreeCAD import Placement, Rotation, Vector
 
@@ -40,11 +41,9 @@ def section_polylines(mesh, core, label, axis, offset_mm=None, progress=None):
     if not polylines:
         raise picoscan.Error("%s: the %s plane at %.2f mm does not cut the mesh" % (
             label, axis, getattr(base, axis.lower())))
-    # A shorter fragment (a grazing cut through a few facets) holds no shape.
-    result = [(line.points, line.closed) for line in polylines if len(line.points) >= 4]
-    if not result:
+    if all(len(line.points) < 4 for line in polylines):  # a grazing cut through a few facets holds no shape
         raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (label, axis))
-    return placement, result
+    return placement, [(line.points, line.closed) for line in polylines]
 
 
 def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=16, progress=None):
@@ -69,21 +68,29 @@ def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=16, progress=None)
 
 
 def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=0.0, progress=None):
-    """(placement of the cutting plane, [picoscan.SectionFit], one per polyline) of a FreeCAD mesh (not
-    a document object: this runs on the worker thread)."""
+    """(placement of the cutting plane, picoscan.SectionFits) of a FreeCAD mesh (not a document
+    object: this runs on the worker thread). The section's polylines are judged together
+    (picoscan.fit_section_polylines): one noise and tolerance for all; crumbs too small or too
+    noisy to be a feature of the part are in `left_out`, with the reason."""
     from picoscan_wb.objects.scan_mesh import core_mesh
 
     cancel_point(progress, 0.0, "cutting the mesh")
     core = core_mesh(mesh)
     placement, polylines = section_polylines(mesh, core, label, axis, offset_mm, progress)
     others = parallel_cuts(mesh, core, axis, offset_mm, band_mm, progress=progress)
-    options = fit_options(tolerance_mm)
-    fits = []
-    for index, (points, closed) in enumerate(polylines):
-        cancel_point(progress, index / float(len(polylines)), "fitting lines and arcs")
-        fits.append(picoscan.fit_extruded_section(points, closed, others, options) if others else
-                    picoscan.fit_section(points, closed, options))
+    cancel_point(progress, 0.0, "fitting lines and arcs")
+    try:
+        fits = picoscan.fit_section_polylines(polylines, others, fit_options(tolerance_mm))
+    except picoscan.Error as error:
+        raise picoscan.Error("%s: %s" % (label, error))
     return placement, fits
+
+
+def left_out_report(fits):
+    """One line per polyline of the section left out of the sketch: which, how many points, where, why."""
+    return ["Left out: %s %d (%d points, around (%.2f, %.2f) mm): %s" % (
+        "loop" if left.closed else "chain", left.index + 1, left.point_count, left.centre[0], left.centre[1], left.reason)
+        for left in fits.left_out]
 
 
 def fit_options(tolerance_mm=0.0):
@@ -224,9 +231,11 @@ def add_fitted_geometry(sketch, fit):
 def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", tolerance_mm=0.0, band_mm=0.0):
     """Adds a Sketch of the section, placed in the cutting plane: lines, arcs and circles fitted to
     the cut within tolerance_mm (0: from the scan's noise), joined and constrained, ready to edit in
-    Sketcher and to pad. With band_mm > 0 the outline is taken as prismatic within +- band_mm of the
-    plane (a pad's sides): each element is refitted with the points of 16 parallel cuts there
-    (picoscan.fit_extruded_section). Raises picoscan.Error (document unchanged) when the plane
+    Sketcher and to pad. All polylines of the cut share one noise and tolerance; those too small or
+    too noisy to be a feature of the part are left out of the sketch and listed, with the reason, in
+    its LeftOut property (and the Report view). With band_mm > 0 the outline is taken as prismatic
+    within +- band_mm of the plane (a pad's sides): each element is refitted with the points of 16
+    parallel cuts there (picoscan.fit_section_polylines with parallel cuts). Raises picoscan.Error (document unchanged) when the plane
     misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
@@ -236,7 +245,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     try:
         sketch.Placement = placement
         report = []
-        for fit in fits:
+        for fit in fits.fits:
             report += add_fitted_geometry(sketch, fit)
         sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
         sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
@@ -244,12 +253,15 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         sketch.addProperty("App::PropertyLength", "FitNoise", "Section", "Noise of the section estimated from its points")
         sketch.addProperty("App::PropertyStringList", "FitReport", "Section", "Per element: kind, size, points, residuals")
         sketch.addProperty("App::PropertyLength", "FitBand", "Section", "Elements refitted with parallel cuts within +- this (0: one cut)")
+        sketch.addProperty("App::PropertyStringList", "LeftOut", "Section",
+                           "Polylines of the cut left out of the sketch (too small or too noisy to be a feature), and why")
         sketch.SourceMesh = mesh_object
-        sketch.FitTolerance = max(fit.tolerance_mm for fit in fits)
-        sketch.FitNoise = max(fit.noise_mm for fit in fits)
+        sketch.FitTolerance = fits.tolerance_mm
+        sketch.FitNoise = fits.noise_mm
         sketch.FitReport = report
         sketch.FitBand = band_mm
-        for name in ("FitTolerance", "FitNoise", "FitReport", "FitBand"):
+        sketch.LeftOut = left_out_report(fits)
+        for name in ("FitTolerance", "FitNoise", "FitReport", "FitBand", "LeftOut"):
             sketch.setEditorMode(name, 1)  # shown, not edited: they describe the fit
         doc.recompute()
         if not sketch.isValid():
@@ -257,6 +269,8 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     except Exception:
         doc.removeObject(sketch.Name)
         raise
+    for line in sketch.LeftOut:
+        FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, line))
     return sketch
 
 

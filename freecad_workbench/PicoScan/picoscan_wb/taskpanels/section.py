@@ -34,8 +34,9 @@ class CrossSectionTaskPanel:
         self.tolerance.setDecimals(3)
         self.tolerance.setSuffix(" mm")
         self.tolerance.setSpecialValueText("from the scan's noise")
-        self.tolerance.setToolTip("Largest distance of a section point to its fitted line or arc; "
-                                  "0: five times the noise measured on the section")
+        self.tolerance.setToolTip("Largest distance of a section point to its fitted line or arc, the same for "
+                                  "every loop of the cut; 0: five times the noise measured on the whole section. "
+                                  "Loops too small or too noisy for it are left out (the sketch's LeftOut says why)")
         layout.addRow("Tolerance", self.tolerance)
         self.band = QtGui.QDoubleSpinBox()
         self.band.setRange(0, 1000)
