@@ -58,6 +58,7 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("point_count", &LeftOutPolyline::point_count)
         .def_readonly("closed", &LeftOutPolyline::closed)
         .def_readonly("centre", &LeftOutPolyline::centre)
+        .def_readonly("across_mm", &LeftOutPolyline::across_mm)
         .def_readonly("reason", &LeftOutPolyline::reason);
     py::class_<SectionFits>(m, "SectionFits")
         .def_readonly("fits", &SectionFits::fits)

@@ -444,6 +444,8 @@ TEST(SectionFit, JoiningKeepsARealBendAndAWaveringFilletStaysOneArc) {
 // 3.2 mm, 0.3 mm of noise: its own noise sets a tolerance of 1.5 mm, within which it is "a
 // circle") and a 6-point crumb must be left out, each with its reason; a real 2 mm hole of 25
 // points must be kept as one circle within 20 um. Leaving out the outline itself is an error.
+// (What the rebuild from the simulated scan's Poisson mesh met at z = 12 mm: the hole's trace, 76
+// points scattering by 0.087 mm, fitted with its own tolerance of 0.44 mm as an arc and a line.)
 TEST(SectionFit, ASectionLeavesOutCrumbsAndKeepsASmallRealHole) {
     for (const double sigma : {0.0, 0.01, 0.02}) {
         for (const unsigned seed : {1u, 2u, 3u}) {
@@ -482,6 +484,7 @@ TEST(SectionFit, ASectionLeavesOutCrumbsAndKeepsASmallRealHole) {
             EXPECT_EQ(section.left_out[0].point_count, 35);
             EXPECT_NE(section.left_out[0].reason.find("scatter"), std::string::npos) << section.left_out[0].reason;
             EXPECT_LT(cv::norm(section.left_out[0].centre - cv::Vec2d(-11, 2)), 0.3);
+            EXPECT_NEAR(section.left_out[0].across_mm, 6.4, 1.0);
             EXPECT_EQ(section.left_out[1].index, 3);
             EXPECT_EQ(section.left_out[1].point_count, 6);
             EXPECT_NE(section.left_out[1].reason.find("fewer points than the 16"), std::string::npos) << section.left_out[1].reason;
@@ -497,6 +500,26 @@ TEST(SectionFit, ASectionLeavesOutCrumbsAndKeepsASmallRealHole) {
             EXPECT_NEAR(small.elements[0].centre[0], 8.0, 0.02);
             EXPECT_NEAR(small.elements[0].centre[1], -4.0, 0.02);
         }
+    }
+    // A mesher that flattens the sides (a sharpened Poisson mesh) leaves the section no noise: the
+    // tolerance is min_tolerance_mm, and a hole with 10 um of noise is left out, saying so; with a
+    // tolerance set (0.05 mm) it is kept, within 20 um.
+    {
+        Outline flat(0.0, 0.3);
+        for (size_t i = 0; i < kDemoCorners.size(); ++i) flat.line(kDemoCorners[i], kDemoCorners[(i + 1) % kDemoCorners.size()]);
+        Outline hole(0.01, 2 * kPi * 1.0 / 25);
+        hole.arc({8, -4}, 1.0, 0, 360);
+        const std::vector<SectionPolyline> polylines = {{flat.points, true}, {hole.points, true}};
+        const SectionFits by_default = fit_section_polylines(polylines);
+        EXPECT_EQ(by_default.tolerance_mm, SectionFitOptions().min_tolerance_mm);
+        ASSERT_EQ(by_default.left_out.size(), 1u);
+        EXPECT_NE(by_default.left_out[0].reason.find("a tolerance set above it fits it"), std::string::npos);
+        SectionFitOptions options;
+        options.tolerance_mm = 0.05;
+        const SectionFits set = fit_section_polylines(polylines, {}, options);
+        ASSERT_EQ(set.fitted_index, (std::vector<int>{0, 1}));
+        ASSERT_EQ(set.fits[1].elements.size(), 1u);
+        EXPECT_NEAR(set.fits[1].elements[0].radius_mm, 1.0, 0.02);
     }
     // The outline itself too noisy for the tolerance the user sets: an error, not a sketch of the rest.
     Outline outline(0.05, 0.3);

@@ -117,6 +117,7 @@ struct LeftOutPolyline {
     int point_count = 0;               // distinct points
     bool closed = false;
     cv::Vec2d centre{0, 0};            // the mean of its points, to find it
+    double across_mm = 0;              // the larger side of its bounding box
     std::string reason;
 };
 struct SectionFits {

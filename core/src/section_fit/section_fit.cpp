@@ -1029,7 +1029,7 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
                      " a feature of the part needs (min_polyline_points)";
         } else if (const double own = estimate_noise({points, closed}, options.noise_window_mm); own > result.tolerance_mm) {
             reason = "its points scatter by " + number(own) + " mm about short line or arc fits, more than the section's "
-                     "tolerance of " + number(result.tolerance_mm) + " mm";
+                     "tolerance of " + number(result.tolerance_mm) + " mm (a tolerance set above it fits it)";
         } else {
             try {
                 result.fits.push_back(fit_section_with(points, closed, options, parallel_cuts, result.noise_mm));
@@ -1043,7 +1043,15 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         left.index = int(k);
         left.point_count = int(points.size());
         left.closed = closed;
-        for (const cv::Vec2d& p : points) left.centre += p / double(std::max<size_t>(points.size(), 1));
+        cv::Vec2d low(HUGE_VAL, HUGE_VAL), high(-HUGE_VAL, -HUGE_VAL);
+        for (const cv::Vec2d& p : points) {
+            left.centre += p / double(points.size());
+            for (int axis = 0; axis < 2; ++axis) {
+                low[axis] = std::min(low[axis], p[axis]);
+                high[axis] = std::max(high[axis], p[axis]);
+            }
+        }
+        left.across_mm = points.empty() ? 0 : std::max(high[0] - low[0], high[1] - low[1]);
         left.reason = reason;
         result.left_out.push_back(left);
     }

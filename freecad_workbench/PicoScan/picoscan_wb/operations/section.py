@@ -88,9 +88,9 @@ def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=
 
 def left_out_report(fits):
     """One line per polyline of the section left out of the sketch: which, how many points, where, why."""
-    return ["Left out: %s %d (%d points, around (%.2f, %.2f) mm): %s" % (
-        "loop" if left.closed else "chain", left.index + 1, left.point_count, left.centre[0], left.centre[1], left.reason)
-        for left in fits.left_out]
+    return ["Left out: %s %d (%d points, %.2f mm across, around (%.2f, %.2f) mm): %s" % (
+        "loop" if left.closed else "chain", left.index + 1, left.point_count, left.across_mm, left.centre[0],
+        left.centre[1], left.reason) for left in fits.left_out]
 
 
 def fit_options(tolerance_mm=0.0):
