@@ -103,16 +103,18 @@ void bind_section_fit(py::module_& m) {
     m.def(
         "fit_section_polylines",
         [](const std::vector<std::pair<py::array, bool>>& polylines, const std::vector<py::array>& parallel_cuts,
-           const SectionFitOptions& options) {
+           const SectionFitOptions& options, const py::object& progress) {
             std::vector<SectionPolyline> lines;
             for (const auto& [points, closed] : polylines)
                 lines.push_back({array_to_vector<cv::Vec2d>(points, "polylines"), closed});
             std::vector<std::vector<cv::Vec2d>> cuts;
             for (const py::array& cut : parallel_cuts) cuts.push_back(array_to_vector<cv::Vec2d>(cut, "parallel_cuts"));
+            const ProgressCallback callback = progress_from(progress);
             py::gil_scoped_release release;
-            return fit_section_polylines(lines, cuts, options);
+            return fit_section_polylines(lines, cuts, options, callback);
         },
         py::arg("polylines"), py::arg("parallel_cuts") = std::vector<py::array>(), py::arg("options") = SectionFitOptions(),
+        py::arg("progress") = py::none(),
         "A section's polylines ([(N x 2 array, closed)]) fitted with one noise and tolerance; too small or too noisy "
         "ones left out with the reason (left_out)");
 }

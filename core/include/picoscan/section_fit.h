@@ -111,7 +111,8 @@ SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool clo
 // tolerance loose enough to fit it as a circle), or when it cannot be split into elements
 // within the tolerance. Throws Error("polyline", ...) when the biggest polyline is left out
 // (a sketch without its outline must not look like a fit), Error("polylines", ...) when none is
-// given, Error("tolerance_mm", ...) for a negative tolerance.
+// given, Error("tolerance_mm", ...) for a negative tolerance, Error("cancelled", ...) when
+// `progress` (told before each polyline) answers false.
 struct LeftOutPolyline {
     int index = 0;                     // in the polylines given
     int point_count = 0;               // distinct points
@@ -128,7 +129,7 @@ struct SectionFits {
 };
 SectionFits fit_section_polylines(const std::vector<SectionPolyline>& polylines,
                                   const std::vector<std::vector<cv::Vec2d>>& parallel_cuts = {},
-                                  const SectionFitOptions& options = {});
+                                  const SectionFitOptions& options = {}, const ProgressCallback& progress = nullptr);
 
 std::string to_string(SectionElementKind kind);
 std::string to_string(SectionConstraintKind kind);

@@ -1001,7 +1001,8 @@ SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& input, bool closed
 }
 
 SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
-                                  const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options) {
+                                  const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options,
+                                  const ProgressCallback& progress) {
     check_tolerance(options);
     if (input.empty()) throw Error("polylines", "none given");
     std::vector<std::vector<cv::Vec2d>> polylines;
@@ -1021,6 +1022,8 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         return std::string(text);
     };
     for (size_t k = 0; k < polylines.size(); ++k) {
+        if (progress && !progress(double(k) / double(polylines.size()), "fitting lines and arcs"))
+            throw Error("cancelled", "the section fit was cancelled");
         const std::vector<cv::Vec2d>& points = polylines[k];
         const bool closed = input[k].closed;
         std::string reason;

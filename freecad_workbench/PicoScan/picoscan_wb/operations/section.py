@@ -78,10 +78,11 @@ def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=
     core = core_mesh(mesh)
     placement, polylines = section_polylines(mesh, core, label, axis, offset_mm, progress)
     others = parallel_cuts(mesh, core, axis, offset_mm, band_mm, progress=progress)
-    cancel_point(progress, 0.0, "fitting lines and arcs")
     try:
-        fits = picoscan.fit_section_polylines(polylines, others, fit_options(tolerance_mm))
+        fits = picoscan.fit_section_polylines(polylines, others, fit_options(tolerance_mm), progress)
     except picoscan.Error as error:
+        if str(error).startswith("cancelled"):
+            raise
         raise picoscan.Error("%s: %s" % (label, error))
     return placement, fits
 
@@ -235,8 +236,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     too noisy to be a feature of the part are left out of the sketch and listed, with the reason, in
     its LeftOut property (and the Report view). With band_mm > 0 the outline is taken as prismatic
     within +- band_mm of the plane (a pad's sides): each element is refitted with the points of 16
-    parallel cuts there (picoscan.fit_section_polylines with parallel cuts). Raises picoscan.Error (document unchanged) when the plane
-    misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
+    parallel cuts there. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
     placement, fits = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
