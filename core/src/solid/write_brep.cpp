@@ -117,7 +117,8 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         append(out, "1 %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", o[0], o[1], o[2], n[0],
                n[1], n[2], x[0], x[1], x[2], y[0], y[1], y[2]);
     }
-    // Each face's triangles with their nodes' (u, v) on its plane; its deflection: the farthest node from the plane.
+    // Each face's triangles with their nodes' (u, v) on its plane; its deflection: the farthest node
+    // from the plane. Nodes to 9 digits (what is drawn; the reader spends its time on long numbers).
     append(out, "Triangulations %zu\n", triangulation_count);
     for (size_t f = 0; f < face_count; ++f) {
         const BrepFace& face = model.faces[f];
@@ -129,11 +130,11 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         append(out, "%zu %zu 1 %.17g\n", nodes[f].size(), face.triangles.size(), deflection);
         for (int v : nodes[f]) {
             const cv::Vec3d& p = model.vertices[v];
-            append(out, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
+            append(out, "%.9g %.9g %.9g\n", p[0], p[1], p[2]);
         }
         for (int v : nodes[f]) {  // (u, v) on the plane: along the surface's x and y directions
             const cv::Vec3d offset = model.vertices[v] - face.origin;
-            append(out, "%.17g %.17g\n", offset.dot(x), offset.dot(y));
+            append(out, "%.9g %.9g\n", offset.dot(x), offset.dot(y));
         }
         for (const cv::Vec3i& triangle : face.triangles)
             append(out, "%zu %zu %zu\n", node_number(f, triangle[0]), node_number(f, triangle[1]), node_number(f, triangle[2]));

@@ -106,6 +106,7 @@ def _read_and_check(path, label, check_valid, progress):
     reader.start()
     try:
         cancel_point(progress, 0.0, "solid: reading the B-rep")
+        time.sleep(0.1)  # the dialog shows this stage before the read holds the GIL
         shape = Part.Shape()
         shape.read(path)
         while child.poll() is None or reader.is_alive():
