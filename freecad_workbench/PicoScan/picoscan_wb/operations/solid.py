@@ -4,10 +4,10 @@ the rest as triangles (and turns back into triangles the facets where a merged f
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
 and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`), each face with its
 own facets as its triangulation; FreeCAD reads it back and draws those triangles instead of
-meshing every face again (docs/freecad.md has the figures). No sewing: the time grows linearly with the facets. The solid's volume is
-checked against the mesh's, and OpenCASCADE's own validity check (BRepCheck, the slowest part by
-far) runs when the solid has up to CHECK_FACES faces; both run in another process (brep_check.py)
-while this one reads the B-rep."""
+meshing every face again (docs/freecad.md has the figures). No sewing: the time grows linearly
+with the facets. The solid's volume is checked against the mesh's, and OpenCASCADE's own validity check (BRepCheck, the slowest part by
+far) runs when the solid has up to CHECK_FACES faces; both run in another process (brep_check.py),
+then this one reads the B-rep."""
 import json
 import os
 import subprocess
@@ -89,9 +89,10 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
 def _read_and_check(path, label, check_valid, progress):
     """(Part.Shape of the BREP file at path, brep_check's answer about it). FreeCAD's Part calls
     hold Python's GIL: the volume and the validity check run in another process, which Cancel
-    stops at once, while this one reads the B-rep (the one step left here that holds the GIL,
-    0.1 s for 7 080 faces). The text B-rep, not a binary copy: FreeCAD's binary format drops the
-    faces' triangulations, and without them FreeCAD's view provider meshes every face again."""
+    stops at once; this one then reads the B-rep (the one step left here that holds the GIL and
+    cannot be stopped: 0.1 s for 7 080 faces on an idle machine, 1 to 2 s at load 10 to 16). The
+    text B-rep, not a binary copy: FreeCAD's binary format drops the faces' triangulations, and
+    without them FreeCAD's view provider meshes every face again."""
     python = os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2])  # FreeCAD's own Python
     if not os.path.isfile(python):
         raise picoscan.Error("%s: cannot check the solid: FreeCAD's Python interpreter %s is missing" % (label, python))
@@ -105,10 +106,6 @@ def _read_and_check(path, label, check_valid, progress):
     reader = threading.Thread(target=read_lines, name="PicoScan B-rep check", daemon=True)
     reader.start()
     try:
-        cancel_point(progress, 0.0, "solid: reading the B-rep")
-        time.sleep(0.1)  # the dialog shows this stage before the read holds the GIL
-        shape = Part.Shape()
-        shape.read(path)
         while child.poll() is None or reader.is_alive():
             stages = [answer.get("stage") for answer in _json_lines(lines)]
             cancel_point(progress, 0.0, "solid: %s (checked in another process)" % (
@@ -122,6 +119,10 @@ def _read_and_check(path, label, check_valid, progress):
     if child.returncode != 0 or not answers or "type" not in answers[-1]:
         raise picoscan.Error("%s: FreeCAD could not check the solid written for it (%s)" % (
             label, (lines or ["exit code %d" % child.returncode])[-1]))
+    cancel_point(progress, 0.0, "solid: reading the B-rep")
+    time.sleep(0.1)  # the dialog shows this stage before the read holds the GIL
+    shape = Part.Shape()
+    shape.read(path)
     return shape, answers[-1]
 
 
