@@ -877,7 +877,7 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertLess(gaps[computing].max(), 1.0, figures)
 
     def test_k3c_make_solid_draws_the_facets_it_was_made_of(self):
-        """Make solid of a closed 5 mm-spaced mesh of the demo part's block (10 um noise): FreeCAD's
+        """Make solid of a closed 1 mm-spaced mesh of the demo part's block (10 um noise): FreeCAD's
         view provider draws the mesh's own facets, which each face of the B-rep carries as its
         triangulation, instead of meshing the faces again (its 8 planar faces would give a few
         triangles each); no gap of a second in the GUI, drawing included."""
