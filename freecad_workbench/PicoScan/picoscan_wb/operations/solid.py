@@ -5,9 +5,9 @@ would touch or cross itself, leave its plane or nest wrongly: `model.refused_mer
 and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`), each face with its
 own facets as its triangulation; FreeCAD reads it back and draws those triangles instead of
 meshing every face again (docs/freecad.md has the figures). No sewing: the time grows linearly
-with the facets. The solid's volume is checked against the mesh's, and OpenCASCADE's own validity check (BRepCheck, the slowest part by
-far) runs when the solid has up to CHECK_FACES faces; both run in another process (brep_check.py),
-then this one reads the B-rep."""
+with the facets. The solid's volume is checked against the mesh's, and OpenCASCADE's own
+validity check (BRepCheck, the slowest part by far) runs when the solid has up to CHECK_FACES
+faces; both run in another process (brep_check.py), then this one reads the B-rep."""
 import json
 import os
 import subprocess
