@@ -61,7 +61,7 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
     };
 
     // Tens of thousands of faces take seconds to format: a cancel point every 4096 shapes.
-    const double work = double(model.vertices.size() + 3 * edge_count + 4 * face_count) + 1;
+    const double work = double(model.vertices.size() + 3 * edge_count + 3 * face_count) + 1;
     size_t written = 0;
     const auto wrote = [&] {
         if (progress && ++written % 4096 == 0 && !progress(double(written) / work, "solid: writing the B-rep"))
@@ -78,8 +78,8 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
     }
     out += "Polygon3D 0\n";
     // Each edge's chain on the triangulation of each face along it: node numbers, then its
-    // deflection (the chain's farthest vertex from the edge's line) and each node's parameter on
-    // the line (its distance along it from the start).
+    // deflection (the chain's farthest vertex from its point on the edge's line) and each node's
+    // parameter on the line (its distance along it from the start).
     append(out, "PolygonOnTriangulations %zu\n", polygon_count);
     std::vector<size_t> first_polygon(edge_count, 0);
     size_t polygons = 0;
@@ -96,8 +96,9 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         std::string parameters;
         for (size_t i = 0; i < chain.size(); ++i) {
             const cv::Vec3d offset = model.vertices[chain[i]] - a;
-            deflection = std::max(deflection, cv::norm(offset.cross(direction)));
             const double along = i == 0 ? 0 : i + 1 == chain.size() ? length : std::clamp(offset.dot(direction), 0.0, length);
+            // OpenCASCADE's check: each node within deflection + the edge's tolerance of the line's point at its parameter.
+            deflection = std::max(deflection, cv::norm(offset - along * direction));
             append(parameters, " %.17g", along);
         }
         first_polygon[e] = polygons + 1;
@@ -118,7 +119,8 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
                n[1], n[2], x[0], x[1], x[2], y[0], y[1], y[2]);
     }
     // Each face's triangles with their nodes' (u, v) on its plane; its deflection: the farthest node
-    // from the plane. Nodes to 9 digits (what is drawn; the reader spends its time on long numbers).
+    // from the plane. The nodes exact (OpenCASCADE's check holds the edges' polygons on them to the
+    // edges' tolerances), (u, v) to 9 digits (only drawn; the reader spends its time on long numbers).
     append(out, "Triangulations %zu\n", triangulation_count);
     for (size_t f = 0; f < face_count; ++f) {
         const BrepFace& face = model.faces[f];
@@ -130,7 +132,7 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         append(out, "%zu %zu 1 %.17g\n", nodes[f].size(), face.triangles.size(), deflection);
         for (int v : nodes[f]) {
             const cv::Vec3d& p = model.vertices[v];
-            append(out, "%.9g %.9g %.9g\n", p[0], p[1], p[2]);
+            append(out, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
         }
         for (int v : nodes[f]) {  // (u, v) on the plane: along the surface's x and y directions
             const cv::Vec3d offset = model.vertices[v] - face.origin;

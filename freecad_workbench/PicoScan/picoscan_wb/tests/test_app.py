@@ -1686,7 +1686,11 @@ class PicoScanMakeSolidSizeTest(unittest.TestCase):
 
     def test_curved_mesh_is_a_valid_solid_of_its_volume(self):
         obj = self.doc.addObject("Mesh::Feature", "SphereMesh")
-        obj.Mesh = Mesh.createSphere(10.0, 30)  # 1 740 facets: isValid() of its triangle faces is slow
+        sphere = Mesh.createSphere(10.0, 30)  # 1 740 facets: isValid() of its triangle faces is slow
+        # 400 mm from the origin, as a scan in its camera's frame: the faces' triangulations must
+        # hold the edges' points to their 1e-7 mm tolerances there too (isValid() checks them).
+        sphere.translate(0, 0, 400)
+        obj.Mesh = sphere
         feature = self.check_solid(obj, expect_planes=False)
         self.assertGreater(len(feature.Shape.Faces), obj.Mesh.CountFacets / 2)  # curved: mostly triangles
 
