@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -148,6 +149,86 @@ TEST(PlanarFaces, WritesABrepSolid) {
     EXPECT_NE(text.find("Surfaces 6\n"), std::string::npos);
     EXPECT_NE(text.find("Curves 12\n"), std::string::npos);
     EXPECT_NE(text.find("\nSo\n"), std::string::npos);
+}
+
+namespace {
+
+size_t count_of(const std::string& text, const std::string& what) {
+    size_t count = 0;
+    for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++count;
+    return count;
+}
+
+std::string brep_text(const PlanarFaceModel& model, const std::string& name) {
+    const std::string path = test_support::make_temp_dir("planar_faces") + "/" + name + ".brep";
+    write_brep(model, path);
+    std::ifstream stream(path);
+    return std::string((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+}
+
+}  // namespace
+
+// Each face carries its own facets (so FreeCAD draws them instead of meshing the face again), and
+// each edge the mesh vertices along it, on both faces' triangulations.
+TEST(PlanarFaces, EachFaceCarriesItsFacetsAsItsTriangulation) {
+    const PlanarFaceModel box = planar_face_model(grid_box(8, 6, 4, 1.0, 0.01));
+    ASSERT_EQ(box.faces.size(), 6u);
+    size_t triangles = 0;
+    for (const BrepFace& face : box.faces) {
+        triangles += face.triangles.size();
+        EXPECT_EQ(int(face.triangles.size()), face.facet_count);
+        for (const cv::Vec3i& t : face.triangles) {  // counter-clockwise seen from outside
+            const cv::Vec3d n = (box.vertices[t[1]] - box.vertices[t[0]]).cross(box.vertices[t[2]] - box.vertices[t[0]]);
+            EXPECT_GT(n.dot(face.normal), 0);
+        }
+    }
+    EXPECT_EQ(triangles, box.facet_count);
+    size_t chain_vertices = 0;
+    for (const BrepEdge& edge : box.edges) {
+        ASSERT_GE(edge.chain.size(), 2u);
+        EXPECT_EQ(edge.chain.front(), edge.start);
+        EXPECT_EQ(edge.chain.back(), edge.end);
+        chain_vertices += edge.chain.size() - 1;
+    }
+    // The box's 12 edges run along 4 x (8 + 6 + 4) mesh edges.
+    EXPECT_EQ(chain_vertices, 4u * (8 + 6 + 4));
+    const std::string text = brep_text(box, "box");
+    EXPECT_NE(text.find("Triangulations 6\n"), std::string::npos);
+    EXPECT_NE(text.find("PolygonOnTriangulations 24\n"), std::string::npos);  // each edge on its two faces
+    EXPECT_EQ(count_of(text, "\n6  "), 24u);
+    EXPECT_EQ(count_of(text, "\n2  "), 6u);  // each face names its triangulation
+
+    PlanarFaceOptions unmerged;
+    unmerged.merge = false;
+    const Mesh ball = sphere(10, 12, 16);
+    const PlanarFaceModel triangles_only = planar_face_model(ball, unmerged);
+    const std::string ball_text = brep_text(triangles_only, "sphere");
+    EXPECT_NE(ball_text.find("Triangulations " + std::to_string(ball.faces.size()) + "\n"), std::string::npos);
+    EXPECT_NE(ball_text.find("PolygonOnTriangulations " + std::to_string(3 * ball.faces.size()) + "\n"), std::string::npos);
+
+    // An edge whose chain leaves the face's triangles, or does not run from its start to its end,
+    // cannot be written: refused naming the file, nothing written.
+    PlanarFaceModel astray = box;
+    const int outside = [&] {  // a vertex none of edge 0's faces' triangles uses
+        for (int v = 0; v < int(box.vertices.size()); ++v) {
+            bool used = false;
+            for (const BrepFace& face : box.faces) {
+                bool has_edge = false;
+                for (const auto& wire : face.wires)
+                    for (int e : wire) has_edge = has_edge || std::abs(e) == 1;
+                if (!has_edge) continue;
+                for (const cv::Vec3i& t : face.triangles) used = used || t[0] == v || t[1] == v || t[2] == v;
+            }
+            if (!used) return v;
+        }
+        return -1;
+    }();
+    ASSERT_GE(outside, 0);
+    astray.edges[0].chain = {box.edges[0].start, outside, box.edges[0].end};
+    EXPECT_THROW(brep_text(astray, "astray"), Error);
+    PlanarFaceModel backwards = box;
+    std::reverse(backwards.edges[0].chain.begin(), backwards.edges[0].chain.end());
+    EXPECT_THROW(brep_text(backwards, "backwards"), Error);
 }
 
 TEST(PlanarFaces, MeshesThatBoundNoSolidAreRefused) {

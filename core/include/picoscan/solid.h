@@ -1,6 +1,7 @@
 // A closed triangle mesh as a boundary representation: facets that lie on one plane (within the
 // scan's noise) merged into one planar face, the rest kept as triangles, written in
-// OpenCASCADE's BREP text format so that a CAD host (FreeCAD) only reads the solid back.
+// OpenCASCADE's BREP text format so that a CAD host (FreeCAD) only reads the solid back. Each
+// face carries its own facets as its triangulation, so the host draws it without meshing it.
 #pragma once
 
 #include "picoscan/cloud.h"
@@ -29,6 +30,7 @@ struct PlanarFaceOptions {
 struct BrepEdge {
     int start = 0, end = 0;          // vertex indices; a straight line between them
     double tolerance_mm = 1e-7;      // how far the line may be from the faces' planes
+    std::vector<int> chain{};        // the mesh's vertices along it, start to end (empty: just its ends)
 };
 
 struct BrepFace {
@@ -39,6 +41,8 @@ struct BrepFace {
     // Closed loops of signed edge references (edge index + 1, negative when run backwards):
     // the outer boundary first, counter-clockwise seen from outside, then the holes.
     std::vector<std::vector<int>> wires;
+    // Its facets (vertex indices, counter-clockwise seen from outside); empty: no triangulation written.
+    std::vector<cv::Vec3i> triangles{};
 };
 
 struct PlanarFaceModel {
@@ -69,7 +73,9 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
 std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options = {});
 
 // Writes the model as an OpenCASCADE BREP solid (vertices, straight edges, planar faces, one
-// shell). Written to a temporary file and renamed. `progress` is told every 4096 vertices, edges and
+// shell), with each face's triangles as its triangulation and each edge's chain as its polygon on
+// the triangulations of its faces (what a viewer meshing the solid would make, so OpenCASCADE's
+// mesher keeps them instead). Written to a temporary file and renamed. `progress` is told every 4096 vertices, edges and
 // faces; answering false stops it (Error("cancelled", ...), nothing written).
 void write_brep(const PlanarFaceModel& model, const std::string& path, const ProgressCallback& progress = nullptr);
 

@@ -541,6 +541,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
             if (region_of[f] >= 0) {
                 face_of[f] = region_of[f];
                 ++model.faces[region_of[f]].facet_count;
+                model.faces[region_of[f]].triangles.push_back(facets[f]);
                 ++model.merged_facets;
                 continue;
             }
@@ -548,6 +549,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
             BrepFace face;
             face.origin = positions[facets[f][0]];
             face.normal = normals[f];
+            face.triangles.push_back(facets[f]);
             model.faces.push_back(face);
         }
         model.merged_faces = size_t(region_count);
@@ -606,7 +608,9 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
             kept_points.push_back(last);
             chain_edges.clear();
             for (size_t i = 0; i + 1 < kept_points.size(); ++i) {
-                model.edges.push_back({vertices[kept_points[i]], vertices[kept_points[i + 1]], 1e-7});
+                const auto from = vertices.begin() + std::ptrdiff_t(kept_points[i]);
+                const auto to = vertices.begin() + std::ptrdiff_t(kept_points[i + 1]) + 1;
+                model.edges.push_back({*from, *(to - 1), 1e-7, std::vector<int>(from, to)});
                 chain_edges.push_back(int(model.edges.size()));
             }
             pieces[owner].push_back({vertices.front(), vertices.back(), chain_edges});

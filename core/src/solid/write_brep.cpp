@@ -1,10 +1,13 @@
 // OpenCASCADE's BREP text format (the "CASCADE Topology V1" layout that BRepTools::Read and
 // FreeCAD's Part.Shape.read accept): lines and planes, then the topology from vertices up to
-// the solid. Shapes refer to each other by their place counted from the end of the list.
+// the solid; each face's triangles as its triangulation, each edge's chain of mesh vertices as its
+// polygon on those triangulations. Shapes refer to each other by their place counted from the end
+// of the list.
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 #include "picoscan/solid.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -29,24 +32,85 @@ cv::Vec3d perpendicular(const cv::Vec3d& normal) {
 
 void write_brep(const PlanarFaceModel& model, const std::string& path, const ProgressCallback& progress) {
     if (model.faces.empty()) throw Error(path, "no faces to write");
+    const size_t face_count = model.faces.size(), edge_count = model.edges.size();
+    // Each face's triangulation numbers its own nodes: the vertices of its triangles, sorted.
+    std::vector<std::vector<int>> nodes(face_count);
+    std::vector<size_t> triangulation_of(face_count, 0);  // 1-based; 0: none
+    std::vector<std::vector<size_t>> faces_of_edge(edge_count);  // the faces with a triangulation along each edge
+    size_t triangulation_count = 0, polygon_count = 0;
+    for (size_t f = 0; f < face_count; ++f) {
+        const BrepFace& face = model.faces[f];
+        if (face.triangles.empty()) continue;
+        for (const cv::Vec3i& triangle : face.triangles)
+            for (int k = 0; k < 3; ++k) {
+                if (triangle[k] < 0 || size_t(triangle[k]) >= model.vertices.size())
+                    throw Error(path, "face " + std::to_string(f) + " has a triangle corner out of range");
+                nodes[f].push_back(triangle[k]);
+            }
+        std::sort(nodes[f].begin(), nodes[f].end());
+        nodes[f].erase(std::unique(nodes[f].begin(), nodes[f].end()), nodes[f].end());
+        triangulation_of[f] = ++triangulation_count;
+        for (const auto& wire : face.wires)
+            for (int e : wire) faces_of_edge[size_t(std::abs(e) - 1)].push_back(f), ++polygon_count;
+    }
+    auto node_number = [&](size_t f, int vertex) {
+        const auto found = std::lower_bound(nodes[f].begin(), nodes[f].end(), vertex);
+        if (found == nodes[f].end() || *found != vertex)
+            throw Error(path, "an edge of face " + std::to_string(f) + " runs through a vertex none of its triangles has");
+        return size_t(found - nodes[f].begin()) + 1;
+    };
+
     // Tens of thousands of faces take seconds to format: a cancel point every 4096 shapes.
-    const double work = double(model.vertices.size() + 2 * model.edges.size() + 2 * model.faces.size()) + 1;
+    const double work = double(model.vertices.size() + 3 * edge_count + 3 * face_count) + 1;
     size_t written = 0;
     const auto wrote = [&] {
         if (progress && ++written % 4096 == 0 && !progress(double(written) / work, "solid: writing the B-rep"))
             throw Error("cancelled", "writing the B-rep was stopped");
     };
     std::string out;
-    out.reserve(model.edges.size() * 200 + model.faces.size() * 200 + model.vertices.size() * 90);
+    out.reserve(edge_count * 400 + face_count * 500 + model.vertices.size() * 90);
     out += "DBRep_DrawableShape\n\nCASCADE Topology V1, (c) Matra-Datavision\nLocations 0\nCurve2ds 0\n";
-    append(out, "Curves %zu\n", model.edges.size());
+    append(out, "Curves %zu\n", edge_count);
     for (const BrepEdge& edge : model.edges) {
         wrote();
         const cv::Vec3d a = model.vertices[edge.start], direction = cv::normalize(model.vertices[edge.end] - a);
         append(out, "1 %.17g %.17g %.17g %.17g %.17g %.17g\n", a[0], a[1], a[2], direction[0], direction[1], direction[2]);
     }
-    out += "Polygon3D 0\nPolygonOnTriangulations 0\n";
-    append(out, "Surfaces %zu\n", model.faces.size());
+    out += "Polygon3D 0\n";
+    // Each edge's chain on the triangulation of each face along it: node numbers, then its
+    // deflection (the chain's farthest vertex from its point on the edge's line) and each node's
+    // parameter on the line (its distance along it from the start).
+    append(out, "PolygonOnTriangulations %zu\n", polygon_count);
+    std::vector<size_t> first_polygon(edge_count, 0);
+    size_t polygons = 0;
+    for (size_t e = 0; e < edge_count; ++e) {
+        wrote();
+        const BrepEdge& edge = model.edges[e];
+        const std::vector<int> chain = edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain;
+        if (chain.size() < 2 || chain.front() != edge.start || chain.back() != edge.end)
+            throw Error(path, "edge " + std::to_string(e) + ": its chain does not run from its start to its end");
+        const cv::Vec3d a = model.vertices[edge.start], b = model.vertices[edge.end];
+        const double length = cv::norm(b - a);
+        const cv::Vec3d direction = (b - a) / length;
+        double deflection = 0;
+        std::string parameters;
+        for (size_t i = 0; i < chain.size(); ++i) {
+            const cv::Vec3d offset = model.vertices[chain[i]] - a;
+            const double along = i == 0 ? 0 : i + 1 == chain.size() ? length : std::clamp(offset.dot(direction), 0.0, length);
+            // OpenCASCADE's check: each node within deflection + the edge's tolerance of the line's point at its parameter.
+            deflection = std::max(deflection, cv::norm(offset - along * direction));
+            append(parameters, " %.17g", along);
+        }
+        first_polygon[e] = polygons + 1;
+        for (size_t f : faces_of_edge[e]) {
+            append(out, "%zu", chain.size());
+            for (int v : chain) append(out, " %zu", node_number(f, v));
+            append(out, "\np %.17g 1", deflection);
+            out += parameters + "\n";
+            ++polygons;
+        }
+    }
+    append(out, "Surfaces %zu\n", face_count);
     for (const BrepFace& face : model.faces) {
         wrote();
         const cv::Vec3d& o = face.origin;
@@ -54,12 +118,35 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         append(out, "1 %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", o[0], o[1], o[2], n[0],
                n[1], n[2], x[0], x[1], x[2], y[0], y[1], y[2]);
     }
-    out += "Triangulations 0\n\n";
+    // Each face's triangles with their nodes' (u, v) on its plane; its deflection: the farthest node
+    // from the plane. The nodes exact (OpenCASCADE's check holds the edges' polygons on them to the
+    // edges' tolerances), (u, v) to 9 digits (only drawn; the reader spends its time on long numbers).
+    append(out, "Triangulations %zu\n", triangulation_count);
+    for (size_t f = 0; f < face_count; ++f) {
+        const BrepFace& face = model.faces[f];
+        if (face.triangles.empty()) continue;
+        wrote();
+        const cv::Vec3d n = cv::normalize(face.normal), x = perpendicular(n), y = n.cross(x);
+        double deflection = 0;
+        for (int v : nodes[f]) deflection = std::max(deflection, std::abs((model.vertices[v] - face.origin).dot(n)));
+        append(out, "%zu %zu 1 %.17g\n", nodes[f].size(), face.triangles.size(), deflection);
+        for (int v : nodes[f]) {
+            const cv::Vec3d& p = model.vertices[v];
+            append(out, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
+        }
+        for (int v : nodes[f]) {  // (u, v) on the plane: along the surface's x and y directions
+            const cv::Vec3d offset = model.vertices[v] - face.origin;
+            append(out, "%.9g %.9g\n", offset.dot(x), offset.dot(y));
+        }
+        for (const cv::Vec3i& triangle : face.triangles)
+            append(out, "%zu %zu %zu\n", node_number(f, triangle[0]), node_number(f, triangle[1]), node_number(f, triangle[2]));
+    }
+    out += "\n";
 
     size_t wire_count = 0;
     for (const BrepFace& face : model.faces) wire_count += face.wires.size();
-    const size_t vertex_count = model.vertices.size(), edge_count = model.edges.size();
-    const size_t total = vertex_count + edge_count + wire_count + model.faces.size() + 2;
+    const size_t vertex_count = model.vertices.size();
+    const size_t total = vertex_count + edge_count + wire_count + face_count + 2;
     append(out, "TShapes %zu\n", total);
     auto vertex_ref = [&](int v) { return total - size_t(v); };
     auto edge_ref = [&](size_t e) { return total - vertex_count - e; };  // e counted from 0
@@ -72,12 +159,14 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         wrote();
         const BrepEdge& edge = model.edges[e];
         const double length = cv::norm(model.vertices[edge.end] - model.vertices[edge.start]);
-        append(out, "Ed\n %.17g 1 1 0\n1  %zu 0 0 %.17g\n0\n\n0101000\n+%zu 0 -%zu 0 *\n", edge.tolerance_mm, e + 1, length,
-               vertex_ref(edge.start), vertex_ref(edge.end));
+        append(out, "Ed\n %.17g 1 1 0\n1  %zu 0 0 %.17g\n", edge.tolerance_mm, e + 1, length);
+        for (size_t i = 0; i < faces_of_edge[e].size(); ++i)
+            append(out, "6  %zu %zu 0\n", first_polygon[e] + i, triangulation_of[faces_of_edge[e][i]]);
+        append(out, "0\n\n0101000\n+%zu 0 -%zu 0 *\n", vertex_ref(edge.start), vertex_ref(edge.end));
     }
     size_t place = vertex_count + edge_count;  // shapes written so far
     std::vector<size_t> face_refs;
-    for (size_t f = 0; f < model.faces.size(); ++f) {
+    for (size_t f = 0; f < face_count; ++f) {
         wrote();
         const BrepFace& face = model.faces[f];
         std::string wires;
@@ -88,8 +177,9 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
             append(wires, "+%zu 0 ", total - place++);
         }
         // A face's tolerance may not exceed its edges' (OpenCASCADE's rule: face <= edge <= vertex).
-        append(out, "Fa\n0  1e-07 %zu 0\n\n0101000\n", f + 1);
-        out += wires + "*\n";
+        append(out, "Fa\n0  1e-07 %zu 0\n", f + 1);
+        if (triangulation_of[f] > 0) append(out, "2  %zu", triangulation_of[f]);
+        out += "\n0101000\n" + wires + "*\n";
         face_refs.push_back(total - place++);
     }
     out += "Sh\n\n0101100\n";

@@ -1,16 +1,13 @@
 """What Make solid asks OpenCASCADE about the B-rep it wrote (its shape type, volume and, when
 asked, validity), run as a separate process:
-`python3 brep_check.py FREECAD_LIB BREP BINARY_BREP CHECK_VALID`.
+`python3 brep_check.py FREECAD_LIB BREP CHECK_VALID`.
 FreeCAD's Part calls hold Python's GIL while they run (seconds each for tens of thousands of
 faces), so in the GUI's own process they would stop the GUI from answering, whichever thread runs
-them; a process of its own leaves the GUI answering and is stopped at once by Cancel. It also
-writes the shape in OpenCASCADE's binary format, which FreeCAD reads in about half the time of the
-text one (0.48 s against 0.84 s for 64 440 faces): the one read left in the GUI's process.
-Prints one JSON line per stage ({"stage": ...}; "binary written" once BINARY_BREP is complete) and
-the answer last ({"type": ..., "volume": ..., "valid": ...})."""
+them; a process of its own leaves the GUI answering and is stopped at once by Cancel.
+Prints one JSON line per stage ({"stage": ...}) and the answer last
+({"type": ..., "volume": ..., "valid": ...})."""
 import importlib
 import json
-import os
 import sys
 
 
@@ -18,7 +15,7 @@ def say(**fields):
     print(json.dumps(fields), flush=True)
 
 
-def main(freecad_lib, path, binary_path, check_valid):
+def main(freecad_lib, path, check_valid):
     sys.path.append(freecad_lib)
     importlib.import_module("FreeCAD")  # FreeCAD's application first: Part alone exits silently
     import Part
@@ -26,9 +23,6 @@ def main(freecad_lib, path, binary_path, check_valid):
     say(stage="parsing the B-rep")
     shape = Part.Shape()
     shape.read(path)
-    shape.exportBinary(binary_path + ".tmp")
-    os.replace(binary_path + ".tmp", binary_path)
-    say(stage="binary written")
     say(stage="volume")
     answer = {"type": shape.ShapeType, "volume": shape.Volume if shape.ShapeType == "Solid" else 0.0}
     if check_valid:
@@ -38,4 +32,4 @@ def main(freecad_lib, path, binary_path, check_valid):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4] == "1")
+    main(sys.argv[1], sys.argv[2], sys.argv[3] == "1")

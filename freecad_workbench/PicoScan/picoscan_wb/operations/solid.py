@@ -2,11 +2,12 @@
 merges the facets that lie on one plane (within the scan's noise) into one planar face, keeps
 the rest as triangles (and turns back into triangles the facets where a merged face's boundary
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
-and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`);
-FreeCAD reads it back. No sewing: the time grows linearly with the facets. The solid's volume is
-checked against the mesh's, and OpenCASCADE's own validity check (BRepCheck, the slowest part by
-far) runs when the solid has up to CHECK_FACES faces; both run in another process (brep_check.py)
-while this one reads the B-rep."""
+and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`), each face with its
+own facets as its triangulation; FreeCAD reads it back and draws those triangles instead of
+meshing every face again (docs/freecad.md has the figures). No sewing: the time grows linearly
+with the facets. The solid's volume is checked against the mesh's, and OpenCASCADE's own
+validity check (BRepCheck, the slowest part by far) runs when the solid has up to CHECK_FACES
+faces; both run in another process (brep_check.py), then this one reads the B-rep."""
 import json
 import os
 import subprocess
@@ -87,14 +88,15 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
 
 def _read_and_check(path, label, check_valid, progress):
     """(Part.Shape of the BREP file at path, brep_check's answer about it). FreeCAD's Part calls
-    hold Python's GIL: reading the text B-rep, the volume and the validity check run in another
-    process, which Cancel stops at once; this one only reads the binary copy the child writes
-    (the one step left here that holds the GIL, about 0.5 s for 64 000 faces)."""
-    binary_path = path + ".bin"
+    hold Python's GIL: the volume and the validity check run in another process, which Cancel
+    stops at once; this one then reads the B-rep (the one step left here that holds the GIL and
+    cannot be stopped: 0.1 s for 7 080 faces on an idle machine, 1 to 2 s at load 10 to 16). The
+    text B-rep, not a binary copy: FreeCAD's binary format drops the faces' triangulations, and
+    without them FreeCAD's view provider meshes every face again."""
     python = os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2])  # FreeCAD's own Python
     if not os.path.isfile(python):
         raise picoscan.Error("%s: cannot check the solid: FreeCAD's Python interpreter %s is missing" % (label, python))
-    command = [python, brep_check.__file__, os.path.dirname(Part.__file__), path, binary_path, "1" if check_valid else "0"]
+    command = [python, brep_check.__file__, os.path.dirname(Part.__file__), path, "1" if check_valid else "0"]
     child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
 
@@ -103,17 +105,9 @@ def _read_and_check(path, label, check_valid, progress):
             lines.append(line.strip())
     reader = threading.Thread(target=read_lines, name="PicoScan B-rep check", daemon=True)
     reader.start()
-    shape = None
     try:
-        while True:
+        while child.poll() is None or reader.is_alive():
             stages = [answer.get("stage") for answer in _json_lines(lines)]
-            if shape is None and "binary written" in stages:
-                cancel_point(progress, 0.0, "solid: reading the B-rep")
-                shape = Part.Shape()
-                shape.importBinary(binary_path)
-                continue
-            if child.poll() is not None and not reader.is_alive():
-                break
             cancel_point(progress, 0.0, "solid: %s (checked in another process)" % (
                 stages[-1] if stages else "starting"))
             time.sleep(0.05)
@@ -122,9 +116,13 @@ def _read_and_check(path, label, check_valid, progress):
         child.wait()
         raise
     answers = _json_lines(lines)
-    if child.returncode != 0 or shape is None or not answers or "type" not in answers[-1]:
+    if child.returncode != 0 or not answers or "type" not in answers[-1]:
         raise picoscan.Error("%s: FreeCAD could not check the solid written for it (%s)" % (
             label, (lines or ["exit code %d" % child.returncode])[-1]))
+    cancel_point(progress, 0.0, "solid: reading the B-rep")
+    time.sleep(0.1)  # the dialog shows this stage before the read holds the GIL
+    shape = Part.Shape()
+    shape.read(path)
     return shape, answers[-1]
 
 
@@ -146,8 +144,9 @@ def make_solid(doc, mesh_object, merge_planes=True, noise_mm=0.0):
         mesh, label, merge_planes, noise_mm, progress))
     feature = doc.addObject("Part::Feature", mesh_object.Name + "Solid")
     feature.Label = mesh_object.Label + " solid"
-    # Drawing: FreeCAD's view provider meshes every face on the GUI thread (seconds for tens of
-    # thousands of faces), which nothing can move or stop; the dialog says what the GUI waits for.
+    # Drawing: FreeCAD's view provider runs OpenCASCADE's mesher on the GUI thread, which nothing
+    # can move or stop; it keeps the faces' triangulations written with the B-rep, but still visits
+    # every face and edge (about 0.1 ms each); the dialog says what the GUI waits for.
     run_on_gui_thread("Drawing the solid of %s (%d faces)" % (label, len(model.faces)),
                       lambda: setattr(feature, "Shape", solid))
     feature.addProperty("App::PropertyString", "SolidReport", "Solid", "How the faces were made", 1)

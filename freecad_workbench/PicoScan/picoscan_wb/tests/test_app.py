@@ -1675,10 +1675,23 @@ class PicoScanMakeSolidSizeTest(unittest.TestCase):
             self.assertGreater(obj.Mesh.CountFacets, expected)
         feature = self.check_solid(obj, expect_planes=True)
         self.assertLess(len(feature.Shape.Faces), obj.Mesh.CountFacets / 20)  # the flat sides merged
+        # Each face carries its own facets as its triangulation, and OpenCASCADE's mesher (what
+        # FreeCAD's view provider runs to draw it) keeps them: it hands back the mesh's facets, where
+        # the same solid without them gives a few triangles for each planar face.
+        kept = len(feature.Shape.tessellate(1.0)[1])
+        remeshed = len(feature.Shape.copy().tessellate(1.0)[1])
+        FreeCAD.Console.PrintMessage("Make solid of %s: OpenCASCADE's mesher gives %d triangles (%d without the "
+                                     "B-rep's triangulations)\n" % (obj.Label, kept, remeshed))
+        self.assertEqual(kept, obj.Mesh.CountFacets)
+        self.assertLess(remeshed, obj.Mesh.CountFacets / 2)
 
     def test_curved_mesh_is_a_valid_solid_of_its_volume(self):
         obj = self.doc.addObject("Mesh::Feature", "SphereMesh")
-        obj.Mesh = Mesh.createSphere(10.0, 30)  # 1 740 facets: isValid() of its triangle faces is slow
+        sphere = Mesh.createSphere(10.0, 30)  # 1 740 facets: isValid() of its triangle faces is slow
+        # 400 mm from the origin, as a scan in its camera's frame: the faces' triangulations must
+        # hold the edges' points to their 1e-7 mm tolerances there too (isValid() checks them).
+        sphere.translate(0, 0, 400)
+        obj.Mesh = sphere
         feature = self.check_solid(obj, expect_planes=False)
         self.assertGreater(len(feature.Shape.Faces), obj.Mesh.CountFacets / 2)  # curved: mostly triangles
 
