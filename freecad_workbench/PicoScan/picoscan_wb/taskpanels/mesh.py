@@ -38,6 +38,12 @@ class MeshTaskPanel:
         self.target_faces.setSpecialValueText("all")
         self.target_faces.setToolTip("Simplify to about this many faces; 0 keeps all")
         layout.addRow("Target faces", self.target_faces)
+        self.fill = QtGui.QComboBox()
+        self.fill.addItems(scan_mesh.FILLS)
+        self.fill.setToolTip("The side the scan never saw: Poisson closes it with a smooth guess (right for a "
+                             "part scanned in two placements), Table with a flat cap at the table's plane (a part "
+                             "standing on the turntable, one placement), Open leaves it open (nothing invented)")
+        layout.addRow("Unseen side", self.fill)
         self.method.currentTextChanged.connect(self.show_parameters)
         self.show_parameters()
 
@@ -54,13 +60,14 @@ class MeshTaskPanel:
     def show_parameters(self, *_):
         grid = self.method.currentText() == "Grid"
         self.pixel_step.setEnabled(grid)
-        for box in (self.sample_spacing, self.max_hole, self.target_faces):
+        for box in (self.sample_spacing, self.max_hole, self.target_faces, self.fill):
             box.setEnabled(not grid)
 
     def mesh(self):
         return scan_mesh.create(self.source.Document, self.source, method=self.method.currentText(),
                                 pixel_step=self.pixel_step.value(), sample_spacing_mm=self.sample_spacing.value(),
-                                target_faces=self.target_faces.value(), max_hole_diameter_mm=self.max_hole.value())
+                                target_faces=self.target_faces.value(), max_hole_diameter_mm=self.max_hole.value(),
+                                fill=self.fill.currentText())
 
     def accept(self):
         self.created = run_guarded("Mesh", self.mesh)

@@ -972,6 +972,7 @@ class PicoScanGuiTest(unittest.TestCase):
         panel = COMMANDS["PicoScan_Mesh"].panel
         self.assertEqual(panel.method.currentText(), "Grid")
         self.assertFalse(panel.sample_spacing.isEnabled())  # Poisson's parameters are not Grid's
+        self.assertFalse(panel.fill.isEnabled())
         self.assertTrue(panel.accept(), self.messages)
         process_events()
         meshes = [o for o in self.doc.Objects if o.TypeId == "Mesh::FeaturePython"]
@@ -1184,8 +1185,8 @@ class PicoScanGuiTest(unittest.TestCase):
         """docs/freecad.md's multi-view walkthrough: eight turntable views of the demo part (half
         resolution; the workbench's turntable simulation writes one capture folder per view, as a
         turntable capture would), each read with Import capture set, then Clean, Stitch views (the
-        panel's default, Automatic), Part frame, Mesh (Poisson, then Fill 'Table' in the property
-        editor), Fit primitives, Cross-section, Make solid, Measurements (the sheet's tab in front) and
+        panel's default, Automatic), Part frame, Mesh (Poisson, the panel's Unseen side set to
+        Table), Fit primitives, Cross-section, Make solid, Measurements (the sheet's tab in front) and
         Deviation map, every step through FreeCADGui.runCommand with a screenshot after it."""
         FreeCADGui.getMainWindow().showMaximized()
         mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
@@ -1264,18 +1265,12 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(panel.method.currentText(), "Poisson")  # a Stitch has no pixel grid
         panel.sample_spacing.setValue(1.0)
         panel.target_faces.setValue(20000)
+        self.assertEqual(panel.fill.currentText(), "Poisson")
+        # The round never saw the bottom, and the part stood on the table: close it there.
+        panel.fill.setCurrentText("Table")
         self.assertTrue(panel.accept(), self.messages)
         surface = panel.created
-        self.assertTrue(surface.Mesh.isSolid(), surface.Check)
-        guessed = surface.Mesh.Volume
-        FreeCAD.Console.PrintMessage("multi-view walkthrough, Poisson (Fill Poisson): %.1f mm3; %s\n" % (
-            guessed, surface.Check))
-        # The round never saw the bottom: Poisson's closure bulges below the table, and the check says so.
-        self.assertIn("guessed, not scanned", surface.Check)
-        self.assertGreater(guessed, 1.1 * true_volume_mm3)
-        # As a user would in the property editor: the part stood on the table, so close it there.
-        surface.Fill = "Table"
-        self.doc.recompute()
+        self.assertEqual(surface.Fill, "Table")
         self.assertTrue(surface.Mesh.isSolid(), surface.Check)
         FreeCAD.Console.PrintMessage("multi-view walkthrough, Poisson (Fill Table): %d facets, %.1f mm3 (%+.2f %% "
                                      "of the part's); %s\n" % (surface.Mesh.CountFacets, surface.Mesh.Volume, 100 * (
