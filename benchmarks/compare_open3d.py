@@ -528,6 +528,8 @@ def pipeline_row(name, run, truth, placed):
     if run.mesh is None or not run.mesh.has_triangles():
         return "| %s | %s | no mesh | - | - | - | %.0f / %.0f |" % (name, placed, *run.seconds["all"])
     to_mesh, to_truth, not_finite = distances(truth, run.mesh)
+    print("%s: %d of %d triangles with two corners at one position, left out of the distance search"
+          % (name, collapsed(run.mesh).sum(), len(run.mesh.triangles)), file=sys.stderr)
     volume = mesh_volume(run.mesh)
     watertight = run.mesh.is_watertight()
     volume_text = "%.2f (%+.2f %%)" % (volume / 1000, 100 * (volume / truth.volume - 1))
