@@ -261,9 +261,9 @@ def collapsed(mesh):
 
 
 def scene_of(mesh):
-    """Open3D's closest-point search over a mesh, without its collapsed triangles: each is a
-    segment that its neighbours' edges already hold in a closed mesh, so no distance changes.
-    Primitive ids count the kept triangles."""
+    """Open3D's closest-point search over a mesh, without its collapsed triangles: each has no
+    area, and where it is not on the mesh's border its edges are its neighbours' edges too, so
+    no distance changes. Primitive ids count the kept triangles."""
     scene = o3d.t.geometry.RaycastingScene()
     kept = np.asarray(mesh.triangles)[~collapsed(mesh)]
     scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)), o3d.core.Tensor(kept.astype(np.uint32)))
