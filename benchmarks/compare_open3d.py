@@ -18,28 +18,36 @@ align_views, the registration 'stitch' runs), timed inside this Python as Open3D
 Errors: the rotation angle and the shift of the moving view's centroid between the found
 and the true relative pose; a pair is right when both are under 1 degree and 1 mm.
 
-Model, all 8 views of each part: PicoScan 'stitch' (no guess) then 'mesh' (Poisson, its
+Model, all 8 views of each part: PicoScan's stitch (no guess) then its mesh (Poisson, its
 default fill), against Open3D's multiway registration (the neighbouring global results as a
 pose graph with the loop closed, optimised) then its screened Poisson (depth 9). Both
-meshes are judged against the true part: the volume, and the distances truth -> mesh (over
-the whole outer surface of the true part, the unseen bottom included) and mesh -> truth. The
-true part is built of solids standing on each other (the boss is sunk 1 mm into the block):
-the faces where they meet lie inside the part and are left out, and its volume is that of
-the union (see TruePart).
+meshes are judged against the true part: the volume, whether the mesh is closed (Open3D's
+is_watertight), and the distances truth -> mesh (over the whole outer surface of the true
+part, the unseen bottom included) and mesh -> truth (per vertex). The true part is built of
+solids standing on each other (the boss is sunk 1 mm into the block): the faces where they
+meet lie inside the part and are left out, and its volume is that of the union (see TruePart).
+Whole pipelines are timed inside this Python for both tools: PicoScan through its module
+(read_view_ply, stitch_views and mesh_points: what 'picoscan stitch' and 'picoscan mesh'
+run, without the processes' start-up and files), Open3D through open3d.
 
 Whole pipelines (--pipelines, run on its own), all 8 views of each part, from the view files
-to the mesh: PicoScan 'stitch' (no guess) then 'mesh' (Poisson, its default fill), against
-Open3D's own pipeline as its tutorials give it: FPFH + RANSAC + point-to-plane ICP for each
-neighbouring pair, the poses chained from view 0, the clouds merged, its Poisson (depth 9),
-then the vertices of the lowest 1 % of Poisson density removed. The same distance code judges
-both meshes against the true part (truth -> mesh over its whole outer surface, mesh -> truth
-per vertex), with the volume, whether the mesh is watertight, and the wall and CPU time.
+to the mesh: PicoScan's stitch (automatic mode, no guess) then its mesh, against Open3D's own
+pipeline as its tutorials give it: FPFH + RANSAC + point-to-plane ICP for each neighbouring
+pair, the poses chained from view 0, the clouds merged, its Poisson (depth 9), then the
+vertices of the lowest 1 % of Poisson density removed. Same measures as the model, with the
+wall and CPU time.
 
 Two placements (--placements, run on its own): the same whole pipelines on 16 views of each
 part, 8 standing and 8 laid on its side (turned 20 degrees, so that the face it stood on is
-seen). PicoScan: 'stitch STANDING... --then SIDE...' then 'mesh'. Open3D: each placement
-chained as above, the second placement's merged cloud registered onto the first's by the
-same FPFH + RANSAC + ICP, then its Poisson.
+seen). PicoScan: stitch_views with the second placement's views marked as such (as 'stitch
+STANDING... --then SIDE...'), then its mesh. Open3D: each placement chained as above, the
+second placement's merged cloud registered onto the first's by the same FPFH + RANSAC + ICP
+(left out of the model when Open3D finds no fit), then its Poisson. A second table gives, for
+each tool, the views of each placement placed right in the model, and the join: right or
+wrong against the true pose of the second placement's first view (1 degree and 1 mm at its
+centroid), or not joined and why, with the wall and CPU time of each placement's alignment and
+of the join (PicoScan's from its progress reports: each placement made one cloud and
+registered, summed over every way its automatic mode tried).
 
 Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
@@ -48,7 +56,9 @@ Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py --placements  (the whole pipelines, two placements)
 """
 import argparse
+import copy
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -188,13 +198,14 @@ def open3d_load(path, voxel_mm):
 
 def open3d_global(fixed, moving):
     clock = Clock()
-    transform = open3d_register(open3d_load(fixed, 0.7), open3d_load(moving, 0.7))
-    return transform, clock.read()
+    _, fine = open3d_register(open3d_load(fixed, 0.7), open3d_load(moving, 0.7))
+    return fine.transformation, clock.read()
 
 
 def open3d_register(target, source):
     """Open3D's global registration of two clouds (0.7 mm voxels): FPFH on 2 mm voxels,
-    mutual-filter RANSAC, point-to-plane ICP. The source -> target transform."""
+    mutual-filter RANSAC, point-to-plane ICP. Both results (RANSAC's, then ICP's: the
+    source -> target transform, its fitness and inlier RMSE)."""
     target_coarse, source_coarse = target.voxel_down_sample(2.0), source.voxel_down_sample(2.0)
     search = o3d.geometry.KDTreeSearchParamHybrid(radius=6.0, max_nn=100)
     target_features = o3d.pipelines.registration.compute_fpfh_feature(target_coarse, search)
@@ -207,7 +218,7 @@ def open3d_register(target, source):
         reg.RANSACConvergenceCriteria(100000, 0.999))
     fine = reg.registration_icp(source, target, 1.5, coarse.transformation, reg.TransformationEstimationPointToPlane(),
                                 reg.ICPConvergenceCriteria(max_iteration=100))
-    return fine.transformation
+    return coarse, fine
 
 
 def open3d_icp(fixed, moving, initial):
@@ -238,9 +249,24 @@ def mesh_volume(mesh):
     return float(np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])).sum() / 6.0)
 
 
+def collapsed(mesh):
+    """Which triangles have two corners at one position (in float32, as Open3D's search
+    stores them). Debian's Open3D 0.16 aborts the whole Python on such a triangle when it
+    searches for the closest point (an Eigen assertion, `m_coeffs.w()==Scalar(0)` in
+    AlignedVector3::squaredNorm, inside RaycastingScene's closest-point query), and Poisson
+    meshes can hold them."""
+    corners = np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.triangles)]
+    same = lambda a, b: (corners[:, a] == corners[:, b]).all(axis=1)
+    return same(0, 1) | same(1, 2) | same(2, 0)
+
+
 def scene_of(mesh):
+    """Open3D's closest-point search over a mesh, without its collapsed triangles: each has no
+    area, and where it is not on the mesh's border its edges are its neighbours' edges too, so
+    no distance changes. Primitive ids count the kept triangles."""
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+    kept = np.asarray(mesh.triangles)[~collapsed(mesh)]
+    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)), o3d.core.Tensor(kept.astype(np.uint32)))
     return scene
 
 
@@ -279,7 +305,7 @@ class TruePart:
             solid.compute_triangle_normals()
             solids.append(solid)  # closed in space, though not as a graph (its quads' grids meet at T-junctions)
         scenes = [scene_of(solid) for solid in solids]
-        normals = [np.asarray(solid.triangle_normals) for solid in solids]
+        normals = [np.asarray(solid.triangle_normals)[~collapsed(solid)] for solid in solids]
         o3d.utility.random.seed(1)  # the same surface samples in every run
         area = sum(solid.get_surface_area() for solid in solids)
         outer, self.inner_samples = [], 0
@@ -311,10 +337,13 @@ class TruePart:
 
 def distances(truth, mesh):
     """truth -> mesh over the true part's outer surface samples (about 200 000, the same for
-    every mesh), and mesh -> truth per vertex (mm)."""
+    every mesh), and mesh -> truth per vertex (mm), over the vertices with finite coordinates
+    (a NaN query aborts Open3D's search as a collapsed triangle does); and how many were not."""
     to_mesh = scene_of(mesh).compute_distance(o3d.core.Tensor(truth.outer_samples)).numpy()
-    to_truth = truth.scene.compute_distance(o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))).numpy()
-    return to_mesh, to_truth
+    vertices = np.asarray(mesh.vertices, np.float32)
+    finite = np.isfinite(vertices).all(axis=1)
+    to_truth = truth.scene.compute_distance(o3d.core.Tensor(vertices[finite])).numpy()
+    return to_mesh, to_truth, int((~finite).sum())
 
 
 def right_views(truth, poses, centroids):
@@ -351,29 +380,83 @@ def open3d_model(views, pair_results):
     for k, cloud in enumerate(clouds):
         merged += o3d.geometry.PointCloud(cloud).transform(graph.nodes[k].pose)
     merged = merged.voxel_down_sample(0.4)
-    mesh, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
-    return mesh, [np.asarray(node.pose) for node in graph.nodes], clock.read()
+    run = Pipeline()
+    run.mesh, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
+    run.poses = [np.asarray(node.pose) for node in graph.nodes]
+    run.seconds["all"] = clock.read()
+    return run
 
 
-def picoscan_pipeline(picoscan, views, work, then=()):
-    """'picoscan stitch' of every view (no guess; a second placement's views after --then),
-    then 'picoscan mesh' with its defaults, timed as the two processes (wall, and CPU of the
-    children)."""
-    merged, model = os.path.join(work, "pipeline-merged.ply"), os.path.join(work, "pipeline-model.ply")
-    clock = Clock(child=True)
-    placements = ["--then"] + list(then) if then else []
-    stitched = subprocess.run([picoscan, "stitch"] + views + placements + ["--out", merged], capture_output=True, text=True)
-    if not os.path.exists(merged):  # exit 3 with a merge written: some views left out, still a model
-        print(stitched.stdout + stitched.stderr, file=sys.stderr)
-        return None, [], clock.read()
-    meshed = subprocess.run([picoscan, "mesh", merged, "--out", model], capture_output=True, text=True)
-    seconds = clock.read()
-    if meshed.returncode != 0:
-        print(meshed.stdout + meshed.stderr, file=sys.stderr)
-        return None, read_poses(merged.replace(".ply", ".poses.txt")), seconds
-    mesh = o3d.io.read_triangle_mesh(model)
-    mesh.merge_close_vertices(1e-6)
-    return mesh, read_poses(merged.replace(".ply", ".poses.txt")), seconds
+def placement_of(stage):
+    """Which part of PicoScan's stitch a progress report belongs to: 'placement N' (aligning
+    that placement's views), 'join' (each placement made one cloud and registered to the
+    others) or 'other' (the refinement of every view, the merge)."""
+    match = re.search(r"placement (\d+): ", stage)
+    if match:
+        return "placement " + match.group(1)
+    if "merging each placement" in stage or "registering placement" in stage:
+        return "join"
+    return "other"
+
+
+class StageClock:
+    """A progress callback for stitch_views: the wall and CPU seconds spent in each part of
+    the stitch (placement_of), from one report to the next; summed over every way 'automatic'
+    tried (features, then the turntable round)."""
+    def __init__(self):
+        self.seconds = {}
+        self.part, self.clock = "other", Clock()
+
+    def __call__(self, fraction, stage):
+        self.switch(placement_of(stage))
+        return True
+
+    def switch(self, part):
+        wall, cpu = self.clock.read()
+        before = self.seconds.get(self.part, (0.0, 0.0))
+        self.seconds[self.part] = (before[0] + wall, before[1] + cpu)
+        self.part, self.clock = part, Clock()
+
+
+class Pipeline:
+    """One tool's run from the view files to the mesh: the mesh (Open3D's; None when there is
+    none), each view's pose in the model (None when left out), for each placement after the
+    first its join (the placement frame -> model pose, None when not joined, and why), and the
+    wall and CPU seconds of each placement's alignment, of the joins and of everything."""
+    def __init__(self):
+        self.mesh, self.poses, self.joins, self.problems = None, [], [], []
+        self.seconds = {}
+
+
+def picoscan_pipeline(module, placements):
+    """PicoScan's whole pipeline inside this Python, timed as Open3D's is: the views read,
+    stitch_views (what 'picoscan stitch A... --then B...' runs: automatic mode, each placement
+    aligned, then the placements joined by shape, then every view refined), then mesh_points
+    with the defaults of 'picoscan mesh' (Poisson, its default fill)."""
+    run, clock = Pipeline(), Clock()
+    paths = [path for views in placements for path in views]
+    views = [module.read_view_ply(path) for path in paths]
+    names = ["%s_%s" % (os.path.basename(os.path.dirname(path)), os.path.basename(path)) for path in paths]
+    options = module.StitchOptions()
+    options.automatic = True
+    if len(placements) > 1:
+        options.placement_of_view = [p for p, views in enumerate(placements) for _ in views]
+    stages = StageClock()
+    stitched = module.stitch_views(views, names, options, stages)
+    stages.switch("other")
+    run.poses = [np.asarray(view.pose) if view.aligned else None for view in stitched.alignment.views]
+    for placement in stitched.alignment.placements[1:]:
+        run.joins.append(np.asarray(placement.pose) if placement.aligned else None)
+        run.problems.append(placement.problem)
+    if len(stitched.merged):
+        mesh = module.mesh_points(stitched.merged, module.MeshOptions())
+        run.mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
+                                             o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
+    run.seconds = dict(stages.seconds)
+    if len(placements) == 1:  # align_views reports no placements: the stitch is placement 1's alignment
+        run.seconds = {"placement 1": tuple(sum(s[k] for s in stages.seconds.values()) for k in range(2))}
+    run.seconds["all"] = clock.read()
+    return run
 
 
 def open3d_chain(views):
@@ -389,42 +472,95 @@ def open3d_chain(views):
     return poses, merged
 
 
-def open3d_pipeline(views, then=()):
-    """Open3D's pipeline as its tutorials give it: each neighbouring pair by open3d_global
-    (FPFH + RANSAC + point-to-plane ICP), the poses chained from view 0, the clouds (with the
-    views' normals, turned with them) merged and thinned to 0.4 mm, Poisson at depth 9. A
-    second placement (`then`) is chained the same way, and its merged cloud registered onto
-    the first's by the same global registration. Gives the raw Poisson mesh and the one
-    cropped by density (the vertices of the lowest 1 % of density removed, as the Poisson
-    tutorial does), the poses, and the wall and CPU seconds of everything up to the raw mesh
-    and up to the cropped one."""
-    clock = Clock()
-    poses, merged = open3d_chain(views)
-    if then:
-        then_poses, then_merged = open3d_chain(list(then))
-        joined = np.asarray(open3d_register(merged, then_merged))  # second placement -> first
-        poses += [joined @ pose for pose in then_poses]
-        merged += then_merged.transform(joined)
+def open3d_join(model, placement):
+    """A placement's merged cloud registered onto the model's by open3d_register: the
+    placement -> model transform, or None and why when Open3D found no fit (RANSAC or ICP with
+    no inlier correspondence; Open3D then returns the identity, which is not a result)."""
+    try:
+        coarse, fine = open3d_register(model, placement)
+    except RuntimeError as error:
+        return None, "Open3D failed: %s" % error
+    if coarse.fitness == 0 or fine.fitness == 0:
+        return None, "no inlier correspondence (RANSAC fitness %.3f, ICP fitness %.3f)" % (coarse.fitness, fine.fitness)
+    return np.asarray(fine.transformation), ""
+
+
+def open3d_pipeline(placements):
+    """Open3D's pipeline as its tutorials give it: each neighbouring pair of a placement by
+    open3d_global (FPFH + RANSAC + point-to-plane ICP), the poses chained from the placement's
+    first view, its views' clouds (with their normals, turned with them) merged; each further
+    placement's merged cloud registered onto the first's by the same global registration (left
+    out when Open3D finds no fit); the joined clouds thinned to 0.4 mm, Poisson at depth 9.
+    Gives the raw Poisson mesh, and the same run with the mesh cropped by density (the
+    vertices of the lowest 1 % of density removed, as the Poisson tutorial does)."""
+    run, clock = Pipeline(), Clock()
+    merged = o3d.geometry.PointCloud()
+    for p, views in enumerate(placements):
+        placement_clock = Clock()
+        poses, cloud = open3d_chain(views)
+        run.seconds["placement %d" % (p + 1)] = placement_clock.read()
+        if p == 0:
+            join = np.eye(4)
+        else:
+            join_clock = Clock()
+            join, problem = open3d_join(merged, cloud)
+            run.seconds["join"] = join_clock.read()
+            run.joins.append(join)
+            run.problems.append(problem)
+        if join is None:
+            run.poses += [None] * len(poses)
+            continue
+        run.poses += [join @ pose for pose in poses]
+        merged += cloud.transform(join)
     merged = merged.voxel_down_sample(0.4)
-    raw, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
-    raw_seconds = clock.read()
-    cropped = o3d.geometry.TriangleMesh(raw)
+    run.mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(merged, depth=9)
+    run.seconds["all"] = clock.read()
+    cropped = copy.copy(run)
+    cropped.mesh = o3d.geometry.TriangleMesh(run.mesh)
     densities = np.asarray(densities)
-    cropped.remove_vertices_by_mask(densities < np.quantile(densities, 0.01))
-    return raw, cropped, poses, raw_seconds, clock.read()
+    cropped.mesh.remove_vertices_by_mask(densities < np.quantile(densities, 0.01))
+    cropped.seconds = dict(run.seconds, all=clock.read())
+    return run, cropped
 
 
-def pipeline_row(name, mesh, truth, placed, seconds):
-    """One line of the pipelines table: the same measures for every tool's mesh."""
-    to_mesh, to_truth = distances(truth, mesh)
-    volume = mesh_volume(mesh)
-    watertight = mesh.is_watertight()
+def pipeline_row(name, run, truth, placed):
+    """One line of the model table: the same measures for every tool's mesh."""
+    if run.mesh is None or not run.mesh.has_triangles():
+        return "| %s | %s | no mesh | - | - | - | %.0f / %.0f |" % (name, placed, *run.seconds["all"])
+    to_mesh, to_truth, not_finite = distances(truth, run.mesh)
+    print("%s: %d of %d triangles with two corners at one position, left out of the distance search"
+          % (name, collapsed(run.mesh).sum(), len(run.mesh.triangles)), file=sys.stderr)
+    volume = mesh_volume(run.mesh)
+    watertight = run.mesh.is_watertight()
     volume_text = "%.2f (%+.2f %%)" % (volume / 1000, 100 * (volume / truth.volume - 1))
     if not watertight:
         volume_text = "open (%s)" % volume_text  # an open mesh encloses no volume: indicative only
-    return ("| %s | %s | %s | %s | %.3f / %.3f / %.3f | %.3f / %.3f | %.0f / %.0f |" % (
+    to_truth_text = "%.3f / %.3f" % (np.percentile(to_truth, 95), to_truth.max()) if len(to_truth) else "-"
+    if not_finite:
+        to_truth_text += " (%d vertices not finite, left out)" % not_finite
+    return ("| %s | %s | %s | %s | %.3f / %.3f / %.3f | %s | %.0f / %.0f |" % (
         name, placed, "yes" if watertight else "no", volume_text, to_mesh.mean(), np.percentile(to_mesh, 95),
-        to_mesh.max(), np.percentile(to_truth, 95), to_truth.max(), *seconds))
+        to_mesh.max(), to_truth_text, *run.seconds["all"]))
+
+
+def placements_row(name, run, truth, centroids, sizes):
+    """One line of the placements table: per placement, its views placed right in the model
+    and the time to align them; per join, right / wrong (against the true pose of the
+    placement's first view, at its centroid) or not joined and why, and its time."""
+    cells, first = [], 0
+    for p, size in enumerate(sizes):
+        right = right_views(truth[first:first + size], run.poses[first:first + size], centroids[first:first + size])
+        cells.append("%d of %d right, %.0f / %.0f s" % (right, size, *run.seconds["placement %d" % (p + 1)]))
+        if p > 0:
+            join = run.joins[p - 1]
+            if join is None:
+                verdict = "not joined: %s" % run.problems[p - 1]
+            else:
+                error = pose_error(truth[first], join, centroids[first])
+                verdict = "%s (%.3f deg, %.3f mm)" % ("right" if max(error) < 1.0 else "WRONG", *error)
+            cells.append("%s, %.0f / %.0f s" % (verdict, *run.seconds["join"]))
+        first += size
+    return "| %s | %s |" % (name, " | ".join(cells))
 
 
 def print_model_table(rows, views=8):
@@ -432,6 +568,16 @@ def print_model_table(rows, views=8):
           "truth -> mesh mean / p95 / max (mm) | mesh -> truth p95 / max (mm) | time wall / CPU (s) |" % views)
     print("|---|---|---|---|---|---|---|")
     print("\n".join(rows))
+
+
+def print_placements_table(rows, sizes):
+    columns = ["placement 1: views right, time wall / CPU"]
+    for p in range(1, len(sizes)):
+        columns += ["placement %d: views right, time wall / CPU" % (p + 1),
+                    "placement %d joined to placement 1: against the truth, time wall / CPU" % (p + 1)]
+    print("| pipeline | %s |" % " | ".join(columns))
+    print("|---|%s" % ("---|" * len(columns)))
+    print("\n".join(rows) + "\n")
 
 
 def part_views(args, part, placements=("views",)):
@@ -447,33 +593,31 @@ def part_views(args, part, placements=("views",)):
                               for placement in placements for k in range(per_placement)]
 
 
-def compare_pipelines(args, picoscan, placements=("views",)):
+def compare_pipelines(args, module, placements=("views",)):
     """The --pipelines and --placements runs: both whole pipelines on each part's views (with
-    two placements, both tools get the standing views, then the side views); prints the table."""
-    table = []
+    two placements, both tools get the standing views, then the side views); prints the
+    placements table and the model table."""
+    placement_table, model_table = [], []
     for part in args.parts.split(","):
         directory, truth, views = part_views(args, part, placements)
-        then = []
-        if len(placements) == 2:
-            views, then = views[:len(views) // 2], views[len(views) // 2:]
+        size = len(views) // len(placements)
+        by_placement = [views[k:k + size] for k in range(0, len(views), size)]
+        sizes = [size] * len(placements)
         truth_part = TruePart(os.path.join(directory, "truth.stl"))
-        centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views + then]
-        with tempfile.TemporaryDirectory() as work:
-            mesh, poses, seconds = picoscan_pipeline(picoscan, views, work, then)
-        placed = "%d / %d" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
-        if mesh is None:
-            table.append("| %s: PicoScan stitch + mesh | %s | failed | - | - | - | %.0f / %.0f |" % (part, placed, *seconds))
-        else:
-            table.append(pipeline_row("%s: PicoScan stitch + mesh" % part, mesh, truth_part, placed, seconds))
-        print(table[-1], file=sys.stderr)
-        raw, cropped, poses, raw_seconds, cropped_seconds = open3d_pipeline(views, then)
-        placed = "%d / %d" % (len(poses), right_views(truth, poses, centroids))
-        table.append(pipeline_row("%s: Open3D chained pairs + Poisson" % part, raw, truth_part, placed, raw_seconds))
-        print(table[-1], file=sys.stderr)
-        table.append(pipeline_row("%s: Open3D chained pairs + Poisson, cropped by density" % part, cropped, truth_part,
-                                  placed, cropped_seconds))
-        print(table[-1], file=sys.stderr)
-    print_model_table(table, len(placements) * 8)
+        centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
+        picoscan = picoscan_pipeline(module, by_placement)
+        open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
+        for name, run in (("PicoScan stitch + mesh", picoscan), ("Open3D chained pairs + Poisson", open3d_raw),
+                          ("Open3D chained pairs + Poisson, cropped by density", open3d_cropped)):
+            placed = "%d / %d" % (sum(p is not None for p in run.poses), right_views(truth, run.poses, centroids))
+            model_table.append(pipeline_row("%s: %s" % (part, name), run, truth_part, placed))
+            print(model_table[-1], file=sys.stderr)
+            if run is not open3d_cropped:  # the crop changes the mesh only
+                placement_table.append(placements_row("%s: %s" % (part, name.replace(" + Poisson", "")), run, truth,
+                                                      centroids, sizes))
+                print(placement_table[-1], file=sys.stderr)
+    print_placements_table(placement_table, sizes)
+    print_model_table(model_table, len(views))
 
 
 def main():
@@ -492,7 +636,8 @@ def main():
     args = parser.parse_args()
     picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
     if args.pipelines or args.placements:
-        compare_pipelines(args, picoscan, ("standing", "side") if args.placements else ("views",))
+        compare_pipelines(args, picoscan_module(os.path.abspath(args.build)),
+                          ("standing", "side") if args.placements else ("views",))
         return
     registration_table, model_table = [], []
     for part in args.parts.split(","):
@@ -537,15 +682,11 @@ def main():
                 continue
             truth_part = TruePart(os.path.join(directory, "truth.stl"))
             centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
-            mesh, poses, seconds = picoscan_pipeline(picoscan, views, work)
-            if mesh is not None:
-                placed = "%d / %d" % (sum(p is not None for p in poses), right_views(truth, poses, centroids))
-                model_table.append(pipeline_row("%s: PicoScan stitch + mesh" % part, mesh, truth_part, placed, seconds))
+            for name, run in (("PicoScan stitch + mesh", picoscan_pipeline(module, [views])),
+                              ("Open3D pose graph + Poisson", open3d_model(views, open3d_found))):
+                placed = "%d / %d" % (sum(p is not None for p in run.poses), right_views(truth, run.poses, centroids))
+                model_table.append(pipeline_row("%s: %s" % (part, name), run, truth_part, placed))
                 print(model_table[-1], file=sys.stderr)
-            mesh, poses, seconds = open3d_model(views, open3d_found)
-            placed = "%d / %d" % (count, right_views(truth, poses, centroids))
-            model_table.append(pipeline_row("%s: Open3D pose graph + Poisson" % part, mesh, truth_part, placed, seconds))
-            print(model_table[-1], file=sys.stderr)
     if registration_table:  # none with --model-only
         print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
               "shift error median / max (mm) | median time per pair, wall / CPU (s) |")
