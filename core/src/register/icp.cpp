@@ -77,7 +77,7 @@ struct SearchMemory {
 constexpr double kClearanceMarginMm = 0.3;
 
 // The nearest fixed point to p closer than limit_mm, or -1: what PointGrid::nearest(p, limit_mm) returns.
-int nearest_partner(const PointGrid& grid, const std::vector<cv::Vec3d>& fixed, const cv::Vec3d& p, double limit_mm,
+int nearest_partner(const NearestGrid& grid, const std::vector<cv::Vec3d>& fixed, const cv::Vec3d& p, double limit_mm,
                     SearchMemory& memory) {
     constexpr double hair_mm = 1e-9;  // far above rounding: the bounds never leave out a point in reach
     const double moved = cv::norm(p - memory.at);
@@ -106,17 +106,21 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
                              const EarlierFits& earlier) {
     IcpResult result;
     result.transform = initial;
-    std::vector<std::unique_ptr<PointGrid>> grids;
+    std::vector<std::unique_ptr<NearestGrid>> grids;
     size_t smaller_total = 0;
     for (const SamplePair& pair : pairs) {
         if (pair.fixed->points.empty() || pair.moving->points.empty()) return result;
-        grids.push_back(std::make_unique<PointGrid>(pair.fixed->points, options.icp_max_distance_mm));
+        grids.push_back(std::make_unique<NearestGrid>(pair.fixed->points, options.icp_max_distance_mm));
         smaller_total += std::min(pair.fixed->points.size(), pair.moving->points.size());
     }
     if (pairs.empty()) return result;
     const double min_normal_cos = std::cos(CV_PI / 4);  // partners must face the same way
     double limit = options.icp_max_distance_mm;
-    std::vector<Pairing> pairings;
+    // The kept pairings of the last finished iteration are set aside: the texture agreement is
+    // that iteration's, and only needed once the run ends.
+    std::vector<Pairing> pairings, finished;
+    size_t finished_kept = 0;
+    std::vector<double> distances;
     std::vector<std::vector<SearchMemory>> memories(pairs.size());
     for (size_t k = 0; k < pairs.size(); ++k) memories[k].resize(pairs[k].moving->points.size());
     for (int iteration = 0; iteration < options.icp_iterations; ++iteration) {
@@ -136,7 +140,7 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
                 pairings.push_back({(p - q).dot(n), cv::norm(p - q), p, n, static_cast<int>(i), j, static_cast<int>(k)});
             }
         }
-        if (pairings.size() < 6) return result;
+        if (pairings.size() < 6) break;
         // Trimmed: only the best fraction of pairs (overlap is never complete).
         const size_t kept = std::max<size_t>(6, static_cast<size_t>(options.icp_trim_fraction * pairings.size()));
         std::nth_element(pairings.begin(), pairings.begin() + static_cast<long>(kept - 1), pairings.end(),
@@ -165,7 +169,7 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
         result.rms_mm = std::sqrt(squared / static_cast<double>(kept));
         cv::Matx61d eigenvalues;
         cv::Matx66d eigenvectors;  // rows
-        if (!cv::eigen(normal_matrix, eigenvalues, eigenvectors)) return result;
+        if (!cv::eigen(normal_matrix, eigenvalues, eigenvectors)) break;
         result.stability = eigenvalues(0) > 0 ? std::max(eigenvalues(5), 0.0) / eigenvalues(0) : 0.0;
         cv::Vec6d step(0, 0, 0, 0, 0, 0);
         for (int e = 0; e < 6; ++e) {
@@ -180,13 +184,13 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
         const cv::Vec3d shift = centre - turn.get_minor<3, 3>(0, 0) * centre + delta;
         result.transform = rigid_transform(turn.get_minor<3, 3>(0, 0), shift) * result.transform;
         // Tighten the correspondence distance as the alignment improves (outliers drop out).
-        std::vector<double> distances;
-        distances.reserve(kept);
+        distances.clear();
         for (size_t k = 0; k < kept; ++k) distances.push_back(pairings[k].distance);
         std::nth_element(distances.begin(), distances.begin() + static_cast<long>(kept / 2), distances.end());
         limit = std::clamp(6.0 * distances[kept / 2], options.sample_spacing_mm, options.icp_max_distance_mm);
         result.overlap = static_cast<double>(pairings.size()) / static_cast<double>(smaller_total);
-        result.texture_agreement = texture_correlation(pairings, kept, pairs);
+        std::swap(pairings, finished);
+        finished_kept = kept;
         // A start that shares almost nothing with the fixed view will not get better.
         if (iteration == 10 && result.overlap < options.min_overlap / 2) break;
         if (cv::norm(omega) < 1e-5 && cv::norm(delta) < 1e-3) {  // 0.0006 degrees, 1 um: far below what is measured
@@ -199,6 +203,7 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
         }
         if (result.joined >= 0) break;
     }
+    result.texture_agreement = texture_correlation(finished, finished_kept, pairs);
     return result;
 }
 

@@ -160,26 +160,6 @@ int PointGrid::nearest_from(const cv::Vec3d& query, double max_distance_mm, cons
     return nearest(query, std::min(max_distance_mm, cv::norm(query - points[static_cast<size_t>(guess)]) + 1e-9));
 }
 
-int PointGrid::nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const {
-    // The same walk and the same strict comparison as nearest(), so the same point (ties
-    // included) is found; every point in reach is visited, so the runner-up bounds the rest.
-    double best = max_distance_mm * max_distance_mm, second = best;
-    int best_index = -1;
-    visit_near(query, max_distance_mm, [&](const cv::Vec3d& point, int index) {
-        const cv::Vec3d d = point - query;
-        const double distance = d.dot(d);
-        if (distance < best) {
-            second = best;
-            best = distance;
-            best_index = index;
-        } else if (distance < second) {
-            second = distance;
-        }
-    });
-    clearance_mm = std::sqrt(second);
-    return best_index;
-}
-
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
     const double limit = radius_mm * radius_mm;
@@ -187,6 +167,83 @@ void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int
         const cv::Vec3d d = point - query;
         if (d.dot(d) <= limit) found.push_back(index);
     });
+}
+
+cv::Vec<long long, 3> NearestGrid::cell_of(const cv::Vec3d& p) const {
+    return {static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
+            static_cast<long long>(std::floor(p[2] / cell_mm_))};
+}
+
+NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cell_mm_(cell_mm) {
+    if (points.empty()) return;
+    // A box stretched by stray points takes larger cells (the same points are found, by more
+    // distance tests), so the table stays within a few entries per point.
+    const double max_cells = 32.0 * static_cast<double>(points.size()) + 65536;
+    std::vector<cv::Vec<long long, 3>> cells(points.size());
+    for (;;) {
+        cv::Vec<long long, 3> last;
+        for (size_t i = 0; i < points.size(); ++i) {
+            cells[i] = cell_of(points[i]);
+            for (int a = 0; a < 3; ++a) {
+                first_[a] = i == 0 ? cells[i][a] : std::min(first_[a], cells[i][a]);
+                last[a] = i == 0 ? cells[i][a] : std::max(last[a], cells[i][a]);
+            }
+        }
+        for (int a = 0; a < 3; ++a) size_[a] = last[a] - first_[a] + 1;
+        if (static_cast<double>(size_[0]) * static_cast<double>(size_[1]) * static_cast<double>(size_[2]) <= max_cells) break;
+        cell_mm_ *= 2;
+    }
+    auto number = [&](const cv::Vec<long long, 3>& c) {
+        return static_cast<size_t>(((c[0] - first_[0]) * size_[1] + (c[1] - first_[1])) * size_[2] + (c[2] - first_[2]));
+    };
+    // Counting sort by cell; each cell's points stay in input order.
+    start_.assign(static_cast<size_t>(size_[0] * size_[1] * size_[2]) + 1, 0);
+    for (const cv::Vec<long long, 3>& c : cells) ++start_[number(c) + 1];
+    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    std::vector<int> next(start_.begin(), start_.end() - 1);
+    sorted_.resize(points.size());
+    index_.resize(points.size());
+    for (size_t i = 0; i < points.size(); ++i) {
+        const int at = next[number(cells[i])]++;
+        sorted_[static_cast<size_t>(at)] = points[i];
+        index_[static_cast<size_t>(at)] = static_cast<int>(i);
+    }
+}
+
+int NearestGrid::nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const {
+    double best = max_distance_mm * max_distance_mm, second = best;
+    int best_index = -1;
+    clearance_mm = max_distance_mm;
+    if (sorted_.empty()) return -1;
+    // The cells the cube of half-side max_distance_mm around the query touches, and the same
+    // strict comparison, as PointGrid::nearest: the same point (ties included) is found. Every
+    // point in reach is visited, so the runner-up bounds the rest.
+    const double margin = max_distance_mm + 1e-9;
+    const cv::Vec<long long, 3> low_cell = cell_of(query - cv::Vec3d::all(margin)), high_cell = cell_of(query + cv::Vec3d::all(margin));
+    long long low[3], high[3];
+    for (int a = 0; a < 3; ++a) {
+        low[a] = std::max(low_cell[a] - first_[a], 0LL);
+        high[a] = std::min(high_cell[a] - first_[a], size_[a] - 1);
+        if (low[a] > high[a]) return -1;
+    }
+    for (long long x = low[0]; x <= high[0]; ++x)
+        for (long long y = low[1]; y <= high[1]; ++y) {
+            const size_t row = static_cast<size_t>((x * size_[1] + y) * size_[2]);
+            const int end = start_[row + static_cast<size_t>(high[2]) + 1];
+            for (int k = start_[row + static_cast<size_t>(low[2])]; k < end; ++k) {
+                const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
+                const double distance = d.dot(d);
+                if (distance < best) {
+                    second = best;
+                    best = distance;
+                    best_index = index_[static_cast<size_t>(k)];
+                } else if (distance < second) {
+                    second = distance;
+                }
+            }
+        }
+    clearance_mm = std::sqrt(second);
+    return best_index;
 }
 
 }  // namespace picoscan::detail

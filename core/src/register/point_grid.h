@@ -40,11 +40,6 @@ public:
     // grid was built on.
     int nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const;
 
-    // nearest(query, max_distance_mm), and `clearance_mm`: no point other than the one found
-    // lies closer to the query than this (the second nearest, or max_distance_mm when that is
-    // nearer). A query that then moves by less than the gap keeps the same nearest point.
-    int nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const;
-
 private:
     static long long key(long long ix, long long iy, long long iz) { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
     cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
@@ -74,6 +69,28 @@ private:
     std::vector<int> index_;         // their indices in the input
     std::vector<Cell> table_;
     size_t mask_ = 0;
+};
+
+// PointGrid's nearest-point search over a dense table of the occupied cells' box instead of a
+// hash (one lookup per row of cells, not one per cell): ICP asks it for every sample in every
+// iteration. The same cells in the same order, so it finds what PointGrid::nearest finds.
+class NearestGrid {
+public:
+    NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm);
+    // PointGrid::nearest(query, max_distance_mm), and `clearance_mm`: no point other than the
+    // one found lies closer to the query than this (the second nearest, or max_distance_mm when
+    // that is nearer). A query that then moves by less than the gap keeps the same nearest point.
+    int nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const;
+
+private:
+    cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
+    double cell_mm_;
+    // Cells per axis size_, the first at first_: cell c holds sorted_[start_[c]] ..
+    // sorted_[start_[c + 1] - 1], numbered z fastest, so a row of cells along z is one run.
+    cv::Vec<long long, 3> first_{0, 0, 0}, size_{0, 0, 0};
+    std::vector<int> start_;
+    std::vector<cv::Vec3d> sorted_;  // the points grouped by cell, each cell's in input order
+    std::vector<int> index_;         // their indices in the input
 };
 
 }  // namespace picoscan::detail
