@@ -652,6 +652,16 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             if (!duplicate) kept.push_back(s);
         }
         if (ambiguous || kept.empty() || kept.size() > 3) continue;
+        // Planes with only a point or two this near (past a corner, beyond the blur of its
+        // edges): too few to model the vertex by, but their points are surface, not a fillet.
+        std::vector<int> glimpsed;
+        for (int s = 0; s < found; ++s) {
+            if (counts[s] >= 3) continue;
+            bool apart = true;
+            for (int t : kept)
+                apart = apart && degrees_between(regions.planes[ids[s]].normal_at(x), regions.planes[ids[t]].normal_at(x)) >= kSharpEdgeDeg;
+            if (apart) glimpsed.push_back(ids[s]);
+        }
         VertexPlanes& vp = model[v];
         vp.count = static_cast<int>(kept.size());
         for (int k = 0; k < vp.count; ++k) vp.plane[k] = ids[kept[k]];
@@ -678,7 +688,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             for (int c = 0; c < vp.count; ++c)
                 for (int e = c + 1; e < vp.count; ++e)
                     at_line = at_line || from_line(regions.planes[vp.plane[c]], regions.planes[vp.plane[e]], positions[k]) < kEdgeBlurMm;
-            if (nearest < agree || at_line) ++on_planes;
+            const bool on_glimpsed = std::find(glimpsed.begin(), glimpsed.end(), regions.label[k]) != glimpsed.end();
+            if (nearest < agree || at_line || on_glimpsed) ++on_planes;
             if (regions.label[k] == vp.plane[0])
                 for (int c = 1; c < vp.count; ++c) {
                     const double d = regions.planes[vp.plane[c]].distance(positions[k]);
@@ -771,10 +782,25 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                              sharp_pair(triple[0], triple[1], corner) && sharp_pair(triple[1], triple[2], corner) &&
                              sharp_pair(triple[0], triple[2], corner);
             if (supported) {
-                grid.within(corner, reach, near);
+                // Each plane's points beside it (the edges' blur leaves few within the reach of
+                // the corner itself: two, at a convex corner of the half-resolution camera) ...
+                grid.within(corner, 2 * reach, near);
                 for (int plane : triple)
                     supported = supported &&
                                 std::count_if(near.begin(), near.end(), [&](int k) { return regions.label[k] == plane; }) >= 3;
+                // ... and the points around it on the planes or their lines (a corner cut off
+                // or rounded has its points off them).
+                grid.within(corner, reach, near);
+                const size_t on = size_t(std::count_if(near.begin(), near.end(), [&](int k) {
+                    const cv::Vec3d& p = positions[k];
+                    for (int a = 0; a < 3; ++a) {
+                        if (std::abs(regions.planes[triple[a]].distance(p)) < agree) return true;
+                        for (int b = a + 1; b < 3; ++b)
+                            if (from_line(regions.planes[triple[a]], regions.planes[triple[b]], p) < kEdgeBlurMm) return true;
+                    }
+                    return false;
+                }));
+                supported = supported && near.size() >= 3 && double(on) >= kLeastAgreement * double(near.size());
             }
             if (!supported) corner = cv::Vec3d(1e30, 1e30, 1e30);  // remembered as none
             found = corner_at.emplace(triple, corner).first;
@@ -838,10 +864,16 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     }
     report.hole_vertices = fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
 
-    // 4. Split the edges that cross a line (neither end on a feature), each once.
+    // 4. Split the edges that cross a line, each once.
     std::unordered_map<long long, int> split_vertex;
+    // An end already on both surfaces (on their line or a corner) leaves the edge whole; an end
+    // on another line (near a corner) does not: the edge would cut across the corner.
+    auto on_both = [&](int v, const Crossing& crossing) {
+        return on_feature[v] && std::abs(regions.planes[crossing.plane_a].distance(target[v])) < 1e-3 &&
+               std::abs(regions.planes[crossing.plane_b].distance(target[v])) < 1e-3;
+    };
     for (auto& [key, crossing] : crossings) {
-        if (on_feature[crossing.a] || on_feature[crossing.b]) continue;
+        if (on_both(crossing.a, crossing) || on_both(crossing.b, crossing)) continue;
         const cv::Vec3d xa(mesh.vertices[crossing.a]), xb(mesh.vertices[crossing.b]);
         const cv::Vec3d on_edge = xa + crossing.t * (xb - xa);
         // The line is within reach of the edge as it is, or as its ends go (a deeply rounded
@@ -939,24 +971,48 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     };
     std::vector<cv::Vec3d> position = target;
     std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
+    auto movable = [&](int v) { return share[v] > 0 && target[v] != safe[v]; };
+    auto pulled_share = [&](int v) { return share[v] > 0.3 ? 0.5 * share[v] : 0.0; };
+    auto pull_back = [&](int v) {
+        share[v] = pulled_share(v);
+        position[v] = safe[v] + share[v] * (target[v] - safe[v]);
+        if (share[v] == 0) ++report.reverted;
+    };
     auto send_back = [&](const cv::Vec3i& face) {
         bool pulled = false;
-        for (int k = 0; k < 3; ++k) {
-            const int v = face[k];
-            if (share[v] == 0 || target[v] == safe[v]) continue;
-            pulled = true;
-            share[v] = share[v] > 0.3 ? 0.5 * share[v] : 0.0;
-            position[v] = safe[v] + share[v] * (target[v] - safe[v]);
-            if (share[v] == 0) ++report.reverted;
-        }
+        for (int k = 0; k < 3; ++k)
+            if (movable(face[k])) {
+                pull_back(face[k]);
+                pulled = true;
+            }
         return pulled;
     };
-    for (int round = 0; round < 30; ++round) {
+    // A folded face first pulls back only the one vertex whose pulling back unfolds it most (the
+    // others keep their edge); the whole face goes back when that is not enough.
+    auto facing = [&](const cv::Vec3i& face, size_t f) {
+        const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
+        return normal.dot(reference_normal(f));
+    };
+    for (int round = 0; round < 60; ++round) {
         bool changed = false;
         for (size_t f = 0; f < faces.size(); ++f) {
             const cv::Vec3i& face = faces[f];
-            const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
-            if (normal.dot(reference_normal(f)) < 0) {
+            if (facing(face, f) >= 0) continue;
+            int best = -1;
+            double best_facing = -1e300;
+            for (int k = 0; round < 30 && k < 3; ++k) {
+                const int v = face[k];
+                if (!movable(v)) continue;
+                const cv::Vec3d kept = position[v];
+                position[v] = safe[v] + pulled_share(v) * (target[v] - safe[v]);
+                const double after = facing(face, f);
+                position[v] = kept;
+                if (after > best_facing) best_facing = after, best = v;
+            }
+            if (best >= 0) {
+                pull_back(best);
+                changed = true;
+            } else {
                 changed = send_back(face) || changed;
             }
         }
