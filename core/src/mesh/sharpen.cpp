@@ -805,10 +805,13 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             if (!supported) corner = cv::Vec3d(1e30, 1e30, 1e30);  // remembered as none
             found = corner_at.emplace(triple, corner).first;
         }
-        const double distance = cv::norm(found->second - safe[v]);
-        if (distance > longest_move) continue;
+        const cv::Vec3d move = found->second - safe[v];
+        if (cv::norm(move) > longest_move) continue;
+        // The vertex the corner lies straight out from: one moved sideways drags its faces
+        // across its neighbours' (and a fold pulls it or them back).
+        const double sideways = cv::norm(move - vertex_normal[v] * vertex_normal[v].dot(move));
         auto best = corner_vertex.find(triple);
-        if (best == corner_vertex.end() || distance < best->second.first) corner_vertex[triple] = {distance, int(v)};
+        if (best == corner_vertex.end() || sideways < best->second.first) corner_vertex[triple] = {sideways, int(v)};
     }
     for (const auto& [triple, nearest] : corner_vertex) {
         target[nearest.second] = corner_at[triple];
@@ -866,6 +869,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
 
     // 4. Split the edges that cross a line, each once.
     std::unordered_map<long long, int> split_vertex;
+    std::vector<std::pair<int, int>> split_line;  // per split vertex: the planes of its line
     // An end already on both surfaces (on their line or a corner) leaves the edge whole; an end
     // on another line (near a corner) does not: the edge would cut across the corner.
     auto on_both = [&](int v, const Crossing& crossing) {
@@ -886,9 +890,35 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             std::min(cv::norm(moved - on_edge), cv::norm(moved - chord)) > longest_move)
             continue;
         split_vertex.emplace(key, static_cast<int>(safe.size()));
+        split_line.emplace_back(std::min(crossing.plane_a, crossing.plane_b), std::max(crossing.plane_a, crossing.plane_b));
         safe.push_back(on_edge);
         target.push_back(moved);
         ++report.cut_edges;
+    }
+    // Two cuts of one face that go onto the same line almost at the same point are one vertex
+    // (the short edge between them collapsed): left as two, they swap places along the line as
+    // often as not and fold the faces between them.
+    std::vector<int> same_as(safe.size());
+    std::iota(same_as.begin(), same_as.end(), 0);
+    auto merged_into = [&](int v) {
+        while (same_as[v] != v) v = same_as[v] = same_as[same_as[v]];
+        return v;
+    };
+    const double coincident = 0.25 * spacing_mm;
+    for (const cv::Vec3i& face : mesh.faces) {
+        std::array<int, 3> cut{-1, -1, -1};
+        for (int k = 0; k < 3; ++k) {
+            const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
+            if (found != split_vertex.end()) cut[k] = found->second;
+        }
+        for (int k = 0; k < 3; ++k) {
+            const int a = cut[k], b = cut[(k + 1) % 3];
+            if (a < 0 || b < 0 || split_line[a - vertex_count] != split_line[b - vertex_count] ||
+                cv::norm(target[a] - target[b]) > coincident)
+                continue;
+            const int ra = merged_into(a), rb = merged_into(b);
+            if (ra != rb) same_as[std::max(ra, rb)] = std::min(ra, rb);
+        }
     }
 
     // 5. The faces, split along the lines; each remembers the face it came from.
@@ -896,6 +926,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<int> parent;
     faces.reserve(mesh.faces.size() + 3 * split_vertex.size());
     auto add = [&](int a, int b, int c, int from) {
+        a = merged_into(a), b = merged_into(b), c = merged_into(c);
+        if (a == b || b == c || c == a) return;  // collapsed
         faces.emplace_back(a, b, c);
         parent.push_back(from);
     };
@@ -1049,7 +1081,20 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (int f : crossing_faces) send_back(faces[f]);
         write_positions();
     }
-    mesh = std::move(out);
+    // The vertices merged away are left out.
+    std::vector<int> renumber(out.vertices.size(), -1);
+    Mesh compact;
+    for (cv::Vec3i& face : out.faces)
+        for (int k = 0; k < 3; ++k) {
+            int& index = renumber[face[k]];
+            if (index < 0) {
+                index = static_cast<int>(compact.vertices.size());
+                compact.vertices.push_back(out.vertices[face[k]]);
+            }
+            face[k] = index;
+        }
+    compact.faces = std::move(out.faces);
+    mesh = std::move(compact);
     return report;
 }
 
