@@ -764,9 +764,9 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     for (cv::Vec3d& n : vertex_normal) n = cv::norm(n) > 0 ? cv::normalize(n) : n;
     // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
     const double filled_reach = std::max(2 * spacing_mm, 0.5);
-    // Corners: three planes meeting in a point, each with its points beside it, get the vertex
-    // nearest to that point whose points lie on all three (Poisson leaves none there, and an
-    // edge split near it rarely lands on it).
+    // Corners: three planes meeting in a point, each with its points beside it, get a vertex
+    // within the largest move of that point whose points lie on all three (Poisson leaves none
+    // there, and an edge split near it rarely lands on it).
     using Triple = std::array<int, 3>;
     std::map<Triple, cv::Vec3d> corner_at;                   // the supported corners
     std::map<Triple, std::pair<double, int>> corner_vertex;  // its nearest vertex and how near
