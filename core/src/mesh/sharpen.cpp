@@ -925,12 +925,15 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<cv::Vec3i> faces;
     std::vector<int> parent;
     faces.reserve(mesh.faces.size() + 3 * split_vertex.size());
+    const size_t before_centres = safe.size();
+    const size_t corners_before = report.corners;
     auto add = [&](int a, int b, int c, int from) {
         a = merged_into(a), b = merged_into(b), c = merged_into(c);
         if (a == b || b == c || c == a) return;  // collapsed
         faces.emplace_back(a, b, c);
         parent.push_back(from);
     };
+    auto split_faces = [&]() {
     for (size_t f = 0; f < mesh.faces.size(); ++f) {
         const cv::Vec3i& face = mesh.faces[f];
         std::array<int, 3> cut{-1, -1, -1};
@@ -980,6 +983,26 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 add(cut[0], cut[1], cut[2], from);
             }
         }
+    }
+    };
+    split_faces();
+    // A merge whose two vertices had other neighbours in common than the faces between them
+    // leaves an edge with more than two faces: then the faces are split again with no merges.
+    std::unordered_map<long long, int> directed;
+    bool manifold = true;
+    for (const cv::Vec3i& face : faces)
+        for (int k = 0; k < 3; ++k)
+            manifold = manifold && ++directed[(long long)face[k] * (long long)safe.size() + face[(k + 1) % 3]] == 1;
+    for (const auto& [key, count] : directed)
+        manifold = manifold && directed.count((key % (long long)safe.size()) * (long long)safe.size() + key / (long long)safe.size());
+    if (!manifold) {
+        std::iota(same_as.begin(), same_as.end(), 0);
+        faces.clear();
+        parent.clear();
+        safe.resize(before_centres);
+        target.resize(before_centres);
+        report.corners = corners_before;
+        split_faces();
     }
 
     // 6. Self-check: a face turned over against the face it came from, or faces crossing each
