@@ -934,67 +934,66 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         parent.push_back(from);
     };
     auto split_faces = [&]() {
-    for (size_t f = 0; f < mesh.faces.size(); ++f) {
-        const cv::Vec3i& face = mesh.faces[f];
-        std::array<int, 3> cut{-1, -1, -1};
-        int cuts = 0;
-        for (int k = 0; k < 3; ++k) {
-            const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
-            if (found != split_vertex.end()) {
-                cut[k] = found->second;
-                ++cuts;
+        for (size_t f = 0; f < mesh.faces.size(); ++f) {
+            const cv::Vec3i& face = mesh.faces[f];
+            std::array<int, 3> cut{-1, -1, -1};
+            int cuts = 0;
+            for (int k = 0; k < 3; ++k) {
+                const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
+                if (found != split_vertex.end()) {
+                    cut[k] = found->second;
+                    ++cuts;
+                }
+            }
+            const int from = static_cast<int>(f);
+            if (cuts == 0) {
+                add(face[0], face[1], face[2], from);
+            } else if (cuts == 1) {
+                int k = 0;
+                while (cut[k] < 0) ++k;
+                add(face[k], cut[k], face[(k + 2) % 3], from);
+                add(cut[k], face[(k + 1) % 3], face[(k + 2) % 3], from);
+            } else if (cuts == 2) {
+                int k = 0;
+                while (cut[k] >= 0) ++k;  // the edge not cut: face[k] -> face[k+1]
+                const int v0 = face[k], v1 = face[(k + 1) % 3], lone = face[(k + 2) % 3];
+                const int c1 = cut[(k + 1) % 3], c2 = cut[(k + 2) % 3];  // on v1 -> lone and lone -> v0
+                add(c1, lone, c2, from);
+                if (cv::norm(target[v0] - target[c1]) < cv::norm(target[v1] - target[c2])) {
+                    add(v0, v1, c1, from);
+                    add(v0, c1, c2, from);
+                } else {
+                    add(v0, v1, c2, from);
+                    add(v1, c1, c2, from);
+                }
+            } else {
+                for (int k = 0; k < 3; ++k) add(face[k], cut[k], cut[(k + 2) % 3], from);
+                // The middle holds the corner where the three planes meet, when they do.
+                const int pa = own_plane(face[0]), pb = own_plane(face[1]), pc = own_plane(face[2]);
+                cv::Vec3d corner;
+                const cv::Vec3d middle = (safe[cut[0]] + safe[cut[1]] + safe[cut[2]]) * (1.0 / 3);
+                if (pa != pb && pb != pc && pa != pc && !corner_taken(pa, pb, pc) && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
+                    cv::norm(corner - middle) <= longest_move) {
+                    const int centre = static_cast<int>(safe.size());
+                    safe.push_back(middle);
+                    target.push_back(corner);
+                    ++report.corners;
+                    for (int k = 0; k < 3; ++k) add(cut[k], cut[(k + 1) % 3], centre, from);
+                } else {
+                    add(cut[0], cut[1], cut[2], from);
+                }
             }
         }
-        const int from = static_cast<int>(f);
-        if (cuts == 0) {
-            add(face[0], face[1], face[2], from);
-        } else if (cuts == 1) {
-            int k = 0;
-            while (cut[k] < 0) ++k;
-            add(face[k], cut[k], face[(k + 2) % 3], from);
-            add(cut[k], face[(k + 1) % 3], face[(k + 2) % 3], from);
-        } else if (cuts == 2) {
-            int k = 0;
-            while (cut[k] >= 0) ++k;  // the edge not cut: face[k] -> face[k+1]
-            const int v0 = face[k], v1 = face[(k + 1) % 3], lone = face[(k + 2) % 3];
-            const int c1 = cut[(k + 1) % 3], c2 = cut[(k + 2) % 3];  // on v1 -> lone and lone -> v0
-            add(c1, lone, c2, from);
-            if (cv::norm(target[v0] - target[c1]) < cv::norm(target[v1] - target[c2])) {
-                add(v0, v1, c1, from);
-                add(v0, c1, c2, from);
-            } else {
-                add(v0, v1, c2, from);
-                add(v1, c1, c2, from);
-            }
-        } else {
-            for (int k = 0; k < 3; ++k) add(face[k], cut[k], cut[(k + 2) % 3], from);
-            // The middle holds the corner where the three planes meet, when they do.
-            const int pa = own_plane(face[0]), pb = own_plane(face[1]), pc = own_plane(face[2]);
-            cv::Vec3d corner;
-            const cv::Vec3d middle = (safe[cut[0]] + safe[cut[1]] + safe[cut[2]]) * (1.0 / 3);
-            if (pa != pb && pb != pc && pa != pc && !corner_taken(pa, pb, pc) && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
-                cv::norm(corner - middle) <= longest_move) {
-                const int centre = static_cast<int>(safe.size());
-                safe.push_back(middle);
-                target.push_back(corner);
-                ++report.corners;
-                for (int k = 0; k < 3; ++k) add(cut[k], cut[(k + 1) % 3], centre, from);
-            } else {
-                add(cut[0], cut[1], cut[2], from);
-            }
-        }
-    }
     };
     split_faces();
     // A merge whose two vertices had other neighbours in common than the faces between them
     // leaves an edge with more than two faces: then the faces are split again with no merges.
-    std::unordered_map<long long, int> directed;
+    const long long count = static_cast<long long>(safe.size());
+    std::unordered_map<long long, int> directed;  // a -> b, as a * count + b
     bool manifold = true;
     for (const cv::Vec3i& face : faces)
-        for (int k = 0; k < 3; ++k)
-            manifold = manifold && ++directed[(long long)face[k] * (long long)safe.size() + face[(k + 1) % 3]] == 1;
-    for (const auto& [key, count] : directed)
-        manifold = manifold && directed.count((key % (long long)safe.size()) * (long long)safe.size() + key / (long long)safe.size());
+        for (int k = 0; k < 3; ++k) manifold = manifold && ++directed[face[k] * count + face[(k + 1) % 3]] == 1;
+    for (const auto& [edge, faces_on_it] : directed) manifold = manifold && directed.count(edge % count * count + edge / count);
     if (!manifold) {
         std::iota(same_as.begin(), same_as.end(), 0);
         faces.clear();
