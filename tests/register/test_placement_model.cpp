@@ -192,8 +192,10 @@ ModelAccuracy complete_model(PlacementPart part, bool stitch_views_first) {
 // bottom face it opens on (the rim an edge, no longer Poisson's rounding) and edge points are
 // judged by their distance from the edge's line (2026-11-23, branch maxima): max 92-107 um and
 // 135-155 um in the runs listed in docs/multiview.md (before: 230-341 and 227-424 um, the rim;
-// before the sharpening 984 and 1426 um). The limits keep a margin for Poisson's mesh, which
-// is not the same in every run, so that a worse model fails.
+// before the sharpening 984 and 1426 um). Since the rim's cuts that land on one point of the
+// line are one vertex (branch corners, 2026-11-24): 101-106 and 39-117 um in four runs (the
+// stitching is not the same in every run; before, on the same views: 106.7 and 152.5 um); the
+// issue's 150 um asserted.
 TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
     const ModelAccuracy model = complete_model(PlacementPart::GreyMechanical, true);
     EXPECT_EQ(model.views_merged, 16);
@@ -202,9 +204,9 @@ TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
     EXPECT_LT(model.filled, 0.06);
     EXPECT_LT(model.truth_to_mesh.mean_abs_mm, 0.010);
     EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.020);
-    EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.250);
+    EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.150);
     EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.020);
-    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.300);
+    EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.150);
 }
 
 // Beyond the demo part: a stepped block and a hexagon with a peg, meshed by the same recipe.
@@ -214,6 +216,8 @@ TEST(PlacementModel, MechanicalPartCompleteModelAgainstTheTruth) {
 // edge points are judged by their distance from the edge's line: max 185-299 / 39-80 um and
 // 143-166 / 37-140 um; before, 239-332 / 142-230 um and 190-231 / 151-254 um; before the
 // sharpening 476 / 363 um and 289 / 257 um; means and p95s as asserted, see docs/multiview.md).
+// Since the corners are sharpened (branch corners, 2026-11-24): 102 / 72 um and 104 / 55 um
+// (before, on the same views: 184 / 80 um and 149 / 154 um); the 150 um asserted.
 TEST(PlacementModel, OtherPartsCompleteModelsAgainstTheTruth) {
     for (PlacementPart part : {PlacementPart::SteppedBlock, PlacementPart::HexWithPeg}) {
         const ModelAccuracy model = complete_model(part, false);
@@ -223,8 +227,8 @@ TEST(PlacementModel, OtherPartsCompleteModelsAgainstTheTruth) {
         EXPECT_LT(model.filled, 0.01);
         EXPECT_LT(model.truth_to_mesh.mean_abs_mm, 0.004);
         EXPECT_LT(model.truth_to_mesh.p95_abs_mm, 0.006);
-        EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.350);
+        EXPECT_LT(model.truth_to_mesh.max_abs_mm, 0.150);
         EXPECT_LT(model.mesh_to_truth.p95_abs_mm, 0.006);
-        EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.250);
+        EXPECT_LT(model.mesh_to_truth.max_abs_mm, 0.150);
     }
 }

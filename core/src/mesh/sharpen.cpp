@@ -652,6 +652,16 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             if (!duplicate) kept.push_back(s);
         }
         if (ambiguous || kept.empty() || kept.size() > 3) continue;
+        // Planes with only a point or two this near (past a corner, beyond the blur of its
+        // edges): too few to model the vertex by, but their points are surface, not a fillet.
+        std::vector<int> glimpsed;
+        for (int s = 0; s < found; ++s) {
+            if (counts[s] >= 3) continue;
+            bool apart = true;
+            for (int t : kept)
+                apart = apart && degrees_between(regions.planes[ids[s]].normal_at(x), regions.planes[ids[t]].normal_at(x)) >= kSharpEdgeDeg;
+            if (apart) glimpsed.push_back(ids[s]);
+        }
         VertexPlanes& vp = model[v];
         vp.count = static_cast<int>(kept.size());
         for (int k = 0; k < vp.count; ++k) vp.plane[k] = ids[kept[k]];
@@ -678,7 +688,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             for (int c = 0; c < vp.count; ++c)
                 for (int e = c + 1; e < vp.count; ++e)
                     at_line = at_line || from_line(regions.planes[vp.plane[c]], regions.planes[vp.plane[e]], positions[k]) < kEdgeBlurMm;
-            if (nearest < agree || at_line) ++on_planes;
+            const bool on_glimpsed = std::find(glimpsed.begin(), glimpsed.end(), regions.label[k]) != glimpsed.end();
+            if (nearest < agree || at_line || on_glimpsed) ++on_planes;
             if (regions.label[k] == vp.plane[0])
                 for (int c = 1; c < vp.count; ++c) {
                     const double d = regions.planes[vp.plane[c]].distance(positions[k]);
@@ -753,9 +764,9 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     for (cv::Vec3d& n : vertex_normal) n = cv::norm(n) > 0 ? cv::normalize(n) : n;
     // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
     const double filled_reach = std::max(2 * spacing_mm, 0.5);
-    // Corners: three planes meeting in a point, each with its points beside it, get the vertex
-    // nearest to that point whose points lie on all three (Poisson leaves none there, and an
-    // edge split near it rarely lands on it).
+    // Corners: three planes meeting in a point, each with its points beside it, get a vertex
+    // within the largest move of that point whose points lie on all three (Poisson leaves none
+    // there, and an edge split near it rarely lands on it).
     using Triple = std::array<int, 3>;
     std::map<Triple, cv::Vec3d> corner_at;                   // the supported corners
     std::map<Triple, std::pair<double, int>> corner_vertex;  // its nearest vertex and how near
@@ -771,18 +782,36 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                              sharp_pair(triple[0], triple[1], corner) && sharp_pair(triple[1], triple[2], corner) &&
                              sharp_pair(triple[0], triple[2], corner);
             if (supported) {
-                grid.within(corner, reach, near);
+                // Each plane's points beside it (the edges' blur leaves few within the reach of
+                // the corner itself: two, at a convex corner of the half-resolution camera) ...
+                grid.within(corner, 2 * reach, near);
                 for (int plane : triple)
                     supported = supported &&
                                 std::count_if(near.begin(), near.end(), [&](int k) { return regions.label[k] == plane; }) >= 3;
+                // ... and the points around it on the planes or their lines (a corner cut off
+                // or rounded has its points off them).
+                grid.within(corner, reach, near);
+                const size_t on = size_t(std::count_if(near.begin(), near.end(), [&](int k) {
+                    const cv::Vec3d& p = positions[k];
+                    for (int a = 0; a < 3; ++a) {
+                        if (std::abs(regions.planes[triple[a]].distance(p)) < agree) return true;
+                        for (int b = a + 1; b < 3; ++b)
+                            if (from_line(regions.planes[triple[a]], regions.planes[triple[b]], p) < kEdgeBlurMm) return true;
+                    }
+                    return false;
+                }));
+                supported = supported && near.size() >= 3 && double(on) >= kLeastAgreement * double(near.size());
             }
             if (!supported) corner = cv::Vec3d(1e30, 1e30, 1e30);  // remembered as none
             found = corner_at.emplace(triple, corner).first;
         }
-        const double distance = cv::norm(found->second - safe[v]);
-        if (distance > longest_move) continue;
+        const cv::Vec3d move = found->second - safe[v];
+        if (cv::norm(move) > longest_move) continue;
+        // The vertex the corner lies straight out from: one moved sideways drags its faces
+        // across its neighbours' (and a fold pulls it or them back).
+        const double sideways = cv::norm(move - vertex_normal[v] * vertex_normal[v].dot(move));
         auto best = corner_vertex.find(triple);
-        if (best == corner_vertex.end() || distance < best->second.first) corner_vertex[triple] = {distance, int(v)};
+        if (best == corner_vertex.end() || sideways < best->second.first) corner_vertex[triple] = {sideways, int(v)};
     }
     for (const auto& [triple, nearest] : corner_vertex) {
         target[nearest.second] = corner_at[triple];
@@ -838,10 +867,17 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     }
     report.hole_vertices = fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
 
-    // 4. Split the edges that cross a line (neither end on a feature), each once.
+    // 4. Split the edges that cross a line, each once.
     std::unordered_map<long long, int> split_vertex;
+    std::vector<std::pair<int, int>> split_line;  // per split vertex: the planes of its line
+    // An end already on both surfaces (on their line or a corner) leaves the edge whole; an end
+    // on another line (near a corner) does not: the edge would cut across the corner.
+    auto on_both = [&](int v, const Crossing& crossing) {
+        return on_feature[v] && std::abs(regions.planes[crossing.plane_a].distance(target[v])) < 1e-3 &&
+               std::abs(regions.planes[crossing.plane_b].distance(target[v])) < 1e-3;
+    };
     for (auto& [key, crossing] : crossings) {
-        if (on_feature[crossing.a] || on_feature[crossing.b]) continue;
+        if (on_both(crossing.a, crossing) || on_both(crossing.b, crossing)) continue;
         const cv::Vec3d xa(mesh.vertices[crossing.a]), xb(mesh.vertices[crossing.b]);
         const cv::Vec3d on_edge = xa + crossing.t * (xb - xa);
         // The line is within reach of the edge as it is, or as its ends go (a deeply rounded
@@ -854,68 +890,118 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             std::min(cv::norm(moved - on_edge), cv::norm(moved - chord)) > longest_move)
             continue;
         split_vertex.emplace(key, static_cast<int>(safe.size()));
+        split_line.emplace_back(std::min(crossing.plane_a, crossing.plane_b), std::max(crossing.plane_a, crossing.plane_b));
         safe.push_back(on_edge);
         target.push_back(moved);
         ++report.cut_edges;
+    }
+    // Two cuts of one face that go onto the same line almost at the same point are one vertex
+    // (the short edge between them collapsed): left as two, they swap places along the line as
+    // often as not and fold the faces between them.
+    std::vector<int> same_as(safe.size());
+    std::iota(same_as.begin(), same_as.end(), 0);
+    auto merged_into = [&](int v) {
+        while (same_as[v] != v) v = same_as[v] = same_as[same_as[v]];
+        return v;
+    };
+    const double coincident = 0.25 * spacing_mm;
+    for (const cv::Vec3i& face : mesh.faces) {
+        std::array<int, 3> cut{-1, -1, -1};
+        for (int k = 0; k < 3; ++k) {
+            const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
+            if (found != split_vertex.end()) cut[k] = found->second;
+        }
+        for (int k = 0; k < 3; ++k) {
+            const int a = cut[k], b = cut[(k + 1) % 3];
+            if (a < 0 || b < 0 || split_line[a - vertex_count] != split_line[b - vertex_count] ||
+                cv::norm(target[a] - target[b]) > coincident)
+                continue;
+            const int ra = merged_into(a), rb = merged_into(b);
+            if (ra != rb) same_as[std::max(ra, rb)] = std::min(ra, rb);
+        }
     }
 
     // 5. The faces, split along the lines; each remembers the face it came from.
     std::vector<cv::Vec3i> faces;
     std::vector<int> parent;
     faces.reserve(mesh.faces.size() + 3 * split_vertex.size());
+    const size_t before_centres = safe.size();
+    const size_t corners_before = report.corners;
     auto add = [&](int a, int b, int c, int from) {
+        a = merged_into(a), b = merged_into(b), c = merged_into(c);
+        if (a == b || b == c || c == a) return;  // collapsed
         faces.emplace_back(a, b, c);
         parent.push_back(from);
     };
-    for (size_t f = 0; f < mesh.faces.size(); ++f) {
-        const cv::Vec3i& face = mesh.faces[f];
-        std::array<int, 3> cut{-1, -1, -1};
-        int cuts = 0;
-        for (int k = 0; k < 3; ++k) {
-            const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
-            if (found != split_vertex.end()) {
-                cut[k] = found->second;
-                ++cuts;
+    auto split_faces = [&]() {
+        for (size_t f = 0; f < mesh.faces.size(); ++f) {
+            const cv::Vec3i& face = mesh.faces[f];
+            std::array<int, 3> cut{-1, -1, -1};
+            int cuts = 0;
+            for (int k = 0; k < 3; ++k) {
+                const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
+                if (found != split_vertex.end()) {
+                    cut[k] = found->second;
+                    ++cuts;
+                }
+            }
+            const int from = static_cast<int>(f);
+            if (cuts == 0) {
+                add(face[0], face[1], face[2], from);
+            } else if (cuts == 1) {
+                int k = 0;
+                while (cut[k] < 0) ++k;
+                add(face[k], cut[k], face[(k + 2) % 3], from);
+                add(cut[k], face[(k + 1) % 3], face[(k + 2) % 3], from);
+            } else if (cuts == 2) {
+                int k = 0;
+                while (cut[k] >= 0) ++k;  // the edge not cut: face[k] -> face[k+1]
+                const int v0 = face[k], v1 = face[(k + 1) % 3], lone = face[(k + 2) % 3];
+                const int c1 = cut[(k + 1) % 3], c2 = cut[(k + 2) % 3];  // on v1 -> lone and lone -> v0
+                add(c1, lone, c2, from);
+                if (cv::norm(target[v0] - target[c1]) < cv::norm(target[v1] - target[c2])) {
+                    add(v0, v1, c1, from);
+                    add(v0, c1, c2, from);
+                } else {
+                    add(v0, v1, c2, from);
+                    add(v1, c1, c2, from);
+                }
+            } else {
+                for (int k = 0; k < 3; ++k) add(face[k], cut[k], cut[(k + 2) % 3], from);
+                // The middle holds the corner where the three planes meet, when they do.
+                const int pa = own_plane(face[0]), pb = own_plane(face[1]), pc = own_plane(face[2]);
+                cv::Vec3d corner;
+                const cv::Vec3d middle = (safe[cut[0]] + safe[cut[1]] + safe[cut[2]]) * (1.0 / 3);
+                if (pa != pb && pb != pc && pa != pc && !corner_taken(pa, pb, pc) && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
+                    cv::norm(corner - middle) <= longest_move) {
+                    const int centre = static_cast<int>(safe.size());
+                    safe.push_back(middle);
+                    target.push_back(corner);
+                    ++report.corners;
+                    for (int k = 0; k < 3; ++k) add(cut[k], cut[(k + 1) % 3], centre, from);
+                } else {
+                    add(cut[0], cut[1], cut[2], from);
+                }
             }
         }
-        const int from = static_cast<int>(f);
-        if (cuts == 0) {
-            add(face[0], face[1], face[2], from);
-        } else if (cuts == 1) {
-            int k = 0;
-            while (cut[k] < 0) ++k;
-            add(face[k], cut[k], face[(k + 2) % 3], from);
-            add(cut[k], face[(k + 1) % 3], face[(k + 2) % 3], from);
-        } else if (cuts == 2) {
-            int k = 0;
-            while (cut[k] >= 0) ++k;  // the edge not cut: face[k] -> face[k+1]
-            const int v0 = face[k], v1 = face[(k + 1) % 3], lone = face[(k + 2) % 3];
-            const int c1 = cut[(k + 1) % 3], c2 = cut[(k + 2) % 3];  // on v1 -> lone and lone -> v0
-            add(c1, lone, c2, from);
-            if (cv::norm(target[v0] - target[c1]) < cv::norm(target[v1] - target[c2])) {
-                add(v0, v1, c1, from);
-                add(v0, c1, c2, from);
-            } else {
-                add(v0, v1, c2, from);
-                add(v1, c1, c2, from);
-            }
-        } else {
-            for (int k = 0; k < 3; ++k) add(face[k], cut[k], cut[(k + 2) % 3], from);
-            // The middle holds the corner where the three planes meet, when they do.
-            const int pa = own_plane(face[0]), pb = own_plane(face[1]), pc = own_plane(face[2]);
-            cv::Vec3d corner;
-            const cv::Vec3d middle = (safe[cut[0]] + safe[cut[1]] + safe[cut[2]]) * (1.0 / 3);
-            if (pa != pb && pb != pc && pa != pc && !corner_taken(pa, pb, pc) && corner_of(regions.planes[pa], regions.planes[pb], regions.planes[pc], corner) &&
-                cv::norm(corner - middle) <= longest_move) {
-                const int centre = static_cast<int>(safe.size());
-                safe.push_back(middle);
-                target.push_back(corner);
-                ++report.corners;
-                for (int k = 0; k < 3; ++k) add(cut[k], cut[(k + 1) % 3], centre, from);
-            } else {
-                add(cut[0], cut[1], cut[2], from);
-            }
-        }
+    };
+    split_faces();
+    // A merge whose two vertices had other neighbours in common than the faces between them
+    // leaves an edge with more than two faces: then the faces are split again with no merges.
+    const long long count = static_cast<long long>(safe.size());
+    std::unordered_map<long long, int> directed;  // a -> b, as a * count + b
+    bool manifold = true;
+    for (const cv::Vec3i& face : faces)
+        for (int k = 0; k < 3; ++k) manifold = manifold && ++directed[face[k] * count + face[(k + 1) % 3]] == 1;
+    for (const auto& [edge, faces_on_it] : directed) manifold = manifold && directed.count(edge % count * count + edge / count);
+    if (!manifold) {
+        std::iota(same_as.begin(), same_as.end(), 0);
+        faces.clear();
+        parent.clear();
+        safe.resize(before_centres);
+        target.resize(before_centres);
+        report.corners = corners_before;
+        split_faces();
     }
 
     // 6. Self-check: a face turned over against the face it came from, or faces crossing each
@@ -939,24 +1025,48 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     };
     std::vector<cv::Vec3d> position = target;
     std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
+    auto movable = [&](int v) { return share[v] > 0 && target[v] != safe[v]; };
+    auto pulled_share = [&](int v) { return share[v] > 0.3 ? 0.5 * share[v] : 0.0; };
+    auto pull_back = [&](int v) {
+        share[v] = pulled_share(v);
+        position[v] = safe[v] + share[v] * (target[v] - safe[v]);
+        if (share[v] == 0) ++report.reverted;
+    };
     auto send_back = [&](const cv::Vec3i& face) {
         bool pulled = false;
-        for (int k = 0; k < 3; ++k) {
-            const int v = face[k];
-            if (share[v] == 0 || target[v] == safe[v]) continue;
-            pulled = true;
-            share[v] = share[v] > 0.3 ? 0.5 * share[v] : 0.0;
-            position[v] = safe[v] + share[v] * (target[v] - safe[v]);
-            if (share[v] == 0) ++report.reverted;
-        }
+        for (int k = 0; k < 3; ++k)
+            if (movable(face[k])) {
+                pull_back(face[k]);
+                pulled = true;
+            }
         return pulled;
     };
-    for (int round = 0; round < 30; ++round) {
+    // A folded face first pulls back only the one vertex whose pulling back unfolds it most (the
+    // others keep their edge); the whole face goes back when that is not enough.
+    auto facing = [&](const cv::Vec3i& face, size_t f) {
+        const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
+        return normal.dot(reference_normal(f));
+    };
+    for (int round = 0; round < 60; ++round) {
         bool changed = false;
         for (size_t f = 0; f < faces.size(); ++f) {
             const cv::Vec3i& face = faces[f];
-            const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
-            if (normal.dot(reference_normal(f)) < 0) {
+            if (facing(face, f) >= 0) continue;
+            int best = -1;
+            double best_facing = -1e300;
+            for (int k = 0; round < 30 && k < 3; ++k) {
+                const int v = face[k];
+                if (!movable(v)) continue;
+                const cv::Vec3d kept = position[v];
+                position[v] = safe[v] + pulled_share(v) * (target[v] - safe[v]);
+                const double after = facing(face, f);
+                position[v] = kept;
+                if (after > best_facing) best_facing = after, best = v;
+            }
+            if (best >= 0) {
+                pull_back(best);
+                changed = true;
+            } else {
                 changed = send_back(face) || changed;
             }
         }
@@ -993,7 +1103,20 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (int f : crossing_faces) send_back(faces[f]);
         write_positions();
     }
-    mesh = std::move(out);
+    // The vertices merged away are left out.
+    std::vector<int> renumber(out.vertices.size(), -1);
+    Mesh compact;
+    for (cv::Vec3i& face : out.faces)
+        for (int k = 0; k < 3; ++k) {
+            int& index = renumber[face[k]];
+            if (index < 0) {
+                index = static_cast<int>(compact.vertices.size());
+                compact.vertices.push_back(out.vertices[face[k]]);
+            }
+            face[k] = index;
+        }
+    compact.faces = std::move(out.faces);
+    mesh = std::move(compact);
     return report;
 }
 
