@@ -17,14 +17,16 @@ void bind_solid(py::module_& m) {
     py::class_<BrepEdge>(m, "BrepEdge")
         .def_readonly("start", &BrepEdge::start)
         .def_readonly("end", &BrepEdge::end)
-        .def_readonly("tolerance_mm", &BrepEdge::tolerance_mm);
+        .def_readonly("tolerance_mm", &BrepEdge::tolerance_mm)
+        .def_readonly("chain", &BrepEdge::chain);
     py::class_<BrepFace>(m, "BrepFace")
         .def_readonly("origin", &BrepFace::origin)
         .def_readonly("normal", &BrepFace::normal)
         .def_readonly("merged", &BrepFace::merged)
         .def_readonly("facet_count", &BrepFace::facet_count)
         .def_readonly("rms_mm", &BrepFace::rms_mm)
-        .def_readonly("wires", &BrepFace::wires);
+        .def_readonly("wires", &BrepFace::wires)
+        .def_readonly("triangles", &BrepFace::triangles);
     py::class_<PlanarFaceModel>(m, "PlanarFaceModel")
         .def_readonly("vertices", &PlanarFaceModel::vertices)
         .def_readonly("vertex_tolerance_mm", &PlanarFaceModel::vertex_tolerance_mm)
