@@ -36,20 +36,34 @@ double signed_distance(const cv::Vec3d& p) {
 
 // Points on the block's surface about `spacing` apart, with their outward normals; `noise_mm`
 // along the normal.
-PointCloud block_points(double spacing, double noise_mm, unsigned seed) {
-    std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0, noise_mm);
-    std::uniform_real_distribution<double> jitter(-0.5, 0.5);
-    PointCloud cloud;
-    auto add = [&](const cv::Vec3d& p, const cv::Vec3d& n) {
+// Samples surfaces: points on a jittered grid about `spacing` apart, `noise_mm` along the normal.
+struct SurfaceSampler {
+    SurfaceSampler(double spacing, double noise_mm, unsigned seed) : spacing(spacing), random(seed), noise(0, noise_mm) {}
+
+    void add(const cv::Vec3d& p, const cv::Vec3d& n) {
         cloud.points.emplace_back(p + noise(random) * n);
         cloud.normals.emplace_back(n);
-    };
-    auto grid = [&](double a_size, double b_size, auto&& place) {
+    }
+
+    // Calls place(a, b) over [0, a_size] x [0, b_size].
+    template <class Place>
+    void grid(double a_size, double b_size, Place&& place) {
         for (double a = spacing / 2; a < a_size; a += spacing)
             for (double b = spacing / 2; b < b_size; b += spacing)
                 place(std::clamp(a + jitter(random) * spacing, 0.0, a_size), std::clamp(b + jitter(random) * spacing, 0.0, b_size));
-    };
+    }
+
+    double spacing;
+    std::mt19937 random;
+    std::normal_distribution<double> noise;
+    std::uniform_real_distribution<double> jitter{-0.5, 0.5};
+    PointCloud cloud;
+};
+
+PointCloud block_points(double spacing, double noise_mm, unsigned seed) {
+    SurfaceSampler sampler(spacing, noise_mm, seed);
+    auto add = [&](const cv::Vec3d& p, const cv::Vec3d& n) { sampler.add(p, n); };
+    auto grid = [&](double a_size, double b_size, auto&& place) { sampler.grid(a_size, b_size, place); };
     // Top and bottom: the rounded footprint.
     auto inside_footprint = [](double x, double y) { return signed_distance(cv::Vec3d(x, y, kHeight / 2)) <= 0; };
     for (double z : {0.0, kHeight})
@@ -68,7 +82,7 @@ PointCloud block_points(double spacing, double noise_mm, unsigned seed) {
             const cv::Vec3d n(std::cos(angle), cy < kWidth / 2 ? -std::sin(angle) : std::sin(angle), 0);
             add(cv::Vec3d(kLength - kFillet, cy, z) + kFillet * n, n);
         });
-    return cloud;
+    return sampler.cloud;
 }
 
 // Points spread evenly over the exact surface: the same sampling without noise.
@@ -261,20 +275,12 @@ double box_signed_distance(const cv::Vec3d& p) {
 }
 
 PointCloud cut_box_points(double spacing, double noise_mm, unsigned seed) {
-    std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0, noise_mm);
-    std::uniform_real_distribution<double> jitter(-0.5, 0.5);
-    PointCloud cloud;
+    SurfaceSampler sampler(spacing, noise_mm, seed);
     auto add = [&](const cv::Vec3d& p, const cv::Vec3d& n) {
         if (p[0] + p[1] + p[2] > kBoxX + kBoxY + kBoxZ - kCut) return;  // cut off
-        cloud.points.emplace_back(p + noise(random) * n);
-        cloud.normals.emplace_back(n);
+        sampler.add(p, n);
     };
-    auto grid = [&](double a_size, double b_size, auto&& place) {
-        for (double a = spacing / 2; a < a_size; a += spacing)
-            for (double b = spacing / 2; b < b_size; b += spacing)
-                place(std::clamp(a + jitter(random) * spacing, 0.0, a_size), std::clamp(b + jitter(random) * spacing, 0.0, b_size));
-    };
+    auto grid = [&](double a_size, double b_size, auto&& place) { sampler.grid(a_size, b_size, place); };
     for (double z : {0.0, kBoxZ})
         grid(kBoxX, kBoxY, [&](double x, double y) { add(cv::Vec3d(x, y, z), cv::Vec3d(0, 0, z > 0 ? 1 : -1)); });
     for (double y : {0.0, kBoxY})
@@ -287,11 +293,9 @@ PointCloud cut_box_points(double spacing, double noise_mm, unsigned seed) {
     const double side = cv::norm(b - a);
     grid(side, side, [&](double u, double w) {
         if (u + w > side) return;
-        const cv::Vec3d p = a + (b - a) * (u / side) + (c - a) * (w / side);
-        cloud.points.emplace_back(p + noise(random) * normal);
-        cloud.normals.emplace_back(normal);
+        sampler.add(a + (b - a) * (u / side) + (c - a) * (w / side), normal);
     });
-    return cloud;
+    return sampler.cloud;
 }
 
 }  // namespace
