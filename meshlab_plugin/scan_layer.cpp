@@ -2,6 +2,8 @@
 
 #include "picoscan/io.h"
 
+#include <wrap/io_trimesh/io_mask.h>
+
 #include <QDir>
 #include <QFile>
 #include <QFileInfo>
@@ -78,6 +80,20 @@ bool has_saved_camera(MeshModel& layer) {
     if (errors.empty()) return false;
     std::nth_element(errors.begin(), errors.begin() + long(errors.size() / 2), errors.end());
     return errors[errors.size() / 2] < 0.5;
+}
+
+// meshlabserver -w (2020.09) saves every layer with its MeshLab data mask (MM_*) handed to the PLY
+// writer as a file mask (IOM_*), whose bits mean other things: MM_VERTMARK is read as texture
+// coordinates (the pixels), MM_FACECOLOR as the camera (MM_VERTQUALITY, which a PicoScan layer has,
+// as normals). A PicoScan layer enables those two, so a project saved by meshlabserver keeps its
+// pixel grid and camera. The GUI's save dialog reads the mask right; a point cloud has no faces to
+// colour, so the extra bits cost a mark per vertex and nothing in the file.
+void keep_grid_in_meshlabserver_saves(MeshModel& layer) {
+    static_assert(int(MeshModel::MM_VERTMARK) == int(vcg::tri::io::Mask::IOM_VERTTEXCOORD) &&
+                      int(MeshModel::MM_FACECOLOR) == int(vcg::tri::io::Mask::IOM_CAMERA) &&
+                      int(MeshModel::MM_VERTQUALITY) == int(vcg::tri::io::Mask::IOM_VERTNORMAL),
+                  "the masks meshlabserver confuses");
+    layer.updateDataMask(MeshModel::MM_VERTMARK | MeshModel::MM_FACECOLOR);
 }
 
 // The pixel a vertex came from (its texture coordinates), or -1 outside the grid.
@@ -266,6 +282,7 @@ void fill_layer(MeshModel& layer, const picoscan::ScanView& view) {
             ++vertex;
         }
     set_layer_camera(layer, view);
+    keep_grid_in_meshlabserver_saves(layer);
     set_layer_pose(layer, view.pose);
     vcg::tri::UpdateBounding<CMeshO>::Box(mesh);
 }
@@ -314,6 +331,7 @@ std::string missing_scan_data(MeshModel& layer, QString* view_file) {
     }
     if (layer.cm.vn > 0 && layer.cm.vert.begin()->cN().SquaredNorm() == 0)
         return "this layer was saved without vertex normals: save PicoScan layers as PLY with normals";
+    keep_grid_in_meshlabserver_saves(layer);
     return {};
 }
 

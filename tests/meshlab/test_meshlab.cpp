@@ -591,15 +591,39 @@ TEST(MeshlabPlugin, ViewPlyOpenedInMeshlabCleansAsCli) {
     EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
 }
 
-// MeshLab keeps a layer's pixels (texture coordinates) but meshlabserver cannot write a layer's
-// camera: such a file is refused with the reason rather than cleaned with a guessed camera.
-TEST(MeshlabPlugin, LayerSavedWithoutItsCameraIsRefused) {
-    const std::string directory = make_temp_dir("meshlab_no_camera");
-    ServerRun run = run_meshlabserver(directory, simulate({{"shifts", "3"}}), "-o scan.ply -m vc vn vq vt");
+// A scan layer saved in a project by MeshLab's own save (meshlabserver -w) keeps its pixels and
+// camera: reopened with its view file deleted, it cleans as the CLI cleans that view. Saved by
+// -o with a mask that leaves the camera out, the layer is refused with the reason rather than
+// cleaned with a guessed camera.
+TEST(MeshlabPlugin, ScanLayerKeepsItsGridInAProjectAndIsRefusedWithoutItsCamera) {
+    const std::string directory = make_temp_dir("meshlab_scan_project");
+    const std::string rig = directory + "/rig.yml";
+    write_calibration(test_support::half_resolution_seed_rig(), rig);  // 800 x 600: a quarter of the work
+    ServerRun run = run_meshlabserver(directory, simulate({{"partView", "0"}, {"calibrationFile", rig}}) + save_views(directory + "/views"),
+                                      "-w project.mlp -o scan.ply -m vc vn vq vt");
     ASSERT_EQ(run.exit_code, 0) << run.log;
+    const std::string view = directory + "/views/Part_view_0.ply";
+    std::string cli_log;
+    ASSERT_EQ(run_command(test_support::cli_path() + " clean " + view + " --out " + directory + "/cli_clean.ply", &cli_log), 0)
+        << cli_log;
+    std::filesystem::remove(view);
+    run = run_meshlabserver(directory, clean(), "-p project.mlp -o cleaned.ply -m vn");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_EQ(run.log.find("taken from the view file"), std::string::npos) << run.log;
+    const Mesh by_plugin = read_ply(directory + "/cleaned.ply"), by_cli = read_ply(directory + "/cli_clean.ply");
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    std::printf("scan layer saved by meshlabserver -w, its view deleted: clean removed %.0f and kept %zu points, the CLI "
+                "keeps %zu, max distance %.2g mm\n",
+                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(), max_distance(by_plugin.vertices, by_cli.vertices));
+    EXPECT_GT(removed[0], 0);
+    ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
+    EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
+
     run = run_meshlabserver(directory, clean(), "-i scan.ply -o never.ply");
     EXPECT_NE(run.exit_code, 0);
     EXPECT_NE(run.log.find("scan.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
+    EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
 }
 
 // A layer as MeshLab's GUI saves it with its default PLY options (File > Save Project asks for each
@@ -704,115 +728,94 @@ double mesh_volume(const Mesh& mesh) {
 
 }  // namespace
 
-// A project saved by meshlabserver itself (-w writes plain PLY layers: no pixels, no camera) after
-// 'Save Views for Project' wrote the views beside it. A new meshlabserver on the saved project
-// cleans, aligns and fuses it as the first session did; with a view file replaced by a plain PLY
-// the project is refused, naming the layer.
+// A project saved by MeshLab's own save (meshlabserver -w, no PicoScan step before it) of two
+// PicoScan view PLYs opened in MeshLab and aligned: MeshLab's copies of the layers keep each
+// point's pixel and the view's camera. With the view files deleted, a new meshlabserver on the
+// project cleans, aligns and fuses as the first session did. A layer file that lost its pixels
+// is refused, naming the layer and what it lacks.
 TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const std::string directory = make_temp_dir("meshlab_saved_project");
     const std::string views = directory + "/views";
-    const std::string rig = directory + "/rig.yml";
-    write_calibration(test_support::half_resolution_seed_rig(), rig);  // 800 x 600: a quarter of the work
-    const std::vector<cv::Matx44d> part_to_camera = turntable_part_poses(TurntablePlan{});
-    std::string first_session;
+    const test_support::TurntableScan& scan = test_support::two_placement_scan(test_support::PlacementPart::GreyMechanical);
+    // Copies of two cached views (the shared cache is never touched): the "original" view files.
+    std::filesystem::create_directories(views);
+    const std::string cache = std::string(PICOSCAN_TEST_CACHE_DIR) + "/half-v1-grey-mechanical-standing";
     for (int i = 0; i < 2; ++i)
-        first_session += simulate({{"partView", std::to_string(i)}, {"calibrationFile", rig}}) + clean();
-    first_session += align() + fuse({{"sampleSpacing", "0.6"}}) + save_views(views);
-    ServerRun run = run_meshlabserver(directory, first_session, "-w project.mlp -o fused_first.ply -l 2");
+        std::filesystem::copy_file(cache + "/view_" + std::to_string(i) + ".ply", views + "/view_" + std::to_string(i) + ".ply");
+    const std::string cli_clean = directory + "/cli_clean.ply";
+    std::string cli_log;
+    ASSERT_EQ(run_command(test_support::cli_path() + " clean " + views + "/view_0.ply --out " + cli_clean, &cli_log), 0) << cli_log;
+
+    ServerRun run = run_meshlabserver(directory, align() + fuse({{"sampleSpacing", "0.6"}}),
+                                      "-i views/view_0.ply -i views/view_1.ply -w project.mlp -o fused_first.ply -l 2");
     ASSERT_EQ(run.exit_code, 0) << run.log;
-    EXPECT_NE(run.log.find("PicoScan saved 2 views in " + views), std::string::npos) << run.log;
-    // What the unsaved layers gave: each cleaned layer's point count, and the points fused.
-    std::vector<double> first_remain;
-    for (int i = 0; i < 2; ++i) {
-        const std::vector<double> remain =
-            numbers_after(run.log, "PicoScan saved Part view " + std::to_string(i) + " (", 1);
-        ASSERT_EQ(remain.size(), 1u) << run.log;
-        first_remain.push_back(remain[0]);
-    }
     const std::vector<double> first_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
     ASSERT_EQ(first_fused_points.size(), 1u) << run.log;
+    EXPECT_EQ(first_fused_points[0], double(scan.views[0].valid_count() + scan.views[1].valid_count()));
 
-    // meshlabserver saved its own copies (VIEW_out.ply) and the project names them: they are not views.
+    // meshlabserver saved its own copies beside the views (VIEW_out.ply: MeshLab's PLY, not the
+    // core's view format) and the project names them. The original views go.
     const std::vector<ProjectLayer> saved = read_project(directory + "/project.mlp");
     ASSERT_EQ(saved.size(), 3u);
     for (int i = 0; i < 2; ++i) {
-        EXPECT_EQ(saved[size_t(i)].file, views + "/Part_view_" + std::to_string(i) + "_out.ply");
+        EXPECT_EQ(saved[size_t(i)].file, views + "/view_" + std::to_string(i) + "_out.ply");
         EXPECT_THROW(read_view_ply(saved[size_t(i)].file), Error) << saved[size_t(i)].file;
-        EXPECT_NO_THROW(read_view_ply(views + "/Part_view_" + std::to_string(i) + ".ply"));
+        std::filesystem::remove(views + "/view_" + std::to_string(i) + ".ply");
     }
 
     // A new process on the saved project: the first session's fused layer goes, then Align and
-    // Fuse (the first session's inputs: the same result expected), then Clean of the first layer,
-    // and the views saved again, by default into the project's folder.
+    // Fuse (the first session's inputs: the same result expected), Clean of the first layer, and
+    // the views written by Save Views for Project, by default into the project's folder.
     run = run_meshlabserver(directory,
                             std::string(kDeleteCurrentLayer) + align() + fuse({{"sampleSpacing", "0.6"}}) +
                                 make_current(0) + clean() + save_views(""),
                             "-p project.mlp -w reopened.mlp -o fused_reopened.ply -l 2 -o cleaned_reopened.ply -l 0 -m vn");
     ASSERT_EQ(run.exit_code, 0) << run.log;
-    for (int i = 0; i < 2; ++i) {
-        const std::string name = "Part_view_" + std::to_string(i);
-        EXPECT_NE(run.log.find(name + "_out.ply: pixel grid and camera taken from the view file " + views + "/" + name + ".ply"),
-                  std::string::npos)
-            << run.log;
-    }
+    EXPECT_EQ(run.log.find("taken from the view file"), std::string::npos) << run.log;  // each layer's own file did it
+    EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
     const std::vector<double> removed = numbers_after(run.log, "removed", 1);
     ASSERT_EQ(removed.size(), 1u) << run.log;
-    EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
-    // Clean of the reopened layer is the CLI's clean of its view file, point for point.
-    std::string cli_log;
-    ASSERT_EQ(run_command(test_support::cli_path() + " clean " + views + "/Part_view_0.ply --out " + directory + "/cli_clean.ply",
-                          &cli_log),
-              0)
-        << cli_log;
-    const Mesh by_plugin = read_ply(directory + "/cleaned_reopened.ply"), by_cli = read_ply(directory + "/cli_clean.ply");
+    // Clean of the reopened layer is the CLI's clean of the deleted view, point for point.
+    const Mesh by_plugin = read_ply(directory + "/cleaned_reopened.ply"), by_cli = read_ply(cli_clean);
     ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
     EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
-    // The cleaned view saved again beside the project; the fused mesh is no view and stays as it is.
+    EXPECT_EQ(size_t(scan.views[0].valid_count()) - by_cli.vertices.size(), size_t(removed[0]));
+    // Save Views wrote the cleaned view beside the project; the fused mesh is no view and stays as it is.
     EXPECT_NE(run.log.find("PicoScan saved 2 views in " + directory), std::string::npos) << run.log;
     EXPECT_NE(run.log.find("Fused mesh (Poisson) is not a PicoScan view, left as it is"), std::string::npos) << run.log;
-    EXPECT_EQ(size_t(read_view_ply(directory + "/Part_view_0_out.ply").valid_count()), by_cli.vertices.size());
-    const std::vector<ProjectLayer> reopened = read_project(directory + "/reopened.mlp");
-    ASSERT_EQ(reopened.size(), 3u);
-    const cv::Matx44d truth = part_to_camera[0] * inverse_rigid(part_to_camera[1]);
-    const cv::Vec4d middle = part_to_camera[1] * cv::Vec4d(0, 0, 16, 1);
-    const PoseDifference error = pose_difference(
-        truth, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
-        cv::Vec3d(middle[0], middle[1], middle[2]));
+    EXPECT_EQ(size_t(read_view_ply(directory + "/view_0_out.ply").valid_count()), by_cli.vertices.size());
 
     // The reopened layers are the unsaved ones: the same points fused, the same relative pose found.
     const std::vector<double> reopened_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
     ASSERT_EQ(reopened_fused_points.size(), 1u) << run.log;
     EXPECT_EQ(reopened_fused_points[0], first_fused_points[0]);
-    EXPECT_EQ(first_fused_points[0], first_remain[0] + first_remain[1]);
-    const cv::Matx44d first_relative = inverse_rigid(nearest_rigid(saved[0].transform)) * nearest_rigid(saved[1].transform);
-    const PoseDifference first_error =
-        pose_difference(truth, first_relative, cv::Vec3d(middle[0], middle[1], middle[2]));
-    const PoseDifference between_sessions = pose_difference(
-        first_relative, inverse_rigid(nearest_rigid(reopened[0].transform)) * nearest_rigid(reopened[1].transform),
-        cv::Vec3d(middle[0], middle[1], middle[2]));
-    std::printf("unsaved layers: %.0f + %.0f points after Clean, %.0f fused (reopened: %.0f); pose error %.4f deg, "
-                "%.4f mm (reopened %.4f deg, %.4f mm; between the sessions %.4f deg, %.4f mm)\n",
-                first_remain[0], first_remain[1], first_fused_points[0], reopened_fused_points[0], first_error.rotation_deg,
-                first_error.translation_mm, error.rotation_deg, error.translation_mm, between_sessions.rotation_deg,
-                between_sessions.translation_mm);
-    EXPECT_LT(between_sessions.rotation_deg, 0.01);
-    EXPECT_LT(between_sessions.translation_mm, 0.01);
-
-    const Mesh first = read_ply(directory + "/fused_first.ply");
-    const Mesh second = read_ply(directory + "/fused_reopened.ply");
+    const std::vector<ProjectLayer> reopened = read_project(directory + "/reopened.mlp");
+    ASSERT_EQ(reopened.size(), 3u);
+    const auto relative = [](const std::vector<ProjectLayer>& layers) {
+        return inverse_rigid(nearest_rigid(layers[0].transform)) * nearest_rigid(layers[1].transform);
+    };
+    const PoseDifference first_error = pose_difference(scan.true_view_to_model[1], relative(saved), scan.centroid(1));
+    const PoseDifference error = pose_difference(scan.true_view_to_model[1], relative(reopened), scan.centroid(1));
+    const PoseDifference between_sessions = pose_difference(relative(saved), relative(reopened), scan.centroid(1));
+    const Mesh first = read_ply(directory + "/fused_first.ply"), second = read_ply(directory + "/fused_reopened.ply");
     const MeshCheck first_check = check_mesh(first), second_check = check_mesh(second);
     const double first_area = mesh_area(first), second_area = mesh_area(second);
     const double first_volume = mesh_volume(first), second_volume = mesh_volume(second);
-    std::printf("reopened project: cleaning removed %.0f points, %zu kept (the CLI keeps %zu, max distance %.2g mm); "
-                "pose error %.4f deg, %.4f mm; fused mesh %s, area %.1f mm^2, volume %.1f mm^3 (first session: %s, "
-                "area %.1f mm^2, volume %.1f mm^3)\n",
+    std::printf("project saved by meshlabserver -w, views deleted, reopened: cleaning removed %.0f points, %zu kept (the "
+                "CLI keeps %zu, max distance %.2g mm); %.0f points fused in both sessions; pose error %.4f deg, %.4f mm "
+                "(first session %.4f deg, %.4f mm; between the sessions %.4f deg, %.4f mm); fused mesh %s, area %.1f "
+                "mm^2, volume %.1f mm^3 (first session: %s, area %.1f mm^2, volume %.1f mm^3)\n",
                 removed[0], by_plugin.vertices.size(), by_cli.vertices.size(),
-                max_distance(by_plugin.vertices, by_cli.vertices), error.rotation_deg, error.translation_mm,
-                second_check.summary().c_str(), second_area, second_volume, first_check.summary().c_str(), first_area,
-                first_volume);
+                max_distance(by_plugin.vertices, by_cli.vertices), reopened_fused_points[0], error.rotation_deg,
+                error.translation_mm, first_error.rotation_deg, first_error.translation_mm, between_sessions.rotation_deg,
+                between_sessions.translation_mm, second_check.summary().c_str(), second_area, second_volume,
+                first_check.summary().c_str(), first_area, first_volume);
+    EXPECT_GT(removed[0], 0);
     EXPECT_GT(by_plugin.vertices.size(), 10000u);
-    EXPECT_LT(error.rotation_deg, 0.15);
+    EXPECT_LT(error.rotation_deg, 0.1);
     EXPECT_LT(error.translation_mm, 0.1);
+    EXPECT_LT(between_sessions.rotation_deg, 0.01);
+    EXPECT_LT(between_sessions.translation_mm, 0.01);
     const EdgeCount edges = count_edges(second);
     EXPECT_GT(second.faces.size(), 5000u);
     EXPECT_EQ(edges.border, 0u);
@@ -820,41 +823,34 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     EXPECT_TRUE(first_check.watertight()) << first_check.summary();
     EXPECT_TRUE(second_check.watertight()) << second_check.summary();
     EXPECT_GT(first_volume, 1000.0);
-    // Same inputs, same recipe: over seven runs within 0.030 % (volume) and 0.065 % (area); the
-    // alignment's small run-to-run differences move the Poisson surface a little.
+    // Same inputs, same recipe: the alignment's small run-to-run differences move the Poisson surface a little.
     EXPECT_NEAR(second_volume, first_volume, 0.005 * first_volume);
     EXPECT_NEAR(second_area, first_area, 0.005 * first_area);
 
-    // Built to fool it: a view file replaced by a plain PLY of the same points (no pixel grid, no
-    // camera). The project is refused, naming the layer and what it lacks; nothing is written. The
-    // same for a project that names the view files themselves (as the GUI's Save Project does
-    // after Save Views), whose other layer still takes its grid from its own file.
-    write_ply(read_ply(views + "/Part_view_1.ply"), views + "/Part_view_1.ply");
-    write_project(views + "/gui.mlp", {"Part_view_0.ply", "Part_view_1.ply"});
-    const std::string refused = "this layer has no camera pixel grid (its file is not a PicoScan view, and no PicoScan "
-                                "view in " + views + " holds its points)";
-    run = run_meshlabserver(directory, std::string(kDeleteCurrentLayer) + align(), "-p project.mlp -w never.mlp");
-    EXPECT_NE(run.exit_code, 0);
-    EXPECT_NE(run.log.find("Part_view_1_out.ply: " + refused), std::string::npos) << run.log;
-    run = run_meshlabserver(directory, align(), "-p views/gui.mlp -w never.mlp");
-    EXPECT_NE(run.exit_code, 0);
-    EXPECT_NE(run.log.find("Part_view_0.ply: pixel grid and camera taken from the view file " + views + "/Part_view_0.ply"),
-              std::string::npos)
-        << run.log;
-    EXPECT_NE(run.log.find("Part_view_1.ply: " + refused), std::string::npos) << run.log;
-    EXPECT_FALSE(std::ifstream(directory + "/never.mlp").good());
     // Save Views never replaces a file that is not the layer's own: it stops before writing any.
     const std::string again = directory + "/views_again";
     std::filesystem::create_directories(again);
-    const std::string someone_else = write_file(again + "/Part_view_0_out.ply", "not mine\n");
+    const std::string someone_else = write_file(again + "/view_0_out.ply", "not mine\n");
     run = run_meshlabserver(directory, std::string(kDeleteCurrentLayer) + save_views(again), "-p project.mlp");
     EXPECT_NE(run.exit_code, 0);
-    EXPECT_NE(run.log.find(someone_else + ": exists and is not the file of layer Part_view_0_out.ply"), std::string::npos)
+    EXPECT_NE(run.log.find(someone_else + ": exists and is not the file of layer view_0_out.ply"), std::string::npos)
         << run.log;
     std::ifstream kept(someone_else);
     const std::string kept_text((std::istreambuf_iterator<char>(kept)), std::istreambuf_iterator<char>());
     EXPECT_EQ(kept_text, "not mine\n");
     EXPECT_EQ(std::distance(std::filesystem::directory_iterator(again), std::filesystem::directory_iterator()), 1);
+
+    // Built to fool it: a layer's file rewritten as a plain PLY of the same points (no pixels, no
+    // camera) and no view of it left. The project is refused, naming the layer and what it lacks;
+    // nothing is written.
+    write_ply(read_ply(views + "/view_1_out.ply"), views + "/view_1_out.ply");
+    run = run_meshlabserver(directory, std::string(kDeleteCurrentLayer) + align(), "-p project.mlp -w never.mlp");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("view_1_out.ply: this layer has no camera pixel grid (its file is not a PicoScan view, and no "
+                           "PicoScan view in " + views + " holds its points)"),
+              std::string::npos)
+        << run.log;
+    EXPECT_FALSE(std::ifstream(directory + "/never.mlp").good());
 }
 
 namespace {
