@@ -334,9 +334,9 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
     case SaveViews:
         return "Writes every PicoScan layer as a PicoScan view PLY (its points with their camera pixels, the camera, "
                "normals, quality, colours and the layer's transform as the view's pose) into a folder, and makes it "
-               "the layer's file. Run it before saving a project: MeshLab's own layer files keep neither the pixels "
-               "nor the camera, and Clean, Align and Fuse of the reopened project take them from these files (also "
-               "when meshlabserver wrote its own copy, LAYER_out.ply, beside them). Other layers are left as they are.";
+               "the layer's file: the core's format with the full camera, which picoscan and FreeCAD read. A saved "
+               "project does not need it (MeshLab's PLY of a PicoScan layer keeps its pixels and camera), but a "
+               "layer saved without them takes them from the view file beside it. Other layers are left as they are.";
     }
     return {};
 }

@@ -199,10 +199,10 @@ void adopt_view(MeshModel& layer, const picoscan::ScanView& view, const std::vec
     set_layer_camera(layer, view);
 }
 
-// A layer opened from a file that lost the pixels and camera (MeshLab keeps neither when it reads
-// a PicoScan view PLY, and meshlabserver's project save writes plain PLY files) takes them from a
-// PicoScan view PLY: its own file, or a view beside it (written by 'PicoScan: Save Views for
-// Project' next to MeshLab's copy), as long as the layer holds points of that view, in its order.
+// A layer opened from a file without the pixels and camera (MeshLab keeps neither when it reads a
+// PicoScan view PLY; a save may have left them out) takes them from a PicoScan view PLY: its own
+// file, or a view beside it (the view a MeshLab copy was saved from, or one written by 'PicoScan:
+// Save Views for Project'), as long as the layer holds points of that view, in its order.
 // Returns the view file used, or why there is none in `problem`.
 QString adopt_view_file(MeshModel& layer, std::string& problem) {
     const QString file = layer.fullName();
@@ -323,10 +323,10 @@ std::string missing_scan_data(MeshModel& layer, QString* view_file) {
         if (adopted.isEmpty()) {
             if (!has_pixels)
                 return "this layer has no camera pixel grid (" + not_a_view + "): it needs a point cloud layer made "
-                       "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', or a PicoScan view "
-                       "PLY; before saving a project, write the views with 'PicoScan: Save Views for Project'";
-            return "this layer has pixel coordinates but no camera (" + not_a_view + "): before saving a project, "
-                   "write the views with 'PicoScan: Save Views for Project'";
+                       "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', a PicoScan view "
+                       "PLY, or such a layer saved as PLY with its texture coordinates and camera";
+            return "this layer has pixel coordinates but no camera (" + not_a_view + "): save PicoScan layers as "
+                   "PLY with their camera";
         }
     }
     if (layer.cm.vn > 0 && layer.cm.vert.begin()->cN().SquaredNorm() == 0)

@@ -144,6 +144,17 @@ std::string write_file(const std::string& path, const std::string& text) {
     return path;
 }
 
+// A run refused with the one line of a layer that no view file holds, having written nothing.
+void expect_no_pixel_grid(const ServerRun& run, const std::string& layer_file, const std::string& folder,
+                          const std::string& never_written) {
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find(layer_file + ": this layer has no camera pixel grid (its file is not a PicoScan view, and no "
+                           "PicoScan view in " + folder + " holds its points)"),
+              std::string::npos)
+        << run.log;
+    EXPECT_FALSE(std::ifstream(never_written).good()) << never_written;
+}
+
 // The numbers after `label` in a log line such as "radius 30.0012 mm".
 std::vector<double> numbers_after(const std::string& log, const std::string& label, int count) {
     const size_t at = log.rfind(label);
@@ -583,12 +594,7 @@ TEST(MeshlabPlugin, ViewPlyOpenedInMeshlabCleansAsCli) {
     moved.vertices[moved.vertices.size() / 2][2] += 0.01f;
     write_ply(moved, directory + "/moved.ply");
     run = run_meshlabserver(directory, clean(), "-i moved.ply -o never.ply");
-    EXPECT_NE(run.exit_code, 0);
-    EXPECT_NE(run.log.find("moved.ply: this layer has no camera pixel grid (its file is not a PicoScan view, and no "
-                           "PicoScan view in " + directory + " holds its points)"),
-              std::string::npos)
-        << run.log;
-    EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
+    expect_no_pixel_grid(run, "moved.ply", directory, directory + "/never.ply");
 }
 
 // A scan layer saved in a project by MeshLab's own save (meshlabserver -w) keeps its pixels and
@@ -845,12 +851,7 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     // nothing is written.
     write_ply(read_ply(views + "/view_1_out.ply"), views + "/view_1_out.ply");
     run = run_meshlabserver(directory, std::string(kDeleteCurrentLayer) + align(), "-p project.mlp -w never.mlp");
-    EXPECT_NE(run.exit_code, 0);
-    EXPECT_NE(run.log.find("view_1_out.ply: this layer has no camera pixel grid (its file is not a PicoScan view, and no "
-                           "PicoScan view in " + views + " holds its points)"),
-              std::string::npos)
-        << run.log;
-    EXPECT_FALSE(std::ifstream(directory + "/never.mlp").good());
+    expect_no_pixel_grid(run, "view_1_out.ply", views, directory + "/never.mlp");
 }
 
 namespace {
