@@ -86,8 +86,8 @@ bool has_saved_camera(MeshModel& layer) {
 // writer as a file mask (IOM_*), whose bits mean other things: MM_VERTMARK is read as texture
 // coordinates (the pixels), MM_FACECOLOR as the camera (MM_VERTQUALITY, which a PicoScan layer has,
 // as normals). A PicoScan layer enables those two, so a project saved by meshlabserver keeps its
-// pixel grid and camera. The GUI's save dialog reads the mask right; a point cloud has no faces to
-// colour, so the extra bits cost a mark per vertex and nothing in the file.
+// pixel grid and camera. The GUI's save dialog reads the mask right. A point cloud has no faces to
+// colour: the extra bits cost a mark per vertex, and at most face colour properties of no face.
 void keep_grid_in_meshlabserver_saves(MeshModel& layer) {
     static_assert(int(MeshModel::MM_VERTMARK) == int(vcg::tri::io::Mask::IOM_VERTTEXCOORD) &&
                       int(MeshModel::MM_FACECOLOR) == int(vcg::tri::io::Mask::IOM_CAMERA) &&
