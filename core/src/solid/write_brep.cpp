@@ -2,9 +2,9 @@
 // FreeCAD's Part.Shape.read accept): lines and planes, then the topology from vertices up to
 // the solid; each face's triangles as its triangulation, each edge's chain of mesh vertices as its
 // polygon on those triangulations, and each edge's line on each face's plane as a 2D line (its
-// pcurve: without it, OpenCASCADE projects the edge onto the plane every time it asks, which was
-// a fifth of the time FreeCAD's view provider takes to draw a solid of 24 000 faces). Shapes refer to each other by their place counted from the end
-// of the list.
+// pcurve: without it, the mesher FreeCAD's view provider runs on every shape it draws projects
+// each edge onto each plane itself; docs/benchmarks.md has the figures). Shapes refer to each
+// other by their place counted from the end of the list.
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 #include "picoscan/solid.h"
@@ -56,7 +56,7 @@ std::optional<PCurve> pcurve_on(const PlaneFrame& plane, const cv::Vec3d& a, con
     const PCurve pcurve{plane.uv(a), along / cv::norm(along)};
     const double deviation = std::max(cv::norm(plane.at(pcurve.start) - a),
                                        cv::norm(plane.at(pcurve.start + length * pcurve.direction) - b));
-    if (!(deviation <= tolerance)) return std::nullopt;
+    if (!(deviation <= tolerance)) return std::nullopt;  // NaN too (an edge of no length)
     return pcurve;
 }
 
