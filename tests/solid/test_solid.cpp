@@ -196,7 +196,10 @@ TEST(PlanarFaces, EachFaceCarriesItsFacetsAsItsTriangulation) {
     EXPECT_NE(text.find("Triangulations 6\n"), std::string::npos);
     EXPECT_NE(text.find("PolygonOnTriangulations 24\n"), std::string::npos);  // each edge on its two faces
     EXPECT_EQ(count_of(text, "\n6  "), 24u);
-    EXPECT_EQ(count_of(text, "\n2  "), 6u);  // each face names its triangulation
+    // Each face names its triangulation ("2  t" ending its line), each edge its line on each
+    // face's plane ("2  pcurve surface 0 0 length").
+    EXPECT_EQ(count_of(text, "\n2  "), 6u + 24u);
+    EXPECT_NE(text.find("Curve2ds 24\n"), std::string::npos);
 
     PlanarFaceOptions unmerged;
     unmerged.merge = false;
@@ -205,6 +208,17 @@ TEST(PlanarFaces, EachFaceCarriesItsFacetsAsItsTriangulation) {
     const std::string ball_text = brep_text(triangles_only, "sphere");
     EXPECT_NE(ball_text.find("Triangulations " + std::to_string(ball.faces.size()) + "\n"), std::string::npos);
     EXPECT_NE(ball_text.find("PolygonOnTriangulations " + std::to_string(3 * ball.faces.size()) + "\n"), std::string::npos);
+    EXPECT_NE(ball_text.find("Curve2ds " + std::to_string(3 * ball.faces.size()) + "\n"), std::string::npos);
+
+    // A face's plane moved 0.1 mm off its edges (beyond their tolerance): its four edges get no line
+    // on it (OpenCASCADE then projects them, as without pcurves), the others keep theirs.
+    PlanarFaceModel shifted = box;
+    shifted.faces[0].origin += 0.1 * cv::normalize(shifted.faces[0].normal);
+    ASSERT_EQ(shifted.faces[0].wires.size(), 1u);
+    ASSERT_EQ(shifted.faces[0].wires[0].size(), 4u);
+    for (const auto& wire : shifted.faces[0].wires)
+        for (int e : wire) ASSERT_LT(shifted.edges[size_t(std::abs(e) - 1)].tolerance_mm, 0.1);
+    EXPECT_NE(brep_text(shifted, "shifted").find("Curve2ds 20\n"), std::string::npos);
 
     // An edge whose chain leaves the face's triangles, or does not run from its start to its end,
     // cannot be written: refused naming the file, nothing written.

@@ -1,8 +1,10 @@
 // OpenCASCADE's BREP text format (the "CASCADE Topology V1" layout that BRepTools::Read and
 // FreeCAD's Part.Shape.read accept): lines and planes, then the topology from vertices up to
 // the solid; each face's triangles as its triangulation, each edge's chain of mesh vertices as its
-// polygon on those triangulations. Shapes refer to each other by their place counted from the end
-// of the list.
+// polygon on those triangulations, and each edge's line on each face's plane as a 2D line (its
+// pcurve: without it, the mesher FreeCAD's view provider runs on every shape it draws projects
+// each edge onto each plane itself; docs/benchmarks.md has the figures). Shapes refer to each
+// other by their place counted from the end of the list.
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 #include "picoscan/solid.h"
@@ -10,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 
 namespace picoscan {
@@ -23,9 +26,38 @@ void append(std::string& out, const char* format, Values... values) {
     out.append(buffer, size_t(length));
 }
 
-cv::Vec3d perpendicular(const cv::Vec3d& normal) {
-    const cv::Vec3d helper = std::abs(normal[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
-    return cv::normalize(helper - helper.dot(normal) * normal);
+// A face's plane as written: origin, normal and the (u, v) directions x and y.
+struct PlaneFrame {
+    cv::Vec3d origin, normal, x, y;
+    cv::Vec2d uv(const cv::Vec3d& p) const { return {(p - origin).dot(x), (p - origin).dot(y)}; }
+    cv::Vec3d at(const cv::Vec2d& uv) const { return origin + uv[0] * x + uv[1] * y; }
+};
+
+PlaneFrame frame_of(const BrepFace& face) {
+    const cv::Vec3d n = cv::normalize(face.normal);
+    const cv::Vec3d helper = std::abs(n[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
+    const cv::Vec3d x = cv::normalize(helper - helper.dot(n) * n);
+    return {face.origin, n, x, n.cross(x)};
+}
+
+// An edge's pcurve on a plane: the 2D line through its start with its direction projected, both
+// in the plane's (u, v), parameterised like the edge's line (by length). None when the edge's line
+// strays from it by more than the edge's tolerance (the distance is affine in the parameter, so
+// largest at an end): then OpenCASCADE projects the edge itself, as without pcurves.
+struct PCurve {
+    cv::Vec2d start, direction;
+};
+
+std::optional<PCurve> pcurve_on(const PlaneFrame& plane, const cv::Vec3d& a, const cv::Vec3d& b, double tolerance) {
+    const double length = cv::norm(b - a);
+    const cv::Vec3d direction = (b - a) / length;
+    const cv::Vec2d along(direction.dot(plane.x), direction.dot(plane.y));
+    if (cv::norm(along) < 0.5) return std::nullopt;  // the edge runs steeply out of the plane
+    const PCurve pcurve{plane.uv(a), along / cv::norm(along)};
+    const double deviation = std::max(cv::norm(plane.at(pcurve.start) - a),
+                                       cv::norm(plane.at(pcurve.start + length * pcurve.direction) - b));
+    if (!(deviation <= tolerance)) return std::nullopt;  // NaN too (an edge of no length)
+    return pcurve;
 }
 
 }  // namespace
@@ -53,6 +85,27 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         for (const auto& wire : face.wires)
             for (int e : wire) faces_of_edge[size_t(std::abs(e) - 1)].push_back(f), ++polygon_count;
     }
+    // Each edge's pcurve on each face along it (once per face: an edge met twice in one face, as a
+    // seam would be, gets none).
+    std::vector<PlaneFrame> planes;
+    for (const BrepFace& face : model.faces) planes.push_back(frame_of(face));
+    std::vector<std::vector<std::pair<size_t, PCurve>>> pcurves_of_edge(edge_count);
+    size_t pcurve_count = 0;
+    for (size_t f = 0; f < face_count; ++f) {
+        std::vector<size_t> edges;
+        for (const auto& wire : model.faces[f].wires)
+            for (int e : wire) edges.push_back(size_t(std::abs(e) - 1));
+        std::sort(edges.begin(), edges.end());
+        for (size_t i = 0; i < edges.size(); ++i) {
+            const size_t e = edges[i];
+            if ((i > 0 && edges[i - 1] == e) || (i + 1 < edges.size() && edges[i + 1] == e)) continue;
+            if (e >= edge_count) throw Error(path, "face " + std::to_string(f) + " refers to a missing edge");
+            const BrepEdge& edge = model.edges[e];
+            if (const auto pcurve = pcurve_on(planes[f], model.vertices[size_t(edge.start)], model.vertices[size_t(edge.end)],
+                                              edge.tolerance_mm))
+                pcurves_of_edge[e].emplace_back(f, *pcurve), ++pcurve_count;
+        }
+    }
     auto node_number = [&](size_t f, int vertex) {
         const auto found = std::lower_bound(nodes[f].begin(), nodes[f].end(), vertex);
         if (found == nodes[f].end() || *found != vertex)
@@ -69,7 +122,18 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
     };
     std::string out;
     out.reserve(edge_count * 400 + face_count * 500 + model.vertices.size() * 90);
-    out += "DBRep_DrawableShape\n\nCASCADE Topology V1, (c) Matra-Datavision\nLocations 0\nCurve2ds 0\n";
+    out += "DBRep_DrawableShape\n\nCASCADE Topology V1, (c) Matra-Datavision\nLocations 0\n";
+    append(out, "Curve2ds %zu\n", pcurve_count);
+    std::vector<size_t> first_pcurve(edge_count, 0);
+    size_t pcurves = 0;
+    for (size_t e = 0; e < edge_count; ++e) {
+        first_pcurve[e] = pcurves + 1;
+        for (const auto& [f, pcurve] : pcurves_of_edge[e]) {
+            append(out, "1 %.17g %.17g %.17g %.17g\n", pcurve.start[0], pcurve.start[1], pcurve.direction[0],
+                   pcurve.direction[1]);
+            ++pcurves;
+        }
+    }
     append(out, "Curves %zu\n", edge_count);
     for (const BrepEdge& edge : model.edges) {
         wrote();
@@ -111,10 +175,9 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         }
     }
     append(out, "Surfaces %zu\n", face_count);
-    for (const BrepFace& face : model.faces) {
+    for (const PlaneFrame& plane : planes) {
         wrote();
-        const cv::Vec3d& o = face.origin;
-        const cv::Vec3d n = cv::normalize(face.normal), x = perpendicular(n), y = n.cross(x);
+        const cv::Vec3d &o = plane.origin, &n = plane.normal, &x = plane.x, &y = plane.y;
         append(out, "1 %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", o[0], o[1], o[2], n[0],
                n[1], n[2], x[0], x[1], x[2], y[0], y[1], y[2]);
     }
@@ -126,17 +189,17 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         const BrepFace& face = model.faces[f];
         if (face.triangles.empty()) continue;
         wrote();
-        const cv::Vec3d n = cv::normalize(face.normal), x = perpendicular(n), y = n.cross(x);
+        const PlaneFrame& plane = planes[f];
         double deflection = 0;
-        for (int v : nodes[f]) deflection = std::max(deflection, std::abs((model.vertices[v] - face.origin).dot(n)));
+        for (int v : nodes[f]) deflection = std::max(deflection, std::abs((model.vertices[v] - face.origin).dot(plane.normal)));
         append(out, "%zu %zu 1 %.17g\n", nodes[f].size(), face.triangles.size(), deflection);
         for (int v : nodes[f]) {
             const cv::Vec3d& p = model.vertices[v];
             append(out, "%.17g %.17g %.17g\n", p[0], p[1], p[2]);
         }
         for (int v : nodes[f]) {  // (u, v) on the plane: along the surface's x and y directions
-            const cv::Vec3d offset = model.vertices[v] - face.origin;
-            append(out, "%.9g %.9g\n", offset.dot(x), offset.dot(y));
+            const cv::Vec2d uv = plane.uv(model.vertices[v]);
+            append(out, "%.9g %.9g\n", uv[0], uv[1]);
         }
         for (const cv::Vec3i& triangle : face.triangles)
             append(out, "%zu %zu %zu\n", node_number(f, triangle[0]), node_number(f, triangle[1]), node_number(f, triangle[2]));
@@ -160,6 +223,8 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         const BrepEdge& edge = model.edges[e];
         const double length = cv::norm(model.vertices[edge.end] - model.vertices[edge.start]);
         append(out, "Ed\n %.17g 1 1 0\n1  %zu 0 0 %.17g\n", edge.tolerance_mm, e + 1, length);
+        for (size_t i = 0; i < pcurves_of_edge[e].size(); ++i)
+            append(out, "2  %zu %zu 0 0 %.17g\n", first_pcurve[e] + i, pcurves_of_edge[e][i].first + 1, length);
         for (size_t i = 0; i < faces_of_edge[e].size(); ++i)
             append(out, "6  %zu %zu 0\n", first_polygon[e] + i, triangulation_of[faces_of_edge[e][i]]);
         append(out, "0\n\n0101000\n+%zu 0 -%zu 0 *\n", vertex_ref(edge.start), vertex_ref(edge.end));

@@ -3,8 +3,9 @@ merges the facets that lie on one plane (within the scan's noise) into one plana
 the rest as triangles (and turns back into triangles the facets where a merged face's boundary
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
 and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`), each face with its
-own facets as its triangulation; FreeCAD reads it back and draws those triangles instead of
-meshing every face again (docs/freecad.md has the figures). No sewing: the time grows linearly
+own facets as its triangulation and each edge with its line on each face's plane; FreeCAD reads
+it back and draws those triangles instead of meshing every face again (docs/freecad.md has the
+figures). No sewing: the time grows linearly
 with the facets. The solid's volume is checked against the mesh's, and OpenCASCADE's own
 validity check (BRepCheck, the slowest part by far) runs when the solid has up to CHECK_FACES
 faces; both run in another process (brep_check.py), then this one reads the B-rep."""
