@@ -246,3 +246,32 @@ TEST(SectionFitScan, HexagonAndPegOfAPlainPartAtTwoNoiseLevels) {
         EXPECT_LT(worst_radius, 0.020) << "noise " << extra_noise;
     }
 }
+
+// MEASURE (temporary): bands of 17 cuts over +-band round every height, as the Cross-section command cuts.
+TEST(SectionFitScan, DISABLED_MeasureBands) {
+    for (const double band : {0.5, 1.0, 1.5, 2.0, 3.0}) {
+        double worst_side = 0, worst_chamfer = 0, sum2 = 0;
+        int n = 0;
+        for (double z = 1.5; z <= 22.51; z += 0.5) {
+            std::vector<std::vector<cv::Vec2d>> parallel;
+            for (int step = 0; step <= 16; ++step) {
+                if (step == 8) continue;
+                for (SectionPolyline& c : cut_mesh(scan_mesh(), {0, 0, z + band * (2.0 * step / 16 - 1)}, {1, 0, 0}, {0, 1, 0}))
+                    parallel.push_back(c.points);
+            }
+            const SectionFits fits = fit_section_polylines(cut_mesh(scan_mesh(), {0, 0, z}, {1, 0, 0}, {0, 1, 0}), parallel);
+            size_t big = 0;
+            for (size_t k = 0; k < fits.fits.size(); ++k)
+                if (fits.fits[k].elements.size() > fits.fits[big].elements.size()) big = k;
+            const SectionFit& fit = fits.fits[big];
+            if (fit.elements.size() != 5) { std::printf("band %.1f z %.1f: %zu elements\n", band, z, fit.elements.size()); continue; }
+            const SideErrors e = angle_errors_deg(fit);
+            worst_side = std::max(worst_side, e.worst_side);
+            worst_chamfer = std::max(worst_chamfer, e.chamfer);
+            sum2 += e.chamfer * e.chamfer;
+            ++n;
+        }
+        std::printf("band +-%.1f mm: %d cuts, worst side %.4f, worst chamfer %.4f, chamfer rms %.4f deg\n", band, n, worst_side,
+                    worst_chamfer, std::sqrt(sum2 / n));
+    }
+}

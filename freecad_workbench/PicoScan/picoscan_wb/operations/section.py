@@ -184,8 +184,10 @@ def add_fitted_geometry(sketch, fit):
         geometry, start_id, end_id = _geometry(element)
         index = sketch.addGeometry(geometry, False)
         placed.append((index, start_id, end_id))
-        size = "radius %.4f mm" % element.radius_mm if element.kind != Kind.Line else "length %.3f mm" % (
-            numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)))
+        # The fit's standard error (the core's block jackknife; nan when the element is too short to tell).
+        size = "radius %.4f mm (sigma %.4f mm)" % (element.radius_mm, element.radius_sigma_mm) \
+            if element.kind != Kind.Line else "length %.3f mm, angle sigma %.4f deg" % (
+                numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)), element.angle_sigma_deg)
         report.append("Edge%d: %s, %s, %d points, rms %.4f mm, max %.4f mm" % (
             index + 1, str(element.kind).split(".")[-1].lower(), size, element.point_count, element.rms_mm, element.max_mm))
     # The constraints may move the fitted geometry by about the tolerance; much more means they fight.
@@ -246,7 +248,11 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         sketch.Placement = placement
         report = []
         for fit in fits.fits:
-            report += add_fitted_geometry(sketch, fit)
+            lines = add_fitted_geometry(sketch, fit)
+            if fit.tolerance_mm > fits.tolerance_mm:  # a measured hole in a mesh whose sides were flattened
+                lines = ["%s; its loop's noise %.4f mm is above the section's tolerance: fitted within its own %.4f mm" % (
+                    line, fit.noise_mm, fit.tolerance_mm) for line in lines]
+            report += lines
         sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
         sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
         sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")
