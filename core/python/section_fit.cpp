@@ -5,6 +5,8 @@
 namespace picoscan::python {
 
 void bind_section_fit(py::module_& m) {
+    m.attr("DEFAULT_SECTION_BAND_MM") = kDefaultSectionBandMm;
+    m.attr("SECTION_BAND_CUTS") = kSectionBandCuts;
     py::enum_<SectionElementKind>(m, "SectionElementKind")
         .value("Line", SectionElementKind::Line)
         .value("Arc", SectionElementKind::Arc)
@@ -26,7 +28,8 @@ void bind_section_fit(py::module_& m) {
         .def_readwrite("tangent_angle_deg", &SectionFitOptions::tangent_angle_deg)
         .def_readwrite("snap_angle_deg", &SectionFitOptions::snap_angle_deg)
         .def_readwrite("min_polyline_points", &SectionFitOptions::min_polyline_points)
-        .def_readwrite("loop_noise_limit_mm", &SectionFitOptions::loop_noise_limit_mm);
+        .def_readwrite("loop_noise_limit_mm", &SectionFitOptions::loop_noise_limit_mm)
+        .def_readwrite("max_bridged_gap_mm", &SectionFitOptions::max_bridged_gap_mm);
     py::class_<SectionElement>(m, "SectionElement")
         .def_readonly("kind", &SectionElement::kind)
         .def_readonly("start", &SectionElement::start)

@@ -1062,6 +1062,13 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
     for (const SectionPolyline& polyline : input) polylines.push_back(distinct_points(polyline.points, polyline.closed));
     const auto big_enough = [&](size_t k) { return long(polylines[k].size()) >= std::max(4, options.min_polyline_points); };
 
+    const auto bridged = [&](const std::vector<cv::Vec2d>& points) {
+        if (points.size() < 2) return false;
+        double length = 0;
+        for (size_t i = 1; i < points.size(); ++i) length += cv::norm(points[i] - points[i - 1]);
+        const double gap = cv::norm(points.front() - points.back());
+        return gap <= options.max_bridged_gap_mm && gap <= 0.1 * length;
+    };
     SectionFits result;
     std::vector<double> windows;
     for (size_t k = 0; k < polylines.size(); ++k)
@@ -1078,7 +1085,7 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         if (progress && !progress(double(k) / double(polylines.size()), "fitting lines and arcs"))
             throw Error("cancelled", "the section fit was cancelled");
         const std::vector<cv::Vec2d>& points = polylines[k];
-        const bool closed = input[k].closed;
+        const bool closed = input[k].closed || bridged(points);
         std::string reason;
         if (!big_enough(k)) {
             reason = "fewer points than the " + std::to_string(std::max(4, options.min_polyline_points)) +
