@@ -552,6 +552,28 @@ TEST(SectionFit, ASectionLeavesOutCrumbsAndKeepsASmallRealHole) {
             << error.what();
     }
     EXPECT_THROW(fit_section_polylines({}), Error);
+    // An open chain round the outline: a gap of 0.6 mm (a hole in a scan's mesh) is bridged, the
+    // side it is in one line; a gap of 4.2 mm (above max_bridged_gap_mm) is not.
+    for (const auto& [dropped, bridged] : {std::pair{1, true}, std::pair{13, false}}) {
+        std::vector<cv::Vec2d> chain;
+        for (size_t i = 0; i < outline.points.size(); ++i) {
+            const cv::Vec2d& p = outline.points[(i + 60) % outline.points.size()];  // starts in the bottom side
+            if (i + size_t(dropped) < outline.points.size()) chain.push_back(p);
+        }
+        const SectionFits fits = fit_section_polylines({{chain, false}});
+        SCOPED_TRACE("gap of " + std::to_string(cv::norm(chain.front() - chain.back())) + " mm");
+        ASSERT_EQ(fits.fits.size(), 1u);
+        EXPECT_EQ(fits.fits[0].closed, bridged);
+        EXPECT_EQ(fits.fits[0].elements.size(), bridged ? 5u : 6u);
+    }
+    for (const double bad : {-1.0, std::nan("")}) {
+        SectionFitOptions options;
+        options.loop_noise_limit_mm = bad;
+        EXPECT_THROW(fit_section_polylines({{outline.points, true}}, {}, options), Error);
+        options = {};
+        options.max_bridged_gap_mm = bad;
+        EXPECT_THROW(fit_section_polylines({{outline.points, true}}, {}, options), Error);
+    }
 }
 
 // Real holes in a flattened mesh: the demo part's true mesh (its flat sides exact, so the

@@ -843,6 +843,10 @@ private:
 void check_tolerance(const SectionFitOptions& options) {
     if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
         throw Error("tolerance_mm", "must be 0 (from the noise) or positive");
+    if (!(options.loop_noise_limit_mm >= 0) || !std::isfinite(options.loop_noise_limit_mm))
+        throw Error("loop_noise_limit_mm", "must be 0 or positive");
+    if (!(options.max_bridged_gap_mm >= 0) || !std::isfinite(options.max_bridged_gap_mm))
+        throw Error("max_bridged_gap_mm", "must be 0 (no chain bridged) or positive");
 }
 
 // The polyline without repeated points (closed: nor the first point repeated at the end).
