@@ -5,6 +5,8 @@
 namespace picoscan::python {
 
 void bind_section_fit(py::module_& m) {
+    m.attr("DEFAULT_SECTION_BAND_MM") = kDefaultSectionBandMm;
+    m.attr("SECTION_BAND_CUTS") = kSectionBandCuts;
     py::enum_<SectionElementKind>(m, "SectionElementKind")
         .value("Line", SectionElementKind::Line)
         .value("Arc", SectionElementKind::Arc)
@@ -25,7 +27,9 @@ void bind_section_fit(py::module_& m) {
         .def_readwrite("max_arc_radius_mm", &SectionFitOptions::max_arc_radius_mm)
         .def_readwrite("tangent_angle_deg", &SectionFitOptions::tangent_angle_deg)
         .def_readwrite("snap_angle_deg", &SectionFitOptions::snap_angle_deg)
-        .def_readwrite("min_polyline_points", &SectionFitOptions::min_polyline_points);
+        .def_readwrite("min_polyline_points", &SectionFitOptions::min_polyline_points)
+        .def_readwrite("loop_noise_limit_mm", &SectionFitOptions::loop_noise_limit_mm)
+        .def_readwrite("max_bridged_gap_mm", &SectionFitOptions::max_bridged_gap_mm);
     py::class_<SectionElement>(m, "SectionElement")
         .def_readonly("kind", &SectionElement::kind)
         .def_readonly("start", &SectionElement::start)
@@ -37,6 +41,8 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("point_count", &SectionElement::point_count)
         .def_readonly("rms_mm", &SectionElement::rms_mm)
         .def_readonly("max_mm", &SectionElement::max_mm)
+        .def_readonly("angle_sigma_deg", &SectionElement::angle_sigma_deg)
+        .def_readonly("radius_sigma_mm", &SectionElement::radius_sigma_mm)
         .def_readonly("tangent_to_next", &SectionElement::tangent_to_next)
         .def("__repr__", [](const SectionElement& e) {
             return "<SectionElement " + to_string(e.kind) + (e.kind == SectionElementKind::Line ? "" : " radius " + std::to_string(e.radius_mm)) +

@@ -43,6 +43,19 @@ struct SectionFitOptions {
     // fit_section_polylines: a polyline of fewer points is no feature of the part (a crumb of a
     // mesh, a few facets grazed): it is left out, with the reason.
     int min_polyline_points = 16;
+    // fit_section_polylines, with the tolerance from the noise: a polyline whose own noise is
+    // above the section's tolerance is left out only when it is above this too. A mesher that
+    // flattens the sides (a Poisson surface) leaves the outline no noise, so the section's
+    // tolerance falls to min_tolerance_mm while a hole the scan measured still scatters by
+    // 0.01-0.03 mm; 0.03 mm is the tolerance the demo scan's own cuts get (5 x their 0.006 mm of
+    // noise), and a guessed surface scatters by more (0.04-0.3 mm). Such a polyline is fitted
+    // with the tolerance of its own noise.
+    double loop_noise_limit_mm = 0.03;
+    // fit_section_polylines: an open chain whose ends are at most this far apart (and at most a
+    // tenth of its length) is fitted as a loop. A cut of a closed part is closed; a chain is
+    // open only where the scan's mesh has a hole, e.g. a gap of 0.3 mm in the middle of the demo
+    // scan's right side at z = 12 mm, which would split that side in two.
+    double max_bridged_gap_mm = 3.0;
 };
 
 struct SectionElement {
@@ -55,6 +68,12 @@ struct SectionElement {
     bool counter_clockwise = true;     // arc: the polyline runs counter-clockwise around the centre
     int first_point = 0, point_count = 0;  // the polyline points fitted (indices wrap on closed polylines)
     double rms_mm = 0, max_mm = 0;     // distances of those points to the element
+    // Standard errors of the fit, from the points it used (parallel cuts included) by the block
+    // jackknife: the fit repeated without each run of about 1 mm along the element, since a
+    // scan's deviations are shared over about that (its bumps, a facet). NaN for an element of
+    // fewer than 3 runs. A line's direction; an arc's or circle's radius.
+    double angle_sigma_deg = 0;        // line
+    double radius_sigma_mm = 0;        // arc and circle
     bool tangent_to_next = false;      // smooth joint with the next element (closed: the last with the first)
 };
 
@@ -106,10 +125,11 @@ SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool clo
 // A section's polylines fitted as one: one noise for all (the median over the short runs of every
 // polyline of at least min_polyline_points, so mostly the biggest one's), one tolerance from it
 // (or the one given). A polyline is left out, with a one-line reason, when it has fewer than
-// min_polyline_points points, when its own noise is above that tolerance (a crumb of a mesh,
-// e.g. a small loop a Poisson surface leaves inside the part, whose own noise would set a
-// tolerance loose enough to fit it as a circle), or when it cannot be split into elements
-// within the tolerance. Throws Error("polyline", ...) when the biggest polyline is left out
+// min_polyline_points points, when its own noise is above that tolerance and (unless the
+// tolerance is given) above loop_noise_limit_mm (a crumb of a mesh, e.g. a small loop a Poisson
+// surface leaves inside the part, whose own noise would set a tolerance loose enough to fit it as
+// a circle), or when it cannot be split into elements within the tolerance. An open chain with
+// a small gap (max_bridged_gap_mm) is fitted as a loop: its SectionFit is closed. Throws Error("polyline", ...) when the biggest polyline is left out
 // (a sketch without its outline must not look like a fit), Error("polylines", ...) when none is
 // given, Error("tolerance_mm", ...) for a negative tolerance, Error("cancelled", ...) when
 // `progress` (told before each polyline) answers false.
@@ -121,8 +141,17 @@ struct LeftOutPolyline {
     double across_mm = 0;              // the larger side of its bounding box
     std::string reason;
 };
+// The hosts' default *Band*: a section's elements are refitted with 16 more cuts spread evenly over
+// +- this from the plane (passed as parallel_cuts). One cut of the demo scan gives its 11.3 mm
+// chamfer's direction within 0.108 degrees (worst of 42 heights), bands of +-1, 2, 3, 4 mm within
+// 0.051, 0.044, 0.038, 0.028 degrees: the scan's bumps recur over about 1 mm of height too.
+constexpr double kDefaultSectionBandMm = 3.0;
+constexpr int kSectionBandCuts = 16;
+
 struct SectionFits {
-    std::vector<SectionFit> fits;      // in the order of the polylines, each with the section's noise and tolerance
+    // In the order of the polylines, each with the section's noise and tolerance, or its own where
+    // its noise is above the section's tolerance and within loop_noise_limit_mm.
+    std::vector<SectionFit> fits;
     std::vector<int> fitted_index;     // the polyline each fit is of
     std::vector<LeftOutPolyline> left_out;
     double noise_mm = 0, tolerance_mm = 0;

@@ -662,6 +662,52 @@ Shape refit_with_parallel_cuts(const Shape& shape, const Points& pts, long first
     return refitted;
 }
 
+// The standard error of `shape`'s direction (a line, degrees) or radius (a circle, mm) fitted to
+// pts[first, first + count) and its points of the parallel cuts, by the block jackknife: the
+// points cut into runs of about 1 mm along the element (at most 40 runs), the fit repeated
+// without each run. A scan's deviations are shared over about 1 mm (its bumps, a facet), so
+// single points are not independent samples; runs of that length nearly are. NaN for fewer than
+// 3 runs.
+double jackknife_sigma(const Shape& shape, const Points& pts, long first, long count,
+                       const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double tolerance, bool whole_circle) {
+    std::vector<cv::Vec2d> points = parallel_cuts.empty()
+                                        ? std::vector<cv::Vec2d>{}
+                                        : parallel_points(shape, pts, first, count, parallel_cuts, tolerance, whole_circle);
+    for (long i = first; i < first + count; ++i) points.push_back(pts[i]);
+    // Position along the element: along the line, or the arc length from the middle point.
+    const cv::Vec2d middle = shape.circle ? pts[first + count / 2] - shape.centre : cv::Vec2d();
+    std::vector<double> position;
+    double low = HUGE_VAL, high = -HUGE_VAL;
+    for (const cv::Vec2d& p : points) {
+        const cv::Vec2d r = p - shape.centre;
+        position.push_back(shape.circle ? shape.radius * std::atan2(middle[0] * r[1] - middle[1] * r[0], middle.dot(r))
+                                        : (p - shape.point).dot(shape.direction));
+        low = std::min(low, position.back());
+        high = std::max(high, position.back());
+    }
+    const double run = std::max(1.0, (high - low) / 40);
+    const int runs = int(std::floor((high - low) / run)) + 1;
+    std::vector<double> values;
+    for (int k = 0; k < runs; ++k) {
+        std::vector<cv::Vec2d> others;
+        for (size_t i = 0; i < points.size(); ++i)
+            if (std::min(int((position[i] - low) / run), runs - 1) != k) others.push_back(points[i]);
+        if (others.size() == points.size()) continue;  // an empty run
+        const Points rest{others, false};
+        const Shape fit = shape.circle ? fit_circle(rest, 0, long(others.size())) : fit_line(rest, 0, long(others.size()));
+        if (!fit.ok) return std::nan("");
+        // fit_line orients a fit along its first and last points: turned the element's way.
+        const cv::Vec2d d = fit.direction.dot(shape.direction) < 0 ? -fit.direction : fit.direction;
+        values.push_back(shape.circle ? fit.radius
+                                      : std::asin(std::clamp(shape.direction[0] * d[1] - shape.direction[1] * d[0], -1.0, 1.0)) * 180 / kPi);
+    }
+    if (values.size() < 3) return std::nan("");
+    double mean = 0, spread = 0;
+    for (const double v : values) mean += v / double(values.size());
+    for (const double v : values) spread += (v - mean) * (v - mean);
+    return std::sqrt(spread * double(values.size() - 1) / double(values.size()));
+}
+
 // A fillet: an arc tangent to a line before it and a line after it, fitted as one curve by least
 // squares. Each line is n . p = c (n = (cos t, sin t)); the centre lies r from both lines, on the
 // side it started on, so the tangency holds exactly; each point is measured to the piece it lies
@@ -797,6 +843,10 @@ private:
 void check_tolerance(const SectionFitOptions& options) {
     if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
         throw Error("tolerance_mm", "must be 0 (from the noise) or positive");
+    if (!(options.loop_noise_limit_mm >= 0) || !std::isfinite(options.loop_noise_limit_mm))
+        throw Error("loop_noise_limit_mm", "must be 0 or positive");
+    if (!(options.max_bridged_gap_mm >= 0) || !std::isfinite(options.max_bridged_gap_mm))
+        throw Error("max_bridged_gap_mm", "must be 0 (no chain bridged) or positive");
 }
 
 // The polyline without repeated points (closed: nor the first point repeated at the end).
@@ -844,6 +894,7 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
             circle.max_mm = std::max(circle.max_mm, d);
         }
         circle.rms_mm = std::sqrt(sum / double(n));
+        circle.radius_sigma_mm = jackknife_sigma(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true);
         result.elements.push_back(circle);
         return result;
     };
@@ -869,6 +920,7 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
         for (long i = 0; i < n; ++i) sum += std::pow(whole.distance(pts[i]), 2);
         if (std::sqrt(sum / double(n)) <= result.tolerance_mm) return whole_circle(whole);
     }
+    std::vector<double> sigmas;  // of each final fit (jackknife_sigma)
     // The final fits leave out a tenth of the points at each end that is a corner or an open end:
     // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
     // a point off. Tangent ends keep their points: a fillet needs all of its short arc.
@@ -939,10 +991,15 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
                                             std::to_string(result.tolerance_mm) +
                                             " mm: the section cannot be split into lines and arcs there");
         }
+        for (size_t j = 0; j < count; ++j)
+            sigmas.push_back(jackknife_sigma(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, parallel_cuts,
+                                             result.tolerance_mm, false));
         spans = trimmed;
     }
-    for (const Span& span : spans) {
+    for (size_t j = 0; j < spans.size(); ++j) {
+        const Span& span = spans[j];
         SectionElement e;
+        (span.shape.circle ? e.radius_sigma_mm : e.angle_sigma_deg) = sigmas[j];
         e.kind = span.shape.circle ? SectionElementKind::Arc : SectionElementKind::Line;
         e.first_point = int(((span.first % n) + n) % n);
         e.point_count = int(span.count);
@@ -1009,6 +1066,13 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
     for (const SectionPolyline& polyline : input) polylines.push_back(distinct_points(polyline.points, polyline.closed));
     const auto big_enough = [&](size_t k) { return long(polylines[k].size()) >= std::max(4, options.min_polyline_points); };
 
+    const auto bridged = [&](const std::vector<cv::Vec2d>& points) {
+        if (points.size() < 2) return false;
+        double length = 0;
+        for (size_t i = 1; i < points.size(); ++i) length += cv::norm(points[i] - points[i - 1]);
+        const double gap = cv::norm(points.front() - points.back());
+        return gap <= options.max_bridged_gap_mm && gap <= 0.1 * length;
+    };
     SectionFits result;
     std::vector<double> windows;
     for (size_t k = 0; k < polylines.size(); ++k)
@@ -1025,17 +1089,25 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         if (progress && !progress(double(k) / double(polylines.size()), "fitting lines and arcs"))
             throw Error("cancelled", "the section fit was cancelled");
         const std::vector<cv::Vec2d>& points = polylines[k];
-        const bool closed = input[k].closed;
+        const bool closed = input[k].closed || bridged(points);
         std::string reason;
         if (!big_enough(k)) {
             reason = "fewer points than the " + std::to_string(std::max(4, options.min_polyline_points)) +
                      " a feature of the part needs (min_polyline_points)";
-        } else if (const double own = estimate_noise({points, closed}, options.noise_window_mm); own > result.tolerance_mm) {
+        } else if (const double own = estimate_noise({points, closed}, options.noise_window_mm);
+                   own > result.tolerance_mm && (options.tolerance_mm > 0 || own > options.loop_noise_limit_mm)) {
             reason = "its points scatter by " + number(own) + " mm about short line or arc fits, more than the section's "
-                     "tolerance of " + number(result.tolerance_mm) + " mm (a tolerance set above it fits it)";
+                     "tolerance of " + number(result.tolerance_mm) + " mm" +
+                     (options.tolerance_mm > 0 || result.tolerance_mm >= options.loop_noise_limit_mm
+                          ? ""
+                          : " and the " + number(options.loop_noise_limit_mm) + " mm a scan's cut holds (loop_noise_limit_mm)") +
+                     " (a tolerance set above it fits it)";
         } else {
             try {
-                result.fits.push_back(fit_section_with(points, closed, options, parallel_cuts, result.noise_mm));
+                // Noisier than the section (a measured hole in a mesh whose sides were flattened):
+                // fitted with its own noise's tolerance.
+                const double noise = own > result.tolerance_mm ? own : result.noise_mm;
+                result.fits.push_back(fit_section_with(points, closed, options, parallel_cuts, noise));
                 result.fitted_index.push_back(int(k));
                 continue;
             } catch (const Error& e) {

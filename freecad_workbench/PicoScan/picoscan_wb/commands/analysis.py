@@ -148,7 +148,7 @@ class CrossSectionCommand(Command):
         FreeCADGui.Control.showDialog(self.panel)
 
     @staticmethod
-    def section(mesh, axis, position_mm, tolerance_mm, band_mm=0.0):
+    def section(mesh, axis, position_mm, tolerance_mm, band_mm=picoscan.DEFAULT_SECTION_BAND_MM):
         sketch = section.cross_section(mesh.Document, mesh, axis=axis, offset_mm=position_mm, tolerance_mm=tolerance_mm,
                                        band_mm=band_mm)
         source = getattr(mesh, "Source", None)

@@ -46,7 +46,7 @@ def section_polylines(mesh, core, label, axis, offset_mm=None, progress=None):
     return placement, [(line.points, line.closed) for line in polylines]
 
 
-def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=16, progress=None):
+def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=picoscan.SECTION_BAND_CUTS, progress=None):
     """The section's 2D points at `count` other positions spread over +- band_mm around the plane
     (the same 2D frame: the plane only moves along its normal); empty when band_mm is 0."""
     if band_mm < 0:
@@ -67,7 +67,7 @@ def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=16, progress=None)
     return cuts
 
 
-def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=0.0, progress=None):
+def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=picoscan.DEFAULT_SECTION_BAND_MM, progress=None):
     """(placement of the cutting plane, picoscan.SectionFits) of a FreeCAD mesh (not a document
     object: this runs on the worker thread). The section's polylines are judged together
     (picoscan.fit_section_polylines): one noise and tolerance for all; crumbs too small or too
@@ -184,8 +184,10 @@ def add_fitted_geometry(sketch, fit):
         geometry, start_id, end_id = _geometry(element)
         index = sketch.addGeometry(geometry, False)
         placed.append((index, start_id, end_id))
-        size = "radius %.4f mm" % element.radius_mm if element.kind != Kind.Line else "length %.3f mm" % (
-            numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)))
+        # The fit's standard error (the core's block jackknife; nan when the element is too short to tell).
+        size = "radius %.4f mm (sigma %.4f mm)" % (element.radius_mm, element.radius_sigma_mm) \
+            if element.kind != Kind.Line else "length %.3f mm, angle sigma %.4f deg" % (
+                numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)), element.angle_sigma_deg)
         report.append("Edge%d: %s, %s, %d points, rms %.4f mm, max %.4f mm" % (
             index + 1, str(element.kind).split(".")[-1].lower(), size, element.point_count, element.rms_mm, element.max_mm))
     # The constraints may move the fitted geometry by about the tolerance; much more means they fight.
@@ -229,14 +231,16 @@ def add_fitted_geometry(sketch, fit):
     return report
 
 
-def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", tolerance_mm=0.0, band_mm=0.0):
+def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", tolerance_mm=0.0,
+                  band_mm=picoscan.DEFAULT_SECTION_BAND_MM):
     """Adds a Sketch of the section, placed in the cutting plane: lines, arcs and circles fitted to
     the cut within tolerance_mm (0: from the scan's noise), joined and constrained, ready to edit in
     Sketcher and to pad. All polylines of the cut share one noise and tolerance; those too small or
     too noisy to be a feature of the part are left out of the sketch and listed, with the reason, in
-    its LeftOut property (and the Report view). With band_mm > 0 the outline is taken as prismatic
-    within +- band_mm of the plane (a pad's sides): each element is refitted with the points of 16
-    parallel cuts there. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
+    its LeftOut property (and the Report view). With band_mm > 0 (by default 3 mm) each element is
+    refitted with the points of 16 parallel cuts within +- band_mm of the plane wherever they follow
+    it (a pad's sides): one cut of a scan mesh gives a short line's direction to about 0.1 degrees,
+    the band to 0.04; band_mm = 0 fits the one cut. Each element's report gives its standard error. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
     placement, fits = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
@@ -246,7 +250,11 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         sketch.Placement = placement
         report = []
         for fit in fits.fits:
-            report += add_fitted_geometry(sketch, fit)
+            lines = add_fitted_geometry(sketch, fit)
+            if fit.tolerance_mm > fits.tolerance_mm:  # a measured hole in a mesh whose sides were flattened
+                lines = ["%s; its loop's noise %.4f mm is above the section's tolerance: fitted within its own %.4f mm" % (
+                    line, fit.noise_mm, fit.tolerance_mm) for line in lines]
+            report += lines
         sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
         sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
         sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")

@@ -3,6 +3,8 @@ fit tolerance are set before anything is computed; a translucent plane shows whe
 import FreeCADGui
 from PySide import QtGui
 
+import picoscan
+
 from picoscan_wb.commands.base import run_guarded
 
 AXES = ("X", "Y", "Z")
@@ -43,8 +45,10 @@ class CrossSectionTaskPanel:
         self.band.setDecimals(3)
         self.band.setSuffix(" mm")
         self.band.setSpecialValueText("one cut")
-        self.band.setToolTip("For a prismatic outline (a pad's sides): refit each line and arc with 16 more cuts "
-                             "within +- this distance of the plane; 0: the one cut")
+        self.band.setValue(picoscan.DEFAULT_SECTION_BAND_MM)
+        self.band.setToolTip("Refit each line and arc with 16 more cuts within +- this distance of the plane, "
+                             "wherever they follow it (a pad's sides): one cut of a scan gives a short line's "
+                             "direction to about 0.1 degrees, 17 cuts over +- 3 mm to 0.04; 0: the one cut")
         layout.addRow("Band (+-)", self.band)
         self.preview = None
         self.axis.currentTextChanged.connect(self.centre_position)

@@ -928,6 +928,7 @@ class PicoScanSectionFitTest(unittest.TestCase):
             mesh = self.noisy_part(sigma)
             sketch = section.cross_section(self.doc, mesh, axis="Z", offset_mm=12.0, name="Outline")
             self.assertTrue(sketch.isValid(), sketch.getStatusString())
+            self.assertEqual(sketch.FitBand.Value, picoscan.DEFAULT_SECTION_BAND_MM)  # the default: 17 cuts over +-3 mm
             FreeCAD.Console.PrintMessage("demo outline, vertex noise %.2f mm: noise %.4f mm, tolerance %.4f mm, "
                                          "%d constraints\n%s\n" % (sigma, sketch.FitNoise.Value, sketch.FitTolerance.Value,
                                                                    sketch.ConstraintCount, "\n".join(sketch.FitReport)))
@@ -938,15 +939,10 @@ class PicoScanSectionFitTest(unittest.TestCase):
             for line in lines:  # after the constraints were solved
                 direction = math.degrees(math.atan2(line.EndPoint.y - line.StartPoint.y, line.EndPoint.x - line.StartPoint.x))
                 error = min(min(abs(direction - t) % 360, 360 - abs(direction - t) % 360) for t in truth)
-                # The noise of a cut is shared along each facet (0.6 mm): about length / 0.6 independent
-                # samples, so a least-squares direction is known to sigma / (L sqrt(n / 12)) radians.
-                samples = line.length() / 0.6
-                bound = max(0.05, 4 * math.degrees(sigma / (line.length() * math.sqrt(samples / 12))))
-                FreeCAD.Console.PrintMessage("  line of %.3f mm: direction error %.4f deg (bound %.3f)\n" % (
-                    line.length(), error, bound))
-                self.assertLess(error, bound, "line at %.4f deg" % direction)
-                if sigma == 0 or line.length() > 25:
-                    self.assertLess(error, 0.05, "line at %.4f deg" % direction)
+                # One cut alone missed 0.05 degrees on the 11.3 mm chamfer at 20 and 40 um (0.075, 0.149):
+                # the default band's 17 cuts hold it (0.0099 and 0.0193 when this was written).
+                FreeCAD.Console.PrintMessage("  line of %.3f mm: direction error %.4f deg\n" % (line.length(), error))
+                self.assertLess(error, 0.05, "line at %.4f deg" % direction)
             hole = circles[0]
             centre = sketch.Placement.multVec(hole.Center)
             FreeCAD.Console.PrintMessage("hole radius %.4f mm (error %.1f um)\n" % (hole.Radius, 1000 * (hole.Radius - 5)))
