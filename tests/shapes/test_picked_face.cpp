@@ -331,3 +331,27 @@ TEST(PickedFace, DemoPartScanBossHoleChamferAndTopsFromPickedPoints) {
         }
     }
 }
+
+// Two coplanar plates 1.1 mm apart across the camera's axis (x = y = 0), where a hashed cube key
+// took the cube (1, 1, 0) for (-1, -1, 0): the face grown on one plate jumped onto the other.
+TEST(PickedFace, AFaceDoesNotJumpAGapAcrossTheCameraAxis) {
+    PointCloud cloud;
+    std::mt19937 random(11);
+    std::normal_distribution<double> noise(0.0, 0.01);
+    size_t near_plate = 0;
+    for (double x = -8; x <= 9 + 1e-9; x += kStep)
+        for (double y = -8; y <= 9 + 1e-9; y += kStep) {
+            const bool near = x < -0.05 && y < -0.05, far = x > 1.05 && y > 1.05;
+            if (!near && !far) continue;
+            near_plate += near;
+            cloud.points.emplace_back(x, y, 0.5 + noise(random));
+            cloud.normals.emplace_back(0, 0, 1);
+        }
+    RegionSelection selection;
+    selection.radius_mm = 30;
+    const GrownFace face = grow_face(cloud, {-4, -4, 0.5}, selection);
+    size_t on_far_plate = 0;
+    for (int i : face.region) on_far_plate += cloud.points[size_t(i)][0] > 0;
+    EXPECT_EQ(on_far_plate, 0u) << face.report;
+    EXPECT_GT(face.region.size(), near_plate * 9 / 10) << face.report;
+}

@@ -680,11 +680,16 @@ GrownFace grow_face(const PointCloud& cloud, const cv::Vec3d& seed, const Region
     // Each kind grown from its start: flood over the points near its surface, refit, again.
     // The face floods from cube to neighbouring cube (of max_gap_mm, the 26 around), taking each
     // cube's points that lie on the shape: every point is looked at once per flood.
-    std::unordered_map<int64_t, int> cube_at;
+    std::unordered_map<uint64_t, int> cube_at;
     std::vector<std::vector<int>> cube_points;
     std::vector<cv::Vec3i> cube_cell;
     std::vector<int> cube_of(points.size());
-    const auto cube_key = [](const cv::Vec3i& c) { return (int64_t(c[0]) * 73856093) ^ (int64_t(c[1]) * 19349663) ^ (int64_t(c[2]) * 83492791); };
+    // 21 bits an axis: one key per cube within 2^20 cubes of the origin (a scanner's whole
+    // reach). A hashed key merged cubes: (-1, -1, z) and (1, 1, z), on the camera's axis, collided.
+    const auto cube_key = [](const cv::Vec3i& c) {
+        const auto bits = [](int v) { return uint64_t(uint32_t(v) & 0x1FFFFFu); };
+        return (bits(c[0]) << 42) | (bits(c[1]) << 21) | bits(c[2]);
+    };
     for (size_t j = 0; j < points.size(); ++j) {
         const cv::Vec3i cell(int(std::floor(points[j][0] / selection.max_gap_mm)), int(std::floor(points[j][1] / selection.max_gap_mm)),
                              int(std::floor(points[j][2] / selection.max_gap_mm)));
