@@ -47,7 +47,9 @@ each tool, the views of each placement placed right in the model, and the join: 
 wrong against the true pose of the second placement's first view (1 degree and 1 mm at its
 centroid), or not joined and why, with the wall and CPU time of each placement's alignment and
 of the join (PicoScan's from its progress reports: each placement made one cloud and
-registered, summed over every way its automatic mode tried).
+registered, summed over every way its automatic mode tried). A third table gives each model
+against issue 12's targets (TARGETS: every view right, volume within 0.5 %, truth -> mesh mean
+15 um, p95 40 um, max 150 um, mesh -> truth p95 40 um, max 150 um), pass or FAIL with the figure.
 
 Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
@@ -523,24 +525,61 @@ def open3d_pipeline(placements):
     return run, cropped
 
 
-def pipeline_row(name, run, truth, placed):
-    """One line of the model table: the same measures for every tool's mesh."""
+# Issue 12's measured targets for a complete model: (heading, the figure's key, its limit).
+# Volume as a fraction of the true part's, distances in mm.
+TARGETS = (("volume within 0.5 %", "volume_error", 0.005),
+           ("truth -> mesh mean <= 15 um", "to_mesh_mean", 0.015),
+           ("truth -> mesh p95 <= 40 um", "to_mesh_p95", 0.040),
+           ("truth -> mesh max <= 150 um", "to_mesh_max", 0.150),
+           ("mesh -> truth p95 <= 40 um", "to_truth_p95", 0.040),
+           ("mesh -> truth max <= 150 um", "to_truth_max", 0.150))
+
+
+def model_figures(run, truth):
+    """The measures of one tool's mesh against the true part (None without a mesh): closed
+    (Open3D's is_watertight), volume and its error, truth -> mesh mean / p95 / max, mesh ->
+    truth p95 / max (None without a finite vertex) and the vertices left out as not finite."""
     if run.mesh is None or not run.mesh.has_triangles():
-        return "| %s | %s | no mesh | - | - | - | %.0f / %.0f |" % (name, placed, *run.seconds["all"])
+        return None
     to_mesh, to_truth, not_finite = distances(truth, run.mesh)
+    volume = mesh_volume(run.mesh)
+    return {"watertight": run.mesh.is_watertight(), "volume": volume, "volume_error": volume / truth.volume - 1,
+            "to_mesh_mean": to_mesh.mean(), "to_mesh_p95": np.percentile(to_mesh, 95), "to_mesh_max": to_mesh.max(),
+            "to_truth_p95": np.percentile(to_truth, 95) if len(to_truth) else None,
+            "to_truth_max": to_truth.max() if len(to_truth) else None, "not_finite": not_finite}
+
+
+def pipeline_row(name, run, figures, placed):
+    """One line of the model table: the same measures for every tool's mesh."""
+    if figures is None:
+        return "| %s | %s | no mesh | - | - | - | %.0f / %.0f |" % (name, placed, *run.seconds["all"])
     print("%s: %d of %d triangles with two corners at one position, left out of the distance search"
           % (name, collapsed(run.mesh).sum(), len(run.mesh.triangles)), file=sys.stderr)
-    volume = mesh_volume(run.mesh)
-    watertight = run.mesh.is_watertight()
-    volume_text = "%.2f (%+.2f %%)" % (volume / 1000, 100 * (volume / truth.volume - 1))
-    if not watertight:
+    volume_text = "%.2f (%+.2f %%)" % (figures["volume"] / 1000, 100 * figures["volume_error"])
+    if not figures["watertight"]:
         volume_text = "open (%s)" % volume_text  # an open mesh encloses no volume: indicative only
-    to_truth_text = "%.3f / %.3f" % (np.percentile(to_truth, 95), to_truth.max()) if len(to_truth) else "-"
-    if not_finite:
-        to_truth_text += " (%d vertices not finite, left out)" % not_finite
+    to_truth_text = "-" if figures["to_truth_max"] is None else "%.3f / %.3f" % (figures["to_truth_p95"],
+                                                                               figures["to_truth_max"])
+    if figures["not_finite"]:
+        to_truth_text += " (%d vertices not finite, left out)" % figures["not_finite"]
     return ("| %s | %s | %s | %s | %.3f / %.3f / %.3f | %s | %.0f / %.0f |" % (
-        name, placed, "yes" if watertight else "no", volume_text, to_mesh.mean(), np.percentile(to_mesh, 95),
-        to_mesh.max(), to_truth_text, *run.seconds["all"]))
+        name, placed, "yes" if figures["watertight"] else "no", volume_text, figures["to_mesh_mean"],
+        figures["to_mesh_p95"], figures["to_mesh_max"], to_truth_text, *run.seconds["all"]))
+
+
+def targets_row(name, figures, views, right):
+    """One line of the targets table: each of issue 12's targets passed or failed, with the
+    figure. Every view must be placed right; an open mesh encloses no volume (fails it)."""
+    cells = ["%s (%d of %d)" % ("pass" if right == views else "FAIL", right, views)]
+    for _, key, limit in TARGETS:
+        value = None if figures is None else figures[key]
+        if value is None or (key == "volume_error" and not figures["watertight"]):
+            cells.append("FAIL (%s)" % ("no mesh" if figures is None else "open" if value is not None else "-"))
+        elif key == "volume_error":
+            cells.append("%s (%+.2f %%)" % ("pass" if abs(value) <= limit else "FAIL", 100 * value))
+        else:
+            cells.append("%s (%.0f um)" % ("pass" if value <= limit else "FAIL", 1000 * value))
+    return "| %s | %s |" % (name, " | ".join(cells))
 
 
 def placements_row(name, run, truth, centroids, sizes):
@@ -570,6 +609,13 @@ def print_model_table(rows, views=8):
     print("\n".join(rows))
 
 
+def print_targets_table(rows):
+    print("\nIssue 12's targets (pass / FAIL, the figure):\n")
+    print("| model | every view right | %s |" % " | ".join(heading for heading, _, _ in TARGETS))
+    print("|---|---|%s" % ("---|" * len(TARGETS)))
+    print("\n".join(rows))
+
+
 def print_placements_table(rows, sizes):
     columns = ["placement 1: views right, time wall / CPU"]
     for p in range(1, len(sizes)):
@@ -596,8 +642,9 @@ def part_views(args, part, placements=("views",)):
 def compare_pipelines(args, module, placements=("views",)):
     """The --pipelines and --placements runs: both whole pipelines on each part's views (with
     two placements, both tools get the standing views, then the side views); prints the
-    placements table and the model table."""
-    placement_table, model_table = [], []
+    placements table and the model table, and with two placements the table of issue 12's
+    targets."""
+    placement_table, model_table, targets_table = [], [], []
     for part in args.parts.split(","):
         directory, truth, views = part_views(args, part, placements)
         size = len(views) // len(placements)
@@ -609,15 +656,20 @@ def compare_pipelines(args, module, placements=("views",)):
         open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
         for name, run in (("PicoScan stitch + mesh", picoscan), ("Open3D chained pairs + Poisson", open3d_raw),
                           ("Open3D chained pairs + Poisson, cropped by density", open3d_cropped)):
-            placed = "%d / %d" % (sum(p is not None for p in run.poses), right_views(truth, run.poses, centroids))
-            model_table.append(pipeline_row("%s: %s" % (part, name), run, truth_part, placed))
+            right = right_views(truth, run.poses, centroids)
+            placed = "%d / %d" % (sum(p is not None for p in run.poses), right)
+            figures = model_figures(run, truth_part)
+            model_table.append(pipeline_row("%s: %s" % (part, name), run, figures, placed))
             print(model_table[-1], file=sys.stderr)
+            targets_table.append(targets_row("%s: %s" % (part, name), figures, len(views), right))
             if run is not open3d_cropped:  # the crop changes the mesh only
                 placement_table.append(placements_row("%s: %s" % (part, name.replace(" + Poisson", "")), run, truth,
                                                       centroids, sizes))
                 print(placement_table[-1], file=sys.stderr)
     print_placements_table(placement_table, sizes)
     print_model_table(model_table, len(views))
+    if len(placements) > 1:  # the issue's targets are those of a complete model: two placements
+        print_targets_table(targets_table)
 
 
 def main():
@@ -685,7 +737,7 @@ def main():
             for name, run in (("PicoScan stitch + mesh", picoscan_pipeline(module, [views])),
                               ("Open3D pose graph + Poisson", open3d_model(views, open3d_found))):
                 placed = "%d / %d" % (sum(p is not None for p in run.poses), right_views(truth, run.poses, centroids))
-                model_table.append(pipeline_row("%s: %s" % (part, name), run, truth_part, placed))
+                model_table.append(pipeline_row("%s: %s" % (part, name), run, model_figures(run, truth_part), placed))
                 print(model_table[-1], file=sys.stderr)
     if registration_table:  # none with --model-only
         print("| registration | pairs right / wrong / refused | rotation error median / max (deg) | "
