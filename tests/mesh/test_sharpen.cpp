@@ -245,10 +245,13 @@ TEST(MeshSharpen, UnseenHoleWallGoesOntoTheFittedCylinderOnlyWhereTheWallIsRound
                     "on the flat side %zu; within 20 um of the circle (on the flat side, for the D): %zu\n",
                     flat_y > 0 ? "D-shaped" : "round", unseen, filled, 1000 * sum_off_wall / double(std::max<size_t>(unseen, 1)),
                     1000 * worst_off_wall, on_flat, on_circle);
-        // Measured (2026-11-23): round, 1 168 unseen wall vertices, 958 put on the cylinder and 308
-        // pulled back by the fold check (Poisson narrowed this hole by up to 2.5 mm, half its
-        // radius, so its surface there folds when put on the wall), mean 0.46 mm off the wall;
-        // the D, 307 vertices on its flat side, none on the circle.
+        // Measured (2026-11-24): round, alone in its process (as CTest runs it), 1 158 unseen wall
+        // vertices, 772 on the cylinder and the rest pulled back by the fold check (Poisson
+        // narrowed this hole by up to 2.5 mm, half its radius, so its surface there folds when
+        // put on the wall): mean 519 um off the wall, worst 2.5 mm. Run after another test in
+        // the same process, Poisson's surface differs and the same test gave 821 vertices, all on
+        // the cylinder, mean 1.2 um: Poisson's implicit function still depends on the process's
+        // history (issue 12). The D, 330 vertices on its flat side, none on the circle.
         ASSERT_GT(unseen, 100u);
         EXPECT_EQ(filled, unseen);  // invented, and said so
         if (flat_y > 0) {
@@ -256,6 +259,7 @@ TEST(MeshSharpen, UnseenHoleWallGoesOntoTheFittedCylinderOnlyWhereTheWallIsRound
             EXPECT_LT(on_circle, on_flat / 50);  // not forced round (by chance a vertex may lie there)
         } else {
             EXPECT_GT(on_circle, unseen / 2);  // the round wall's unseen half on its cylinder
+            EXPECT_LT(sum_off_wall / double(unseen), 0.65);  // measured 0.519 mm (see above)
         }
     }
 }
