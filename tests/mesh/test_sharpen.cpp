@@ -5,6 +5,7 @@
 // leaves the sharp edges rounded by about a triangle.
 #include "picoscan/deviation.h"
 #include "picoscan/mesh.h"
+#include "support/test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -244,10 +245,13 @@ TEST(MeshSharpen, UnseenHoleWallGoesOntoTheFittedCylinderOnlyWhereTheWallIsRound
                     "on the flat side %zu; within 20 um of the circle (on the flat side, for the D): %zu\n",
                     flat_y > 0 ? "D-shaped" : "round", unseen, filled, 1000 * sum_off_wall / double(std::max<size_t>(unseen, 1)),
                     1000 * worst_off_wall, on_flat, on_circle);
-        // Measured (2026-11-23): round, 1 168 unseen wall vertices, 958 put on the cylinder and 308
-        // pulled back by the fold check (Poisson narrowed this hole by up to 2.5 mm, half its
-        // radius, so its surface there folds when put on the wall), mean 0.46 mm off the wall;
-        // the D, 307 vertices on its flat side, none on the circle.
+        // Measured (2026-11-24): round, alone in its process (as CTest runs it), 1 158 unseen wall
+        // vertices, 772 on the cylinder and the rest pulled back by the fold check (Poisson
+        // narrowed this hole by up to 2.5 mm, half its radius, so its surface there folds when
+        // put on the wall): mean 519 um off the wall, worst 2.5 mm. Run after another test in
+        // the same process, Poisson's surface differs and the same test gave 821 vertices, all on
+        // the cylinder, mean 1.2 um: Poisson's implicit function still depends on the process's
+        // history (issue 12). The D, 330 vertices on its flat side, none on the circle.
         ASSERT_GT(unseen, 100u);
         EXPECT_EQ(filled, unseen);  // invented, and said so
         if (flat_y > 0) {
@@ -255,8 +259,32 @@ TEST(MeshSharpen, UnseenHoleWallGoesOntoTheFittedCylinderOnlyWhereTheWallIsRound
             EXPECT_LT(on_circle, on_flat / 50);  // not forced round (by chance a vertex may lie there)
         } else {
             EXPECT_GT(on_circle, unseen / 2);  // the round wall's unseen half on its cylinder
+            EXPECT_LT(sum_off_wall / double(unseen), 0.65);  // measured 0.519 mm (see above)
         }
     }
+}
+
+// The same points give the same mesh again in one process, with the heap in another state: the
+// holed block without its bottom (a part standing on the table), capped at the table. The cut at
+// the table (CGAL's corefinement) orders its work by memory address; without the cut mesh put in
+// a canonical order the second meshing gave another cap (13 150 and 13 153 vertices at 0.4 mm).
+// Poisson's own repeatability: MeshFill.PoissonGivesTheSameMeshAgainInOneProcess.
+TEST(MeshSharpen, TableCapGivesTheSameMeshAgainInOneProcess) {
+    PointCloud standing;
+    const PointCloud all = holed_block_points(0.0, 5);
+    for (size_t i = 0; i < all.points.size(); ++i)
+        if (all.points[i][2] > 0.05) standing.points.push_back(all.points[i]), standing.normals.push_back(all.normals[i]);
+    MeshOptions options;
+    options.fill = MeshFill::Table;
+    options.sample_spacing_mm = 0.8;  // coarser: this test is about the order, not the detail
+    const Mesh first = mesh_cloud(standing, options);
+    const auto stirred = test_support::stir_heap();
+    const Mesh second = mesh_cloud(standing, options);
+    std::printf("holed block on the table, capped twice: %zu and %zu vertices, %zu and %zu faces\n", first.vertices.size(),
+                second.vertices.size(), first.faces.size(), second.faces.size());
+    ASSERT_EQ(first.vertices.size(), second.vertices.size());
+    EXPECT_TRUE(first.vertices == second.vertices);
+    EXPECT_TRUE(first.faces == second.faces);
 }
 
 namespace {

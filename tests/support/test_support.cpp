@@ -121,4 +121,11 @@ std::string read_file_bytes(const std::filesystem::path& path) {
     return text.str();
 }
 
+std::vector<std::vector<char>> stir_heap() {
+    std::vector<std::vector<char>> blocks;
+    for (int i = 0; i < 2000; ++i) blocks.emplace_back(size_t(64 + (i * 7919) % 4096));
+    for (size_t i = 0; i < blocks.size(); i += 2) blocks[i].clear(), blocks[i].shrink_to_fit();
+    return blocks;
+}
+
 }  // namespace picoscan::test_support

@@ -36,6 +36,12 @@ std::string read_file_bytes(const std::filesystem::path& path);
 // the distances): for judging holes and bosses measured on clouds and meshes.
 double circle_diameter(const std::vector<cv::Vec2d>& points);
 
+// The heap left in another state (blocks of many sizes taken, every other one given back), so
+// that the same computation run again in this process gets other addresses: a result that
+// depends on memory addresses (containers ordered by pointer) then changes. Keep the returned
+// blocks until that run is done.
+std::vector<std::vector<char>> stir_heap();
+
 }  // namespace picoscan::test_support
 
 // Skips the current test with a clear message when ../shared/datasets is absent.

@@ -64,6 +64,44 @@ Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm) {
     return to_mesh(surface);
 }
 
+namespace {
+
+// The same surface with its vertices in the order of their coordinates and its faces in the
+// order of their vertices. CGAL's corefinement (PMP::clip) pairs the two meshes' bounding boxes
+// in an order that depends on where they lie in memory (Box_intersection_d::ID_FROM_BOX_ADDRESS,
+// boxes of two arrays), and creates and links the cut's elements in that order: the same cut
+// came out with its halfedges in another order in a second run in one process, and the remeshing
+// of the cap that walks them gave another mesh. Rebuilt, the result no longer depends on it.
+SurfaceMesh in_canonical_order(const SurfaceMesh& mesh) {
+    using Vertex = SurfaceMesh::Vertex_index;
+    std::vector<Vertex> order(mesh.vertices().begin(), mesh.vertices().end());
+    std::sort(order.begin(), order.end(), [&](Vertex a, Vertex b) { return mesh.point(a) < mesh.point(b); });
+    std::vector<int> rank(mesh.number_of_vertices() + mesh.number_of_removed_vertices(), -1);
+    for (size_t i = 0; i < order.size(); ++i) rank[order[i]] = static_cast<int>(i);
+    std::vector<std::vector<int>> faces;
+    faces.reserve(mesh.number_of_faces());
+    for (SurfaceMesh::Face_index f : mesh.faces()) {
+        std::vector<int> face;
+        for (Vertex v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) face.push_back(rank[v]);
+        std::rotate(face.begin(), std::min_element(face.begin(), face.end()), face.end());  // same turn
+        faces.push_back(std::move(face));
+    }
+    std::sort(faces.begin(), faces.end());
+    SurfaceMesh out;
+    std::vector<Vertex> added;
+    added.reserve(order.size());
+    for (Vertex v : order) added.push_back(out.add_vertex(mesh.point(v)));
+    for (const std::vector<int>& face : faces) {
+        std::vector<Vertex> corners;
+        for (int v : face) corners.push_back(added[static_cast<size_t>(v)]);
+        if (out.add_face(corners) == SurfaceMesh::null_face())
+            throw Error("mesh", "cutting it at the table left a non-manifold surface");
+    }
+    return out;
+}
+
+}  // namespace
+
 Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double cap_edge_mm) {
     namespace PMP = CGAL::Polygon_mesh_processing;
     SurfaceMesh surface = to_surface_mesh(mesh);
@@ -76,6 +114,7 @@ Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double 
     } catch (const PMP::Corefinement::Self_intersection_exception&) {
         throw Error("mesh", "intersects itself near the table: it cannot be capped there");
     }
+    surface = in_canonical_order(surface);
     // The cap: faces with every corner on the plane. Re-triangulated with vertices of its
     // own, its edge to the sides kept as it is.
     auto on_plane = [&](SurfaceMesh::Vertex_index v) {
