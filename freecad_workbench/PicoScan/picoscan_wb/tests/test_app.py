@@ -1742,8 +1742,10 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
     cache: one round at 25 degrees elevation) and laid on its side (8 more views, simulated here
     once: flipped_demo_views), every view of the core's turntable session (16 phase shifts, camera
     noise sigma = 1 DN, cleaned). The views are joined by the workbench's own Stitch (Mode
-    'Turntable round', PlacementOfView 1 and 2: each round's step estimated, the placements joined
-    by shape; no true pose is used), and its poses are checked against the simulator's truth. The
+    'Automatic', the user's default, PlacementOfView 1 and 2: the standing round aligns by features;
+    the round on its side, a box's flat faces, does not (3 of 8 views: they could slide) and its
+    turntable round with the step estimated takes over; the placements joined by shape; no true pose
+    is used), and its poses are checked against the simulator's truth. The
     scan goes into the part's coordinate system by datum alignment on three fitted planes (the
     bottom, now measured, the front and the left side), so every height is measured from the
     bottom's data. The outline is a fitted Cross-section (Band) of a Poisson mesh of the scan,
@@ -1829,8 +1831,7 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         views = [stored_scan_view(self.doc, f, "%s_%d" % (placement, i)) for placement, group in (
             ("Standing", self.standing_files), ("OnItsSide", flipped_files)) for i, f in enumerate(group)]
         started = time.monotonic()
-        merged = stitch.create(self.doc, views, placement_of_view=[1] * len(self.standing_files) + [2] * len(flipped_files),
-                               mode="Turntable round")
+        merged = stitch.create(self.doc, views, placement_of_view=[1] * len(self.standing_files) + [2] * len(flipped_files))
         FreeCAD.Console.PrintMessage("stitched %d views in %.1f s: %s\n  %s\n" % (
             len(files), time.monotonic() - started, "; ".join(merged.PlacementReport), "\n  ".join(merged.AlignmentReport)))
         self.assertEqual(merged.AlignedCount, len(files), merged.Report)
