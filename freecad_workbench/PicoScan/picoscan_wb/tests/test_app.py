@@ -965,6 +965,40 @@ class PicoScanSectionFitTest(unittest.TestCase):
             for name in (pad.Name, body.Name, sketch.Name, mesh.Name):
                 self.doc.removeObject(name)
 
+    def test_band_keeps_to_its_cut_where_the_part_is_not_prismatic(self):
+        """Built to fool the default Band: a sphere's wall (radius 10 mm, 10 um of vertex noise, as a scan's
+        mesh) cut 0.5 mm above its equator, where the cuts below it nearly match the section and those
+        above do not. The circle keeps to its own cut, FitReport says why, and its radius is the true
+        one at that height (as Band 0 gives it)."""
+        radius, height = 10.0, 0.5
+        rows, columns = numpy.arange(-3.5, 4.5001, 0.1), 360
+        angles = 2 * numpy.pi * numpy.arange(columns) / columns
+        ring = numpy.sqrt(radius ** 2 - rows ** 2)[:, None] + numpy.random.default_rng(4).normal(0.0, 0.01, (len(rows), columns))
+        vertices = numpy.stack([ring * numpy.cos(angles), ring * numpy.sin(angles),
+                                numpy.repeat(rows[:, None], columns, axis=1)], axis=-1).reshape(-1, 3)
+        a = (numpy.arange(len(rows) - 1)[:, None] * columns + numpy.arange(columns)).ravel()
+        b = (numpy.arange(len(rows) - 1)[:, None] * columns + (numpy.arange(columns) + 1) % columns).ravel()
+        wall = picoscan.Mesh()
+        wall.vertices = vertices.astype(numpy.float32)
+        wall.faces = numpy.concatenate([numpy.stack([a, b, b + columns], 1), numpy.stack([a, b + columns, a + columns], 1)]).astype(numpy.int32)
+        mesh = self.doc.addObject("Mesh::Feature", "SphereWall")
+        mesh.Mesh = scan_mesh.freecad_mesh(wall)
+        truth = math.sqrt(radius ** 2 - height ** 2)
+        radii = {}
+        for band in (picoscan.DEFAULT_SECTION_BAND_MM, 0.0):
+            sketch = section.cross_section(self.doc, mesh, axis="Z", offset_mm=height, name="Section", band_mm=band)
+            circles = [g for g in sketch.Geometry if g.TypeId == "Part::GeomCircle"]
+            self.assertEqual((len(circles), sketch.GeometryCount), (1, 1), sketch.FitReport)
+            radii[band] = circles[0].Radius
+            FreeCAD.Console.PrintMessage("sphere at z = %.1f mm, band %.0f mm: radius %+.1f um off; %s\n" % (
+                height, band, 1000 * (radii[band] - truth), sketch.FitReport[0]))
+            if band:
+                self.assertIn("fitted to its own cut only", sketch.FitReport[0])
+                self.assertIn("not prismatic", sketch.FitReport[0])
+            self.assertAlmostEqual(radii[band], truth, delta=0.02)
+            tolerance = sketch.FitTolerance.Value
+        self.assertAlmostEqual(radii[picoscan.DEFAULT_SECTION_BAND_MM], radii[0.0], delta=tolerance)
+
     def test_parametric_rebuild_of_the_demo_part_and_its_deviation_map(self):
         """The walkthrough of docs/freecad.md: two fitted sections, two pads, and the deviation map of
         the scan against the rebuilt body, which follows when the body changes."""
