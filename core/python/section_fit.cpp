@@ -29,7 +29,8 @@ void bind_section_fit(py::module_& m) {
         .def_readwrite("snap_angle_deg", &SectionFitOptions::snap_angle_deg)
         .def_readwrite("min_polyline_points", &SectionFitOptions::min_polyline_points)
         .def_readwrite("loop_noise_limit_mm", &SectionFitOptions::loop_noise_limit_mm)
-        .def_readwrite("max_bridged_gap_mm", &SectionFitOptions::max_bridged_gap_mm);
+        .def_readwrite("max_bridged_gap_mm", &SectionFitOptions::max_bridged_gap_mm)
+        .def_readwrite("band_trend_fraction", &SectionFitOptions::band_trend_fraction);
     py::class_<SectionElement>(m, "SectionElement")
         .def_readonly("kind", &SectionElement::kind)
         .def_readonly("start", &SectionElement::start)
@@ -44,6 +45,8 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("angle_sigma_deg", &SectionElement::angle_sigma_deg)
         .def_readonly("radius_sigma_mm", &SectionElement::radius_sigma_mm)
         .def_readonly("tangent_to_next", &SectionElement::tangent_to_next)
+        .def_readonly("band_cuts", &SectionElement::band_cuts)
+        .def_readonly("band_note", &SectionElement::band_note)
         .def("__repr__", [](const SectionElement& e) {
             return "<SectionElement " + to_string(e.kind) + (e.kind == SectionElementKind::Line ? "" : " radius " + std::to_string(e.radius_mm)) +
                    " mm, " + std::to_string(e.point_count) + " points, max " + std::to_string(e.max_mm) + " mm>";
@@ -72,6 +75,14 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("left_out", &SectionFits::left_out)
         .def_readonly("noise_mm", &SectionFits::noise_mm)
         .def_readonly("tolerance_mm", &SectionFits::tolerance_mm);
+    py::class_<ParallelCut>(m, "ParallelCut")
+        .def(py::init([](double offset_mm, const py::array& points) {
+                 return ParallelCut{offset_mm, array_to_vector<cv::Vec2d>(points, "points")};
+             }),
+             py::arg("offset_mm"), py::arg("points"))
+        .def_readonly("offset_mm", &ParallelCut::offset_mm)
+        .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<ParallelCut&>().points, self); },
+                               "N x 2 (mm) in the section's 2D frame");
     py::class_<SectionPolyline>(m, "SectionPolyline")
         .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<SectionPolyline&>().points, self); },
                                "N x 2 (mm) in the cutting plane's frame")
@@ -97,29 +108,27 @@ void bind_section_fit(py::module_& m) {
         "Lines, arcs and circles fitted to an N x 2 polyline (mm), with their joints and snapped constraints");
     m.def(
         "fit_extruded_section",
-        [](const py::array& polyline, bool closed, const std::vector<py::array>& parallel_cuts, const SectionFitOptions& options) {
+        [](const py::array& polyline, bool closed, const std::vector<ParallelCut>& parallel_cuts,
+           const SectionFitOptions& options) {
             const std::vector<cv::Vec2d> points = array_to_vector<cv::Vec2d>(polyline, "polyline");
-            std::vector<std::vector<cv::Vec2d>> cuts;
-            for (const py::array& cut : parallel_cuts) cuts.push_back(array_to_vector<cv::Vec2d>(cut, "parallel_cuts"));
             py::gil_scoped_release release;
-            return fit_extruded_section(points, closed, cuts, options);
+            return fit_extruded_section(points, closed, parallel_cuts, options);
         },
         py::arg("polyline"), py::arg("closed"), py::arg("parallel_cuts"), py::arg("options") = SectionFitOptions(),
-        "fit_section of a prismatic outline, each element refitted with the points of parallel cuts (N x 2 arrays)");
+        "fit_section of a prismatic outline, each element refitted with the points of parallel cuts ([ParallelCut]) "
+        "unless their offsets trend with the height (then band_note says why)");
     m.def(
         "fit_section_polylines",
-        [](const std::vector<std::pair<py::array, bool>>& polylines, const std::vector<py::array>& parallel_cuts,
-           const SectionFitOptions& options, const py::object& progress) {
+        [](const std::vector<std::pair<py::array, bool>>& polylines,
+           const std::vector<ParallelCut>& parallel_cuts, const SectionFitOptions& options, const py::object& progress) {
             std::vector<SectionPolyline> lines;
             for (const auto& [points, closed] : polylines)
                 lines.push_back({array_to_vector<cv::Vec2d>(points, "polylines"), closed});
-            std::vector<std::vector<cv::Vec2d>> cuts;
-            for (const py::array& cut : parallel_cuts) cuts.push_back(array_to_vector<cv::Vec2d>(cut, "parallel_cuts"));
             const ProgressCallback callback = progress_from(progress);
             py::gil_scoped_release release;
-            return fit_section_polylines(lines, cuts, options, callback);
+            return fit_section_polylines(lines, parallel_cuts, options, callback);
         },
-        py::arg("polylines"), py::arg("parallel_cuts") = std::vector<py::array>(), py::arg("options") = SectionFitOptions(),
+        py::arg("polylines"), py::arg("parallel_cuts") = std::vector<ParallelCut>(), py::arg("options") = SectionFitOptions(),
         py::arg("progress") = py::none(),
         "A section's polylines ([(N x 2 array, closed)]) fitted with one noise and tolerance; too small or too noisy "
         "ones left out with the reason (left_out)");

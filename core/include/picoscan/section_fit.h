@@ -56,6 +56,11 @@ struct SectionFitOptions {
     // open only where the scan's mesh has a hole, e.g. a gap of 0.3 mm in the middle of the demo
     // scan's right side at z = 12 mm, which would split that side in two.
     double max_bridged_gap_mm = 3.0;
+    // The Band's check (fit_extruded_section): a trend of the cuts' offsets with their height is
+    // taken as the part's shape, not noise, when its change over the cuts is above this part of
+    // the tolerance (and 3 standard errors). Each cut used lies within the tolerance, so a trend
+    // below this could move an element by at most about half of it.
+    double band_trend_fraction = 0.25;
 };
 
 struct SectionElement {
@@ -75,6 +80,11 @@ struct SectionElement {
     double angle_sigma_deg = 0;        // line
     double radius_sigma_mm = 0;        // arc and circle
     bool tangent_to_next = false;      // smooth joint with the next element (closed: the last with the first)
+    // The Band: how many parallel cuts the element was fitted with (0: the section's own cut only),
+    // and, when cuts followed it but their offsets from it trend with their height (the part is not
+    // prismatic there: a drafted wall, a sphere, a cone), why it was fitted to its own cut alone.
+    int band_cuts = 0;
+    std::string band_note;
 };
 
 enum class SectionConstraintKind { Horizontal, Vertical, Parallel, Perpendicular, EqualRadius };
@@ -111,6 +121,13 @@ std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin,
 // Error("tolerance_mm", ...) for a negative tolerance.
 SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options = {});
 
+// A parallel cut of the Band: the section's profile offset_mm from its plane (along the plane's
+// normal), in the same 2D frame. One cut of a mesh gives one of these per polyline.
+struct ParallelCut {
+    double offset_mm = 0;
+    std::vector<cv::Vec2d> points;
+};
+
 // The same for a prismatic outline (e.g. a block's sides, cut across their height) cut several
 // times: the elements are found on `polyline` as fit_section finds them, then each line, arc and
 // circle is fitted again to its own points and to the points of the `parallel_cuts` (the same
@@ -118,9 +135,16 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, cons
 // its own points' ends. One cut of a mesh holds few independent samples (the noise is shared
 // along each facet): n cuts a facet apart hold about n times as many, and a short line's
 // direction is known about sqrt(n) times better. The residuals stay those of `polyline`.
+// Each element checks that the part is prismatic there: where the mean offsets of its cuts from
+// it trend with their height (a straight or quadratic trend whose change over the cuts is more
+// than 3 standard errors and more than band_trend_fraction of the tolerance), it is fitted to
+// `polyline` alone and band_note says why.
+// An arc or circle whose radius is not known within the tolerance (its standard error above the
+// tolerance and above 1 % of the radius: a short sliver of a curve) is refused, unless it is a
+// fillet tangent to both neighbours (their lines fix it):
+// Error("polyline", ...).
 SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool closed,
-                                const std::vector<std::vector<cv::Vec2d>>& parallel_cuts,
-                                const SectionFitOptions& options = {});
+                                const std::vector<ParallelCut>& parallel_cuts, const SectionFitOptions& options = {});
 
 // A section's polylines fitted as one: one noise for all (the median over the short runs of every
 // polyline of at least min_polyline_points, so mostly the biggest one's), one tolerance from it
@@ -128,7 +152,8 @@ SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& polyline, bool clo
 // min_polyline_points points, when its own noise is above that tolerance and (unless the
 // tolerance is given) above loop_noise_limit_mm (a crumb of a mesh, e.g. a small loop a Poisson
 // surface leaves inside the part, whose own noise would set a tolerance loose enough to fit it as
-// a circle), or when it cannot be split into elements within the tolerance. An open chain with
+// a circle), or when it cannot be split into elements within the tolerance (or holds an arc whose
+// radius it cannot tell: fit_extruded_section). An open chain with
 // a small gap (max_bridged_gap_mm) is fitted as a loop: its SectionFit is closed. Throws Error("polyline", ...) when the biggest polyline is left out
 // (a sketch without its outline must not look like a fit), Error("polylines", ...) when none is
 // given, Error("tolerance_mm", ...) for a negative tolerance, Error("cancelled", ...) when
@@ -157,7 +182,7 @@ struct SectionFits {
     double noise_mm = 0, tolerance_mm = 0;
 };
 SectionFits fit_section_polylines(const std::vector<SectionPolyline>& polylines,
-                                  const std::vector<std::vector<cv::Vec2d>>& parallel_cuts = {},
+                                  const std::vector<ParallelCut>& parallel_cuts = {},
                                   const SectionFitOptions& options = {}, const ProgressCallback& progress = nullptr);
 
 std::string to_string(SectionElementKind kind);

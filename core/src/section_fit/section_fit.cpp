@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <map>
+#include <set>
 
 namespace picoscan {
 
@@ -610,12 +612,71 @@ std::string to_string(SectionConstraintKind kind) {
 
 namespace {
 
+// Signed distance of p from `shape`: left of a line (along its direction) positive, outside a
+// circle positive.
+double signed_distance(const Shape& shape, const cv::Vec2d& p) {
+    if (shape.circle) return cv::norm(p - shape.centre) - shape.radius;
+    const cv::Vec2d d = p - shape.point;
+    return shape.direction[0] * d[1] - shape.direction[1] * d[0];
+}
+
+// How much a least-squares polynomial of the offsets d (weighted by w) in the height z changes
+// between the heights given, and the standard error of that change from the scatter about it.
+// A straight trend (a drafted wall, a cone, a sphere off its equator), or a quadratic one (a
+// sphere at its equator) from 5 heights on. sigma is 0 where the fit leaves no residual degree
+// of freedom (2 heights).
+struct Trend {
+    double change = 0, sigma = 0;
+};
+Trend offset_trend(const std::vector<double>& z, const std::vector<double>& d, const std::vector<double>& w) {
+    const int m = int(z.size()), terms = m >= 5 ? 3 : 2;
+    cv::Mat normal = cv::Mat::zeros(terms, terms, CV_64F), rhs = cv::Mat::zeros(terms, 1, CV_64F);
+    const auto basis = [&](double height) {
+        cv::Mat row(terms, 1, CV_64F);
+        for (int k = 0; k < terms; ++k) row.at<double>(k) = std::pow(height, k);
+        return row;
+    };
+    for (int i = 0; i < m; ++i) {
+        const cv::Mat row = basis(z[size_t(i)]);
+        normal += w[size_t(i)] * row * row.t();
+        rhs += w[size_t(i)] * d[size_t(i)] * row;
+    }
+    cv::Mat inverse;
+    if (cv::invert(normal, inverse, cv::DECOMP_SVD) == 0) return {};
+    const cv::Mat coefficients = inverse * rhs;
+    double rss = 0, highest = -HUGE_VAL, lowest = HUGE_VAL;
+    size_t at_high = 0, at_low = 0;
+    for (size_t i = 0; i < size_t(m); ++i) {
+        const double value = basis(z[i]).dot(coefficients);
+        rss += w[i] * std::pow(d[i] - value, 2);
+        if (value > highest) highest = value, at_high = i;
+        if (value < lowest) lowest = value, at_low = i;
+    }
+    // change = g . coefficients, g the basis at its highest point minus at its lowest.
+    const cv::Mat g = basis(z[at_high]) - basis(z[at_low]);
+    Trend trend;
+    trend.change = highest - lowest;
+    if (m > terms) trend.sigma = std::sqrt(rss / double(m - terms) * g.dot(inverse * g));
+    return trend;
+}
+
+// An element's Band: the points of the parallel cuts it is refitted with, how many cuts (heights)
+// gave them, and why none are used when cuts followed it but trend with their height.
+struct Band {
+    std::vector<cv::Vec2d> points;
+    int cuts = 0;
+    std::string note;
+};
+
 // The points of the parallel cuts within the tolerance of `shape` and between the extremes of
 // its own points pts[first, first + count) (along a line, or in angle around a circle's centre;
-// a whole circle takes all within the tolerance).
-std::vector<cv::Vec2d> parallel_points(const Shape& shape, const Points& pts, long first, long count,
-                                       const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double tolerance,
-                                       bool whole_circle) {
+// a whole circle takes all within the tolerance), unless their mean offsets from `shape` trend
+// with the cut's height (its own cut at height 0 included): averaging cuts of a drafted wall, a
+// cone or a sphere would give a section that is at none of their heights.
+Band band_of(const Shape& shape, const Points& pts, long first, long count, const std::vector<ParallelCut>& parallel_cuts,
+             double tolerance, bool whole_circle, double trend_fraction) {
+    Band band;
+    if (parallel_cuts.empty()) return band;
     // Lines: the position along the direction. Arcs: the angle from the middle point, in (-pi, pi].
     const cv::Vec2d middle = shape.circle ? pts[first + count / 2] - shape.centre : cv::Vec2d();
     const auto position = [&](const cv::Vec2d& p) {
@@ -624,35 +685,57 @@ std::vector<cv::Vec2d> parallel_points(const Shape& shape, const Points& pts, lo
         return std::atan2(middle[0] * r[1] - middle[1] * r[0], middle.dot(r));
     };
     double low = HUGE_VAL, high = -HUGE_VAL;
+    // Per height: the sum of the offsets of the points used and their number.
+    std::map<double, std::pair<double, double>> offsets;
+    std::set<double> heights;  // of the cuts used
     for (long i = first; i < first + count; ++i) {
         low = std::min(low, position(pts[i]));
         high = std::max(high, position(pts[i]));
+        offsets[0].first += signed_distance(shape, pts[i]);
+        offsets[0].second += 1;
     }
     // A cut is used only where it follows the element: of its points near it (within 10 x the
     // tolerance, in its range), 90 % within the tolerance. A cut of another profile (where the part
     // is not prismatic) may cross the element, and its few points on it would pull the fit away.
-    std::vector<cv::Vec2d> near;
-    for (const auto& cut : parallel_cuts) {
+    for (const ParallelCut& cut : parallel_cuts) {
         std::vector<cv::Vec2d> within;
         size_t candidates = 0;
-        for (const cv::Vec2d& p : cut) {
+        for (const cv::Vec2d& p : cut.points) {
             if (!std::isfinite(p[0]) || !std::isfinite(p[1])) continue;
             const double distance = shape.distance(p), t = position(p);
             if (distance > 10 * tolerance || !(whole_circle || (t >= low && t <= high))) continue;
             ++candidates;
             if (distance <= tolerance) within.push_back(p);
         }
-        if (double(within.size()) >= 0.9 * double(candidates)) near.insert(near.end(), within.begin(), within.end());
+        if (within.empty() || double(within.size()) < 0.9 * double(candidates)) continue;
+        for (const cv::Vec2d& p : within) offsets[cut.offset_mm].first += signed_distance(shape, p);
+        offsets[cut.offset_mm].second += double(within.size());
+        band.points.insert(band.points.end(), within.begin(), within.end());
+        heights.insert(cut.offset_mm);
     }
-    return near;
+    band.cuts = int(heights.size());
+    if (offsets.size() < 2) return band;
+    std::vector<double> z, d, w;
+    for (const auto& [height, sum] : offsets) {
+        z.push_back(height);
+        d.push_back(sum.first / sum.second);
+        w.push_back(sum.second);
+    }
+    const Trend trend = offset_trend(z, d, w);
+    if (trend.change <= 3 * trend.sigma || trend.change <= trend_fraction * tolerance) return band;
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "fitted to its own cut only: the %d parallel cuts that follow it (at %+.2f to %+.2f mm) lie off it by amounts "
+                  "that change by %.4f mm with their height (standard error %.4f mm, tolerance %.4f mm): the part is not "
+                  "prismatic here",
+                  band.cuts, *heights.begin(), *heights.rbegin(), trend.change, trend.sigma, tolerance);
+    return {{}, 0, text};
 }
 
-// `shape` fitted again to pts[first, first + count) and its points of the parallel cuts.
-Shape refit_with_parallel_cuts(const Shape& shape, const Points& pts, long first, long count,
-                               const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double tolerance,
-                               bool whole_circle = false) {
-    std::vector<cv::Vec2d> all = parallel_points(shape, pts, first, count, parallel_cuts, tolerance, whole_circle);
-    if (all.empty()) return shape;
+// `shape` fitted again to pts[first, first + count) and the points of its band.
+Shape refit_with_band(const Shape& shape, const Points& pts, long first, long count, const Band& band) {
+    if (band.points.empty()) return shape;
+    std::vector<cv::Vec2d> all = band.points;
     for (long i = first; i < first + count; ++i) all.push_back(pts[i]);
     const Points joined{all, false};
     Shape refitted = shape.circle ? fit_circle(joined, 0, long(all.size())) : fit_line(joined, 0, long(all.size()));
@@ -663,16 +746,13 @@ Shape refit_with_parallel_cuts(const Shape& shape, const Points& pts, long first
 }
 
 // The standard error of `shape`'s direction (a line, degrees) or radius (a circle, mm) fitted to
-// pts[first, first + count) and its points of the parallel cuts, by the block jackknife: the
+// pts[first, first + count) and the points of its band, by the block jackknife: the
 // points cut into runs of about 1 mm along the element (at most 40 runs), the fit repeated
 // without each run. A scan's deviations are shared over about 1 mm (its bumps, a facet), so
 // single points are not independent samples; runs of that length nearly are. NaN for fewer than
 // 3 runs.
-double jackknife_sigma(const Shape& shape, const Points& pts, long first, long count,
-                       const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double tolerance, bool whole_circle) {
-    std::vector<cv::Vec2d> points = parallel_cuts.empty()
-                                        ? std::vector<cv::Vec2d>{}
-                                        : parallel_points(shape, pts, first, count, parallel_cuts, tolerance, whole_circle);
+double jackknife_sigma(const Shape& shape, const Points& pts, long first, long count, const Band& band) {
+    std::vector<cv::Vec2d> points = band.points;
     for (long i = first; i < first + count; ++i) points.push_back(pts[i]);
     // Position along the element: along the line, or the arc length from the middle point.
     const cv::Vec2d middle = shape.circle ? pts[first + count / 2] - shape.centre : cv::Vec2d();
@@ -847,6 +927,13 @@ void check_tolerance(const SectionFitOptions& options) {
         throw Error("loop_noise_limit_mm", "must be 0 or positive");
     if (!(options.max_bridged_gap_mm >= 0) || !std::isfinite(options.max_bridged_gap_mm))
         throw Error("max_bridged_gap_mm", "must be 0 (no chain bridged) or positive");
+    if (!(options.band_trend_fraction >= 0) || !std::isfinite(options.band_trend_fraction))
+        throw Error("band_trend_fraction", "must be 0 or positive");
+}
+
+void check_cuts(const std::vector<ParallelCut>& parallel_cuts) {
+    for (const ParallelCut& cut : parallel_cuts)
+        if (!std::isfinite(cut.offset_mm)) throw Error("parallel_cuts", "a cut's offset_mm is not finite");
 }
 
 // The polyline without repeated points (closed: nor the first point repeated at the end).
@@ -864,10 +951,24 @@ double tolerance_for(double noise_mm, const SectionFitOptions& options) {
     return options.tolerance_mm > 0 ? options.tolerance_mm : std::max(options.min_tolerance_mm, 5 * noise_mm);
 }
 
+// Refuses an arc or circle whose radius its points do not tell within the tolerance: its
+// standard error above the tolerance and above 1 % of the radius (a gently curved side may know
+// its large radius only to a few mm and still follow its points). A sliver of a hole's wall
+// (43 points of the demo scan's hole at z = 12 mm: 4.85 mm +- 1.77 mm) is no measured hole.
+void check_radius_known(const Shape& shape, double sigma, double tolerance, long first, long number, long n) {
+    if (!shape.circle || !(sigma > tolerance && sigma > 0.01 * shape.radius)) return;
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "the arc fitted to points %ld to %ld (radius %.3f mm) has a radius standard error of %.3f mm, above the "
+                  "tolerance of %.4f mm: too short a piece of a curve to tell its size",
+                  ((first % n) + n) % n, ((first + number - 1) % n + n) % n, shape.radius, sigma, tolerance);
+    throw Error("polyline", text);
+}
+
 // Fits a polyline of distinct points with the tolerance that `noise_mm` (the polyline's own or
 // the whole section's) and the options give.
 SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
-                            const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, double noise_mm) {
+                            const std::vector<ParallelCut>& parallel_cuts, double noise_mm) {
     if (polyline.size() < 4) throw Error("polyline", "needs at least 4 distinct points, has " + std::to_string(polyline.size()));
     SectionFit result;
     result.closed = closed;
@@ -879,8 +980,11 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
 
     // The whole closed polyline as one circle.
     const auto whole_circle = [&](Shape whole) {
-        whole = refit_with_parallel_cuts(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true);
+        const Band band = band_of(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true, options.band_trend_fraction);
+        whole = refit_with_band(whole, pts, 0, n, band);
         SectionElement circle;
+        circle.band_cuts = band.cuts;
+        circle.band_note = band.note;
         circle.kind = SectionElementKind::Circle;
         circle.centre = whole.centre;
         circle.radius_mm = whole.radius;
@@ -894,7 +998,8 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
             circle.max_mm = std::max(circle.max_mm, d);
         }
         circle.rms_mm = std::sqrt(sum / double(n));
-        circle.radius_sigma_mm = jackknife_sigma(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true);
+        circle.radius_sigma_mm = jackknife_sigma(whole, pts, 0, n, band);
+        check_radius_known(whole, circle.radius_sigma_mm, result.tolerance_mm, 0, n, n);
         result.elements.push_back(circle);
         return result;
     };
@@ -921,6 +1026,7 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
         if (std::sqrt(sum / double(n)) <= result.tolerance_mm) return whole_circle(whole);
     }
     std::vector<double> sigmas;  // of each final fit (jackknife_sigma)
+    std::vector<Band> bands(spans.size());  // each element's points of the parallel cuts
     // The final fits leave out a tenth of the points at each end that is a corner or an open end:
     // there a scan is least sure (a rounded corner, a grazing silhouette) and a split may still be
     // a point off. Tangent ends keep their points: a fillet needs all of its short arc.
@@ -943,9 +1049,11 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
             trimmed[j].shape = shape;
             fitted[j] = {spans[j].first + head, spans[j].count - head - tail};
         }
-        for (size_t j = 0; j < count && !parallel_cuts.empty(); ++j)
-            trimmed[j].shape = refit_with_parallel_cuts(trimmed[j].shape, pts, fitted[j].first, fitted[j].second,
-                                                        parallel_cuts, result.tolerance_mm);
+        for (size_t j = 0; j < count; ++j) {
+            bands[j] = band_of(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, parallel_cuts, result.tolerance_mm,
+                               false, options.band_trend_fraction);
+            trimmed[j].shape = refit_with_band(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, bands[j]);
+        }
         // Fillets: an arc tangent to a line on each side is fitted again with both lines as one curve.
         for (size_t j = 0; j < count && count >= 3; ++j) {
             const size_t before = (j + count - 1) % count, after = (j + 1) % count;
@@ -956,11 +1064,7 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
             for (const size_t k : {before, j, after}) {
                 const auto [first, number] = fitted[k];
                 for (long i = first; i < first + number; ++i) points.push_back(pts[i]);
-                if (!parallel_cuts.empty()) {
-                    const std::vector<cv::Vec2d> near =
-                        parallel_points(trimmed[k].shape, pts, first, number, parallel_cuts, result.tolerance_mm, false);
-                    points.insert(points.end(), near.begin(), near.end());
-                }
+                points.insert(points.end(), bands[k].points.begin(), bands[k].points.end());
             }
             FilletFit fillet(trimmed[before].shape, trimmed[j].shape, trimmed[after].shape, std::move(points));
             if (!fillet.solve() || fillet.arc_points() < options.min_arc_points) continue;
@@ -991,15 +1095,22 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
                                             std::to_string(result.tolerance_mm) +
                                             " mm: the section cannot be split into lines and arcs there");
         }
-        for (size_t j = 0; j < count; ++j)
-            sigmas.push_back(jackknife_sigma(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, parallel_cuts,
-                                             result.tolerance_mm, false));
+        for (size_t j = 0; j < count; ++j) {
+            sigmas.push_back(jackknife_sigma(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, bands[j]));
+            // A fillet (tangent on both sides) has its radius from the lines too, which its jackknife
+            // over its own short arc does not see.
+            const bool fillet = smooth_after[j] && (closed || j > 0) && smooth_after[(j + count - 1) % count];
+            if (!fillet)
+                check_radius_known(trimmed[j].shape, sigmas[j], result.tolerance_mm, fitted[j].first, fitted[j].second, n);
+        }
         spans = trimmed;
     }
     for (size_t j = 0; j < spans.size(); ++j) {
         const Span& span = spans[j];
         SectionElement e;
         (span.shape.circle ? e.radius_sigma_mm : e.angle_sigma_deg) = sigmas[j];
+        e.band_cuts = bands[j].cuts;
+        e.band_note = bands[j].note;
         e.kind = span.shape.circle ? SectionElementKind::Arc : SectionElementKind::Line;
         e.first_point = int(((span.first % n) + n) % n);
         e.point_count = int(span.count);
@@ -1051,16 +1162,18 @@ SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, cons
 }
 
 SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& input, bool closed,
-                                const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options) {
+                                const std::vector<ParallelCut>& parallel_cuts, const SectionFitOptions& options) {
     check_tolerance(options);
+    check_cuts(parallel_cuts);
     const std::vector<cv::Vec2d> polyline = distinct_points(input, closed);
     return fit_section_with(polyline, closed, options, parallel_cuts, estimate_noise({polyline, closed}, options.noise_window_mm));
 }
 
 SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
-                                  const std::vector<std::vector<cv::Vec2d>>& parallel_cuts, const SectionFitOptions& options,
+                                  const std::vector<ParallelCut>& parallel_cuts, const SectionFitOptions& options,
                                   const ProgressCallback& progress) {
     check_tolerance(options);
+    check_cuts(parallel_cuts);
     if (input.empty()) throw Error("polylines", "none given");
     std::vector<std::vector<cv::Vec2d>> polylines;
     for (const SectionPolyline& polyline : input) polylines.push_back(distinct_points(polyline.points, polyline.closed));

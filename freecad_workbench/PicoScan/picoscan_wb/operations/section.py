@@ -47,8 +47,9 @@ def section_polylines(mesh, core, label, axis, offset_mm=None, progress=None):
 
 
 def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=picoscan.SECTION_BAND_CUTS, progress=None):
-    """The section's 2D points at `count` other positions spread over +- band_mm around the plane
-    (the same 2D frame: the plane only moves along its normal); empty when band_mm is 0."""
+    """The section's cuts (picoscan.ParallelCut: offset from the plane in mm, 2D points) at `count` other
+    positions spread over +- band_mm around the plane (the same 2D frame: the plane only moves along its normal); empty
+    when band_mm is 0."""
     if band_mm < 0:
         raise picoscan.Error("Band: must be 0 (one cut) or positive, is %g mm" % band_mm)
     if band_mm == 0:
@@ -63,7 +64,8 @@ def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=picoscan.SECTION_B
         origin = base + AXES[axis] * shift
         this_cut = None if progress is None else (
             lambda fraction, stage, step=step: progress((step + fraction) / (count + 1.0), "parallel cuts"))
-        cuts += [line.points for line in picoscan.cut_mesh(core, tuple(origin), tuple(u_axis), tuple(v_axis), this_cut)]
+        cuts += [picoscan.ParallelCut(shift, line.points)
+                 for line in picoscan.cut_mesh(core, tuple(origin), tuple(u_axis), tuple(v_axis), this_cut)]
     return cuts
 
 
@@ -188,8 +190,12 @@ def add_fitted_geometry(sketch, fit):
         size = "radius %.4f mm (sigma %.4f mm)" % (element.radius_mm, element.radius_sigma_mm) \
             if element.kind != Kind.Line else "length %.3f mm, angle sigma %.4f deg" % (
                 numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)), element.angle_sigma_deg)
-        report.append("Edge%d: %s, %s, %d points, rms %.4f mm, max %.4f mm" % (
-            index + 1, str(element.kind).split(".")[-1].lower(), size, element.point_count, element.rms_mm, element.max_mm))
+        # The Band: how many parallel cuts refitted it, or why it kept to its own cut (the part is not prismatic there).
+        band = "; %d parallel cuts" % element.band_cuts if element.band_cuts else (
+            "; " + element.band_note if element.band_note else "")
+        report.append("Edge%d: %s, %s, %d points, rms %.4f mm, max %.4f mm%s" % (
+            index + 1, str(element.kind).split(".")[-1].lower(), size, element.point_count, element.rms_mm, element.max_mm,
+            band))
     # The constraints may move the fitted geometry by about the tolerance; much more means they fight.
     max_move = 10 * fit.tolerance_mm + 0.01
 
@@ -240,7 +246,9 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     its LeftOut property (and the Report view). With band_mm > 0 (by default 3 mm) each element is
     refitted with the points of 16 parallel cuts within +- band_mm of the plane wherever they follow
     it (a pad's sides): one cut of a scan mesh gives a short line's direction to about 0.1 degrees,
-    the band to 0.04; band_mm = 0 fits the one cut. Each element's report gives its standard error. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
+    the band to 0.04; band_mm = 0 fits the one cut. An element whose cuts lie off it by amounts that
+    trend with their height (a drafted wall, a cone, a sphere) keeps to its own cut, and its FitReport
+    line says why. Each element's report gives its standard error. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
     placement, fits = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
@@ -277,7 +285,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     except Exception:
         doc.removeObject(sketch.Name)
         raise
-    for line in sketch.LeftOut:
+    for line in list(sketch.LeftOut) + [line for line in sketch.FitReport if "not prismatic" in line]:
         FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, line))
     return sketch
 

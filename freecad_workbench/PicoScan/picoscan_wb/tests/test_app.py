@@ -965,6 +965,40 @@ class PicoScanSectionFitTest(unittest.TestCase):
             for name in (pad.Name, body.Name, sketch.Name, mesh.Name):
                 self.doc.removeObject(name)
 
+    def test_band_keeps_to_its_cut_where_the_part_is_not_prismatic(self):
+        """Built to fool the default Band: a sphere's wall (radius 10 mm, 10 um of vertex noise, as a scan's
+        mesh) cut 0.5 mm above its equator, where the cuts below it nearly match the section and those
+        above do not. The circle keeps to its own cut, FitReport says why, and its radius is the true
+        one at that height (as Band 0 gives it)."""
+        radius, height = 10.0, 0.5
+        rows, columns = numpy.arange(-3.5, 4.5001, 0.1), 360
+        angles = 2 * numpy.pi * numpy.arange(columns) / columns
+        ring = numpy.sqrt(radius ** 2 - rows ** 2)[:, None] + numpy.random.default_rng(4).normal(0.0, 0.01, (len(rows), columns))
+        vertices = numpy.stack([ring * numpy.cos(angles), ring * numpy.sin(angles),
+                                numpy.repeat(rows[:, None], columns, axis=1)], axis=-1).reshape(-1, 3)
+        a = (numpy.arange(len(rows) - 1)[:, None] * columns + numpy.arange(columns)).ravel()
+        b = (numpy.arange(len(rows) - 1)[:, None] * columns + (numpy.arange(columns) + 1) % columns).ravel()
+        wall = picoscan.Mesh()
+        wall.vertices = vertices.astype(numpy.float32)
+        wall.faces = numpy.concatenate([numpy.stack([a, b, b + columns], 1), numpy.stack([a, b + columns, a + columns], 1)]).astype(numpy.int32)
+        mesh = self.doc.addObject("Mesh::Feature", "SphereWall")
+        mesh.Mesh = scan_mesh.freecad_mesh(wall)
+        truth = math.sqrt(radius ** 2 - height ** 2)
+        radii = {}
+        for band in (picoscan.DEFAULT_SECTION_BAND_MM, 0.0):
+            sketch = section.cross_section(self.doc, mesh, axis="Z", offset_mm=height, name="Section", band_mm=band)
+            circles = [g for g in sketch.Geometry if g.TypeId == "Part::GeomCircle"]
+            self.assertEqual((len(circles), sketch.GeometryCount), (1, 1), sketch.FitReport)
+            radii[band] = circles[0].Radius
+            FreeCAD.Console.PrintMessage("sphere at z = %.1f mm, band %.0f mm: radius %+.1f um off; %s\n" % (
+                height, band, 1000 * (radii[band] - truth), sketch.FitReport[0]))
+            if band:
+                self.assertIn("fitted to its own cut only", sketch.FitReport[0])
+                self.assertIn("not prismatic", sketch.FitReport[0])
+            self.assertAlmostEqual(radii[band], truth, delta=0.02)
+            tolerance = sketch.FitTolerance.Value
+        self.assertAlmostEqual(radii[picoscan.DEFAULT_SECTION_BAND_MM], radii[0.0], delta=tolerance)
+
     def test_parametric_rebuild_of_the_demo_part_and_its_deviation_map(self):
         """The walkthrough of docs/freecad.md: two fitted sections, two pads, and the deviation map of
         the scan against the rebuilt body, which follows when the body changes."""
@@ -1742,8 +1776,10 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
     cache: one round at 25 degrees elevation) and laid on its side (8 more views, simulated here
     once: flipped_demo_views), every view of the core's turntable session (16 phase shifts, camera
     noise sigma = 1 DN, cleaned). The views are joined by the workbench's own Stitch (Mode
-    'Turntable round', PlacementOfView 1 and 2: each round's step estimated, the placements joined
-    by shape; no true pose is used), and its poses are checked against the simulator's truth. The
+    'Automatic', the user's default, PlacementOfView 1 and 2: the standing round aligns by features;
+    the round on its side, a box's flat faces, does not (3 of 8 views: they could slide) and its
+    turntable round with the step estimated takes over; the placements joined by shape; no true pose
+    is used), and its poses are checked against the simulator's truth. The
     scan goes into the part's coordinate system by datum alignment on three fitted planes (the
     bottom, now measured, the front and the left side), so every height is measured from the
     bottom's data. The outline is a fitted Cross-section (Band) of a Poisson mesh of the scan,
@@ -1829,8 +1865,7 @@ class PicoScanRebuildFromScanTest(unittest.TestCase):
         views = [stored_scan_view(self.doc, f, "%s_%d" % (placement, i)) for placement, group in (
             ("Standing", self.standing_files), ("OnItsSide", flipped_files)) for i, f in enumerate(group)]
         started = time.monotonic()
-        merged = stitch.create(self.doc, views, placement_of_view=[1] * len(self.standing_files) + [2] * len(flipped_files),
-                               mode="Turntable round")
+        merged = stitch.create(self.doc, views, placement_of_view=[1] * len(self.standing_files) + [2] * len(flipped_files))
         FreeCAD.Console.PrintMessage("stitched %d views in %.1f s: %s\n  %s\n" % (
             len(files), time.monotonic() - started, "; ".join(merged.PlacementReport), "\n  ".join(merged.AlignmentReport)))
         self.assertEqual(merged.AlignedCount, len(files), merged.Report)
