@@ -77,7 +77,7 @@ def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=
     from picoscan_wb.objects.scan_mesh import core_mesh
 
     cancel_point(progress, 0.0, "cutting the mesh")
-    core = core_mesh(mesh)
+    core = core_mesh(mesh, progress)
     placement, polylines = section_polylines(mesh, core, label, axis, offset_mm, progress)
     others = parallel_cuts(mesh, core, axis, offset_mm, band_mm, progress=progress)
     try:
