@@ -115,8 +115,11 @@ TEST(PlanarFaces, NoisyBoxBecomesSixFacesOfFourStraightEdges) {
 
 TEST(PlanarFaces, CurvedSurfaceStaysTrianglesAndInwardFacetsTurn) {
     // A UV sphere: only the fans at its poles are flat within the (curvature-sized) noise estimate.
+    // (Without simplifying the curved facets: the CurvedRegions tests below.)
     Mesh ball = sphere(10, 60, 120);
-    const PlanarFaceModel model = planar_face_model(ball);
+    PlanarFaceOptions options;
+    options.simplify = false;
+    const PlanarFaceModel model = planar_face_model(ball, options);
     SCOPED_TRACE(model.summary());
     EXPECT_LT(model.merged_facets, ball.faces.size() / 10);
     for (const BrepFace& face : model.faces) {
@@ -125,7 +128,7 @@ TEST(PlanarFaces, CurvedSurfaceStaysTrianglesAndInwardFacetsTurn) {
     }
     const double volume = model.mesh_volume_mm3;
     for (cv::Vec3i& face : ball.faces) std::swap(face[1], face[2]);
-    const PlanarFaceModel inward = planar_face_model(ball);
+    const PlanarFaceModel inward = planar_face_model(ball, options);
     EXPECT_DOUBLE_EQ(inward.mesh_volume_mm3, volume);
     EXPECT_EQ(inward.faces.size(), model.faces.size());
     for (const BrepFace& face : inward.faces) EXPECT_GT(face.origin.dot(face.normal), 0);  // still outward
@@ -511,9 +514,9 @@ PlanarFaceModel expect_simplified_within(const Mesh& mesh, const PlanarFaceOptio
     double volume = 0;
     for (const cv::Vec3i& m : mesh.faces)
         volume += cv::Vec3d(mesh.vertices[m[0]]).dot(cv::Vec3d(mesh.vertices[m[1]]).cross(cv::Vec3d(mesh.vertices[m[2]])));
-    size_t folded = 0;
+    size_t folded = 0, curved = 0;
     for (const BrepFace& face : model.faces) {
-        if (face.merged) continue;
+        if (face.merged || curved++ % step != 0) continue;
         const cv::Vec3i& t = face.triangles[0];
         const cv::Vec3d n = (model.vertices[t[1]] - model.vertices[t[0]]).cross(model.vertices[t[2]] - model.vertices[t[0]]);
         const cv::Vec3d centre = (model.vertices[t[0]] + model.vertices[t[1]] + model.vertices[t[2]]) / 3;
@@ -532,11 +535,11 @@ PlanarFaceModel expect_simplified_within(const Mesh& mesh, const PlanarFaceOptio
 
 }  // namespace
 
-TEST(CurvedRegions, NoisySphereBecomesATenthOfTheFacetsWithinTheTolerance) {
-    Mesh ball = sphere(10, 70, 140);
+TEST(CurvedRegions, NoisySphereBecomesAnEighthOfTheFacetsWithinTheTolerance) {
+    Mesh ball = sphere(10, 50, 100);
     add_noise(ball, 0.01, 5);
-    const PlanarFaceModel model = expect_simplified_within(ball, {}, 7);
-    EXPECT_LT(model.faces.size(), ball.faces.size() / 10);
+    const PlanarFaceModel model = expect_simplified_within(ball, {}, 5);
+    EXPECT_LT(model.faces.size(), ball.faces.size() / 8);
     EXPECT_NEAR(model.simplify_mm, 4 * model.noise_mm, 1e-12);  // the default: distance_factor x the noise
     // Every corner of the curved facets on the sphere, within the tolerance and the noise (but
     // those the planar faces moved onto themselves).
@@ -554,7 +557,7 @@ TEST(CurvedRegions, NoisySphereBecomesATenthOfTheFacetsWithinTheTolerance) {
     // A given tolerance; and none when merging is off (the fallback to the mesh's own facets).
     PlanarFaceOptions coarse;
     coarse.simplify_mm = 0.2;
-    EXPECT_LT(expect_simplified_within(ball, coarse, 7).curved_facets_after, model.curved_facets_after * 2 / 3);
+    EXPECT_LT(expect_simplified_within(ball, coarse, 5).curved_facets_after, model.curved_facets_after * 2 / 3);
     PlanarFaceOptions unmerged;
     unmerged.merge = false;
     EXPECT_EQ(planar_face_model(ball, unmerged).faces.size(), ball.faces.size());
@@ -563,9 +566,7 @@ TEST(CurvedRegions, NoisySphereBecomesATenthOfTheFacetsWithinTheTolerance) {
     strict.simplify_max_volume_change = 1e-8;
     const PlanarFaceModel kept = planar_face_model(ball, strict);
     EXPECT_EQ(kept.curved_facets_after, kept.curved_facets_before);
-    PlanarFaceOptions plain;
-    plain.simplify = false;
-    EXPECT_EQ(kept.faces.size(), planar_face_model(ball, plain).faces.size());
+    EXPECT_EQ(kept.facet_count - kept.merged_facets, kept.curved_facets_before);
     EXPECT_NE(kept.summary().find("not simplified: the volume would change"), std::string::npos) << kept.summary();
     coarse.simplify_mm = -1;
     EXPECT_THROW(planar_face_model(ball, coarse), Error);
@@ -597,7 +598,7 @@ TEST(CurvedRegions, WavesAreFollowedNotFlattened) {
             if (v[2] > 9.5) v[2] += float(amplitude * std::sin(kPi * v[0] / 10) * std::sin(kPi * v[1] / 10));
         add_noise(box, 0.005, 11);
         SCOPED_TRACE(amplitude);
-        const PlanarFaceModel model = expect_simplified_within(box, {}, 1);
+        const PlanarFaceModel model = expect_simplified_within(box, {}, 2);
         // The waves need many facets (the planar faces may take in only strips where they are flat
         // within the noise: along the lines where they cross z = 10).
         EXPECT_GT(model.curved_facets_after, amplitude > 0.5 ? 600u : 200u);
