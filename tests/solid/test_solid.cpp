@@ -570,6 +570,18 @@ TEST(CurvedRegions, NoisySphereBecomesAnEighthOfTheFacetsWithinTheTolerance) {
     EXPECT_NE(kept.summary().find("not simplified: the volume would change"), std::string::npos) << kept.summary();
     coarse.simplify_mm = -1;
     EXPECT_THROW(planar_face_model(ball, coarse), Error);
+    // Cancel while simplifying: stopped there, with "cancelled".
+    int reports = 0;
+    const ProgressCallback cancel = [&](double, const std::string& stage) {
+        return stage.find("simplifying") == std::string::npos || ++reports < 3;
+    };
+    try {
+        planar_face_model(ball, {}, cancel);
+        ADD_FAILURE() << "not cancelled";
+    } catch (const Error& error) {
+        EXPECT_NE(std::string(error.what()).find("cancelled"), std::string::npos) << error.what();
+    }
+    EXPECT_EQ(reports, 3);
 }
 
 TEST(CurvedRegions, PlanarFacesBesideARoundedEdgeStayAsTheyWere) {

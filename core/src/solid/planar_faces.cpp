@@ -775,7 +775,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         if (!progress) return nullptr;
         return [=](double fraction, const std::string& stage) { return progress(from + (to - from) * fraction, stage); };
     };
-    PlanarFaceModel model = faces_of_mesh(mesh, options, share(0, simplify ? 0.4 : 1));
+    PlanarFaceModel model = faces_of_mesh(mesh, options, share(0, simplify ? 0.3 : 1));
     if (!simplify) return model;
 
     // The facets of planar faces stay, and so do their vertices; the others are simplified.
@@ -788,8 +788,8 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
                 for (int k = 0; k < 3; ++k) fixed[size_t(facet[k])] = 1;
         }
     const double tolerance = options.simplify_mm > 0 ? options.simplify_mm : options.distance_factor * model.noise_mm;
-    if (progress && !progress(0.4, "solid: simplifying curved regions")) throw Error("cancelled", "make solid was stopped");
-    const detail::SimplifiedSurface simplified = detail::simplify_surface(model.vertices, curved, kept, fixed, tolerance);
+    const detail::SimplifiedSurface simplified =
+        detail::simplify_surface(model.vertices, curved, kept, fixed, tolerance, share(0.3, 0.9));
     if (simplified.facets.size() >= curved.size()) {
         model.curved_facets_before = model.curved_facets_after = curved.size();
         model.simplify_mm = tolerance;
@@ -814,7 +814,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     regions.of_facet.resize(smaller.faces.size(), -1);
     PlanarFaceOptions again = options;
     again.noise_mm = model.noise_mm;  // the simplified facets are not the scan's: its noise stays
-    PlanarFaceModel result = faces_of_mesh(smaller, again, share(0.5, 1), &regions);
+    PlanarFaceModel result = faces_of_mesh(smaller, again, share(0.9, 1), &regions);
     result.curved_facets_before = curved.size();
     result.curved_facets_after = simplified.facets.size();
     result.simplify_mm = tolerance;

@@ -6,13 +6,13 @@
 #include "solid/simplify_surface.h"
 
 #include "mesh/cgal_types.h"
+#include "picoscan/error.h"
 
 #include <CGAL/AABB_face_graph_triangle_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Surface_mesh_simplification/Edge_collapse_visitor_base.h>
-#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_ratio_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_cost.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
@@ -192,10 +192,26 @@ struct Reassign : SMS::Edge_collapse_visitor_base<SurfaceMesh> {
     }
 };
 
+// Never stops the collapses (they end when none is allowed) but when the caller cancels; tells the
+// caller every 1024 edges looked at.
+struct UntilCancelled {
+    const ProgressCallback* progress;
+    bool* cancelled;
+    mutable size_t calls = 0;
+    template <typename Cost, typename Profile, typename Count>
+    bool operator()(const Cost&, const Profile&, Count initial, Count current) const {
+        if (!*progress || ++calls % 1024 != 0) return false;
+        const double done = 1 - double(current) / double(std::max<Count>(initial, 1));
+        *cancelled = !(*progress)(done, "solid: simplifying curved regions");
+        return *cancelled;
+    }
+};
+
 }  // namespace
 
 SimplifiedSurface simplify_surface(const std::vector<cv::Vec3d>& vertices, const std::vector<cv::Vec3i>& facets,
-                                   const std::vector<cv::Vec3i>& others, const std::vector<char>& fixed, double tolerance_mm) {
+                                   const std::vector<cv::Vec3i>& others, const std::vector<char>& fixed, double tolerance_mm,
+                                   const ProgressCallback& progress) {
     SimplifiedSurface result{vertices, facets, 0};
     if (facets.empty()) return result;
     // The facets as a polygon soup of the vertices they use; CGAL's orientation pass duplicates a
@@ -260,12 +276,13 @@ SimplifiedSurface simplify_surface(const std::vector<cv::Vec3d>& vertices, const
     Tracking tracking{&mesh, points, index, is_fixed, owned, normal, tolerance_mm * tolerance_mm, {}};
     for (const cv::Vec3i& facet : others)
         for (int k = 0; k < 3; ++k) tracking.outside_edges.insert(edge_key(facet[k], facet[(k + 1) % 3]));
-    SMS::Count_ratio_stop_predicate<SurfaceMesh> until_none_fits(0.0);
-    SMS::edge_collapse(mesh, until_none_fits,
+    bool cancelled = false;
+    SMS::edge_collapse(mesh, UntilCancelled{&progress, &cancelled},
                        CGAL::parameters::get_cost(SMS::LindstromTurk_cost<SurfaceMesh>())
                            .get_placement(KeepFixed{&tracking})
                            .filter(WithinTolerance{&tracking})
                            .visitor(Reassign(&tracking)));
+    if (cancelled) throw Error("cancelled", "make solid was stopped");
 
     result.facets.clear();
     for (Vertex v : mesh.vertices()) {
