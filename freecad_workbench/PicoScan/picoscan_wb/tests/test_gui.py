@@ -832,7 +832,7 @@ class PicoScanGuiTest(unittest.TestCase):
         return sphere
 
     def test_k3_make_solid_answers_events_and_cancel_leaves_the_document_as_it_was(self):
-        """Make solid of a 64 440-facet sphere (every facet a face: the core's face building alone takes
+        """Make solid of a 64 440-facet sphere (the core's face building and simplification take
         seconds) runs off the GUI thread; Cancel stops it. Then a 7 080-facet sphere, cancelled while
         OpenCASCADE checks its solid (isValid, seconds) in another process: FreeCAD's Part calls hold
         Python's GIL, so in the GUI's process they would freeze it, and nothing could stop them."""
