@@ -1,6 +1,7 @@
 # How long FreeCAD's GUI is held reading and drawing the B-rep that Make solid writes, for two
 # builds of the core (e.g. main's and a branch's write_brep), in one FreeCAD process with the two
-# alternated, so that both see the same machine load. UV spheres, where every facet is a face.
+# alternated, so that both see the same machine load. UV spheres (every facet a face, unless the
+# build simplifies curved regions).
 # Run inside FreeCAD's GUI (it exits by itself):
 #   PICOSCAN_BUILDS=/path/to/old/build/freecad_workbench/PicoScan:build/freecad_workbench/PicoScan \
 #     QTWEBENGINE_DISABLE_SANDBOX=1 xvfb-run -a -s "-screen 0 1600x1000x24" freecad benchmarks/freecad_brep_drawing_ab.py
@@ -46,14 +47,14 @@ def main():
             paths.append(os.path.join(folder, "solid%d.brep" % number))
             subprocess.run([python, "-c", WRITE, build, stl, paths[-1]], check=True)
         figures = {path: ([], []) for path in paths}
-        faces = 0
+        faces = {}
         for repeat in range(repeats):
             for path in paths if repeat % 2 == 0 else reversed(paths):
                 shape = Part.Shape()
                 started = time.perf_counter()
                 shape.read(path)
                 figures[path][0].append(time.perf_counter() - started)
-                faces = len(shape.Faces)
+                faces[path] = len(shape.Faces)
                 feature = doc.addObject("Part::Feature", "Solid")
                 settle()
                 started = time.perf_counter()
@@ -65,7 +66,7 @@ def main():
         for build, path in zip(builds, paths):
             reads, draws = figures[path]
             print("%d facets, %d faces, %s (%.1f MB): read %.3f s, drawing %.3f s (medians of %d; drawing %s); "
-                  "load average %.1f" % (mesh.CountFacets, faces, build, os.path.getsize(path) / 1e6,
+                  "load average %.1f" % (mesh.CountFacets, faces[path], build, os.path.getsize(path) / 1e6,
                                          statistics.median(reads), statistics.median(draws), repeats,
                                          " ".join("%.2f" % d for d in draws), os.getloadavg()[0]),
                   file=sys.__stdout__, flush=True)

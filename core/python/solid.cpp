@@ -13,6 +13,9 @@ void bind_solid(py::module_& m) {
         .def_readwrite("max_rms_factor", &PlanarFaceOptions::max_rms_factor)
         .def_readwrite("min_facets", &PlanarFaceOptions::min_facets)
         .def_readwrite("merge", &PlanarFaceOptions::merge)
+        .def_readwrite("simplify", &PlanarFaceOptions::simplify)
+        .def_readwrite("simplify_mm", &PlanarFaceOptions::simplify_mm)
+        .def_readwrite("simplify_max_volume_change", &PlanarFaceOptions::simplify_max_volume_change)
         .def_readwrite("check_faces", &PlanarFaceOptions::check_faces);
     py::class_<BrepEdge>(m, "BrepEdge")
         .def_readonly("start", &BrepEdge::start)
@@ -38,6 +41,12 @@ void bind_solid(py::module_& m) {
         .def_readonly("merged_faces", &PlanarFaceModel::merged_faces)
         .def_readonly("merged_facets", &PlanarFaceModel::merged_facets)
         .def_readonly("refused_merges", &PlanarFaceModel::refused_merges)
+        .def_readonly("curved_facets_before", &PlanarFaceModel::curved_facets_before)
+        .def_readonly("curved_facets_after", &PlanarFaceModel::curved_facets_after)
+        .def_readonly("simplify_mm", &PlanarFaceModel::simplify_mm)
+        .def_readonly("simplify_deviation_mm", &PlanarFaceModel::simplify_deviation_mm)
+        .def_readonly("simplified_volume_mm3", &PlanarFaceModel::simplified_volume_mm3)
+        .def_readonly("simplify_note", &PlanarFaceModel::simplify_note)
         .def("summary", &PlanarFaceModel::summary);
     m.def(
         "planar_face_model",

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <random>
 #include <tuple>
@@ -114,8 +115,11 @@ TEST(PlanarFaces, NoisyBoxBecomesSixFacesOfFourStraightEdges) {
 
 TEST(PlanarFaces, CurvedSurfaceStaysTrianglesAndInwardFacetsTurn) {
     // A UV sphere: only the fans at its poles are flat within the (curvature-sized) noise estimate.
+    // (Without simplifying the curved facets: the CurvedRegions tests below.)
     Mesh ball = sphere(10, 60, 120);
-    const PlanarFaceModel model = planar_face_model(ball);
+    PlanarFaceOptions options;
+    options.simplify = false;
+    const PlanarFaceModel model = planar_face_model(ball, options);
     SCOPED_TRACE(model.summary());
     EXPECT_LT(model.merged_facets, ball.faces.size() / 10);
     for (const BrepFace& face : model.faces) {
@@ -124,7 +128,7 @@ TEST(PlanarFaces, CurvedSurfaceStaysTrianglesAndInwardFacetsTurn) {
     }
     const double volume = model.mesh_volume_mm3;
     for (cv::Vec3i& face : ball.faces) std::swap(face[1], face[2]);
-    const PlanarFaceModel inward = planar_face_model(ball);
+    const PlanarFaceModel inward = planar_face_model(ball, options);
     EXPECT_DOUBLE_EQ(inward.mesh_volume_mm3, volume);
     EXPECT_EQ(inward.faces.size(), model.faces.size());
     for (const BrepFace& face : inward.faces) EXPECT_GT(face.origin.dot(face.normal), 0);  // still outward
@@ -428,4 +432,210 @@ TEST(PlanarFaces, SliverChamferMergedWithoutTheCheckMakesAnInvalidFaceAndWithItD
         EXPECT_TRUE(model.refused_merges.empty()) << model.summary();
         EXPECT_EQ(model.merged_faces, 4u) << model.summary();
     }
+}
+
+// Curved regions (the facets in no planar face) become fewer, larger triangles: each mesh vertex
+// stays within the tolerance of them, the volume within 0.05 %, and the planar faces beside them as
+// they were. Fooling inputs: waves (curved, but no cylinder or sphere; small enough to look flat),
+// a spike of one vertex (a feature a one-sided bound would cut off).
+namespace {
+
+double segment_distance3(const cv::Vec3d& p, const cv::Vec3d& a, const cv::Vec3d& b) {
+    const cv::Vec3d ab = b - a;
+    const double t = std::clamp((p - a).dot(ab) / ab.dot(ab), 0.0, 1.0);
+    return cv::norm(p - (a + t * ab));
+}
+
+double triangle_distance(const cv::Vec3d& p, const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+    const cv::Vec3d n = cv::normalize((b - a).cross(c - a));
+    const cv::Vec3d q = p - (p - a).dot(n) * n;  // p's foot on the plane: inside when on the inner side of each edge
+    if ((b - a).cross(q - a).dot(n) >= 0 && (c - b).cross(q - b).dot(n) >= 0 && (a - c).cross(q - c).dot(n) >= 0)
+        return std::abs((p - a).dot(n));
+    return std::min({segment_distance3(p, a, b), segment_distance3(p, b, c), segment_distance3(p, c, a)});
+}
+
+// The farthest of every `step`-th vertex of the curved facets of `before` from the facets of
+// `model` (brute force).
+double farthest_from_model(const PlanarFaceModel& before, const PlanarFaceModel& model, size_t step) {
+    std::vector<int> curved;
+    for (const BrepFace& face : before.faces)
+        if (!face.merged)
+            for (const cv::Vec3i& t : face.triangles) curved.insert(curved.end(), {t[0], t[1], t[2]});
+    std::sort(curved.begin(), curved.end());
+    curved.erase(std::unique(curved.begin(), curved.end()), curved.end());
+    double farthest = 0;
+    for (size_t v = 0; v < curved.size(); v += step) {
+        const cv::Vec3d& p = before.vertices[size_t(curved[v])];
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const BrepFace& face : model.faces)
+            for (const cv::Vec3i& t : face.triangles)
+                nearest = std::min(nearest, triangle_distance(p, model.vertices[t[0]], model.vertices[t[1]], model.vertices[t[2]]));
+        farthest = std::max(farthest, nearest);
+    }
+    return farthest;
+}
+
+size_t triangle_count(const PlanarFaceModel& model) {
+    size_t count = 0;
+    for (const BrepFace& face : model.faces) count += face.triangles.size();
+    return count;
+}
+
+void add_noise(Mesh& mesh, double sigma, unsigned seed) {
+    std::mt19937 random(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    for (cv::Vec3f& v : mesh.vertices) v += cv::Vec3f(float(noise(random)), float(noise(random)), float(noise(random)));
+}
+
+// What every simplified model of `mesh` must hold: fewer facets, the vertices of the curved facets
+// it had without simplifying within the tolerance of it (checked here on every `step`-th, and as
+// the core measured it), the volume kept, the planar faces as they were.
+PlanarFaceModel expect_simplified_within(const Mesh& mesh, const PlanarFaceOptions& options, size_t step) {
+    PlanarFaceOptions plain = options;
+    plain.simplify = false;
+    const PlanarFaceModel before = planar_face_model(mesh, plain);
+    const PlanarFaceModel model = planar_face_model(mesh, options);
+    SCOPED_TRACE(model.summary());
+    EXPECT_EQ(model.mesh_volume_mm3, before.mesh_volume_mm3);
+    EXPECT_EQ(model.curved_facets_before, before.facet_count - before.merged_facets);
+    EXPECT_EQ(model.merged_faces, before.merged_faces);
+    for (size_t f = 0; f < std::min(model.merged_faces, before.merged_faces); ++f) {  // the same planar faces, with the same facets
+        EXPECT_EQ(model.faces[f].facet_count, before.faces[f].facet_count);
+        EXPECT_LT(cv::norm(model.faces[f].normal - before.faces[f].normal), 1e-6);
+    }
+    EXPECT_LT(model.curved_facets_after, model.curved_facets_before);
+    EXPECT_EQ(triangle_count(model), model.facet_count);
+    EXPECT_GT(model.simplify_mm, 0);
+    EXPECT_LE(model.simplify_deviation_mm, model.simplify_mm);
+    EXPECT_LE(farthest_from_model(before, model, step), model.simplify_mm * (1 + 1e-6));
+    EXPECT_NEAR(model.simplified_volume_mm3, model.mesh_volume_mm3, options.simplify_max_volume_change * model.mesh_volume_mm3);
+    EXPECT_TRUE(merged_face_defects(model).empty());
+    // No facet turned over: each against the (outward) mesh facet nearest to its centre.
+    double volume = 0;
+    for (const cv::Vec3i& m : mesh.faces)
+        volume += cv::Vec3d(mesh.vertices[m[0]]).dot(cv::Vec3d(mesh.vertices[m[1]]).cross(cv::Vec3d(mesh.vertices[m[2]])));
+    size_t folded = 0, curved = 0;
+    for (const BrepFace& face : model.faces) {
+        if (face.merged || curved++ % step != 0) continue;
+        const cv::Vec3i& t = face.triangles[0];
+        const cv::Vec3d n = (model.vertices[t[1]] - model.vertices[t[0]]).cross(model.vertices[t[2]] - model.vertices[t[0]]);
+        const cv::Vec3d centre = (model.vertices[t[0]] + model.vertices[t[1]] + model.vertices[t[2]]) / 3;
+        double nearest = std::numeric_limits<double>::infinity();
+        cv::Vec3d mesh_normal;
+        for (const cv::Vec3i& m : mesh.faces) {
+            const cv::Vec3d a(mesh.vertices[m[0]]), b(mesh.vertices[m[1]]), c(mesh.vertices[m[2]]);
+            const double d = cv::norm((a + b + c) / 3 - centre);
+            if (d < nearest) nearest = d, mesh_normal = (b - a).cross(c - a);
+        }
+        folded += n.dot(volume > 0 ? mesh_normal : -mesh_normal) < -0.5 * cv::norm(n) * cv::norm(mesh_normal);
+    }
+    EXPECT_EQ(folded, 0u);
+    return model;
+}
+
+}  // namespace
+
+TEST(CurvedRegions, NoisySphereBecomesAnEighthOfTheFacetsWithinTheTolerance) {
+    Mesh ball = sphere(10, 50, 100);
+    add_noise(ball, 0.01, 5);
+    const PlanarFaceModel model = expect_simplified_within(ball, {}, 5);
+    EXPECT_LT(model.faces.size(), ball.faces.size() / 8);
+    EXPECT_NEAR(model.simplify_mm, 4 * model.noise_mm, 1e-12);  // the default: distance_factor x the noise
+    // Every corner of the curved facets on the sphere, within the tolerance and the noise (but
+    // those the planar faces moved onto themselves).
+    std::vector<char> on_plane(model.vertices.size(), 0);
+    for (size_t f = 0; f < model.merged_faces; ++f)
+        for (const cv::Vec3i& t : model.faces[f].triangles) on_plane[t[0]] = on_plane[t[1]] = on_plane[t[2]] = 1;
+    for (const BrepFace& face : model.faces) {
+        if (face.merged) continue;
+        for (const cv::Vec3i& t : face.triangles)
+            for (int k = 0; k < 3; ++k) {
+                if (on_plane[t[k]]) continue;
+                EXPECT_NEAR(cv::norm(model.vertices[t[k]]), 10.0, model.simplify_mm + 4 * 0.01);
+            }
+    }
+    // A given tolerance; and none when merging is off (the fallback to the mesh's own facets).
+    PlanarFaceOptions coarse;
+    coarse.simplify_mm = 0.2;
+    EXPECT_LT(expect_simplified_within(ball, coarse, 5).curved_facets_after, model.curved_facets_after * 2 / 3);
+    PlanarFaceOptions unmerged;
+    unmerged.merge = false;
+    EXPECT_EQ(planar_face_model(ball, unmerged).faces.size(), ball.faces.size());
+    // A volume change beyond the limit: the curved facets stay as they were, and the summary says why.
+    PlanarFaceOptions strict;
+    strict.simplify_max_volume_change = 1e-8;
+    const PlanarFaceModel kept = planar_face_model(ball, strict);
+    EXPECT_EQ(kept.curved_facets_after, kept.curved_facets_before);
+    EXPECT_EQ(kept.facet_count - kept.merged_facets, kept.curved_facets_before);
+    EXPECT_NE(kept.summary().find("not simplified: the volume would change"), std::string::npos) << kept.summary();
+    coarse.simplify_mm = -1;
+    EXPECT_THROW(planar_face_model(ball, coarse), Error);
+    // Cancel while simplifying: stopped there, with "cancelled".
+    int reports = 0;
+    const ProgressCallback cancel = [&](double, const std::string& stage) {
+        return stage.find("simplifying") == std::string::npos || ++reports < 3;
+    };
+    try {
+        planar_face_model(ball, {}, cancel);
+        ADD_FAILURE() << "not cancelled";
+    } catch (const Error& error) {
+        EXPECT_NE(std::string(error.what()).find("cancelled"), std::string::npos) << error.what();
+    }
+    EXPECT_EQ(reports, 3);
+}
+
+TEST(CurvedRegions, PlanarFacesBesideARoundedEdgeStayAsTheyWere) {
+    // A 20 x 10 block along y with its (+x, +z) edge rounded (radius 5, 40 facets round).
+    std::vector<cv::Vec2d> outline{{0, 0}, {20, 0}};
+    std::vector<int> segments{40, 10};  // side k runs from outline[k] to the next in segments[k] pieces
+    for (int i = 0; i <= 40; ++i) {
+        const double angle = kPi / 2 * i / 40;
+        outline.emplace_back(15 + 5 * std::cos(angle), 5 + 5 * std::sin(angle));
+        segments.push_back(i < 40 ? 1 : 30);
+    }
+    outline.emplace_back(0, 10);
+    segments.push_back(20);
+    const Mesh block = prism(outline, segments, 20.0, 40, 0.005, 9);
+    const PlanarFaceModel model = expect_simplified_within(block, {}, 3);
+    EXPECT_LT(model.curved_facets_after, model.curved_facets_before / 4);
+    EXPECT_GE(model.merged_faces, 6u);
+}
+
+TEST(CurvedRegions, WavesAreFollowedNotFlattened) {
+    // A 40 x 40 x 10 box whose top has waves of amplitude `amplitude` (0 at its edges): curved, but
+    // no primitive; at 0.05 mm they are within a few noise widths of flat.
+    for (double amplitude : {1.0, 0.05}) {
+        Mesh box = grid_box(40, 40, 10, 1.0, 0.0);
+        for (cv::Vec3f& v : box.vertices)
+            if (v[2] > 9.5) v[2] += float(amplitude * std::sin(kPi * v[0] / 10) * std::sin(kPi * v[1] / 10));
+        add_noise(box, 0.005, 11);
+        SCOPED_TRACE(amplitude);
+        const PlanarFaceModel model = expect_simplified_within(box, {}, 2);
+        // The waves need many facets (the planar faces may take in only strips where they are flat
+        // within the noise: along the lines where they cross z = 10).
+        EXPECT_GT(model.curved_facets_after, amplitude > 0.5 ? 600u : 200u);
+        EXPECT_LT(model.curved_facets_after, model.curved_facets_before / 2);
+        for (const BrepFace& face : model.faces) {
+            if (face.merged) continue;
+            for (const cv::Vec3i& t : face.triangles)
+                for (int k = 0; k < 3; ++k) {
+                    const cv::Vec3d& p = model.vertices[t[k]];
+                    if (p[2] < 9) continue;
+                    EXPECT_NEAR(p[2], 10 + amplitude * std::sin(kPi * p[0] / 10) * std::sin(kPi * p[1] / 10),
+                                model.simplify_mm + 4 * 0.005);
+                }
+        }
+    }
+}
+
+TEST(CurvedRegions, ASpikeOfOneVertexStays) {
+    Mesh ball = sphere(10, 50, 100);
+    add_noise(ball, 0.01, 13);
+    const size_t tip = ball.vertices.size() / 2 + 17;
+    const cv::Vec3f outward = ball.vertices[tip] / cv::norm(ball.vertices[tip]);
+    ball.vertices[tip] += 1.0f * outward;  // 1 mm out, on facets about 0.6 mm wide
+    const PlanarFaceModel model = expect_simplified_within(ball, {}, 5);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const cv::Vec3d& p : model.vertices) nearest = std::min(nearest, cv::norm(p - cv::Vec3d(ball.vertices[tip])));
+    EXPECT_LE(nearest, model.simplify_mm);
 }

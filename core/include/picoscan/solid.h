@@ -21,7 +21,12 @@ struct PlanarFaceOptions {
     double max_rms_factor = 1.5;     // a region's RMS residual must stay below this many sigma
                                      // (a strip of a cylinder is flat within 4 sigma, not within 1.5)
     int min_facets = 30;             // smaller regions stay triangles
-    bool merge = true;               // false: one face per facet
+    bool merge = true;               // false: one face per facet (and no simplification)
+    bool simplify = true;            // the facets left out of planar faces (curved regions) become
+                                     // fewer, larger triangles, each within simplify_mm of the mesh;
+                                     // the planar faces and their boundaries stay as they are
+    double simplify_mm = 0;          // 0: distance_factor x the noise
+    double simplify_max_volume_change = 5e-4;  // beyond this (relative), the curved facets stay as they were
     bool check_faces = true;         // no vertex move may fold a facet, and a merged face whose
                                      // boundary would not make a valid B-rep face (merged_face_defects)
                                      // goes back to triangles where it fails; false: neither (as before)
@@ -55,11 +60,21 @@ struct PlanarFaceModel {
     size_t facet_count = 0;          // facets used (without those collapsed by joining vertices)
     size_t merged_faces = 0, merged_facets = 0;  // planar regions and the facets they hold
     std::vector<std::string> refused_merges;     // planar regions left as triangles, and why
+    // Simplification of the curved regions (simplify): facets there before and after (equal: none
+    // done), the tolerance, how far the mesh's vertices are from the simplified facets (the
+    // farthest), and the volume enclosed once simplified. Refused (curved facets kept as they
+    // were; the reason in simplify_note) when the volume would move by more than
+    // simplify_max_volume_change.
+    size_t curved_facets_before = 0, curved_facets_after = 0;
+    double simplify_mm = 0, simplify_deviation_mm = 0, simplified_volume_mm3 = 0;
+    std::string simplify_note;
     std::string summary() const;
 };
 
 // Builds the faces of the solid bounded by `mesh`. Vertices at the same position are joined
-// first; facets left with two corners at one position are dropped. Throws Error("mesh", ...) saying why the mesh bounds no solid: empty, open (border
+// first; facets left with two corners at one position are dropped. With options.simplify, the
+// facets in no planar face are simplified (fewer faces for a CAD host to draw) and the faces are
+// built again from the simplified mesh; mesh_volume_mm3 stays the input's. Throws Error("mesh", ...) saying why the mesh bounds no solid: empty, open (border
 // edges), non-manifold edges, inconsistently oriented facets, zero-area facets. Facets turned
 // inwards are turned outwards. Self-intersections are check_mesh's (mesh.h).
 PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options = {},

@@ -4,6 +4,7 @@
 #include "picoscan/solid.h"
 
 #include "picoscan/error.h"
+#include "solid/simplify_surface.h"
 
 #include <algorithm>
 #include <cmath>
@@ -215,10 +216,28 @@ std::string PlanarFaceModel::summary() const {
          << merged_facets << " facets, " << faces.size() - merged_faces << " triangles; noise " << noise_mm << " mm";
     if (!refused_merges.empty())
         text << "; " << refused_merges.size() << " merge(s) undone where a face would be invalid, first: " << refused_merges.front();
+    if (curved_facets_after < curved_facets_before)
+        text << "; curved regions simplified from " << curved_facets_before << " to " << curved_facets_after
+             << " facets within " << simplify_mm << " mm (mesh vertices at most " << simplify_deviation_mm
+             << " mm from them, volume " << std::showpos << 100 * (simplified_volume_mm3 / mesh_volume_mm3 - 1)
+             << std::noshowpos << " %)";
+    if (!simplify_note.empty()) text << "; " << simplify_note;
     return text.str();
 }
 
-PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options, const ProgressCallback& progress) {
+namespace {
+
+// Planar regions found before, their vertices already moved onto them: each facet's (-1: none),
+// their planes and RMS residuals.
+struct GivenRegions {
+    std::vector<int> of_facet;
+    std::vector<Plane> planes;
+    std::vector<double> rms;
+};
+
+// The faces of the solid bounded by `mesh`: its planar regions grown, or `given`.
+PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options, const ProgressCallback& progress,
+                              const GivenRegions* given = nullptr) {
     if (!(options.noise_mm >= 0)) throw Error("noise_mm", "must be 0 (estimate) or positive");
     if (!(options.distance_factor > 0) || !(options.max_rms_factor > 0))
         throw Error("distance_factor", "distance and RMS factors must be positive");
@@ -247,6 +266,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     // Facets with two corners at one position (collapsed by the join) bound nothing: they are left
     // out, and the facets on either side of them become neighbours.
     std::vector<cv::Vec3i> facets;
+    std::vector<int> given_region;
     facets.reserve(mesh.faces.size());
     double signed_volume = 0;
     for (size_t f = 0; f < mesh.faces.size(); ++f) {
@@ -259,6 +279,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         }
         if (facet[0] == facet[1] || facet[1] == facet[2] || facet[2] == facet[0]) continue;
         facets.push_back(facet);
+        if (given) given_region.push_back(given->of_facet[f]);
         const cv::Vec3d &a = positions[facet[0]], &b = positions[facet[1]], &c = positions[facet[2]];
         signed_volume += a.dot(b.cross(c)) / 6;
     }
@@ -347,7 +368,11 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     std::vector<int> region(facet_count, -1);
     std::vector<Plane> region_planes;
     std::vector<double> region_rms;
-    if (options.merge) {
+    if (given) {
+        region = given_region;
+        region_planes = given->planes;
+        region_rms = given->rms;
+    } else if (options.merge) {
         // Seeds: the flattest facets first (least normal change to their neighbours).
         std::vector<float> bend(facet_count, 0);
         for (int f = 0; f < facet_count; ++f)
@@ -484,7 +509,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         // in the least-squares sense with a heavy weight). The faces then meet exactly, without
         // gaps of the noise's size. A move longer than a few noise widths (planes meeting at a
         // glancing angle) is not made; the edges' tolerances cover that vertex instead.
-        if (!planes.empty()) {
+        if (!planes.empty() && !given) {
             std::vector<std::vector<int>> regions_at(vertex_count);
             for (int f = 0; f < facet_count; ++f)
                 if (region_of[f] >= 0)
@@ -738,6 +763,79 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
     }
     report(1.0, "solid: faces");
     return model;
+}
+
+}  // namespace
+
+PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options, const ProgressCallback& progress) {
+    if (!(options.simplify_mm >= 0)) throw Error("simplify_mm", "must be 0 (from the noise) or positive");
+    if (!(options.simplify_max_volume_change >= 0)) throw Error("simplify_max_volume_change", "must be 0 or positive");
+    const bool simplify = options.merge && options.simplify;
+    auto share = [&](double from, double to) -> ProgressCallback {
+        if (!progress) return nullptr;
+        return [=](double fraction, const std::string& stage) { return progress(from + (to - from) * fraction, stage); };
+    };
+    PlanarFaceModel model = faces_of_mesh(mesh, options, share(0, simplify ? 0.3 : 1));
+    if (!simplify) return model;
+
+    // The facets of planar faces stay, and so do their vertices; the others are simplified.
+    std::vector<cv::Vec3i> kept, curved;
+    std::vector<char> fixed(model.vertices.size(), 0);
+    for (const BrepFace& face : model.faces)
+        for (const cv::Vec3i& facet : face.triangles) {
+            (face.merged ? kept : curved).push_back(facet);
+            if (face.merged)
+                for (int k = 0; k < 3; ++k) fixed[size_t(facet[k])] = 1;
+        }
+    const double tolerance = options.simplify_mm > 0 ? options.simplify_mm : options.distance_factor * model.noise_mm;
+    const detail::SimplifiedSurface simplified =
+        detail::simplify_surface(model.vertices, curved, kept, fixed, tolerance, share(0.3, 0.9));
+    if (simplified.facets.size() >= curved.size()) {
+        model.curved_facets_before = model.curved_facets_after = curved.size();
+        model.simplify_mm = tolerance;
+        model.simplified_volume_mm3 = model.mesh_volume_mm3;
+        return model;
+    }
+
+    // The faces again, of the planar regions as they were and the simplified facets (larger
+    // curved facets, a few noise widths from flat, must not grow into planes that pull their
+    // corners off the surface).
+    Mesh smaller;
+    for (const cv::Vec3d& p : simplified.vertices) smaller.vertices.emplace_back(p);
+    GivenRegions regions;
+    for (size_t r = 0; r < model.merged_faces; ++r) {
+        const BrepFace& face = model.faces[r];
+        smaller.faces.insert(smaller.faces.end(), face.triangles.begin(), face.triangles.end());
+        regions.of_facet.insert(regions.of_facet.end(), face.triangles.size(), int(r));
+        regions.planes.push_back({face.origin, face.normal});
+        regions.rms.push_back(face.rms_mm);
+    }
+    smaller.faces.insert(smaller.faces.end(), simplified.facets.begin(), simplified.facets.end());
+    regions.of_facet.resize(smaller.faces.size(), -1);
+    PlanarFaceOptions again = options;
+    again.noise_mm = model.noise_mm;  // the simplified facets are not the scan's: its noise stays
+    PlanarFaceModel result = faces_of_mesh(smaller, again, share(0.9, 1), &regions);
+    result.curved_facets_before = curved.size();
+    result.curved_facets_after = simplified.facets.size();
+    result.simplify_mm = tolerance;
+    result.simplify_deviation_mm = simplified.max_deviation_mm;
+    result.simplified_volume_mm3 = result.mesh_volume_mm3;
+    result.mesh_volume_mm3 = model.mesh_volume_mm3;
+    result.refused_merges.insert(result.refused_merges.begin(), model.refused_merges.begin(), model.refused_merges.end());
+    // The simplification keeps the volume at each step (only collapses into a fixed vertex do not):
+    // a larger change than allowed, and the curved facets stay as they were.
+    const double change = result.simplified_volume_mm3 / model.mesh_volume_mm3 - 1;
+    if (std::abs(change) > options.simplify_max_volume_change) {
+        char text[160];
+        std::snprintf(text, sizeof text, "curved regions not simplified: the volume would change by %+.4f %% (at most %.4f %%)",
+                      100 * change, 100 * options.simplify_max_volume_change);
+        model.curved_facets_before = model.curved_facets_after = curved.size();
+        model.simplify_mm = tolerance;
+        model.simplified_volume_mm3 = model.mesh_volume_mm3;
+        model.simplify_note = text;
+        return model;
+    }
+    return result;
 }
 
 std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options) {
