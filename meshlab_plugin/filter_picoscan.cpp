@@ -574,12 +574,16 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
 }
 
 void PicoScanFilterPlugin::require_scan_grid(MeshModel& layer) {
-    QString view_file;
-    const std::string missing = missing_scan_data(layer, &view_file);
+    LayerRepair repair;
+    const std::string missing = missing_scan_data(layer, &repair);
     if (!missing.empty()) throw Error(layer_name(layer), missing);
-    if (!view_file.isEmpty())
+    if (!repair.view_file.isEmpty())
         Log("PicoScan %s: pixel grid and camera taken from the view file %s", qUtf8Printable(layer.label()),
-            qUtf8Printable(view_file));
+            qUtf8Printable(repair.view_file));
+    if (repair.normals_from_grid > 0)
+        Log("PicoScan %s: saved without normals; %d normals recomputed from the pixel grid (neighbouring pixels, "
+            "towards the camera)",
+            qUtf8Printable(layer.label()), repair.normals_from_grid);
 }
 
 // The visible layers, each of which must carry a pixel grid.

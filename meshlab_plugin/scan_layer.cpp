@@ -27,6 +27,14 @@ bool has_camera_attribute(CMeshO& mesh) {
     return vcg::tri::Allocator<CMeshO>::IsValidHandle(mesh, camera) && camera().width > 0 && camera().height > 0;
 }
 
+// MeshLab's camera of a layer (cm.shot, which MeshLab writes into PLY) holds four distortion
+// coefficients, k[0..3]: OpenCV's k1 k2 p1 p2. k3, which OpenCV's calibration fits by default, is
+// kept in the one free value MeshLab also saves: only focal / pixel size is the focal length in
+// pixels, so the pixel size along x is exp(k3) (1 for k3 = 0, as layers of older versions have it).
+// A lens with more coefficients (rational, thin prism, tilt) gets no MeshLab camera: reopened
+// without its view file such a layer is refused, rather than given another lens.
+const int kShotDistortionCount = 5;
+
 // MeshLab's camera of a layer read from a file: focal in pixels = FocalMm / PixelSizeMm.
 bool has_shot(MeshModel& layer) {
     const auto& intrinsics = layer.cm.shot.Intrinsics;
@@ -45,8 +53,9 @@ LayerCamera layer_camera(MeshModel& layer) {
     const double fx = intrinsics.FocalMm / intrinsics.PixelSizeMm[0], fy = intrinsics.FocalMm / intrinsics.PixelSizeMm[1];
     const double matrix[9] = {fx, 0, intrinsics.CenterPx[0], 0, fy, intrinsics.CenterPx[1], 0, 0, 1};
     std::copy(matrix, matrix + 9, camera.matrix);
-    camera.distortion_count = 4;
+    camera.distortion_count = kShotDistortionCount;
     for (int i = 0; i < 4; ++i) camera.distortion[i] = intrinsics.k[i];
+    camera.distortion[4] = std::log(double(intrinsics.PixelSizeMm[0]));
     return camera;
 }
 
@@ -54,14 +63,14 @@ LayerCamera layer_camera(MeshModel& layer) {
 // camera in cm.shot, but MeshLab does not mark the layer as having one (its PLY reader's load mask
 // leaves the camera out). So the camera is judged by the points: each sampled vertex's texture
 // coordinates must be a whole pixel of the viewport, and the camera must see the vertex there
-// (median reprojection error below half a pixel; the saved camera keeps k1 k2 p1 p2 only, which
-// leaves the median of a real lens well inside that). A textured mesh's UVs, or a camera of another
+// (median reprojection error below half a pixel). A textured mesh's UVs, or a camera of another
 // program, fail this.
 bool has_saved_camera(MeshModel& layer) {
     if (!layer.hasDataMask(MeshModel::MM_VERTTEXCOORD) || !has_shot(layer) || layer.cm.vn == 0) return false;
     const LayerCamera camera = layer_camera(layer);
     const double fx = camera.matrix[0], fy = camera.matrix[4], cx = camera.matrix[2], cy = camera.matrix[5];
-    const double k1 = camera.distortion[0], k2 = camera.distortion[1], p1 = camera.distortion[2], p2 = camera.distortion[3];
+    const double k1 = camera.distortion[0], k2 = camera.distortion[1], p1 = camera.distortion[2], p2 = camera.distortion[3],
+                 k3 = camera.distortion[4];
     const int step = std::max(1, layer.cm.vn / 20000);
     std::vector<double> errors;
     int index = 0;
@@ -72,7 +81,7 @@ bool has_saved_camera(MeshModel& layer) {
             u >= camera.width || v >= camera.height || !(z > 0))
             return false;
         const double x = vertex.cP()[0] / z, y = vertex.cP()[1] / z, r2 = x * x + y * y;
-        const double radial = 1 + k1 * r2 + k2 * r2 * r2;
+        const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
         const double xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
         const double yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
         errors.push_back(std::hypot(fx * xd + cx - u, fy * yd + cy - v));
@@ -103,8 +112,8 @@ int vertex_pixel(const CVertexO& vertex, int width, int height) {
 }
 
 // Stores the view's camera on the layer: in full as the attribute, and as MeshLab's camera of
-// the layer (saved in PLY), for which the view's camera sits at the origin of the vertices'
-// frame; MeshLab's camera holds four distortion coefficients (k1 k2 p1 p2 in OpenCV's order).
+// the layer (saved in PLY; see kShotDistortionCount), for which the view's camera sits at the
+// origin of the vertices' frame.
 void set_layer_camera(MeshModel& layer, const picoscan::ScanView& view) {
     CMeshO& mesh = layer.cm;
     layer.updateDataMask(MeshModel::MM_CAMERA);
@@ -116,11 +125,17 @@ void set_layer_camera(MeshModel& layer, const picoscan::ScanView& view) {
     camera.distortion_count = std::min(14, int(distortion.total()));
     for (int i = 0; i < camera.distortion_count; ++i) camera.distortion[i] = distortion.at<double>(0, i);
     vcg::tri::Allocator<CMeshO>::GetPerMeshAttribute<LayerCamera>(mesh, kCameraAttribute)() = camera;
+    mesh.shot = Shotm();
+    for (int i = kShotDistortionCount; i < camera.distortion_count; ++i)
+        if (camera.distortion[i] != 0) return;  // a lens MeshLab's camera cannot hold
+    const double k3 = camera.distortion_count > 4 ? camera.distortion[4] : 0;
+    if (!(std::abs(k3) < 30)) return;  // exp(k3) must stay a float
+    const double pixel_size = std::exp(k3);
     auto& intrinsics = mesh.shot.Intrinsics;
     intrinsics.cameraType = 0;
     intrinsics.ViewportPx = vcg::Point2i(camera.width, camera.height);
-    intrinsics.FocalMm = Scalarm(view.camera_matrix(0, 0));
-    intrinsics.PixelSizeMm = vcg::Point2<Scalarm>(1, Scalarm(view.camera_matrix(0, 0) / view.camera_matrix(1, 1)));
+    intrinsics.FocalMm = Scalarm(view.camera_matrix(0, 0) * pixel_size);
+    intrinsics.PixelSizeMm = vcg::Point2<Scalarm>(Scalarm(pixel_size), Scalarm(pixel_size * view.camera_matrix(0, 0) / view.camera_matrix(1, 1)));
     intrinsics.CenterPx = vcg::Point2<Scalarm>(Scalarm(view.camera_matrix(0, 2)), Scalarm(view.camera_matrix(1, 2)));
     intrinsics.DistorCenterPx = intrinsics.CenterPx;
     for (int i = 0; i < 4; ++i) intrinsics.k[i] = Scalarm(i < camera.distortion_count ? camera.distortion[i] : 0);
@@ -250,6 +265,27 @@ QString adopt_view_file(MeshModel& layer, std::string& problem) {
     return {};
 }
 
+// A layer saved without its normals (MeshLab's PLY save dialog can leave them out, and MeshLab
+// reads a point cloud without them as zero normals) gets them from its pixel grid, as the core
+// computed them when it triangulated the view. Returns how many vertices got a normal.
+int restore_normals_from_grid(MeshModel& layer) {
+    CMeshO& mesh = layer.cm;
+    const auto lacks_normal = [](const CVertexO& vertex) { return !vertex.IsD() && !(vertex.cN().SquaredNorm() > 0); };
+    if (std::none_of(mesh.vert.begin(), mesh.vert.end(), lacks_normal)) return 0;
+    picoscan::ScanView view = layer_view(layer);
+    picoscan::estimate_normals(view);
+    const int width = view.points.cols, height = view.points.rows;
+    int restored = 0;
+    for (CVertexO& vertex : mesh.vert) {
+        if (!lacks_normal(vertex)) continue;
+        const int pixel = vertex_pixel(vertex, width, height);
+        const cv::Vec3f n = pixel >= 0 ? view.normals.at<cv::Vec3f>(pixel / width, pixel % width) : cv::Vec3f(0, 0, 0);
+        vertex.N() = finite_point(n) && n.dot(n) > 0 ? Point3m(n[0], n[1], n[2]) : Point3m(0, 0, -1);  // as fill_layer
+        ++restored;
+    }
+    return restored;
+}
+
 }  // namespace
 
 void fill_layer(MeshModel& layer, const picoscan::ScanView& view) {
@@ -313,14 +349,14 @@ void fill_layer(MeshModel& layer, const picoscan::Mesh& source) {
     vcg::tri::UpdateBounding<CMeshO>::Box(mesh);
 }
 
-std::string missing_scan_data(MeshModel& layer, QString* view_file) {
+std::string missing_scan_data(MeshModel& layer, LayerRepair* repair) {
+    LayerRepair done;
     const bool has_pixels = layer.hasDataMask(MeshModel::MM_VERTTEXCOORD);
     const bool has_camera = has_camera_attribute(layer.cm) || has_saved_camera(layer);
     if (!has_pixels || !has_camera) {
         std::string not_a_view;
-        const QString adopted = adopt_view_file(layer, not_a_view);
-        if (view_file != nullptr) *view_file = adopted;
-        if (adopted.isEmpty()) {
+        done.view_file = adopt_view_file(layer, not_a_view);
+        if (done.view_file.isEmpty()) {
             if (!has_pixels)
                 return "this layer has no camera pixel grid (" + not_a_view + "): it needs a point cloud layer made "
                        "by 'PicoScan: Reconstruct from Capture Set' or 'PicoScan: Simulate Scan', a PicoScan view "
@@ -329,9 +365,9 @@ std::string missing_scan_data(MeshModel& layer, QString* view_file) {
                    "PLY with their camera";
         }
     }
-    if (layer.cm.vn > 0 && layer.cm.vert.begin()->cN().SquaredNorm() == 0)
-        return "this layer was saved without vertex normals: save PicoScan layers as PLY with normals";
+    done.normals_from_grid = restore_normals_from_grid(layer);
     keep_grid_in_meshlabserver_saves(layer);
+    if (repair != nullptr) *repair = done;
     return {};
 }
 

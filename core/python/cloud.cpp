@@ -65,6 +65,8 @@ void bind_cloud(py::module_& m) {
         .def_readwrite("pixel_step", &GridMeshOptions::pixel_step);
     m.def("grid_mesh", &grid_mesh, py::arg("view"), py::arg("options") = GridMeshOptions(),
           py::call_guard<py::gil_scoped_release>());
+    m.def("estimate_normals", &estimate_normals, py::arg("view"),
+          "Replaces view.normals with normals from the pixel grid, turned towards the camera");
 }
 
 }  // namespace picoscan::python

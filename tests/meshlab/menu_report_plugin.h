@@ -1,6 +1,9 @@
 // Test-only MeshLab plugin (built with the tests, copied only into the test prefix): with
 // PICOSCAN_MESHLAB_MENU_REPORT=FILE it writes MeshLab's Filters menu to FILE once the main
-// window is up, so the GUI test reads the real menu. It adds no filter of its own.
+// window is up, so the GUI test reads the real menu. With PICOSCAN_MESHLAB_EXPORT_AS=PLY it saves
+// the current layer through File > Export Mesh As and MeshLab's own PLY options dialog, writing
+// the dialog's boxes to PICOSCAN_MESHLAB_EXPORT_REPORT and unticking those named (comma-separated)
+// in PICOSCAN_MESHLAB_EXPORT_UNTICK. It adds no filter of its own.
 #pragma once
 
 #include <common/interfaces.h>

@@ -20,6 +20,7 @@
 #include <fstream>
 #include <iomanip>
 #include <map>
+#include <set>
 #include <sstream>
 #include <tuple>
 #include <vector>
@@ -142,6 +143,30 @@ ServerRun run_meshlabserver(const std::string& directory, const std::string& fil
 std::string write_file(const std::string& path, const std::string& text) {
     std::ofstream(path) << text;
     return path;
+}
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Saves `mesh_file` as `out` through MeshLab's GUI under Xvfb: File > Export Mesh As and MeshLab's
+// PLY options dialog, answered by the test-only plugin in the prefix, which unticks the boxes named
+// in `untick` (comma-separated). Returns the dialog's boxes as it opened, one "check_iom_NAME
+// enabled E checked C" line each, then "exported" once MeshLab's save returned.
+std::string save_in_meshlab_gui(const std::string& directory, const std::string& mesh_file, const std::string& out,
+                                const std::string& untick) {
+    const std::string report = directory + "/export_report.txt", home = directory + "/gui_home";
+    std::filesystem::remove(report);
+    std::filesystem::create_directories(home);  // MeshLab's settings stay in the test's folder
+    std::string log;
+    run_command("cd '" + directory + "' && HOME='" + home + "' PICOSCAN_MESHLAB_EXPORT_AS='" + out +
+                    "' PICOSCAN_MESHLAB_EXPORT_REPORT='" + report + "' PICOSCAN_MESHLAB_EXPORT_UNTICK='" + untick +
+                    "' xvfb-run -a -s '-screen 0 1280x960x24' sh -c '\"$0\" \"$1\" > gui.log 2>&1 & pid=$!; "
+                    "for i in $(seq 240); do grep -q exported \"$2\" 2>/dev/null && break; sleep 0.5; done; "
+                    "kill $pid; wait $pid' '" MESHLAB_TEST_PREFIX "/bin/meshlab' '" + mesh_file + "' '" + report + "'",
+                &log);
+    return read_text(report);
 }
 
 // A run refused with the one line of a layer that no view file holds, having written nothing.
@@ -598,24 +623,34 @@ TEST(MeshlabPlugin, ViewPlyOpenedInMeshlabCleansAsCli) {
 }
 
 // A scan layer saved in a project by MeshLab's own save (meshlabserver -w) keeps its pixels and
-// camera: reopened with its view file deleted, it cleans as the CLI cleans that view. Saved by
-// -o with a mask that leaves the camera out, the layer is refused with the reason rather than
-// cleaned with a guessed camera.
+// camera, with the lens's k3 (MeshLab's camera holds four distortion coefficients): reopened with
+// its view file deleted, it cleans as the CLI cleans that view, and Save Views writes the view's
+// whole camera again. Saved by -o with a mask that leaves the camera and normals out, the layer is
+// refused with the reason rather than cleaned with a guessed camera.
 TEST(MeshlabPlugin, ScanLayerKeepsItsGridInAProjectAndIsRefusedWithoutItsCamera) {
     const std::string directory = make_temp_dir("meshlab_scan_project");
     const std::string rig = directory + "/rig.yml";
-    write_calibration(test_support::half_resolution_seed_rig(), rig);  // 800 x 600: a quarter of the work
+    Calibration calibration = test_support::half_resolution_seed_rig();  // 800 x 600: a quarter of the work
+    calibration.camera_distortion.at<double>(4) = 0.35;                 // k3, as OpenCV's calibration fits it
+    write_calibration(calibration, rig);
     ServerRun run = run_meshlabserver(directory, simulate({{"partView", "0"}, {"calibrationFile", rig}}) + save_views(directory + "/views"),
-                                      "-w project.mlp -o scan.ply -m vc vn vq vt");
+                                      "-w project.mlp -o scan.ply -m vc vq vt");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     const std::string view = directory + "/views/Part_view_0.ply";
+    const cv::Mat lens = read_view_ply(view).camera_distortion;
+    ASSERT_EQ(lens.total(), 5u);
+    EXPECT_NEAR(lens.at<double>(4), 0.35, 1e-9);
     std::string cli_log;
     ASSERT_EQ(run_command(test_support::cli_path() + " clean " + view + " --out " + directory + "/cli_clean.ply", &cli_log), 0)
         << cli_log;
     std::filesystem::remove(view);
-    run = run_meshlabserver(directory, clean(), "-p project.mlp -o cleaned.ply -m vn");
+    run = run_meshlabserver(directory, clean() + save_views(directory + "/again"), "-p project.mlp -o cleaned.ply -m vn");
     ASSERT_EQ(run.exit_code, 0) << run.log;
     EXPECT_EQ(run.log.find("taken from the view file"), std::string::npos) << run.log;
+    const cv::Mat reopened_lens = read_view_ply(directory + "/again/Part_view_0_out.ply").camera_distortion;
+    ASSERT_EQ(reopened_lens.total(), 5u);
+    for (int i = 0; i < 5; ++i)
+        EXPECT_NEAR(reopened_lens.at<double>(i), lens.at<double>(i), 1e-6 + 1e-6 * std::abs(lens.at<double>(i))) << i;
     const Mesh by_plugin = read_ply(directory + "/cleaned.ply"), by_cli = read_ply(directory + "/cli_clean.ply");
     const std::vector<double> removed = numbers_after(run.log, "removed", 1);
     ASSERT_EQ(removed.size(), 1u) << run.log;
@@ -630,6 +665,24 @@ TEST(MeshlabPlugin, ScanLayerKeepsItsGridInAProjectAndIsRefusedWithoutItsCamera)
     EXPECT_NE(run.exit_code, 0);
     EXPECT_NE(run.log.find("scan.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
     EXPECT_FALSE(std::ifstream(directory + "/never.ply").good());
+
+    // A lens MeshLab's camera cannot hold (OpenCV's rational model: k4 as well): the layer gets no
+    // MeshLab camera, so reopened without its view file it is refused, not given a lens without k4.
+    const std::string rational = directory + "/rational";
+    std::filesystem::create_directories(rational);
+    ScanView rational_view = read_view_ply(directory + "/again/Part_view_0_out.ply");
+    cv::Mat eight = cv::Mat::zeros(1, 8, CV_64F);
+    lens.reshape(1, 1).copyTo(eight.colRange(0, 5));
+    eight.at<double>(5) = 0.02;
+    rational_view.camera_distortion = eight;
+    write_view_ply(rational_view, rational + "/view.ply");
+    run = run_meshlabserver(rational, clean(), "-i view.ply -w project.mlp");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    std::filesystem::remove(rational + "/view.ply");
+    run = run_meshlabserver(rational, clean(), "-p project.mlp -o never.ply");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.log.find("view_out.ply: this layer has pixel coordinates but no camera"), std::string::npos) << run.log;
+    EXPECT_FALSE(std::ifstream(rational + "/never.ply").good());
 }
 
 // A layer as MeshLab's GUI saves it with its default PLY options (File > Save Project asks for each
@@ -736,9 +789,11 @@ double mesh_volume(const Mesh& mesh) {
 
 // A project saved by MeshLab's own save (meshlabserver -w, no PicoScan step before it) of two
 // PicoScan view PLYs opened in MeshLab and aligned: MeshLab's copies of the layers keep each
-// point's pixel and the view's camera. With the view files deleted, a new meshlabserver on the
-// project cleans, aligns and fuses as the first session did. A layer file that lost its pixels
-// is refused, naming the layer and what it lacks.
+// point's pixel and the view's camera. The first layer is then saved again from MeshLab's GUI
+// (File > Export Mesh As) with its Normal box unticked, as a user may: its normals come back from
+// the pixel grid. With the view files deleted, a new meshlabserver on the project cleans, aligns
+// and fuses as the first session did. A layer file that lost its pixels is refused, naming the
+// layer and what it lacks.
 TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const std::string directory = make_temp_dir("meshlab_saved_project");
     const std::string views = directory + "/views";
@@ -769,6 +824,21 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
         std::filesystem::remove(views + "/view_" + std::to_string(i) + ".ply");
     }
 
+    // The GUI's PLY dialog for a PicoScan point cloud ticks, by default, everything the plugin needs
+    // (MeshLab ticks Normal for point clouds; for a layer with faces it would not). The user unticks
+    // Normal; MeshLab writes the pixels and camera without normals, saved over the layer's file.
+    const std::string gui_saved = views + "/view_0_gui.ply";
+    const std::string dialog = save_in_meshlab_gui(directory, saved[0].file, gui_saved, "check_iom_vertnormal");
+    std::printf("MeshLab GUI's PLY save dialog for a PicoScan layer, as it opened:\n%s", dialog.c_str());
+    for (const char* box : {"vertnormal", "verttexcoord", "vertquality", "vertcolor", "camera"})
+        EXPECT_NE(dialog.find(std::string("check_iom_") + box + " enabled 1 checked 1"), std::string::npos) << box << "\n" << dialog;
+    ASSERT_NE(dialog.find("exported"), std::string::npos) << dialog << read_text(directory + "/gui.log");
+    const std::string header = read_text(gui_saved).substr(0, 2000);
+    EXPECT_EQ(header.find("property float nx"), std::string::npos) << header;
+    EXPECT_NE(header.find("property float texture_u"), std::string::npos) << header;
+    EXPECT_NE(header.find("element camera 1"), std::string::npos) << header;
+    std::filesystem::rename(gui_saved, saved[0].file);
+
     // A new process on the saved project: the first session's fused layer goes, then Align and
     // Fuse (the first session's inputs: the same result expected), Clean of the first layer, and
     // the views written by Save Views for Project, by default into the project's folder.
@@ -779,17 +849,51 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     ASSERT_EQ(run.exit_code, 0) << run.log;
     EXPECT_EQ(run.log.find("taken from the view file"), std::string::npos) << run.log;  // each layer's own file did it
     EXPECT_NE(run.log.find("PicoScan aligned 2 layers"), std::string::npos) << run.log;
+    // Every point of the GUI-saved layer got its normal back, once; the other layer kept its own.
+    const std::string restored = "view_0_out.ply: saved without normals; " + std::to_string(scan.views[0].valid_count()) +
+                                 " normals recomputed from the pixel grid";
+    EXPECT_NE(run.log.find(restored), std::string::npos) << run.log;
+    EXPECT_EQ(run.log.find("view_1_out.ply: saved without normals"), std::string::npos) << run.log;
     const std::vector<double> removed = numbers_after(run.log, "removed", 1);
     ASSERT_EQ(removed.size(), 1u) << run.log;
-    // Clean of the reopened layer is the CLI's clean of the deleted view, point for point.
+    // The view's own normals were made on the grid before the reconstruction dropped some pixels, so
+    // next to those the grid's normals now differ a little; elsewhere they are the same.
+    ScanView regridded = scan.views[0];
+    regridded.normals = cv::Mat();
+    estimate_normals(regridded);
+    int normals_compared = 0, normals_differing = 0, normals_off_by_a_degree = 0;
+    double worst_normal_deg = 0;
+    for (int y = 0; y < regridded.points.rows; ++y)
+        for (int x = 0; x < regridded.points.cols; ++x) {
+            const cv::Vec3f a = scan.views[0].normals.at<cv::Vec3f>(y, x), b = regridded.normals.at<cv::Vec3f>(y, x);
+            if (!is_finite_point(scan.views[0].points.at<cv::Vec3f>(y, x)) || !is_finite_point(a) || !is_finite_point(b)) continue;
+            ++normals_compared;
+            const double angle = std::acos(std::min(1.0, double(a.dot(b)))) * 180 / CV_PI;
+            normals_differing += angle > 1e-3;
+            normals_off_by_a_degree += angle > 1;
+            worst_normal_deg = std::max(worst_normal_deg, angle);
+        }
+    // Clean of the reopened layer against the CLI's clean of the deleted view (its own normals): the
+    // points kept by one and not the other, at most 0.1 % of them.
     const Mesh by_plugin = read_ply(directory + "/cleaned_reopened.ply"), by_cli = read_ply(cli_clean);
-    ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
-    EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
-    EXPECT_EQ(size_t(scan.views[0].valid_count()) - by_cli.vertices.size(), size_t(removed[0]));
+    const auto key = [](const cv::Vec3f& p) { return std::make_tuple(p[0], p[1], p[2]); };
+    std::set<std::tuple<float, float, float>> kept_by_cli;
+    for (const cv::Vec3f& p : by_cli.vertices) kept_by_cli.insert(key(p));
+    size_t common = 0;
+    for (const cv::Vec3f& p : by_plugin.vertices) common += kept_by_cli.count(key(p));
+    const size_t clean_differences = by_plugin.vertices.size() + by_cli.vertices.size() - 2 * common;
+    std::printf("normals of the GUI-saved layer recomputed from its grid: %d of %d differ from the view's own, %d by more "
+                "than 1 deg, by up to %.2f deg; its clean keeps %zu points, the CLI's clean of the view %zu, %zu kept by "
+                "one only\n",
+                normals_differing, normals_compared, normals_off_by_a_degree, worst_normal_deg, by_plugin.vertices.size(),
+                by_cli.vertices.size(), clean_differences);
+    EXPECT_LT(normals_off_by_a_degree, normals_compared / 10);
+    EXPECT_LE(clean_differences, by_cli.vertices.size() / 1000);
+    EXPECT_EQ(size_t(scan.views[0].valid_count()) - by_plugin.vertices.size(), size_t(removed[0]));
     // Save Views wrote the cleaned view beside the project; the fused mesh is no view and stays as it is.
     EXPECT_NE(run.log.find("PicoScan saved 2 views in " + directory), std::string::npos) << run.log;
     EXPECT_NE(run.log.find("Fused mesh (Poisson) is not a PicoScan view, left as it is"), std::string::npos) << run.log;
-    EXPECT_EQ(size_t(read_view_ply(directory + "/view_0_out.ply").valid_count()), by_cli.vertices.size());
+    EXPECT_EQ(size_t(read_view_ply(directory + "/view_0_out.ply").valid_count()), by_plugin.vertices.size());
 
     // The reopened layers are the unsaved ones: the same points fused, the same relative pose found.
     const std::vector<double> reopened_fused_points = numbers_after(run.log, "PicoScan fused 2 layers (", 1);
@@ -807,12 +911,12 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     const MeshCheck first_check = check_mesh(first), second_check = check_mesh(second);
     const double first_area = mesh_area(first), second_area = mesh_area(second);
     const double first_volume = mesh_volume(first), second_volume = mesh_volume(second);
-    std::printf("project saved by meshlabserver -w, views deleted, reopened: cleaning removed %.0f points, %zu kept (the "
-                "CLI keeps %zu, max distance %.2g mm); %.0f points fused in both sessions; pose error %.4f deg, %.4f mm "
+    std::printf("project saved by meshlabserver -w, layer 0 saved again by the GUI without normals, views deleted, "
+                "reopened: cleaning removed %.0f points, %zu kept (the "
+                "CLI keeps %zu); %.0f points fused in both sessions; pose error %.4f deg, %.4f mm "
                 "(first session %.4f deg, %.4f mm; between the sessions %.4f deg, %.4f mm); fused mesh %s, area %.1f "
                 "mm^2, volume %.1f mm^3 (first session: %s, area %.1f mm^2, volume %.1f mm^3)\n",
-                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(),
-                max_distance(by_plugin.vertices, by_cli.vertices), reopened_fused_points[0], error.rotation_deg,
+                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(), reopened_fused_points[0], error.rotation_deg,
                 error.translation_mm, first_error.rotation_deg, first_error.translation_mm, between_sessions.rotation_deg,
                 between_sessions.translation_mm, second_check.summary().c_str(), second_area, second_volume,
                 first_check.summary().c_str(), first_area, first_volume);
@@ -829,9 +933,13 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     EXPECT_TRUE(first_check.watertight()) << first_check.summary();
     EXPECT_TRUE(second_check.watertight()) << second_check.summary();
     EXPECT_GT(first_volume, 1000.0);
-    // Same inputs, same recipe: the alignment's small run-to-run differences move the Poisson surface a little.
-    EXPECT_NEAR(second_volume, first_volume, 0.005 * first_volume);
-    EXPECT_NEAR(second_area, first_area, 0.005 * first_area);
+    // Same points, but the first layer's normals recomputed from its grid (after the reconstruction's
+    // own clean, so they differ next to the pixels it dropped): most of this two-view surface is
+    // closed over by Poisson (about 60 % filled in, not measured), and that guess follows the normals
+    // at the scan's borders. Measured: +7 % volume, +4 % area; with the view's own normals in both
+    // sessions, 0.1 %.
+    EXPECT_NEAR(second_volume, first_volume, 0.1 * first_volume);
+    EXPECT_NEAR(second_area, first_area, 0.1 * first_area);
 
     // Save Views never replaces a file that is not the layer's own: it stops before writing any.
     const std::string again = directory + "/views_again";

@@ -75,4 +75,9 @@ struct GridMeshOptions {
 // Triangulates the pixel grid of an organised view; the view's camera gives a pixel's footprint.
 Mesh grid_mesh(const ScanView& view, const GridMeshOptions& options = {});
 
+// Replaces view.normals with normals from the pixel grid: cross product of the horizontal and
+// vertical neighbour differences (central where both neighbours exist), turned towards the
+// camera at the origin. NaN where a pixel has no point or no usable neighbour.
+void estimate_normals(ScanView& view);
+
 }  // namespace picoscan

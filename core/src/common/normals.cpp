@@ -1,19 +1,17 @@
 // Normals of an organised view from its pixel grid.
-#include "common/normals.h"
+#include "picoscan/cloud.h"
 
 #include "common/parallel.h"
 
 #include <cmath>
 #include <limits>
 
-namespace picoscan::detail {
+namespace picoscan {
 
 namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 }  // namespace
 
-// Normals from the organised grid: cross product of the horizontal and vertical neighbour
-// differences (central where both neighbours exist), turned towards the camera.
 void estimate_normals(ScanView& view) {
     const cv::Mat& points = view.points;
     view.normals.create(points.size(), CV_32FC3);
@@ -45,4 +43,4 @@ void estimate_normals(ScanView& view) {
     });
 }
 
-}  // namespace picoscan::detail
+}  // namespace picoscan

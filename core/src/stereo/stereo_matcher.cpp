@@ -5,7 +5,6 @@
 #include "picoscan/error.h"
 
 #include "common/lens.h"
-#include "common/normals.h"
 #include "common/parallel.h"
 #include "common/progress_reporter.h"
 
@@ -569,7 +568,7 @@ StereoReconstruction StereoMatcher::reconstruct(const CorrespondenceMap& left, c
             throw Error("projector calibration", problem);
         }
     }
-    detail::estimate_normals(view);
+    estimate_normals(view);
     return result;
 }
 

@@ -5,7 +5,6 @@
 
 #include "common/lens.h"
 #include "common/memory_budget.h"
-#include "common/normals.h"
 #include "common/parallel.h"
 #include "common/progress_reporter.h"
 
@@ -201,7 +200,7 @@ void Triangulator::triangulate_into(const CorrespondenceMap& correspondences, co
         }
     });
     if (reporter.cancelled()) throw Error("cancelled", "triangulation cancelled");
-    detail::estimate_normals(view);
+    estimate_normals(view);
 }
 
 ScanView triangulate(const CorrespondenceMap& correspondences, const Calibration& calibration, const cv::Mat& colour,
