@@ -35,6 +35,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <type_traits>
 #include <unordered_set>
 
 namespace picoscan::detail {
@@ -488,10 +489,11 @@ void close_invented_surface(SurfaceMesh& mesh, const DataProximity& proximity) {
     if (CGAL::is_closed(mesh) && !PMP::is_outward_oriented(mesh)) PMP::reverse_face_orientations(mesh);
 }
 
-// A vertex or cell of the surface mesher's triangulation that carries its creation number.
-// CGAL's containers then order handles by it instead of by memory address: the mesher keeps
-// its bad vertices and facets in sets ordered by handle, so with addresses the same input gave
-// different meshes depending on the heap's state (13 576 or 13 586 vertices, one process).
+// A vertex or cell of a triangulation that carries its creation number. CGAL's containers then
+// order handles by it instead of by memory address: the surface mesher keeps its bad vertices
+// and facets in sets ordered by handle, so with addresses the same input gave different meshes
+// depending on the heap's state (13 576 or 13 586 vertices, one process). The Poisson
+// function's own triangulation needs it too (below).
 template <class Base>
 class TimeStamped : public Base {
 public:
@@ -516,13 +518,42 @@ using MesherTriangulation = CGAL::Delaunay_triangulation_3<
         TimeStamped<CGAL::Delaunay_triangulation_cell_base_with_circumcenter_3<
             MesherTraits, CGAL::Surface_mesh_cell_base_3<MesherTraits>>>>>;
 
+// The Poisson function's triangulation (CGAL 5.5 fixes its type from the traits alone), with
+// time-stamped vertices and cells. Its Delaunay refinement keeps the bad cells in a
+// CGAL::Double_map, a boost bimap ordered by quality and by handle; Double_map::insert
+// (CGAL/Double_map.h, line 191 in 5.5.1) inserts with the handle's place as the hint, and boost
+// places a cell among cells of equal quality at that hint. With handles ordered by address, which
+// of two equally bad cells was split first followed the heap: the same points gave another set
+// of Steiner points after an unrelated meshing in the process, and another surface (the holed
+// block's unseen hole wall: 519 um or 1.2 um off the true wall).
+using PoissonBaseTraits = CGAL::Robust_circumcenter_filtered_traits_3<ReportingKernel>;
+using PoissonTraits = CGAL::Reconstruction_triangulation_default_geom_traits_3<PoissonBaseTraits>;
+using StampedPoissonTds = CGAL::Triangulation_data_structure_3<
+    TimeStamped<CGAL::Reconstruction_vertex_base_3<PoissonTraits>>,
+    TimeStamped<CGAL::Delaunay_triangulation_cell_base_3<PoissonTraits,
+                                                         CGAL::Triangulation_cell_base_with_info_3<int, PoissonTraits>>>>;
+using StampedPoissonTriangulation = CGAL::Reconstruction_triangulation_3<PoissonBaseTraits, PoissonTraits, StampedPoissonTds>;
+
 }  // namespace
+}  // namespace picoscan::detail
+
+// Poisson_reconstruction_function<ReportingKernel> names its triangulation as
+// Reconstruction_triangulation_3<its traits> with the default data structure: that one type,
+// which only this file uses, is made the time-stamped triangulation above.
+template <>
+class CGAL::Reconstruction_triangulation_3<picoscan::detail::PoissonBaseTraits>
+    : public picoscan::detail::StampedPoissonTriangulation {};
+
+namespace picoscan::detail {
 
 Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSettings& settings, const StageReport& report) {
     // Kazhdan's implicit function on CGAL's Delaunay refinement, then the surface mesher of
     // Boissonnat & Oudot on its zero level, as CGAL's poisson_surface_reconstruction_delaunay,
     // with the progress reported and the surface's triangle size bounded by the face budget.
     using Function = CGAL::Poisson_reconstruction_function<ReportingKernel>;
+    static_assert(std::is_base_of_v<StampedPoissonTriangulation, Function::Triangulation> &&
+                      Function::Triangulation::Cell::Has_timestamp::value && Function::Triangulation::Vertex::Has_timestamp::value,
+                  "the Poisson function's triangulation orders its handles by creation");
     using Triangulation = MesherTriangulation;
     using Complex = CGAL::Surface_mesh_complex_2_in_triangulation_3<Triangulation>;
     using Surface = CGAL::Implicit_surface_3<Kernel, std::function<Kernel::FT(Point3)>>;
