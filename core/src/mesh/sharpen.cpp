@@ -977,6 +977,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                     const int centre = static_cast<int>(safe.size());
                     safe.push_back(middle);
                     target.push_back(corner);
+                    same_as.push_back(centre);  // merged_into() reads it: a vertex of its own
                     ++report.corners;
                     for (int k = 0; k < 3; ++k) add(cut[k], cut[(k + 1) % 3], centre, from);
                 } else {
@@ -995,6 +996,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (int k = 0; k < 3; ++k) manifold = manifold && ++directed[face[k] * count + face[(k + 1) % 3]] == 1;
     for (const auto& [edge, faces_on_it] : directed) manifold = manifold && directed.count(edge % count * count + edge / count);
     if (!manifold) {
+        same_as.resize(before_centres);
         std::iota(same_as.begin(), same_as.end(), 0);
         faces.clear();
         parent.clear();
