@@ -637,7 +637,7 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, const std::vector<
             std::vector<uint8_t> reaches_out(kept.size(), 0);  // the piece has a measured vertex beyond the wall's reach
             for (size_t f = 0; f < kept.size(); ++f)
                 for (int k = 0; k < 3; ++k)
-                    if (!guessed[kept[f][k]]) reaches_out[find(int(f))] = 1;
+                    if (!guessed[kept[f][k]] && !in_tube(size_t(kept[f][k]))) reaches_out[find(int(f))] = 1;
             bool joined = false;
             for (size_t f = 0; f < kept.size(); ++f)
                 if (!reaches_out[find(int(f))])
