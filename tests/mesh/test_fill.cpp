@@ -215,6 +215,14 @@ PointCloud dense_ball() {
     return cloud;
 }
 
+// Two meshings of the same points: the same vertices in the same order, the same faces.
+void expect_same_mesh(const char* what, const Mesh& first, const Mesh& second) {
+    std::printf("%s, meshed twice: %zu and %zu vertices\n", what, first.vertices.size(), second.vertices.size());
+    ASSERT_EQ(first.vertices.size(), second.vertices.size());
+    EXPECT_TRUE(first.vertices == second.vertices);
+    EXPECT_TRUE(first.faces == second.faces);
+}
+
 }  // namespace
 
 // The budget bounds the work whatever the data: 1.9 million points meshed with a small budget
@@ -359,10 +367,7 @@ TEST(MeshFill, PoissonGivesTheSameMeshAgainInOneProcess) {
     const Mesh first = mesh_view(view, options);
     const auto stirred = test_support::stir_heap();
     const Mesh second = mesh_view(view, options);
-    std::printf("stepped block view 0 at 2 mm, twice: %zu and %zu vertices\n", first.vertices.size(), second.vertices.size());
-    ASSERT_EQ(first.vertices.size(), second.vertices.size());
-    EXPECT_TRUE(first.vertices == second.vertices);
-    EXPECT_TRUE(first.faces == second.faces);
+    expect_same_mesh("stepped block view 0 at 2 mm", first, second);
 }
 
 // Poisson's own triangulation splits its worst cells first, and of equally bad cells (many, on
@@ -395,10 +400,7 @@ TEST(MeshFill, PoissonIgnoresWhatRanBeforeInTheProcess) {
     ASSERT_GT(mesh_cloud(sheet, open_surface).faces.size(), 2000u);
     const auto stirred = test_support::stir_heap();
     const Mesh second = mesh_cloud(box, options);
-    std::printf("grid box, meshed twice: %zu and %zu vertices\n", first.vertices.size(), second.vertices.size());
-    ASSERT_EQ(first.vertices.size(), second.vertices.size());
-    EXPECT_TRUE(first.vertices == second.vertices);
-    EXPECT_TRUE(first.faces == second.faces);
+    expect_same_mesh("grid box", first, second);
 }
 
 TEST(MeshFill, PoissonClosesASingleView) {
