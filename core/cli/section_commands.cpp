@@ -8,8 +8,10 @@
 #include "picoscan/io.h"
 #include "picoscan/section_fit.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 namespace picoscan::cli {
 
@@ -95,40 +97,56 @@ cv::Vec3d box_centre(const Mesh& mesh) {
     return 0.5 * (low + high);
 }
 
-// From --axis/--at or --normal/--point; `flag` is the option that placed the plane (for errors).
-Plane section_plane(const Arguments& arguments, const Mesh& mesh, std::string& flag) {
+// The plane as the options give it (--axis/--at or --normal/--point), read before the mesh so
+// that a mistyped option is refused at once; the mesh's middle fills in what is left out.
+struct PlaneRequest {
+    int axis = -1;  // 0, 1, 2 for --axis x, y, z; -1 with --normal
+    std::optional<double> at;
+    cv::Vec3d normal;
+    std::optional<cv::Vec3d> point;
+    std::string flag;  // the option that placed the plane, named when it misses the mesh
+};
+
+PlaneRequest plane_request(const Arguments& arguments) {
     const bool by_axis = arguments.has("--axis") || arguments.has("--at");
     const bool by_normal = arguments.has("--normal") || arguments.has("--point");
     if (by_axis && by_normal) throw Error("--axis", "give either --axis (and --at) or --normal (and --point), not both");
     if (!by_axis && !by_normal) throw Error("--axis", "give the plane: --axis x|y|z (and --at MM) or --normal DX,DY,DZ");
-    const cv::Vec3d centre = box_centre(mesh);
+    PlaneRequest request;
     if (by_normal) {
         if (!arguments.has("--normal")) throw Error("--normal", "give the plane's normal with its --point");
         const std::vector<double> n = arguments.numbers("--normal", 3);
-        const cv::Vec3d normal(n[0], n[1], n[2]);
-        if (!(cv::norm(normal) > 1e-9) || !std::isfinite(cv::norm(normal)))
+        request.normal = {n[0], n[1], n[2]};
+        if (!(cv::norm(request.normal) > 1e-9) || !std::isfinite(cv::norm(request.normal)))
             throw Error("--normal", "must be a non-zero direction, e.g. 0,0,1");
-        cv::Vec3d point = centre;
         if (arguments.has("--point")) {
             const std::vector<double> p = arguments.numbers("--point", 3);
-            point = {p[0], p[1], p[2]};
+            request.point = cv::Vec3d(p[0], p[1], p[2]);
         }
-        flag = arguments.has("--point") ? "--point" : "--normal";
-        return plane_with_normal(point, normal);
+        request.flag = request.point ? "--point" : "--normal";
+        return request;
     }
     const std::string axis = arguments.text("--axis");
     const std::string axes = "xyz";
     if (axis.size() != 1 || axes.find(char(std::tolower(axis[0]))) == std::string::npos)
         throw Error("--axis", "must be x, y or z, not '" + axis + "'");
-    const int index = int(axes.find(char(std::tolower(axis[0]))));
-    const double at = arguments.number("--at", centre[index]);
-    if (!std::isfinite(at)) throw Error("--at", "must be a finite position in mm");
-    // Normals towards the viewer of the top (z), front (y, looking along +y) and right (x) views.
+    request.axis = int(axes.find(char(std::tolower(axis[0]))));
+    if (arguments.has("--at")) {
+        request.at = arguments.number("--at", 0);
+        if (!std::isfinite(*request.at)) throw Error("--at", "must be a finite position in mm");
+    }
+    request.flag = "--at";
+    return request;
+}
+
+Plane section_plane(const PlaneRequest& request, const Mesh& mesh) {
+    const cv::Vec3d centre = box_centre(mesh);
+    if (request.axis < 0) return plane_with_normal(request.point.value_or(centre), request.normal);
+    // Normals towards the viewer of the right (x), front (y, looking along +y) and top (z) views.
     const cv::Vec3d normals[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
     cv::Vec3d origin(0, 0, 0);
-    origin[index] = at;
-    flag = "--at";
-    return plane_with_normal(origin, normals[index]);
+    origin[request.axis] = request.at.value_or(centre[request.axis]);
+    return plane_with_normal(origin, normals[request.axis]);
 }
 
 std::string band_text(const SectionElement& e) {
@@ -169,18 +187,18 @@ int run_section(const Arguments& arguments) {
         if (!std::isfinite(options.tolerance_mm) || options.tolerance_mm <= 0)
             throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the cut's noise)");
     }
+    const PlaneRequest request = plane_request(arguments);
+    arguments.reject_unknown();
     const Mesh mesh = read_mesh(input);
     if (mesh.faces.empty()) throw Error(input, "holds no triangles (a point cloud? mesh it first with 'picoscan mesh')");
-    std::string plane_flag;
-    const Plane plane = section_plane(arguments, mesh, plane_flag);
-    arguments.reject_unknown();
+    const Plane plane = section_plane(request, mesh);
 
     MeshSection section;
     try {
         section = cut_mesh_section(mesh, plane.origin, plane.u, plane.v, band, terminal_progress());
     } catch (const Error& error) {
         if (error.subject() != "plane") throw;
-        throw Error(plane_flag, "the plane through " + vector_text(plane.origin) + " with normal " +
+        throw Error(request.flag, "the plane through " + vector_text(plane.origin) + " with normal " +
                                     vector_text(plane.normal) + " " + std::string(error.what()).substr(7));
     }
     const SectionFits fits = fit_section_polylines(section.polylines, section.parallel_cuts, options, terminal_progress());

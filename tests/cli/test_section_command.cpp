@@ -199,6 +199,7 @@ TEST(SectionCli, APlaneThatMissesThePartOrBadInputIsOneLineAndNothingIsWritten) 
     refused(part + " --axis z --at 12 --tolerance 0", "--tolerance: must be a positive distance");
     refused(part + " --axis z --at 12 --band -1", "--band: must be 0 (one cut) or a positive distance");
     refused(part + " --axis w --at 12", "--axis: must be x, y or z");
+    refused(part + " --axis z --tolerence 0.1", "--tolerence");  // a typo, refused before the mesh is read
     refused(part, "--axis: give the plane");
     refused(part + " --axis z --svg " + (dir / "outline.txt").string(), "outline.txt");
     PointCloud cloud;
