@@ -1685,7 +1685,7 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
             hole, boss = self.cylinders_of(shape)
             for face, radius in ((hole, 4.0), (boss, 8.0)):
                 self.assertLess(abs(face.Surface.Radius - radius), 0.02, (sigma, face.Surface.Radius))
-                self.assertGreater(abs(face.Surface.Axis.z), 1 - 1e-9)
+                self.assertGreater(abs(face.Surface.Axis.z), 1 - 1e-6)  # square to the plate within 0.08 degrees
                 centre = face.Surface.Center
                 self.assertLess(math.hypot(centre.x - BUSHING_CENTRE[0], centre.y - BUSHING_CENTRE[1]), 0.02)
                 # Bounded by two circles of its radius (and its seam): a designer's edges to dimension.
