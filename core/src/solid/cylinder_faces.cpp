@@ -223,6 +223,27 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
             refuse("they do not meet each plane along one whole loop of it");
             continue;
         }
+        // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
+        // (their vertices not within twice the merge distance of it), or the face would cross itself.
+        std::string crossing;
+        for (int i = 0; i < 2 && crossing.empty(); ++i) {
+            const BrepFace& plane = model.faces[region.planes[i]];
+            for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
+                if (w == region.wires[i]) continue;
+                for (int e : plane.wires[w]) {
+                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                    for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
+                        const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
+                        const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
+                        if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit) crossing = point_text(model.vertices[size_t(v)]);
+                    }
+                }
+            }
+        }
+        if (!crossing.empty()) {
+            refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
+            continue;
+        }
         const BrepFace& second = model.faces[region.planes[1]];
         const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
         if (region.radius_mm * tilt > distance_limit) {

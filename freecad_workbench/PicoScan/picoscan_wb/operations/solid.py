@@ -2,7 +2,9 @@
 merges the facets that lie on one plane (within the scan's noise) into one planar face, keeps
 the rest as triangles (and turns back into triangles the facets where a merged face's boundary
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
-simplifies those curved regions into fewer, larger triangles (every mesh vertex within
+makes a hole or boss between two planar faces one cylindrical face bounded by circles when its
+facets lie on a cylinder square to both (`model.cylinder_notes` says which were near one and why
+they were not made), simplifies the other curved regions into fewer, larger triangles (every mesh vertex within
 `simplify_mm`, by default 4 x the noise, of them; the volume kept within 0.05 %; the summary in
 SolidReport says how many and how far: FreeCAD draws a solid in a time that grows with its faces),
 and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`), each face with its
