@@ -1705,6 +1705,16 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
             self.assertLess(cut.Volume, shape.Volume)
             feature = solid.make_solid(self.doc, obj)
             self.assertIn("2 cylinders", feature.SolidReport)
+            # The hole's edge as Sketcher external geometry: a circle about the hole's axis.
+            hole_edge = next(i for i, e in enumerate(feature.Shape.Edges)
+                             if isinstance(e.Curve, Part.Circle) and abs(e.Curve.Radius - 4.0) < 0.02)
+            sketch = self.doc.addObject("Sketcher::SketchObject", "HoleSketch")
+            sketch.addExternal(feature.Name, "Edge%d" % (hole_edge + 1))
+            self.doc.recompute()
+            self.assertEqual(sketch.State, ["Up-to-date"])
+            centre = sketch.getPoint(-3, 3)  # the first external geometry's centre
+            self.assertLess(math.hypot(centre.x - BUSHING_CENTRE[0], centre.y - BUSHING_CENTRE[1]), 0.02)
+            self.doc.removeObject(sketch.Name)
             self.doc.removeObject(feature.Name)
 
     def test_oval_or_oblique_hole_stays_triangles_with_the_reason(self):
