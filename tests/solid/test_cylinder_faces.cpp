@@ -6,6 +6,7 @@
 #include "support/test_support.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 
 #include <array>
 #include <cmath>
@@ -185,4 +186,76 @@ TEST(CylinderFaces, NoneWhenNotAsked) {
     const PlanarFaceModel model = planar_face_model(bushing_plate(0.005, 3), options);
     EXPECT_EQ(model.cylinder_faces, 0u);
     for (const BrepEdge& edge : model.edges) EXPECT_EQ(edge.radius_mm, 0);
+}
+
+namespace {
+
+// A shaft: a cylinder of radius 5 mm and 30 mm long with flat ends, 64 segments round, its wall in
+// 1 mm rows (long flat strips in the noise, each of more facets than an end), turned to an
+// oblique axis and moved; every vertex moved by Gaussian noise.
+Mesh shaft(double sigma, unsigned seed, const cv::Matx33d& turn, const cv::Vec3d& shift) {
+    const int segments = 64, rows = 30, rings = 4;
+    const double radius = 5, length = 30;
+    Mesh mesh;
+    std::mt19937 random(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    auto add = [&](double r, int k, double z) {
+        const double a = 2 * kPi * k / segments;
+        const cv::Vec3d p = turn * cv::Vec3d(r * std::cos(a), r * std::sin(a), z) + shift;
+        mesh.vertices.emplace_back(float(p[0] + noise(random)), float(p[1] + noise(random)), float(p[2] + noise(random)));
+        return int(mesh.vertices.size()) - 1;
+    };
+    auto quads = [&](const std::vector<int>& a, const std::vector<int>& b) {  // outward when a runs counter-clockwise below b
+        for (int k = 0; k < segments; ++k) {
+            const int next = (k + 1) % segments;
+            mesh.faces.emplace_back(a[k], a[next], b[next]);
+            mesh.faces.emplace_back(a[k], b[next], b[k]);
+        }
+    };
+    auto ring = [&](double r, double z) {
+        std::vector<int> indices;
+        for (int k = 0; k < segments; ++k) indices.push_back(add(r, k, z));
+        return indices;
+    };
+    std::vector<std::vector<int>> wall;
+    for (int j = 0; j <= rows; ++j) wall.push_back(ring(radius, length * j / rows));
+    for (int j = 0; j < rows; ++j) quads(wall[j], wall[j + 1]);
+    for (const bool top : {false, true}) {  // each end: rings inwards, then a fan to its centre
+        const double z = top ? length : 0;
+        std::vector<int> outer = wall[top ? rows : 0];
+        for (int i = rings - 1; i >= 1; --i) {
+            const std::vector<int> inner = ring(radius * i / rings, z);
+            top ? quads(outer, inner) : quads(inner, outer);
+            outer = inner;
+        }
+        const int centre = add(0, 0, z);
+        for (int k = 0; k < segments; ++k) {
+            const int next = (k + 1) % segments;
+            if (top) mesh.faces.emplace_back(outer[k], outer[next], centre);
+            else mesh.faces.emplace_back(outer[next], outer[k], centre);
+        }
+    }
+    return mesh;
+}
+
+}  // namespace
+
+TEST(CylinderFaces, AnObliqueShaftBecomesOneCylinderBetweenItsEnds) {
+    cv::Matx33d turn;
+    cv::Rodrigues(cv::Vec3d(0.5, -0.3, 0.2), turn);
+    const cv::Vec3d shift(3, -4, 7), axis = turn * cv::Vec3d(0, 0, 1);
+    for (double sigma : {0.0, 0.01}) {
+        SCOPED_TRACE("noise " + std::to_string(sigma));
+        const PlanarFaceModel model = planar_face_model(shaft(sigma, 5, turn, shift));
+        std::printf("shaft, noise %.3f mm: %s\n", sigma, model.summary().c_str());
+        ASSERT_EQ(model.cylinder_faces, 1u) << notes_of(model);
+        const BrepFace* face = cylinder_of_radius(model, 5);
+        ASSERT_NE(face, nullptr);
+        EXPECT_NEAR(face->radius_mm, 5, 0.02);
+        EXPECT_FALSE(face->reversed);
+        EXPECT_GT(std::abs(face->normal.dot(axis)), 1 - 1e-6);
+        const cv::Vec3d off = face->origin - shift;
+        EXPECT_NEAR(cv::norm(off - off.dot(axis) * axis), 0, 0.02);
+        EXPECT_EQ(model.merged_faces, 2u);  // its ends
+    }
 }

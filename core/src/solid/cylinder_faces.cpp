@@ -120,8 +120,9 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
     for (size_t start = 0; start < face_count; ++start) {
         if (seen[start] || !one_facet(start)) continue;
         // The region: one-facet faces joined by their edges; then, square to the axis (the normal
-        // of the largest planar face it meets), the planar faces it meets that are strips of its
-        // wall (flat within the noise on a finely divided cylinder) and whatever they lead to.
+        // of the planar face it meets that its facets' normals are most square to), the planar
+        // faces it meets that are strips of its wall (flat within the noise on a finely divided
+        // cylinder) and whatever they lead to.
         std::vector<size_t> members{start};
         seen[start] = 1;
         std::vector<size_t> met;
@@ -136,10 +137,15 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 }
             }
         if (met.empty()) continue;
-        const size_t largest = *std::max_element(met.begin(), met.end(), [&](size_t a, size_t b) {
-            return model.faces[a].facet_count < model.faces[b].facet_count;
-        });
-        const cv::Vec3d axis = cv::normalize(model.faces[largest].normal);
+        auto across = [&](size_t g) {  // how far the facets' normals are from square to g's
+            double sum = 0;
+            for (size_t f : members) sum += std::abs(model.faces[f].normal.dot(model.faces[g].normal));
+            return sum;
+        };
+        std::sort(met.begin(), met.end());
+        met.erase(std::unique(met.begin(), met.end()), met.end());
+        const size_t end_face = *std::min_element(met.begin(), met.end(), [&](size_t a, size_t b) { return across(a) < across(b); });
+        const cv::Vec3d axis = cv::normalize(model.faces[end_face].normal);
         std::vector<size_t> ends;
         bool other_faces = false;  // faces neither a strip nor an end, or triangles not eligible
         for (size_t next = 0; next < members.size(); ++next)
