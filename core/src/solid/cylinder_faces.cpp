@@ -70,8 +70,9 @@ double level_of(const BrepFace& plane, const cv::Vec3d& origin, const cv::Vec3d&
     return (plane.origin - origin).dot(plane.normal) / axis.dot(plane.normal);
 }
 
-// The edge references of each planar face's circle and of the cylinder's own wire, as
-// add_cylinder_faces writes them: the circle at the lower level (along the axis) first.
+// Where a cylinder's ends are along its axis, and which way each plane must run its circle for
+// the shell to be consistent (add_cylinder_faces writes them so; cylinder_regions checks that the
+// planes' loops already run that way).
 struct Loops {
     size_t low = 0;            // which of planes[] is at the lower level
     double low_level = 0, length = 0;
