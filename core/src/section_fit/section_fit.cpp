@@ -372,14 +372,29 @@ public:
                 continue;
             }
             const long to_before = has_after ? (has_before ? arc.count / 2 : 0) : arc.count;
-            if (has_before) spans[(j + n - 1) % n].count += to_before;
+            std::vector<Span> given = spans;
+            if (has_before) given[(j + n - 1) % n].count += to_before;
             if (has_after) {
-                Span& next = spans[(j + 1) % n];
+                Span& next = given[(j + 1) % n];
                 next.first -= arc.count - to_before;
                 next.count += arc.count - to_before;
             }
-            for (const size_t k : {(j + n - 1) % n, (j + 1) % n})
-                if (k != j) spans[k].shape = fit(spans[k].shape.circle, spans[k].first, spans[k].count);
+            // At an open end, a neighbour that cannot take the points within the tolerance meets a
+            // real short piece (a face's stub where a cut grazes a hole's rim): kept as its own
+            // element. Between two elements the points are a rounded corner's, shared out.
+            bool taken = has_before && has_after;
+            std::vector<size_t> receivers;
+            if (has_before) receivers.push_back((j + n - 1) % n);
+            if (has_after && (receivers.empty() || receivers[0] != (j + 1) % n)) receivers.push_back((j + 1) % n);
+            for (const size_t k : receivers) {
+                given[k].shape = fit(given[k].shape.circle, given[k].first, given[k].count);
+                taken = taken || fits_on_average(given[k]);
+            }
+            if (!taken) {
+                ++j;
+                continue;
+            }
+            spans = std::move(given);
             spans.erase(spans.begin() + long(j));
         }
     }
