@@ -81,9 +81,9 @@ def _solid_with_model(mesh, label, merge_planes, cylinders, noise_mm, progress, 
         raise picoscan.Error("%s: %d facets, more than %d; use a coarser mesh or Fit primitives" % (
             label, mesh.CountFacets, MAX_FACETS))
     try:
-        # Through a binary STL, which releases the GIL (mesh.Topology builds Python objects holding it).
-        model = picoscan.planar_face_model(core_mesh(mesh), face_options(merge_planes, noise_mm, cylinders=cylinders),
-                                           progress)
+        # Through a file, which releases the GIL (mesh.Topology builds Python objects holding it).
+        model = picoscan.planar_face_model(core_mesh(mesh, progress),
+                                           face_options(merge_planes, noise_mm, cylinders=cylinders), progress)
     except picoscan.Error as error:
         raise picoscan.Error("%s: %s" % (label, str(error).replace("mesh: ", "", 1))) from None
     # FreeCAD's Mesh check holds the GIL (0.1 s for 64 000 facets) and cannot be stopped inside.

@@ -1460,6 +1460,30 @@ def outline_block_mesh(sigma_mm, spacing_mm=0.5, seed=5):
     return mesh
 
 
+class PicoScanMeshHandOverTest(unittest.TestCase):
+    """scan_mesh.core_mesh, the way Cross-section, Make solid and Deviation map hand a FreeCAD mesh to
+    the core."""
+
+    def test_core_mesh_is_the_placed_mesh_and_hears_cancel_while_reading(self):
+        mesh = Mesh.createSphere(10.0, 200)  # 39 802 points and 79 600 facets: the reader reports once inside
+        mesh.Placement = FreeCAD.Placement(FreeCAD.Vector(100, -20, 5), FreeCAD.Rotation(FreeCAD.Vector(1, 2, 3), 40))
+        points, facets = mesh.Topology  # with the placement applied
+        core = scan_mesh.core_mesh(mesh)
+        numpy.testing.assert_allclose(numpy.asarray(core.vertices), numpy.array([tuple(p) for p in points]), atol=1e-5)
+        numpy.testing.assert_array_equal(numpy.asarray(core.faces), numpy.array(facets))
+
+        reports = []
+
+        def cancel_at_once(fraction, stage):
+            reports.append((fraction, stage))
+            return False
+
+        with self.assertRaises(picoscan.Error) as raised:
+            scan_mesh.core_mesh(mesh, cancel_at_once)
+        self.assertTrue(str(raised.exception).startswith("cancelled"), str(raised.exception))
+        self.assertEqual(reports, [(65536 / (39802 + 79600), "reading the mesh")])
+
+
 class PicoScanBigSolidTest(unittest.TestCase):
     """Make solid merges coplanar facets: a noisy closed mesh of the demo part's block becomes a valid
     solid whose flat faces are one B-rep face each, with the mesh's volume."""
