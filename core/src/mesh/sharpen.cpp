@@ -456,6 +456,83 @@ struct VertexPlanes {
     bool has(int p) const { return std::find(plane.begin(), plane.begin() + count, p) != plane.begin() + count; }
 };
 
+// A vertex of a rounded edge onto its own plane. Straight along the plane's normal, the thin
+// strip of faces along the edge, nearly square to the plane, folds wherever Poisson's surface
+// turns a little past square (its order across the edge is scrambled); along the sum of the
+// normals of the plane and of those it meets at an edge (square to the edge), a face
+// keeps its way round unless it faces more than 90 degrees away from that direction, and a
+// vertex on the bisector goes onto the line from either side.
+cv::Vec3d onto_own_plane(const Regions& regions, const VertexPlanes& vp, const cv::Vec3d& x) {
+    const Plane& own = regions.planes[vp.plane[0]];
+    if (own.cylinder) return own.project(x);
+    cv::Vec3d direction = own.normal;
+    for (int c = 1; c < vp.count; ++c) {
+        const Plane& other = regions.planes[vp.plane[c]];
+        const double angle = degrees_between(own.normal, other.normal);
+        if (!other.cylinder && angle >= kSharpEdgeDeg && angle < 120) direction += other.normal;  // not a thin wall's far side
+    }
+    return x - own.distance(x) / own.normal.dot(direction) * direction;
+}
+
+constexpr double kOnPlaneMm = 1e-4;
+
+// The plane a face's three corners all go onto (one of them put on the plane alone, the others
+// on it or on its lines and corners), or -1.
+int on_one_plane(const cv::Vec3i& face, const Regions& regions, const std::vector<int>& surface_of,
+                 const std::vector<cv::Vec3d>& target) {
+    int s = -1;
+    for (int k = 0; k < 3 && s < 0; ++k) s = surface_of[face[k]];
+    if (s < 0 || regions.planes[s].cylinder) return -1;
+    for (int k = 0; k < 3; ++k)
+        if (std::abs(regions.planes[s].distance(target[face[k]])) > kOnPlaneMm) return -1;
+    return s;
+}
+
+// Faces whose three corners all go onto one plane but come out turned over in it (a sliver
+// along an edge whose corners the projection put in another order across it, or a cut merged
+// with its neighbour): pulling their corners back cannot unfold a face that was already folded
+// where they came from, and leaves the edge as Poisson rounded it. Their corners that lie on the
+// plane alone (not on a line or a corner) are moved within the plane, each to the mean of its
+// neighbours on the plane, until no face on the plane is turned over: the surface stays where
+// the points put it, only the triangles are untangled.
+void untangle_on_planes(const std::vector<cv::Vec3i>& faces, const Regions& regions, const std::vector<cv::Vec3d>& safe,
+                        const std::vector<int>& surface_of, double longest_move, std::vector<cv::Vec3d>& target) {
+    auto turned_over_on = [&](const cv::Vec3i& face) {
+        const int s = on_one_plane(face, regions, surface_of, target);
+        if (s < 0) return -1;
+        const cv::Vec3d normal = (target[face[1]] - target[face[0]]).cross(target[face[2]] - target[face[0]]);
+        return normal.dot(regions.planes[s].normal) < 0 ? s : -1;
+    };
+    std::vector<std::vector<int>> ring;
+    for (int round = 0; round < 20; ++round) {
+        std::vector<int> tangled;
+        for (const cv::Vec3i& face : faces) {
+            const int s = turned_over_on(face);
+            for (int k = 0; s >= 0 && k < 3; ++k)
+                if (surface_of[face[k]] == s) tangled.push_back(face[k]);
+        }
+        if (tangled.empty()) return;
+        if (ring.empty()) {
+            ring.resize(target.size());
+            for (const cv::Vec3i& face : faces)
+                for (int k = 0; k < 3; ++k) {
+                    ring[face[k]].push_back(face[(k + 1) % 3]);
+                    ring[face[k]].push_back(face[(k + 2) % 3]);
+                }
+        }
+        for (int v : tangled) {
+            const Plane& plane = regions.planes[surface_of[v]];
+            cv::Vec3d sum(0, 0, 0);
+            int count = 0;
+            for (int w : ring[v])
+                if (std::abs(plane.distance(target[w])) < kOnPlaneMm) sum += target[w], ++count;
+            if (count < 2) continue;
+            const cv::Vec3d relaxed = plane.project(sum * (1.0 / count));
+            if (cv::norm(relaxed - safe[v]) <= longest_move) target[v] = relaxed;
+        }
+    }
+}
+
 // A hole's wall (a cylinder facing its axis) and the turns about its axis at which its points
 // were seen, at any depth: where a wall was seen at that turn it goes on round the hole there
 // (a hole round at its mouth and flat further down on the side no view saw keeps its flat).
@@ -851,7 +928,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         }
         // On its own plane, within the part of it its points are on (not past an edge).
         const Plane& own = regions.planes[vp.plane[0]];
-        moved = own.project(x);
+        moved = onto_own_plane(regions, vp, x);
         std::vector<int> crossed;
         for (int c = 1; c < vp.count; ++c)
             if (vp.side[c] != 0 && sharp_pair(vp.plane[0], vp.plane[c], x) &&
@@ -1016,15 +1093,19 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         original_normal[f] = (b - a).cross(c - a);
     }
     // A face whose corners all go onto one fitted surface is judged by that surface's normal
-    // (a bulge put onto a hole's wall turns its faces by up to 90 degrees); others by the
-    // face they came from.
+    // (a bulge put onto a hole's wall turns its faces by up to 90 degrees), and so is a face
+    // whose corners all go onto one plane, some of them onto its lines (the rounded edge's
+    // faces Poisson turned a little past square); others by the face they came from.
     surface_of.resize(target.size(), -1);  // the split vertices: on lines
     auto reference_normal = [&](size_t f) {
         const cv::Vec3i& face = faces[f];
         const int s = surface_of[face[0]];
-        if (s < 0 || surface_of[face[1]] != s || surface_of[face[2]] != s) return original_normal[parent[f]];
-        return regions.planes[s].normal_at((target[face[0]] + target[face[1]] + target[face[2]]) * (1.0 / 3));
+        if (s >= 0 && surface_of[face[1]] == s && surface_of[face[2]] == s)
+            return regions.planes[s].normal_at((target[face[0]] + target[face[1]] + target[face[2]]) * (1.0 / 3));
+        const int p = on_one_plane(face, regions, surface_of, target);
+        return p >= 0 ? regions.planes[p].normal : original_normal[parent[f]];
     };
+    untangle_on_planes(faces, regions, safe, surface_of, longest_move, target);
     std::vector<cv::Vec3d> position = target;
     std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
     auto movable = [&](int v) { return share[v] > 0 && target[v] != safe[v]; };
