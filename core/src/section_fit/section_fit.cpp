@@ -1147,6 +1147,19 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
         };
         e.start = project(pts[span.first]);
         e.end = project(pts[span.first + span.count - 1]);
+        // The last word on every element: an element far off its own points (a fillet of too few
+        // points for an arc, covered by lines across it) is refused, never handed on as fitted.
+        // Twice the tolerance: the final fits leave out the points at corners, which may sit a
+        // little off.
+        if (e.rms_mm > 2 * result.tolerance_mm) {
+            char text[200];
+            std::snprintf(text, sizeof text,
+                          "a %s from (%.3f, %.3f) to (%.3f, %.3f) mm is %.4f mm RMS off its points, more than twice the "
+                          "tolerance of %.4f mm (a tolerance set above it fits it)",
+                          span.shape.circle ? "arc" : "line", e.start[0], e.start[1], e.end[0], e.end[1], e.rms_mm,
+                          result.tolerance_mm);
+            throw Error("polyline", text);
+        }
         result.elements.push_back(e);
     }
     const size_t count = spans.size();
