@@ -51,15 +51,24 @@ registered, summed over every way its automatic mode tried). A third table gives
 against issue 12's targets (TARGETS: every view right, volume within 0.5 %, truth -> mesh mean
 15 um, p95 40 um, max 150 um, mesh -> truth p95 40 um, max 150 um), pass or FAIL with the figure.
 
+After the tables, where each maximum is: the worst spots (at least 2 mm apart) of truth -> mesh
+(true surface samples) and of mesh -> truth (mesh vertices; PicoScan's said measured or filled),
+in the part's own frame (its bottom face at z = 0) and in the model frame. PicoScan's merged
+cloud and alignment are kept beside the views (picoscan_stitched.ply, .pickle): --reuse-stitch
+meshes them again without stitching, and --picoscan-only leaves Open3D out (both for work on
+PicoScan's meshing; the placements table then shows the earlier stitch's figures).
+
 Run with Debian's python3 (it has open3d, numpy and the module's ABI):
     /usr/bin/python3 benchmarks/compare_open3d.py [--build build] [--data build/bench-compare]
         [--baseline OLD/picoscan]  (an earlier build on the same pairs, global registration: before and after)
     /usr/bin/python3 benchmarks/compare_open3d.py --pipelines  (the whole pipelines only)
     /usr/bin/python3 benchmarks/compare_open3d.py --placements  (the whole pipelines, two placements)
+    /usr/bin/python3 benchmarks/compare_open3d.py --placements --picoscan-only [--reuse-stitch]
 """
 import argparse
 import copy
 import os
+import pickle
 import re
 import resource
 import subprocess
@@ -427,6 +436,7 @@ class Pipeline:
     wall and CPU seconds of each placement's alignment, of the joins and of everything."""
     def __init__(self):
         self.mesh, self.poses, self.joins, self.problems = None, [], [], []
+        self.measured = None  # PicoScan's per-vertex flag (1 measured, 0 filled); None for Open3D
         self.seconds = {}
 
 
@@ -450,14 +460,34 @@ def picoscan_pipeline(module, placements):
     for placement in stitched.alignment.placements[1:]:
         run.joins.append(np.asarray(placement.pose) if placement.aligned else None)
         run.problems.append(placement.problem)
-    if len(stitched.merged):
-        mesh = module.mesh_points(stitched.merged, module.MeshOptions())
-        run.mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
-                                             o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
     run.seconds = dict(stages.seconds)
     if len(placements) == 1:  # align_views reports no placements: the stitch is placement 1's alignment
         run.seconds = {"placement 1": tuple(sum(s[k] for s in stages.seconds.values()) for k in range(2))}
+    picoscan_mesh(module, stitched.merged, run)
     run.seconds["all"] = clock.read()
+    return run, stitched.merged
+
+
+def picoscan_mesh(module, merged, run):
+    """mesh_points with the defaults of 'picoscan mesh' (Poisson, its default fill) into the run."""
+    if len(merged):
+        mesh = module.mesh_points(merged, module.MeshOptions())
+        run.mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
+                                             o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
+        run.measured = np.asarray(mesh.measured)
+
+
+def picoscan_stitched_again(module, saved):
+    """--reuse-stitch: the merged cloud and the alignment of an earlier run of this script (on
+    the same views) meshed again; the stitch's figures and times are the earlier run's, the
+    mesh's time is this run's."""
+    run, clock = Pipeline(), Clock()
+    with open(saved + ".pickle", "rb") as f:
+        run.poses, run.joins, run.problems, run.seconds = pickle.load(f)
+    picoscan_mesh(module, module.read_ply(saved + ".ply"), run)
+    run.seconds["all"] = clock.read()
+    print("PicoScan: the stitch of %s.ply reused (--reuse-stitch); meshed in %.0f s (CPU %.0f s)"
+          % (saved, *run.seconds["all"]), file=sys.stderr)
     return run
 
 
@@ -543,10 +573,60 @@ def model_figures(run, truth):
         return None
     to_mesh, to_truth, not_finite = distances(truth, run.mesh)
     volume = mesh_volume(run.mesh)
+    vertices = np.asarray(run.mesh.vertices)
+    finite = np.flatnonzero(np.isfinite(vertices).all(axis=1))
     return {"watertight": run.mesh.is_watertight(), "volume": volume, "volume_error": volume / truth.volume - 1,
             "to_mesh_mean": to_mesh.mean(), "to_mesh_p95": np.percentile(to_mesh, 95), "to_mesh_max": to_mesh.max(),
             "to_truth_p95": np.percentile(to_truth, 95) if len(to_truth) else None,
-            "to_truth_max": to_truth.max() if len(to_truth) else None, "not_finite": not_finite}
+            "to_truth_max": to_truth.max() if len(to_truth) else None, "not_finite": not_finite,
+            "to_mesh_worst": worst_spots(truth.outer_samples, to_mesh),
+            "to_truth_worst": [(vertices[finite[k]], d, finite[k]) for _, d, k in
+                               worst_spots(vertices[finite], to_truth, with_index=True)]}
+
+
+def worst_spots(points, distance, count=5, apart_mm=2.0, with_index=False):
+    """The largest distances at places at least apart_mm from each other (the worst first):
+    (point, distance), or (point, distance, index into points)."""
+    spots = []
+    for k in np.argsort(distance)[::-1]:
+        if len(spots) == count:
+            break
+        if all(np.linalg.norm(points[k] - spot[0]) >= apart_mm for spot in spots):
+            spots.append((points[k], float(distance[k]), int(k)))
+    return spots if with_index else [spot[:2] for spot in spots]
+
+
+def part_frame(module, directory):
+    """The model frame (the first standing view's camera, that of truth.stl) -> the part's own
+    frame (the mechanical part's: its bottom face at z = 0), so that a spot can be named on
+    the part; checked against truth.stl (None when they disagree)."""
+    plan = module.TurntableScanOptions().plan
+    plan.top_view = False
+    part_to_model = np.asarray(module.turntable_part_poses(plan)[0])
+    part = np.asarray(module.mechanical_part().vertices, np.float64)
+    truth = scene_of(o3d.io.read_triangle_mesh(os.path.join(directory, "truth.stl")))
+    moved = part @ part_to_model[:3, :3].T + part_to_model[:3, 3]
+    if truth.compute_distance(o3d.core.Tensor(moved.astype(np.float32))).numpy().max() > 1e-3:
+        return None
+    return np.linalg.inv(part_to_model)
+
+
+def where_lines(name, figures, run, to_part):
+    """Where each maximum is: the worst spots of truth -> mesh (a true surface sample) and of
+    mesh -> truth (a mesh vertex, measured or filled where the tool says), in the part's frame
+    (and the model frame)."""
+    def at(point):
+        text = "(%.2f, %.2f, %.2f)" % tuple(point)
+        if to_part is not None:
+            text = "part (%.2f, %.2f, %.2f), model %s" % (*(to_part[:3, :3] @ point + to_part[:3, 3]), text)
+        return text
+    lines = ["%s, truth -> mesh worst: %s" % (name, "; ".join(
+        "%.0f um at %s" % (1000 * d, at(p)) for p, d in figures["to_mesh_worst"]))]
+    lines.append("%s, mesh -> truth worst: %s" % (name, "; ".join(
+        "%.0f um at %s%s" % (1000 * d, at(p), "" if run.measured is None or len(run.measured) <= k else
+                             (", measured" if run.measured[k] else ", filled"))
+        for p, d, k in figures["to_truth_worst"])))
+    return lines
 
 
 def pipeline_row(name, run, figures, placed):
@@ -644,25 +724,41 @@ def compare_pipelines(args, module, placements=("views",)):
     two placements, both tools get the standing views, then the side views); prints the
     placements table and the model table, and with two placements the table of issue 12's
     targets."""
-    placement_table, model_table, targets_table = [], [], []
+    placement_table, model_table, targets_table, where_table = [], [], [], []
     for part in args.parts.split(","):
         directory, truth, views = part_views(args, part, placements)
         size = len(views) // len(placements)
         by_placement = [views[k:k + size] for k in range(0, len(views), size)]
         sizes = [size] * len(placements)
         truth_part = TruePart(os.path.join(directory, "truth.stl"))
+        to_part = part_frame(module, directory)
         centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
-        picoscan = picoscan_pipeline(module, by_placement)
-        open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
-        for name, run in (("PicoScan stitch + mesh", picoscan), ("Open3D chained pairs + Poisson", open3d_raw),
-                          ("Open3D chained pairs + Poisson, cropped by density", open3d_cropped)):
+        # PicoScan's stitch is kept beside the views (its merged cloud and alignment) for --reuse-stitch.
+        saved = os.path.join(directory, "picoscan_stitched")
+        if args.reuse_stitch and os.path.exists(saved + ".pickle"):
+            picoscan = picoscan_stitched_again(module, saved)
+        else:
+            picoscan, merged = picoscan_pipeline(module, by_placement)
+            module.write_ply(merged, saved + ".ply", False)
+            with open(saved + ".pickle", "wb") as f:
+                pickle.dump((picoscan.poses, picoscan.joins, picoscan.problems,
+                             {k: v for k, v in picoscan.seconds.items() if k != "all"}), f)
+        runs = [("PicoScan stitch + mesh", picoscan)]
+        if not args.picoscan_only:
+            open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
+            runs += [("Open3D chained pairs + Poisson", open3d_raw),
+                     ("Open3D chained pairs + Poisson, cropped by density", open3d_cropped)]
+        for name, run in runs:
             right = right_views(truth, run.poses, centroids)
             placed = "%d / %d" % (sum(p is not None for p in run.poses), right)
             figures = model_figures(run, truth_part)
             model_table.append(pipeline_row("%s: %s" % (part, name), run, figures, placed))
             print(model_table[-1], file=sys.stderr)
             targets_table.append(targets_row("%s: %s" % (part, name), figures, len(views), right))
-            if run is not open3d_cropped:  # the crop changes the mesh only
+            if figures is not None:
+                where_table += where_lines("%s: %s" % (part, name), figures, run, to_part)
+                print("\n".join(where_table[-2:]), file=sys.stderr)
+            if "cropped" not in name:  # the crop changes the mesh only
                 placement_table.append(placements_row("%s: %s" % (part, name.replace(" + Poisson", "")), run, truth,
                                                       centroids, sizes))
                 print(placement_table[-1], file=sys.stderr)
@@ -670,6 +766,8 @@ def compare_pipelines(args, module, placements=("views",)):
     print_model_table(model_table, len(views))
     if len(placements) > 1:  # the issue's targets are those of a complete model: two placements
         print_targets_table(targets_table)
+    print("\nWhere the maxima are (the worst spots at least 2 mm apart, worst first):\n")
+    print("\n".join("- " + line for line in where_table))
 
 
 def main():
@@ -685,6 +783,11 @@ def main():
                         help="only the whole pipelines: PicoScan stitch + mesh against Open3D's chained pairs + Poisson")
     parser.add_argument("--placements", action="store_true",
                         help="only the whole pipelines on two placements (standing, then on its side) of 8 views each")
+    parser.add_argument("--picoscan-only", action="store_true",
+                        help="with --pipelines or --placements: PicoScan's pipeline only (no Open3D run)")
+    parser.add_argument("--reuse-stitch", action="store_true",
+                        help="with --pipelines or --placements: mesh PicoScan's merged cloud of the last run on these "
+                             "views again (the stitch's figures are that run's; for work on the meshing)")
     args = parser.parse_args()
     picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
     if args.pipelines or args.placements:
