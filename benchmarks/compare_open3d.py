@@ -54,7 +54,7 @@ against issue 12's targets (TARGETS: every view right, volume within 0.5 %, trut
 After the tables, where each maximum is: the worst spots (at least 2 mm apart) of truth -> mesh
 (true surface samples) and of mesh -> truth (mesh vertices; PicoScan's said measured or filled),
 in the part's own frame (its bottom face at z = 0) and in the model frame. PicoScan's merged
-cloud and alignment are kept beside the views (picoscan_stitched.ply, .pickle): --reuse-stitch
+cloud and alignment are kept beside the views (picoscan_stitched.pickle): --reuse-stitch
 meshes them again without stitching, and --picoscan-only leaves Open3D out (both for work on
 PicoScan's meshing; the placements table then shows the earlier stitch's figures).
 
@@ -483,10 +483,13 @@ def picoscan_stitched_again(module, saved):
     mesh's time is this run's."""
     run, clock = Pipeline(), Clock()
     with open(saved + ".pickle", "rb") as f:
-        run.poses, run.joins, run.problems, run.seconds = pickle.load(f)
-    picoscan_mesh(module, module.read_ply(saved + ".ply"), run)
+        run.poses, run.joins, run.problems, run.seconds, arrays = pickle.load(f)
+    merged = module.PointCloud()
+    for name, values in arrays.items():
+        setattr(merged, name, values)
+    picoscan_mesh(module, merged, run)
     run.seconds["all"] = clock.read()
-    print("PicoScan: the stitch of %s.ply reused (--reuse-stitch); meshed in %.0f s (CPU %.0f s)"
+    print("PicoScan: the stitch kept in %s.pickle reused (--reuse-stitch); meshed in %.0f s (CPU %.0f s)"
           % (saved, *run.seconds["all"]), file=sys.stderr)
     return run
 
@@ -739,10 +742,10 @@ def compare_pipelines(args, module, placements=("views",)):
             picoscan = picoscan_stitched_again(module, saved)
         else:
             picoscan, merged = picoscan_pipeline(module, by_placement)
-            module.write_ply(merged, saved + ".ply", False)
+            arrays = {name: np.array(getattr(merged, name)) for name in ("points", "normals", "colours", "quality")}
             with open(saved + ".pickle", "wb") as f:
                 pickle.dump((picoscan.poses, picoscan.joins, picoscan.problems,
-                             {k: v for k, v in picoscan.seconds.items() if k != "all"}), f)
+                             {k: v for k, v in picoscan.seconds.items() if k != "all"}, arrays), f)
         runs = [("PicoScan stitch + mesh", picoscan)]
         if not args.picoscan_only:
             open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
