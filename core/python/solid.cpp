@@ -25,7 +25,8 @@ void bind_solid(py::module_& m) {
         .def_readonly("chain", &BrepEdge::chain)
         .def_readonly("radius_mm", &BrepEdge::radius_mm)
         .def_readonly("center", &BrepEdge::center)
-        .def_readonly("axis", &BrepEdge::axis);
+        .def_readonly("axis", &BrepEdge::axis)
+        .def_readonly("x_axis", &BrepEdge::x_axis);
     py::class_<BrepFace>(m, "BrepFace")
         .def_readonly("origin", &BrepFace::origin)
         .def_readonly("normal", &BrepFace::normal)
@@ -35,6 +36,7 @@ void bind_solid(py::module_& m) {
         .def_readonly("wires", &BrepFace::wires)
         .def_readonly("triangles", &BrepFace::triangles)
         .def_readonly("radius_mm", &BrepFace::radius_mm)
+        .def_readonly("x_axis", &BrepFace::x_axis)
         .def_readonly("reversed", &BrepFace::reversed);
     py::class_<PlanarFaceModel>(m, "PlanarFaceModel")
         .def_readonly("vertices", &PlanarFaceModel::vertices)
