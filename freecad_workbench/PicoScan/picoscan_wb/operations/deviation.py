@@ -39,7 +39,7 @@ def reference_reader(obj, deflection_mm=0.01):
         try:
             triangles = os.path.join(folder, "triangles.npz")
             run_freecad_process(tessellate_shape.__file__, [brep, repr(float(deflection_mm)), triangles], progress,
-                                "tessellating the reference")
+                                "tessellating the reference: {}", "%s: tessellating" % label)
             with numpy.load(triangles) as arrays:
                 vertices, facets = arrays["vertices"], arrays["facets"]
         finally:

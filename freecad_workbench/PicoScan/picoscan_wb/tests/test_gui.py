@@ -985,7 +985,6 @@ class PicoScanGuiTest(unittest.TestCase):
 
     def million_point_scan_and_sphere(self):
         """A Points object of 1 000 000 points on a 20 mm sphere (10 um noise) and a Part sphere."""
-        import Points
         from picoscan_wb.property_content import points_content
 
         rng = numpy.random.default_rng(6)
