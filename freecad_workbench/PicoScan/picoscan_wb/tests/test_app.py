@@ -1528,7 +1528,8 @@ class PicoScanMeshHandOverTest(unittest.TestCase):
 
     def test_reference_tessellated_in_its_own_process_and_cancelled_there(self):
         """The reference shape's triangles from tessellate_shape.py's process are those FreeCAD makes
-        in its own, at the placed shape; Cancel ends the process."""
+        in its own, at the placed shape; Cancel ends the process. A shape of planes only is
+        tessellated in FreeCAD's process."""
         from picoscan_wb.operations import deviation
 
         doc = FreeCAD.newDocument("PicoScanTessellate")
@@ -1550,6 +1551,10 @@ class PicoScanMeshHandOverTest(unittest.TestCase):
                 return len(reports) < 3
             with self.assertRaisesRegex(picoscan.Error, "^cancelled: tessellating the reference"):
                 deviation.reference_reader(model, 0.01)(cancel)
+            # Planes only: tessellated at once on the calling thread (12 triangles, no process to cancel).
+            box = doc.addObject("Part::Box", "Box")
+            doc.recompute()
+            self.assertEqual(numpy.asarray(deviation.reference_reader(box, 0.01)(lambda fraction, stage: False).faces).shape, (12, 3))
         finally:
             FreeCAD.closeDocument(doc.Name)
 
