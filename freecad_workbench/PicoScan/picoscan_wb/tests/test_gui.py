@@ -983,37 +983,42 @@ class PicoScanGuiTest(unittest.TestCase):
     # the GUI thread the longest stop was 33.3 s at load 6 (49.7 s in all) (docs/freecad.md).
     DEVIATION_MAP_STALL_S = 6.0
 
-    def million_point_scan_and_sphere(self):
-        """A Points object of 1 000 000 points on a 20 mm sphere (10 um noise) and a Part sphere."""
+    def million_point_scan(self):
+        """A Points object of 1 000 000 points on the wall of a 12.5 mm cylinder (10 um noise), the
+        Part::Cylinder it was scanned from, and a Part::Sphere (tessellated for seconds)."""
         from picoscan_wb.property_content import points_content
 
         rng = numpy.random.default_rng(6)
-        directions = rng.normal(size=(1000000, 3))
-        directions /= numpy.linalg.norm(directions, axis=1)[:, None]
-        points = directions * (20.0 + rng.normal(0.0, 0.01, (len(directions), 1))) + (5.0, -3.0, 2.0)
+        angle, height = rng.uniform(0.0, 2 * math.pi, 1000000), rng.uniform(1.0, 79.0, 1000000)
+        radius = 12.5 + rng.normal(0.0, 0.01, len(angle))
         scan = self.doc.addObject("Points::Feature", "MillionPoints")
-        scan.restorePropertyContent("Points", points_content(points))
-        model = self.doc.addObject("Part::Sphere", "SphereModel")
-        model.Radius = 20.0
-        model.Placement.Base = FreeCAD.Vector(5.0, -3.0, 2.0)
+        scan.restorePropertyContent("Points", points_content(numpy.stack(
+            [radius * numpy.cos(angle), radius * numpy.sin(angle), height], axis=1)))
+        cylinder = self.doc.addObject("Part::Cylinder", "CylinderModel")
+        cylinder.Radius, cylinder.Height = 12.5, 80.0
+        sphere = self.doc.addObject("Part::Sphere", "SphereModel")
+        sphere.Radius = 20.0
         self.doc.recompute()
         self.assertEqual(scan.Points.CountPoints, 1000000)
-        FreeCADGui.Selection.clearSelection()
-        FreeCADGui.Selection.addSelection(scan)
-        FreeCADGui.Selection.addSelection(model)
-        return scan, model
+        return scan, cylinder, sphere
 
     def test_k6_deviation_map_of_a_million_points_stalls_the_gui_briefly(self):
-        """Deviation map of 1 M points against a Part sphere: the sphere is tessellated in another
+        """Deviation map of 1 M points against a Part model: the model is tessellated in another
         process, the distances, colours and the properties' bytes are made on a worker thread, so the
-        GUI thread stops only for FreeCAD to read the properties and draw them; Cancel while the sphere
+        GUI thread stops only for FreeCAD to read the properties and draw them; Cancel while a sphere
         is tessellated stops within a second and adds nothing."""
-        scan, model = self.million_point_scan_and_sphere()
-        for _ in range(3):
-            process_events()
+        scan, cylinder, sphere = self.million_point_scan()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(scan)
+        FreeCADGui.Selection.addSelection(sphere)
         self.cancelled_while_the_gui_answers("Deviation map", lambda: FreeCADGui.runCommand("PicoScan_DeviationMap"),
                                              0.3, stage="tessellating the reference: meshing 1 faces")
         self.messages.clear()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(scan)
+        FreeCADGui.Selection.addSelection(cylinder)
+        for _ in range(3):
+            process_events()
         started, ended, _, gaps, labels = self.gui_ticks_while(lambda: FreeCADGui.runCommand("PicoScan_DeviationMap"))
         maps = [o for o in self.doc.Objects if hasattr(o, "MeanAbsDeviation")]
         figures = "Deviation map of 1 M points: %.2f s in all, the GUI's longest stop %.3f s (after '%s')" % (
