@@ -1204,9 +1204,10 @@ struct Corners {
     std::vector<long> kept;
 };
 Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed) {
-    // Straight: within the rounding of a mesh's float vertices (1e-5 mm at 400 mm) of the line through
-    // its neighbours. A scan's cut turns at every point by its noise, so it keeps every point.
-    constexpr double kStraightMm = 1e-4;
+    // Straight: within the rounding of a mesh's float vertices (a few 1e-7 of their coordinates: 1e-5 mm
+    // at 25 mm) of the line through its neighbours, allowed 1e-6 of the coordinates. A scan mesh's cut
+    // turns at every point by its noise (its facets are not coplanar), so it keeps (nearly) every point.
+    constexpr double kStraightRelative = 1e-6;
     const long n = long(polyline.size());
     const Points pts{polyline, closed};
     std::vector<bool> turns(size_t(n), true);
@@ -1216,7 +1217,8 @@ Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed) {
         if (length == 0) continue;
         const cv::Vec2d p = pts[i] - a;
         const double along = p.dot(d) / length;
-        turns[size_t(i)] = along <= 0 || along >= length || std::abs(p[0] * d[1] - p[1] * d[0]) / length > kStraightMm;
+        const double straight = kStraightRelative * std::max({1.0, cv::norm(a), cv::norm(b)});
+        turns[size_t(i)] = along <= 0 || along >= length || std::abs(p[0] * d[1] - p[1] * d[0]) / length > straight;
     }
     Corners corners;
     const long start = long(std::find(turns.begin(), turns.end(), true) - turns.begin());
