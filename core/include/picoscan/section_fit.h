@@ -73,10 +73,12 @@ struct SectionElement {
     bool counter_clockwise = true;     // arc: the polyline runs counter-clockwise around the centre
     int first_point = 0, point_count = 0;  // the polyline points fitted (indices wrap on closed polylines)
     double rms_mm = 0, max_mm = 0;     // distances of those points to the element
-    // A faceted cut (a mesh's curved face cut along its facets' chords): the points strictly inside
-    // a straight run shorter than 1 mm lie on a chord, not on the curve, and are not fitted; the
-    // residuals above are those of the points fitted (the chords' ends, on the curve). An arc's or
-    // circle's largest chord sag c^2 / (8 r): how far inside it such points may lie. 0 otherwise.
+    // A faceted cut (a mesh's curved face cut along its facets' chords, coarse for the tolerance):
+    // when a polyline cannot be split into elements within the tolerance with all its points, the
+    // points strictly inside a straight run shorter than 1 mm (on a chord, not on the curve) are left
+    // out of the fit; the residuals above are then those of the points fitted (the chords' ends, on
+    // the curve), and an arc's or circle's chord_sag_mm its largest chord sag c^2 / (8 r): how far
+    // inside it such points may lie. 0 otherwise.
     double chord_sag_mm = 0;
     // Standard errors of the fit, from the points it used (parallel cuts included) by the block
     // jackknife: the fit repeated without each run of about 1 mm along the element, since a

@@ -1244,18 +1244,24 @@ Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed) {
     return corners;
 }
 
-// Fits a polyline's corners (corners_of; the parallel cuts' too, for arcs) and gives the elements back in the
-// polyline's own numbering: each element takes the points up to the next one's first. An arc's or
-// circle's chord_sag_mm is the largest sag c^2 / (8 r) of the chords whose inner points were not
-// fitted: they lie up to that far inside it.
+// Fits a polyline with all its points; when they cannot be split into elements within the tolerance
+// and the polyline has chords (corners_of), its corners (and the parallel cuts' corners, for arcs),
+// with the elements given back in the polyline's own numbering: each element takes the points up to
+// the next one's first. An arc's or circle's chord_sag_mm is then the largest sag c^2 / (8 r) of the
+// chords whose inner points were not fitted: they lie up to that far inside it. (All points first: a
+// scan mesh's flattened faces give short straight runs too, and a side's line is better with them.)
 SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
                             const std::vector<ParallelCut>& parallel_cuts, double noise_mm) {
     const Corners corners = corners_of(polyline, closed);
+    const long n = long(polyline.size()), m = long(corners.points.size());
+    try {
+        return fit_points(polyline, closed, options, parallel_cuts, parallel_cuts, noise_mm);
+    } catch (const Error& error) {
+        if (m == n || error.subject() != "polyline") throw;
+    }
     std::vector<ParallelCut> corner_cuts;
     for (const ParallelCut& cut : parallel_cuts) corner_cuts.push_back({cut.offset_mm, corners_of(cut.points, false).points});
     SectionFit fit = fit_points(corners.points, closed, options, parallel_cuts, corner_cuts, noise_mm);
-    const long n = long(polyline.size()), m = long(corners.points.size());
-    if (m == n) return fit;
     const auto original = [&](long i) { return corners.kept[size_t(((i % m) + m) % m)]; };
     for (size_t j = 0; j < fit.elements.size(); ++j) {
         SectionElement& e = fit.elements[j];
