@@ -840,6 +840,42 @@ TEST(SectionFit, CutMeshSectionIsTheCutAndItsBandInOneCall) {
     EXPECT_EQ(cancelled.rfind("cancelled", 0), 0u) << cancelled;
 }
 
+// A cut's loops run counter-clockwise around the material seen from the plane's normal (the
+// outline positive, the hole negative), however the mesh stores its triangles: each triangle's
+// corners rotated (FreeCAD's STL reader starts every triangle at its third corner) and the
+// triangles shuffled. Before, the walk followed the first crossed triangle's corner order.
+TEST(SectionFit, LoopsRunTheWayTheTrianglesWindWhateverTheirStorageOrder) {
+    const Mesh part = mechanical_part();
+    const auto signed_areas = [](const Mesh& mesh) {
+        std::vector<double> areas;
+        for (const SectionPolyline& loop : cut_mesh(mesh, {0, 0, 12}, {1, 0, 0}, {0, 1, 0})) {
+            double twice = 0;
+            for (size_t k = 0; k < loop.points.size(); ++k) {
+                const cv::Vec2d& a = loop.points[k];
+                const cv::Vec2d& b = loop.points[(k + 1) % loop.points.size()];
+                twice += a[0] * b[1] - a[1] * b[0];
+            }
+            areas.push_back(twice / 2);
+        }
+        std::sort(areas.begin(), areas.end());
+        return areas;
+    };
+    std::vector<Mesh> stored(3, part);
+    for (auto& face : stored[1].faces) face = {face[2], face[0], face[1]};
+    for (auto& face : stored[2].faces) face = {face[1], face[2], face[0]};
+    std::mt19937 random(7);
+    for (int shuffle = 0; shuffle < 4; ++shuffle) {
+        stored.push_back(part);
+        std::shuffle(stored.back().faces.begin(), stored.back().faces.end(), random);
+    }
+    for (size_t k = 0; k < stored.size(); ++k) {
+        const std::vector<double> areas = signed_areas(stored[k]);
+        ASSERT_EQ(areas.size(), 2u) << k;
+        EXPECT_NEAR(areas[0], -kPi * 25, 0.5) << k;  // the hole, radius 5, clockwise
+        EXPECT_GT(areas[1], 1000) << k;              // the outline, counter-clockwise
+    }
+}
+
 // Cuts across the demo part's through hole, near its rim, leave short stubs of the top and
 // bottom faces (0.37 mm at y = -2) at the open ends of the hole wall's chain. Merged into the
 // wall's line they made one line 70 um off its points with a 5 um tolerance, reported as fitted.
