@@ -56,6 +56,12 @@ Run with Debian's python3 (it has open3d, numpy and the module's ABI):
         [--baseline OLD/picoscan]  (an earlier build on the same pairs, global registration: before and after)
     /usr/bin/python3 benchmarks/compare_open3d.py --pipelines  (the whole pipelines only)
     /usr/bin/python3 benchmarks/compare_open3d.py --placements  (the whole pipelines, two placements)
+        [--no-open3d]       (PicoScan's pipeline only)
+        [--reuse-stitch]    (PicoScan's merged cloud and poses from the last run: only meshed again)
+With --pipelines or --placements, PicoScan's merged cloud, poses and mesh are written to
+DATA/PART.../picoscan/ (merged.ply, poses.txt, mesh.ply), and for each model the script prints
+where each maximum lies, in the model frame and in the part's own frame (the frame of
+picoscan.mechanical_part()), with the true surface's normal there.
 """
 import argparse
 import copy
@@ -83,10 +89,11 @@ def read_poses(path):
 
 
 def write_poses(path, poses):
+    """As read_poses reads them: a view left out (None) is written NOT-ALIGNED, as the identity."""
     with open(path, "w") as f:
         for i, pose in enumerate(poses):
-            f.write("view_%d\n" % i)
-            for row in pose:
+            f.write("view_%d%s\n" % (i, " NOT-ALIGNED" if pose is None else ""))
+            for row in (np.eye(4) if pose is None else pose):
                 f.write(" ".join("%.9f" % v for v in row) + "\n")
 
 
@@ -119,6 +126,7 @@ def simulate(build, directory, part_kind, placements=("views",)):
             part, picoscan.seed_rig_calibration(), options, on_view)]
     truth = picoscan.transformed(part, part_to_camera[0])  # model frame: the first view's camera
     picoscan.write_stl(truth, os.path.join(directory, "truth.stl"), False)
+    write_poses(os.path.join(directory, "part_pose.txt"), [part_to_camera[0]])
     write_poses(os.path.join(directory, "true_poses.txt"),
                 [part_to_camera[0] @ np.linalg.inv(p) for p in part_to_camera])
 
@@ -296,6 +304,7 @@ class TruePart:
         mesh = o3d.io.read_triangle_mesh(path)
         mesh.merge_close_vertices(1e-6)
         mesh.remove_degenerate_triangles()  # the boss's caps are quads folded into fan slices
+        mesh.compute_triangle_normals()
         self.mesh = mesh
         self.scene = scene_of(mesh)
         clusters = np.asarray(mesh.cluster_connected_triangles()[0])
@@ -346,6 +355,46 @@ def distances(truth, mesh):
     finite = np.isfinite(vertices).all(axis=1)
     to_truth = truth.scene.compute_distance(o3d.core.Tensor(vertices[finite])).numpy()
     return to_mesh, to_truth, int((~finite).sum())
+
+
+def part_to_model(module, directory):
+    """The pose of the part's own frame (picoscan.mechanical_part()) in the model frame: written
+    by simulate; for views simulated before it was, recovered from truth.stl (the part's faces
+    in the same order, moved) by a least-squares fit of the corners. None when they do not fit."""
+    path = os.path.join(directory, "part_pose.txt")
+    if os.path.exists(path):
+        return read_poses(path)[0]
+    part, truth = module.mechanical_part(), module.read_stl(os.path.join(directory, "truth.stl"))
+    source = np.asarray(part.vertices, np.float64)[np.asarray(part.faces)].reshape(-1, 3)
+    target = np.asarray(truth.vertices, np.float64)[np.asarray(truth.faces)].reshape(-1, 3)
+    if source.shape != target.shape:
+        return None
+    source_mean, target_mean = source.mean(axis=0), target.mean(axis=0)
+    u, _, vt = np.linalg.svd((source - source_mean).T @ (target - target_mean))
+    turn = (u @ np.diag([1, 1, np.sign(np.linalg.det(u @ vt))]) @ vt).T
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = turn, target_mean - turn @ source_mean
+    if np.abs(source @ turn.T + pose[:3, 3] - target).max() > 1e-3:
+        return None
+    return pose
+
+
+def where_maxima(name, figures, truth, part_pose):
+    """Prints where a model's two maxima lie: the point (truth -> mesh: the true surface's
+    sample; mesh -> truth: the mesh vertex), in the model frame and in the part's frame, and
+    the normal of the true face nearest to it in the part's frame (which face or edge it is)."""
+    to_part = np.linalg.inv(part_pose) if part_pose is not None else None
+    closest = truth.scene.compute_closest_points(
+        o3d.core.Tensor(np.array([figures["to_mesh_at"], figures["to_truth_at"]], np.float32)))
+    triangles = closest["primitive_ids"].numpy().astype(np.int64)
+    normals = np.asarray(truth.mesh.triangle_normals)[~collapsed(truth.mesh)][triangles]
+    for k, (label, value, at) in enumerate((("truth -> mesh", figures["to_mesh_max"], figures["to_mesh_at"]),
+                                            ("mesh -> truth", figures["to_truth_max"], figures["to_truth_at"]))):
+        text = "%s: %s max %.3f mm at model (%.3f, %.3f, %.3f)" % (name, label, value, *at)
+        if to_part is not None:
+            text += ", part (%.3f, %.3f, %.3f), true face normal (%.2f, %.2f, %.2f)" % (
+                *(to_part[:3, :3] @ at + to_part[:3, 3]), *(to_part[:3, :3] @ normals[k]))
+        print(text)
 
 
 def right_views(truth, poses, centroids):
@@ -430,11 +479,26 @@ class Pipeline:
         self.seconds = {}
 
 
-def picoscan_pipeline(module, placements):
+def picoscan_pipeline(module, placements, keep, reuse=False):
     """PicoScan's whole pipeline inside this Python, timed as Open3D's is: the views read,
     stitch_views (what 'picoscan stitch A... --then B...' runs: automatic mode, each placement
     aligned, then the placements joined by shape, then every view refined), then mesh_points
-    with the defaults of 'picoscan mesh' (Poisson, its default fill)."""
+    with the defaults of 'picoscan mesh' (Poisson, its default fill). The merged cloud, the
+    poses and the mesh are written to the folder `keep`; with reuse, the stitch is read back
+    from there (no joins then, and the time is the meshing's only)."""
+    os.makedirs(keep, exist_ok=True)
+    merged_path, poses_path = os.path.join(keep, "merged.ply"), os.path.join(keep, "poses.txt")
+    if reuse:
+        run, clock = Pipeline(), Clock()
+        run.poses = read_poses(poses_path)
+        points, merged = module.read_ply(merged_path), module.PointCloud()  # as 'picoscan mesh' reads it
+        merged.points, merged.normals, merged.colours = points.vertices, points.normals, points.colours
+        mesh = module.mesh_points(merged, module.MeshOptions())
+        module.write_ply(mesh, os.path.join(keep, "mesh.ply"))
+        run.mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
+                                             o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
+        run.seconds = {"all": clock.read()}
+        return run
     run, clock = Pipeline(), Clock()
     paths = [path for views in placements for path in views]
     views = [module.read_view_ply(path) for path in paths]
@@ -450,8 +514,11 @@ def picoscan_pipeline(module, placements):
     for placement in stitched.alignment.placements[1:]:
         run.joins.append(np.asarray(placement.pose) if placement.aligned else None)
         run.problems.append(placement.problem)
+    write_poses(poses_path, run.poses)
+    module.write_ply(stitched.merged, merged_path)
     if len(stitched.merged):
         mesh = module.mesh_points(stitched.merged, module.MeshOptions())
+        module.write_ply(mesh, os.path.join(keep, "mesh.ply"))
         run.mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(mesh.vertices, np.float64)),
                                              o3d.utility.Vector3iVector(np.asarray(mesh.faces, np.int32)))
     run.seconds = dict(stages.seconds)
@@ -543,10 +610,14 @@ def model_figures(run, truth):
         return None
     to_mesh, to_truth, not_finite = distances(truth, run.mesh)
     volume = mesh_volume(run.mesh)
+    vertices = np.asarray(run.mesh.vertices)
+    vertices = vertices[np.isfinite(vertices).all(axis=1)]
     return {"watertight": run.mesh.is_watertight(), "volume": volume, "volume_error": volume / truth.volume - 1,
             "to_mesh_mean": to_mesh.mean(), "to_mesh_p95": np.percentile(to_mesh, 95), "to_mesh_max": to_mesh.max(),
+            "to_mesh_at": truth.outer_samples[int(np.argmax(to_mesh))].astype(np.float64),
             "to_truth_p95": np.percentile(to_truth, 95) if len(to_truth) else None,
-            "to_truth_max": to_truth.max() if len(to_truth) else None, "not_finite": not_finite}
+            "to_truth_max": to_truth.max() if len(to_truth) else None,
+            "to_truth_at": vertices[int(np.argmax(to_truth))] if len(to_truth) else None, "not_finite": not_finite}
 
 
 def pipeline_row(name, run, figures, placed):
@@ -652,21 +723,29 @@ def compare_pipelines(args, module, placements=("views",)):
         sizes = [size] * len(placements)
         truth_part = TruePart(os.path.join(directory, "truth.stl"))
         centroids = [np.asarray(o3d.io.read_point_cloud(v).get_center()) for v in views]
-        picoscan = picoscan_pipeline(module, by_placement)
-        open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
-        for name, run in (("PicoScan stitch + mesh", picoscan), ("Open3D chained pairs + Poisson", open3d_raw),
-                          ("Open3D chained pairs + Poisson, cropped by density", open3d_cropped)):
+        part_pose = part_to_model(module, directory)
+        picoscan = picoscan_pipeline(module, by_placement, os.path.join(directory, "picoscan"), args.reuse_stitch)
+        runs = [("PicoScan stitch + mesh", picoscan)]
+        open3d_cropped = None
+        if not args.no_open3d:
+            open3d_raw, open3d_cropped = open3d_pipeline(by_placement)
+            runs += [("Open3D chained pairs + Poisson", open3d_raw),
+                     ("Open3D chained pairs + Poisson, cropped by density", open3d_cropped)]
+        for name, run in runs:
             right = right_views(truth, run.poses, centroids)
             placed = "%d / %d" % (sum(p is not None for p in run.poses), right)
             figures = model_figures(run, truth_part)
             model_table.append(pipeline_row("%s: %s" % (part, name), run, figures, placed))
             print(model_table[-1], file=sys.stderr)
             targets_table.append(targets_row("%s: %s" % (part, name), figures, len(views), right))
-            if run is not open3d_cropped:  # the crop changes the mesh only
+            if figures is not None and figures["to_truth_at"] is not None:
+                where_maxima("%s: %s" % (part, name), figures, truth_part, part_pose)
+            if run is not open3d_cropped and not args.reuse_stitch:  # the crop changes the mesh only
                 placement_table.append(placements_row("%s: %s" % (part, name.replace(" + Poisson", "")), run, truth,
                                                       centroids, sizes))
                 print(placement_table[-1], file=sys.stderr)
-    print_placements_table(placement_table, sizes)
+    if placement_table:  # none when the stitch was reused
+        print_placements_table(placement_table, sizes)
     print_model_table(model_table, len(views))
     if len(placements) > 1:  # the issue's targets are those of a complete model: two placements
         print_targets_table(targets_table)
@@ -685,7 +764,13 @@ def main():
                         help="only the whole pipelines: PicoScan stitch + mesh against Open3D's chained pairs + Poisson")
     parser.add_argument("--placements", action="store_true",
                         help="only the whole pipelines on two placements (standing, then on its side) of 8 views each")
+    parser.add_argument("--no-open3d", action="store_true", help="with --pipelines or --placements: PicoScan's pipeline only")
+    parser.add_argument("--reuse-stitch", action="store_true",
+                        help="with --pipelines or --placements: PicoScan's merged cloud and poses as the last run "
+                             "wrote them (DATA/PART.../picoscan/), only meshed again (no joins table)")
     args = parser.parse_args()
+    if (args.no_open3d or args.reuse_stitch) and not (args.pipelines or args.placements):
+        parser.error("--no-open3d and --reuse-stitch go with --pipelines or --placements")
     picoscan = os.path.abspath(args.picoscan or os.path.join(args.build, "core", "picoscan"))
     if args.pipelines or args.placements:
         compare_pipelines(args, picoscan_module(os.path.abspath(args.build)),

@@ -24,6 +24,14 @@ ProgressCallback terminal_progress() {
     };
 }
 
+std::string single_input(const Arguments& arguments) {
+    const std::vector<std::string>& inputs = arguments.inputs();
+    if (inputs.empty()) throw Error("input", "give one input file first (see --help)");
+    if (inputs.size() > 1) throw Error(inputs[1], "unexpected second input file");
+    if (!fs::is_regular_file(inputs[0])) throw Error(inputs[0], "no such file");
+    return inputs[0];
+}
+
 double seconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

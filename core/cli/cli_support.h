@@ -2,6 +2,8 @@
 // the checks of output file names made before any work.
 #pragma once
 
+#include "arguments.h"
+
 #include "picoscan/cloud.h"
 #include "picoscan/io.h"
 #include "picoscan/progress.h"
@@ -16,6 +18,8 @@ namespace picoscan::cli {
 
 // A one-line progress bar on a terminal; nullptr (silent) when stderr is not one.
 ProgressCallback terminal_progress();
+// The one input file a command takes (clean, mesh, section); Error naming it when it is missing.
+std::string single_input(const Arguments& arguments);
 double seconds_since(std::chrono::steady_clock::time_point start);
 
 std::filesystem::path absolute_path(const std::string& path);

@@ -27,6 +27,7 @@ std::vector<Command> pattern_commands();      // patterns, manifest           (p
 std::vector<Command> scan_commands();         // simulate, reconstruct        (scan_commands.cpp)
 std::vector<Command> calibration_commands();  // calibrate, response          (calibration_commands.cpp)
 std::vector<Command> model_commands();        // clean, stitch, mesh, demo    (model_commands.cpp)
+std::vector<Command> section_commands();      // section                      (section_commands.cpp)
 std::vector<Command> capture_commands();      // screens, capture, scan       (capture_commands.cpp, a module)
 
 // Shared between the groups.

@@ -31,7 +31,7 @@ A typical session:
 
 std::vector<Command> builtin_commands() {
     std::vector<Command> commands;
-    for (auto group : {pattern_commands, scan_commands, calibration_commands, model_commands})
+    for (auto group : {pattern_commands, scan_commands, calibration_commands, model_commands, section_commands})
         for (Command& command : group()) commands.push_back(std::move(command));
     return commands;
 }

@@ -151,14 +151,6 @@ DIR/captures/ (.picoscan-demo) before writing into it and replaces only a folder
 (or an empty one), never one it did not make. The other outputs are replaced whole.
 )";
 
-std::string single_input(const Arguments& arguments) {
-    const std::vector<std::string>& inputs = arguments.inputs();
-    if (inputs.empty()) throw Error("input", "give one input file first (see --help)");
-    if (inputs.size() > 1) throw Error(inputs[1], "unexpected second input file");
-    if (!fs::is_regular_file(inputs[0])) throw Error(inputs[0], "no such file");
-    return inputs[0];
-}
-
 int run_clean(const Arguments& arguments) {
     const std::string input = single_input(arguments);
     const std::string out = arguments.required("--out");

@@ -18,14 +18,25 @@ void bind_io(py::module_& m) {
     m.def("write_obj", &write_obj, py::arg("mesh"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def("write_3mf", &write_3mf, py::arg("mesh"), py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def("read_3mf", &read_3mf, py::arg("path"), py::call_guard<py::gil_scoped_release>());
-    m.def("read_mesh", &read_mesh, py::arg("path"), py::call_guard<py::gil_scoped_release>());
     m.def(
         "write_view_ply",
         [=](const ScanView& view, const std::string& path, bool ascii) { write_view_ply(view, path, encoding(ascii)); },
         py::arg("view"), py::arg("path"), py::arg("ascii") = false, py::call_guard<py::gil_scoped_release>());
     m.def("read_view_ply", &read_view_ply, py::arg("path"), py::call_guard<py::gil_scoped_release>());
-    m.def("read_ply", &read_ply, py::arg("path"), py::call_guard<py::gil_scoped_release>());
-    m.def("read_stl", &read_stl, py::arg("path"), py::call_guard<py::gil_scoped_release>());
+    // The mesh readers hear Cancel through progress(fraction, stage) -> bool, like the core's long calls.
+    auto bind_reader = [&m](const char* name, Mesh (*reader)(const std::string&, const ProgressCallback&)) {
+        m.def(
+            name,
+            [reader](const std::string& path, const py::object& progress) {
+                const ProgressCallback callback = progress_from(progress);
+                py::gil_scoped_release release;
+                return reader(path, callback);
+            },
+            py::arg("path"), py::arg("progress") = py::none());
+    };
+    bind_reader("read_mesh", &read_mesh);
+    bind_reader("read_ply", &read_ply);
+    bind_reader("read_stl", &read_stl);
     py::class_<ViewPose>(m, "ViewPose", "One entry of a poses file: a view's name and view -> model pose.")
         .def(py::init<>())
         .def(py::init([](const std::string& name, const cv::Matx44d& pose, bool aligned) { return ViewPose{name, pose, aligned, 0}; }),

@@ -84,6 +84,10 @@ void bind_section_fit(py::module_& m) {
         .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<ParallelCut&>().points, self); },
                                "N x 2 (mm) in the section's 2D frame");
     py::class_<SectionPolyline>(m, "SectionPolyline")
+        .def(py::init([](const py::array& points, bool closed) {
+                 return SectionPolyline{array_to_vector<cv::Vec2d>(points, "points"), closed};
+             }),
+             py::arg("points"), py::arg("closed"))
         .def_property_readonly("points", [](py::object self) { return vector_view(self.cast<SectionPolyline&>().points, self); },
                                "N x 2 (mm) in the cutting plane's frame")
         .def_readonly("closed", &SectionPolyline::closed);
@@ -97,6 +101,23 @@ void bind_section_fit(py::module_& m) {
         },
         py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"), py::arg("progress") = py::none(),
         "The polylines where the plane through origin spanned by u and v cuts the mesh");
+    py::class_<MeshSection>(m, "MeshSection")
+        .def_readonly("polylines", &MeshSection::polylines, "The plane's own cut ([SectionPolyline])")
+        .def_readonly("parallel_cuts", &MeshSection::parallel_cuts, "The Band's cuts ([ParallelCut]), for fit_section_polylines");
+    m.def("section_band_offsets", &section_band_offsets, py::arg("band_mm"),
+          "The offsets (mm) of the Band's SECTION_BAND_CUTS cuts over +- band_mm (none for 0)");
+    m.def(
+        "cut_mesh_section",
+        [](const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis, double band_mm,
+           const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return cut_mesh_section(mesh, origin, u_axis, v_axis, band_mm, callback);
+        },
+        py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
+        py::arg("band_mm") = kDefaultSectionBandMm, py::arg("progress") = py::none(),
+        "The section of the mesh at the plane through origin spanned by u and v, and its Band's parallel cuts "
+        "(band_mm = 0: none); refuses a plane that misses the mesh");
     m.def(
         "fit_section",
         [](const py::array& polyline, bool closed, const SectionFitOptions& options) {
@@ -119,18 +140,15 @@ void bind_section_fit(py::module_& m) {
         "unless their offsets trend with the height (then band_note says why)");
     m.def(
         "fit_section_polylines",
-        [](const std::vector<std::pair<py::array, bool>>& polylines,
-           const std::vector<ParallelCut>& parallel_cuts, const SectionFitOptions& options, const py::object& progress) {
-            std::vector<SectionPolyline> lines;
-            for (const auto& [points, closed] : polylines)
-                lines.push_back({array_to_vector<cv::Vec2d>(points, "polylines"), closed});
+        [](const std::vector<SectionPolyline>& polylines, const std::vector<ParallelCut>& parallel_cuts,
+           const SectionFitOptions& options, const py::object& progress) {
             const ProgressCallback callback = progress_from(progress);
             py::gil_scoped_release release;
-            return fit_section_polylines(lines, parallel_cuts, options, callback);
+            return fit_section_polylines(polylines, parallel_cuts, options, callback);
         },
         py::arg("polylines"), py::arg("parallel_cuts") = std::vector<ParallelCut>(), py::arg("options") = SectionFitOptions(),
         py::arg("progress") = py::none(),
-        "A section's polylines ([(N x 2 array, closed)]) fitted with one noise and tolerance; too small or too noisy "
+        "A section's polylines ([SectionPolyline], e.g. cut_mesh_section's) fitted with one noise and tolerance; too small or too noisy "
         "ones left out with the reason (left_out)");
 }
 

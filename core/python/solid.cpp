@@ -16,12 +16,17 @@ void bind_solid(py::module_& m) {
         .def_readwrite("simplify", &PlanarFaceOptions::simplify)
         .def_readwrite("simplify_mm", &PlanarFaceOptions::simplify_mm)
         .def_readwrite("simplify_max_volume_change", &PlanarFaceOptions::simplify_max_volume_change)
-        .def_readwrite("check_faces", &PlanarFaceOptions::check_faces);
+        .def_readwrite("check_faces", &PlanarFaceOptions::check_faces)
+        .def_readwrite("cylinders", &PlanarFaceOptions::cylinders);
     py::class_<BrepEdge>(m, "BrepEdge")
         .def_readonly("start", &BrepEdge::start)
         .def_readonly("end", &BrepEdge::end)
         .def_readonly("tolerance_mm", &BrepEdge::tolerance_mm)
-        .def_readonly("chain", &BrepEdge::chain);
+        .def_readonly("chain", &BrepEdge::chain)
+        .def_readonly("radius_mm", &BrepEdge::radius_mm)
+        .def_readonly("center", &BrepEdge::center)
+        .def_readonly("axis", &BrepEdge::axis)
+        .def_readonly("x_axis", &BrepEdge::x_axis);
     py::class_<BrepFace>(m, "BrepFace")
         .def_readonly("origin", &BrepFace::origin)
         .def_readonly("normal", &BrepFace::normal)
@@ -29,7 +34,10 @@ void bind_solid(py::module_& m) {
         .def_readonly("facet_count", &BrepFace::facet_count)
         .def_readonly("rms_mm", &BrepFace::rms_mm)
         .def_readonly("wires", &BrepFace::wires)
-        .def_readonly("triangles", &BrepFace::triangles);
+        .def_readonly("triangles", &BrepFace::triangles)
+        .def_readonly("radius_mm", &BrepFace::radius_mm)
+        .def_readonly("x_axis", &BrepFace::x_axis)
+        .def_readonly("reversed", &BrepFace::reversed);
     py::class_<PlanarFaceModel>(m, "PlanarFaceModel")
         .def_readonly("vertices", &PlanarFaceModel::vertices)
         .def_readonly("vertex_tolerance_mm", &PlanarFaceModel::vertex_tolerance_mm)
@@ -41,6 +49,9 @@ void bind_solid(py::module_& m) {
         .def_readonly("merged_faces", &PlanarFaceModel::merged_faces)
         .def_readonly("merged_facets", &PlanarFaceModel::merged_facets)
         .def_readonly("refused_merges", &PlanarFaceModel::refused_merges)
+        .def_readonly("cylinder_faces", &PlanarFaceModel::cylinder_faces)
+        .def_readonly("cylinder_facets", &PlanarFaceModel::cylinder_facets)
+        .def_readonly("cylinder_notes", &PlanarFaceModel::cylinder_notes)
         .def_readonly("curved_facets_before", &PlanarFaceModel::curved_facets_before)
         .def_readonly("curved_facets_after", &PlanarFaceModel::curved_facets_after)
         .def_readonly("simplify_mm", &PlanarFaceModel::simplify_mm)

@@ -123,6 +123,22 @@ class ModuleTest(unittest.TestCase):
             picoscan.cut_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), lambda f, s: cuts.append((f, s)) or False)
         self.assertEqual(cuts, [(0.0, "cutting the mesh")])
         self.assertGreater(len(picoscan.cut_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), lambda f, s: True)), 0)
+        # The section with its Band in one call: stopped within the parallel cuts too; the cuts it
+        # gives are those of cut_mesh at section_band_offsets (as the Cross-section fits them).
+        stages = []
+        with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+            picoscan.cut_mesh_section(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), 2.0,
+                                      lambda f, s: stages.append(s) or s != "parallel cuts")
+        self.assertEqual((stages[0], stages[-1]), ("cutting the mesh", "parallel cuts"))
+        section = picoscan.cut_mesh_section(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), 2.0)
+        offsets = picoscan.section_band_offsets(2.0)
+        self.assertEqual(len(offsets), picoscan.SECTION_BAND_CUTS)
+        self.assertEqual(sorted({cut.offset_mm for cut in section.parallel_cuts}), offsets)
+        first = picoscan.cut_mesh(mesh, (0, -offsets[0], 400), (1, 0, 0), (0, 0, 1))  # the normal is -y
+        self.assertTrue(numpy.array_equal(section.parallel_cuts[0].points, first[0].points))
+        self.assertEqual(len(section.polylines), len(picoscan.cut_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1))))
+        with self.assertRaisesRegex(picoscan.Error, "plane: does not cut the mesh"):
+            picoscan.cut_mesh_section(mesh, (0, 0, 900), (1, 0, 0), (0, 1, 0))
 
         self.assertGreater(len(cloud.points), 65536)
         selecting = []

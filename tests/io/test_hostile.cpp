@@ -8,7 +8,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <functional>
 #include <random>
 
 namespace picoscan {
@@ -17,11 +16,14 @@ namespace {
 using iotest::read_bytes;
 using iotest::write_bytes;
 
+// read_ply, read_stl or read_mesh (called without progress).
+using MeshReader = Mesh (*)(const std::string&, const ProgressCallback&);
+
 // Expects `read` to throw picoscan::Error whose message names the file and contains `words`.
-void expect_error(const std::function<Mesh(const std::string&)>& read, const std::string& path,
+void expect_error(MeshReader read, const std::string& path,
                   const std::string& words = "") {
     try {
-        read(path);
+        read(path, {});
         ADD_FAILURE() << "no error for " << path;
     } catch (const Error& error) {
         const std::string what = error.what();
@@ -147,7 +149,7 @@ TEST(HostileIo, MissingFileAndDirectory) {
 
 // Random byte damage to valid files: the readers may succeed or throw Error, nothing else.
 void mutate_and_read(const std::string& valid, const std::string& path,
-                     const std::function<Mesh(const std::string&)>& read, int rounds) {
+                     MeshReader read, int rounds) {
     std::mt19937 random(1234);
     int errors = 0;
     for (int round = 0; round < rounds; ++round) {
@@ -164,7 +166,7 @@ void mutate_and_read(const std::string& valid, const std::string& path,
         }
         write_bytes(path, bytes);
         try {
-            const Mesh mesh = read(path);
+            const Mesh mesh = read(path, {});
             for (const cv::Vec3i& face : mesh.faces)
                 for (int k = 0; k < 3; ++k) {
                     ASSERT_GE(face[k], 0);

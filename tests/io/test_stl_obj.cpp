@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <sstream>
@@ -184,6 +185,61 @@ TEST(Obj, PlainMeshHasNoColoursOrNormals) {
     EXPECT_NE(text.find("\nv 1 0 0\n"), std::string::npos) << text;
     EXPECT_EQ(text.find("vn"), std::string::npos);
     EXPECT_NE(text.find("\nf 1 2 3\n"), std::string::npos) << text;
+}
+
+// A side x side grid of squares, two triangles each: enough records for several progress reports.
+Mesh grid_mesh(int side) {
+    Mesh mesh;
+    for (int y = 0; y <= side; ++y)
+        for (int x = 0; x <= side; ++x) mesh.vertices.emplace_back(0.5f * x, 0.5f * y, 0.01f * ((x * y) % 7));
+    const int row = side + 1;
+    for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x) {
+            const int a = y * row + x;
+            mesh.faces.emplace_back(a, a + 1, a + row + 1);
+            mesh.faces.emplace_back(a, a + row + 1, a + row);
+        }
+    return mesh;
+}
+
+// The readers report every 65 536 records (PLY: vertices and faces; STL: triangles) and at the
+// last, and stop at the first report answered false: a caller's Cancel is heard within 65 536 records.
+TEST(MeshReading, ReportsProgressAndStopsWhenCancelled) {
+    const std::string dir = test_support::make_temp_dir("read_progress");
+    const Mesh grid = grid_mesh(200);  // 40 401 vertices, 80 000 triangles
+    for (const std::string name : {"grid.stl", "grid.ply", "grid_ascii.stl"}) {
+        SCOPED_TRACE(name);
+        write_mesh(grid, dir + "/" + name, name == "grid_ascii.stl" ? Encoding::Ascii : Encoding::Binary);
+        std::vector<double> fractions;
+        std::vector<std::string> stages;
+        const Mesh mesh = read_mesh(dir + "/" + name, [&](double fraction, const std::string& stage) {
+            fractions.push_back(fraction);
+            stages.push_back(stage);
+            return true;
+        });
+        EXPECT_EQ(mesh.faces.size(), 80000u);
+        EXPECT_EQ(mesh.vertices.size(), 40401u);
+        if (name == "grid_ascii.stl") {  // the share is estimated from the text's length
+            ASSERT_GE(fractions.size(), 1u);
+            EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+            EXPECT_LE(fractions.back(), 1.0);
+        } else {  // binary STL: 80 000 triangles; PLY: 40 401 vertices, then 80 000 faces
+            const double records = name == "grid.stl" ? 80000.0 : 120401.0;
+            EXPECT_EQ(fractions, (std::vector<double>{65536.0 / records, 1.0}));
+        }
+        EXPECT_EQ(stages, std::vector<std::string>(fractions.size(), "reading the mesh"));
+
+        int reports = 0;
+        try {
+            // Cancel at the first report.
+            read_mesh(dir + "/" + name, [&](double, const std::string&) { return ++reports > 1; });
+            FAIL() << "cancelling did not stop the reading";
+        } catch (const Error& error) {
+            EXPECT_EQ(error.subject(), "cancelled") << error.what();
+            EXPECT_NE(std::string(error.what()).find(name), std::string::npos) << error.what();
+        }
+        EXPECT_EQ(reports, 1);
+    }
 }
 
 }  // namespace

@@ -962,6 +962,67 @@ TEST(MeshlabPlugin, SavedProjectReopensAndCleansAlignsFuses) {
     expect_no_pixel_grid(run, "view_1_out.ply", views, directory + "/never.mlp");
 }
 
+// meshlabserver -w PROJECT -x saves every layer over its own file, a PicoScan view PLY included.
+// A layer that a PicoScan filter has used carries its pixels and camera in MeshLab's PLY: reopened,
+// it cleans as the CLI cleans the view. A layer no PicoScan filter touched is written as a plain
+// cloud over its view: reopened, it is refused with the reason, never processed with a guessed
+// camera. The overwritten files are no PicoScan views for the CLI either, which says so.
+TEST(MeshlabPlugin, ProjectSavedOverItsViewFilesCleansOrIsRefused) {
+    const std::string directory = make_temp_dir("meshlab_project_overwritten");
+    const std::string views = directory + "/views";
+    test_support::two_placement_scan(test_support::PlacementPart::GreyMechanical);  // the shared cached views
+    std::filesystem::create_directories(views);
+    const std::string cache = std::string(PICOSCAN_TEST_CACHE_DIR) + "/half-v1-grey-mechanical-standing";
+    for (int i = 0; i < 2; ++i)
+        std::filesystem::copy_file(cache + "/view_" + std::to_string(i) + ".ply", views + "/view_" + std::to_string(i) + ".ply");
+    // The CLI cleans the view twice, as the plugin will: once before the save, once after reopening.
+    const std::string cli = test_support::cli_path();
+    std::string cli_log;
+    ASSERT_EQ(run_command(cli + " clean " + views + "/view_0.ply --out " + directory + "/cli_once.ply && " + cli + " clean " +
+                              directory + "/cli_once.ply --out " + directory + "/cli_twice.ply",
+                          &cli_log),
+              0)
+        << cli_log;
+
+    // Layer 0 cleaned (a PicoScan filter used it), layer 1 untouched; both saved over their views.
+    ServerRun run = run_meshlabserver(directory, make_current(0) + clean(), "-i views/view_0.ply -i views/view_1.ply -w project.mlp -x");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    const std::vector<ProjectLayer> saved = read_project(directory + "/project.mlp");
+    ASSERT_EQ(saved.size(), 2u);
+    for (int i = 0; i < 2; ++i) EXPECT_EQ(saved[size_t(i)].file, views + "/view_" + std::to_string(i) + ".ply");
+    EXPECT_FALSE(std::filesystem::exists(views + "/view_0_out.ply"));
+    const std::string used = read_text(views + "/view_0.ply").substr(0, 2000);
+    EXPECT_NE(used.find("property float texture_u"), std::string::npos) << used;
+    EXPECT_NE(used.find("element camera 1"), std::string::npos) << used;
+    const std::string untouched = read_text(views + "/view_1.ply").substr(0, 2000);
+    EXPECT_EQ(untouched.find("texture_u"), std::string::npos) << untouched;
+    for (int i = 0; i < 2; ++i) {
+        const std::string file = views + "/view_" + std::to_string(i) + ".ply";
+        cli_log.clear();
+        EXPECT_NE(run_command(cli + " clean " + file + " --out " + directory + "/never.ply", &cli_log), 0) << cli_log;
+        EXPECT_NE(cli_log.find(file + ": has no camera pixel grid"), std::string::npos) << cli_log;
+    }
+    EXPECT_FALSE(std::filesystem::exists(directory + "/never.ply"));
+
+    // Reopened: the used layer's own (overwritten) file holds its pixels and camera.
+    run = run_meshlabserver(directory, make_current(0) + clean(), "-p project.mlp -o cleaned.ply -l 0");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    EXPECT_EQ(run.log.find("taken from the view file"), std::string::npos) << run.log;
+    const Mesh by_plugin = read_ply(directory + "/cleaned.ply"), by_cli = read_ply(directory + "/cli_twice.ply");
+    const std::vector<double> removed = numbers_after(run.log, "removed", 1);
+    ASSERT_EQ(removed.size(), 1u) << run.log;
+    std::printf("project saved over its views (-x), reopened: the second clean removed %.0f and kept %zu points, the "
+                "CLI's second clean of the view %zu, max distance %.2g mm\n",
+                removed[0], by_plugin.vertices.size(), by_cli.vertices.size(), max_distance(by_plugin.vertices, by_cli.vertices));
+    ASSERT_EQ(by_plugin.vertices.size(), by_cli.vertices.size());
+    EXPECT_LT(max_distance(by_plugin.vertices, by_cli.vertices), 1e-4);
+
+    // The untouched layer: MeshLab read neither its pixels nor its camera from the view, so it wrote a
+    // plain cloud over it. Refused on reopening, nothing written.
+    run = run_meshlabserver(directory, make_current(1) + clean(), "-p project.mlp -o never.ply -l 1");
+    expect_no_pixel_grid(run, "view_1.ply", views, directory + "/never.ply");
+}
+
 namespace {
 
 // A project of the views of two placements, as the register and CLI suites simulated them

@@ -66,18 +66,16 @@ SectionPolyline outline_cut(double z) {
 
 // What the Cross-section command fits by default at height z of `mesh`: the cut's polylines
 // judged together, each element refitted with kSectionBandCuts more cuts spread over
-// +-kDefaultSectionBandMm (as freecad_workbench's operations/section.py cuts them). The cuts are
-// kept by height: neighbouring heights share most of their band.
+// +-kDefaultSectionBandMm at section_band_offsets (the cuts cut_mesh_section makes: the same
+// points, SectionFit.CutMeshSectionIsTheCutAndItsBandInOneCall). The cuts are kept by height
+// here: neighbouring heights share most of their band.
 class BandSections {
 public:
     explicit BandSections(const Mesh& mesh) : mesh_(mesh) {}
     SectionFits fit(double z, double band = kDefaultSectionBandMm) {
         std::vector<ParallelCut> parallel;
-        for (int step = 0; step <= kSectionBandCuts && band > 0; ++step)
-            if (step != kSectionBandCuts / 2) {
-                const double offset = band * (2.0 * step / kSectionBandCuts - 1);
-                for (const SectionPolyline& c : at(z + offset)) parallel.push_back({offset, c.points});
-            }
+        for (const double offset : section_band_offsets(band))
+            for (const SectionPolyline& c : at(z + offset)) parallel.push_back({offset, c.points});
         return fit_section_polylines(at(z), parallel);
     }
     // The fit of the section's biggest polyline.

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "picoscan/cloud.h"
+#include "picoscan/progress.h"
 
 #include <string>
 #include <vector>
@@ -22,14 +23,16 @@ void write_3mf(const Mesh& mesh, const std::string& path);
 // to STL and PLY); throws Error naming the file for another extension.
 void write_mesh(const Mesh& mesh, const std::string& path, Encoding encoding = Encoding::Binary);
 
+// The readers of PLY and STL report the share of records read (stage "reading the mesh") and hear
+// Cancel: answering false stops them (Error("cancelled", ...)).
 // PLY with or without faces (a point cloud reads as a Mesh with no faces).
-Mesh read_ply(const std::string& path);
+Mesh read_ply(const std::string& path, const ProgressCallback& progress = {});
 // STL, binary or ASCII (detected); vertices are merged where exactly equal.
-Mesh read_stl(const std::string& path);
+Mesh read_stl(const std::string& path, const ProgressCallback& progress = {});
 // 3MF: every mesh object's triangles, converted to millimetres from the file's unit.
 Mesh read_3mf(const std::string& path);
-// Any of the above by extension (.ply, .stl, .3mf).
-Mesh read_mesh(const std::string& path);
+// Any of the above by extension (.ply, .stl, .3mf; 3MF reports only its end).
+Mesh read_mesh(const std::string& path, const ProgressCallback& progress = {});
 
 // A view's valid points with their camera pixel kept (vertex property "pixel" = y * width + x,
 // and the comments "picoscan_grid W H" and "picoscan_pose" + 16 numbers), so that the

@@ -185,6 +185,33 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& polylines,
                                   const std::vector<ParallelCut>& parallel_cuts = {},
                                   const SectionFitOptions& options = {}, const ProgressCallback& progress = nullptr);
 
+// The Band's offsets from the section's plane: kSectionBandCuts spread evenly over +-band_mm, the
+// section itself (0) left out; none for band_mm = 0. Throws Error("band_mm", ...) unless band_mm is
+// finite and not negative.
+std::vector<double> section_band_offsets(double band_mm);
+
+// A section of a mesh with its Band, ready for fit_section_polylines: the plane's own cut and the
+// cuts at section_band_offsets(band_mm) along the plane's normal (u x v), in the same 2D frame.
+struct MeshSection {
+    std::vector<SectionPolyline> polylines;
+    std::vector<ParallelCut> parallel_cuts;  // one per polyline of each parallel cut, with its offset
+};
+// Cuts as cut_mesh does (the vertices welded once for all the cuts). Throws cut_mesh's errors,
+// Error("band_mm", ...) as section_band_offsets, Error("plane", ...) when the plane misses the mesh
+// or only grazes it (no polyline of 4 points or more: nothing to fit), and Error("cancelled", ...)
+// when `progress` (told every 65 536 vertices and triangles of each cut) answers false.
+MeshSection cut_mesh_section(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
+                             double band_mm = kDefaultSectionBandMm, const ProgressCallback& progress = nullptr);
+
+// A fitted section as a drawing, in millimetres in the section's 2D frame (left-out polylines are
+// not drawn). SVG: one path per line and arc, a circle element per circle, the section's y up (SVG's
+// y runs down, so it is negated). DXF: R12 ASCII with LINE, ARC and CIRCLE entities, which CAD tools
+// read. Write them with write_file_atomically (file_output.h).
+std::string section_svg(const SectionFits& fits);
+std::string section_dxf(const SectionFits& fits);
+// An element's extent: a line's length, an arc's swept angle (degrees, positive), 360 for a circle.
+double swept_angle_deg(const SectionElement& element);
+
 std::string to_string(SectionElementKind kind);
 std::string to_string(SectionConstraintKind kind);
 

@@ -1,5 +1,6 @@
 // A closed triangle mesh as a boundary representation: facets that lie on one plane (within the
-// scan's noise) merged into one planar face, the rest kept as triangles, written in
+// scan's noise) merged into one planar face, a hole or boss between two such faces made one
+// cylindrical face, the rest kept as triangles, written in
 // OpenCASCADE's BREP text format so that a CAD host (FreeCAD) only reads the solid back. Each
 // face carries its own facets as its triangulation, so the host draws it without meshing it.
 #pragma once
@@ -30,12 +31,20 @@ struct PlanarFaceOptions {
     bool check_faces = true;         // no vertex move may fold a facet, and a merged face whose
                                      // boundary would not make a valid B-rep face (merged_face_defects)
                                      // goes back to triangles where it fails; false: neither (as before)
+    bool cylinders = true;           // a region of facets left between two planar faces, bounded by one
+                                     // whole loop of each, becomes one cylindrical face when its vertices
+                                     // lie within max_rms_factor x the noise (RMS) of a cylinder square to
+                                     // both planes (a drilled hole, a boss, a shaft); its loops become circles
 };
 
 struct BrepEdge {
-    int start = 0, end = 0;          // vertex indices; a straight line between them
+    int start = 0, end = 0;          // vertex indices; a straight line between them (or a circle)
     double tolerance_mm = 1e-7;      // how far the line may be from the faces' planes
     std::vector<int> chain{};        // the mesh's vertices along it, start to end (empty: just its ends)
+    // A circle instead (radius_mm > 0): about `axis` through `center`, from start (== end, at
+    // center + radius x x_axis) once round, counter-clockwise seen from the axis' tip.
+    double radius_mm = 0;
+    cv::Vec3d center{}, axis{}, x_axis{};
 };
 
 struct BrepFace {
@@ -48,6 +57,13 @@ struct BrepFace {
     std::vector<std::vector<int>> wires;
     // Its facets (vertex indices, counter-clockwise seen from outside); empty: no triangulation written.
     std::vector<cv::Vec3i> triangles{};
+    // A cylinder instead of a plane (radius_mm > 0): about the axis through `origin` along `normal`,
+    // its seam (angle 0) along `origin` + radius x x_axis; reversed: the solid is outside it (a hole).
+    // Its one wire runs round the circle at the axis' start, up the seam, back round the far circle
+    // and down the seam again (the seam edge twice).
+    double radius_mm = 0;
+    cv::Vec3d x_axis{};
+    bool reversed = false;
 };
 
 struct PlanarFaceModel {
@@ -60,6 +76,8 @@ struct PlanarFaceModel {
     size_t facet_count = 0;          // facets used (without those collapsed by joining vertices)
     size_t merged_faces = 0, merged_facets = 0;  // planar regions and the facets they hold
     std::vector<std::string> refused_merges;     // planar regions left as triangles, and why
+    size_t cylinder_faces = 0, cylinder_facets = 0;  // cylindrical faces (the last faces) and the facets they replace
+    std::vector<std::string> cylinder_notes;     // regions between two planar faces left as triangles, and why
     // Simplification of the curved regions (simplify): facets there before and after (equal: none
     // done), the tolerance, how far the mesh's vertices are from the simplified facets (the
     // farthest), and the volume enclosed once simplified. Refused (curved facets kept as they
@@ -85,10 +103,11 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
 // have no edge of zero length, neither touch nor cross itself (closer than its edges'
 // tolerances), run counter-clockwise seen from outside with its holes clockwise, inside it and
 // not inside each other. planar_face_model runs this on its own faces unless check_faces is false.
+// Faces with a circle in their boundary (a cylinder's ends) are not checked here.
 std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options = {});
 
-// Writes the model as an OpenCASCADE BREP solid (vertices, straight edges, planar faces, one
-// shell), with each face's triangles as its triangulation and each edge's chain as its polygon on
+// Writes the model as an OpenCASCADE BREP solid (vertices, straight and circular edges, planar
+// and cylindrical faces, one shell), with each face's triangles as its triangulation and each edge's chain as its polygon on
 // the triangulations of its faces (what a viewer meshing the solid would make, so OpenCASCADE's
 // mesher keeps them instead). Written to a temporary file and renamed. `progress` is told every 4096 vertices, edges and
 // faces; answering false stops it (Error("cancelled", ...), nothing written).

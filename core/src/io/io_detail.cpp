@@ -2,6 +2,7 @@
 
 #include "picoscan/error.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -12,6 +13,11 @@
 #include <unistd.h>
 
 namespace picoscan::detail {
+
+void ReadProgress::report() const {
+    const double fraction = total_ > 0 ? std::min(1.0, static_cast<double>(done_) / static_cast<double>(total_)) : 1.0;
+    if (!progress_(fraction, "reading the mesh")) throw Error("cancelled", "reading " + path_ + " was stopped");
+}
 
 std::string read_whole_file(const std::string& path) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "picoscan/cloud.h"
+#include "picoscan/progress.h"
 
 #include <cstdint>
 #include <cstring>
@@ -54,6 +55,26 @@ void check_mesh(const Mesh& mesh, const std::string& path);
 // A rows x cols grid of zeros. Large ones come from the operating system's fresh pages and
 // are not written here: only the pages a caller writes cost memory and time.
 cv::Mat zeroed_grid(int rows, int cols, int type);
+
+// A reader's progress: the share of a file's records read, reported every 65 536 records and at
+// the last one (stage "reading the mesh"); throws Error("cancelled", ...) when the caller answers false.
+class ReadProgress {
+public:
+    ReadProgress(const ProgressCallback& progress, const std::string& path, uint64_t total_records)
+        : progress_(progress), path_(path), total_(total_records) {}
+    void record_done() {
+        ++done_;
+        if (progress_ && (done_ % kEvery == 0 || done_ == total_)) report();
+    }
+
+private:
+    static constexpr uint64_t kEvery = 65536;
+    void report() const;
+    const ProgressCallback& progress_;
+    const std::string& path_;
+    uint64_t total_;
+    uint64_t done_ = 0;
+};
 
 // What read_ply_with_extras returns beside the mesh: the header comments and the vertex
 // properties "quality" and "pixel" (empty when absent).

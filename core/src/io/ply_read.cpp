@@ -292,14 +292,16 @@ void check_count_fits(const Element& element, BodyReader& body) {
                   " records but the file is too short for them");
 }
 
-void skip_element(const Element& element, BodyReader& body) {
+void skip_element(const Element& element, BodyReader& body, detail::ReadProgress& read) {
     if (element.properties.empty() || element.count == 0) return;
     if (body.binary() && !element.has_lists()) {
         body.skip_bytes(static_cast<size_t>(element.count) * element.min_record_units(true));
+        for (uint64_t r = 0; r < element.count; ++r) read.record_done();
         return;
     }
     for (uint64_t r = 0; r < element.count; ++r) {
         body.set_context(element, r);
+        read.record_done();
         for (const Property& property : element.properties) {
             if (!property.is_list) {
                 body.scalar(property.type);
@@ -315,7 +317,8 @@ void skip_element(const Element& element, BodyReader& body) {
     }
 }
 
-void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail::PlyExtras* extras) {
+void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail::PlyExtras* extras,
+                   detail::ReadProgress& read) {
     const int x = element.find("x"), y = element.find("y"), z = element.find("z");
     if (x < 0 || y < 0 || z < 0) body.fail("element vertex lacks x, y or z");
     for (int p : {x, y, z})
@@ -344,6 +347,7 @@ void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail:
     std::vector<double> values(element.properties.size(), 0.0);
     for (size_t r = 0; r < count; ++r) {
         body.set_context(element, r);
+        read.record_done();
         for (size_t p = 0; p < element.properties.size(); ++p) {
             const Property& property = element.properties[p];
             if (!property.is_list) {
@@ -371,7 +375,7 @@ void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail:
     }
 }
 
-void read_faces(const Element& element, BodyReader& body, uint64_t vertex_count, Mesh& mesh) {
+void read_faces(const Element& element, BodyReader& body, uint64_t vertex_count, Mesh& mesh, detail::ReadProgress& read) {
     int list = element.find("vertex_indices");
     if (list < 0 || !element.properties[list].is_list) list = element.find("vertex_index");
     if (list < 0 || !element.properties[list].is_list) body.fail("element face has no vertex_indices list");
@@ -379,6 +383,7 @@ void read_faces(const Element& element, BodyReader& body, uint64_t vertex_count,
     std::vector<int> polygon;
     for (uint64_t r = 0; r < element.count; ++r) {
         body.set_context(element, r);
+        read.record_done();
         for (size_t p = 0; p < element.properties.size(); ++p) {
             const Property& property = element.properties[p];
             if (!property.is_list) {
@@ -408,13 +413,15 @@ void read_faces(const Element& element, BodyReader& body, uint64_t vertex_count,
     }
 }
 
-Mesh read_ply_body(const std::string& path, detail::PlyExtras* extras) {
+Mesh read_ply_body(const std::string& path, detail::PlyExtras* extras, const ProgressCallback& progress) {
     const std::string data = detail::read_whole_file(path);
     const Header header = parse_header(data, path);
 
     uint64_t vertex_count = 0;
+    uint64_t records = 0;
     bool have_vertices = false;
     for (const Element& element : header.elements) {
+        records += element.count;
         if (element.name == "vertex") {
             vertex_count = element.count;
             have_vertices = true;
@@ -426,12 +433,13 @@ Mesh read_ply_body(const std::string& path, detail::PlyExtras* extras) {
     if (!have_vertices) throw Error(path, "PLY header: element vertex missing");
 
     BodyReader body(data, header.body_offset, header.format, path);
+    detail::ReadProgress read(progress, path, records);
     Mesh mesh;
     for (const Element& element : header.elements) {
         check_count_fits(element, body);
-        if (element.name == "vertex") read_vertices(element, body, mesh, extras);
-        else if (element.name == "face") read_faces(element, body, vertex_count, mesh);
-        else skip_element(element, body);
+        if (element.name == "vertex") read_vertices(element, body, mesh, extras, read);
+        else if (element.name == "face") read_faces(element, body, vertex_count, mesh, read);
+        else skip_element(element, body, read);
     }
     if (extras) extras->comments = header.comments;
     return mesh;
@@ -441,11 +449,11 @@ Mesh read_ply_body(const std::string& path, detail::PlyExtras* extras) {
 
 namespace detail {
 
-Mesh read_ply_with_extras(const std::string& path, PlyExtras& extras) { return read_ply_body(path, &extras); }
+Mesh read_ply_with_extras(const std::string& path, PlyExtras& extras) { return read_ply_body(path, &extras, {}); }
 
 }  // namespace detail
 
-Mesh read_ply(const std::string& path) { return read_ply_body(path, nullptr); }
+Mesh read_ply(const std::string& path, const ProgressCallback& progress) { return read_ply_body(path, nullptr, progress); }
 
 namespace {
 

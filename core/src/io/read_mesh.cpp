@@ -7,11 +7,15 @@
 
 namespace picoscan {
 
-Mesh read_mesh(const std::string& path) {
+Mesh read_mesh(const std::string& path, const ProgressCallback& progress) {
     const std::string extension = detail::lower_case(std::filesystem::path(path).extension().string());
-    if (extension == ".ply") return read_ply(path);
-    if (extension == ".stl") return read_stl(path);
-    if (extension == ".3mf") return read_3mf(path);
+    if (extension == ".ply") return read_ply(path, progress);
+    if (extension == ".stl") return read_stl(path, progress);
+    if (extension == ".3mf") {
+        Mesh mesh = read_3mf(path);
+        detail::ReadProgress(progress, path, 1).record_done();
+        return mesh;
+    }
     throw Error(path, "unsupported mesh format '" + extension + "' (expected .ply, .stl or .3mf)");
 }
 

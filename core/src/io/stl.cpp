@@ -123,7 +123,7 @@ uint32_t load_le_u32(const char* p) {
            static_cast<uint32_t>(b[2]) << 16 | static_cast<uint32_t>(b[3]) << 24;
 }
 
-Mesh parse_binary_stl(const std::string& data, const std::string& path) {
+Mesh parse_binary_stl(const std::string& data, const std::string& path, const ProgressCallback& progress) {
     const uint64_t triangles = load_le_u32(data.data() + kBinaryHeaderBytes);
     const uint64_t needed = kBinaryPrefixBytes + triangles * kBinaryTriangleBytes;
     if (needed > data.size())
@@ -133,6 +133,7 @@ Mesh parse_binary_stl(const std::string& data, const std::string& path) {
     Mesh mesh;
     mesh.faces.reserve(static_cast<size_t>(triangles));
     VertexMerger merger(mesh, static_cast<size_t>(triangles / 2 + 3));
+    detail::ReadProgress read(progress, path, triangles);
     const char* record = data.data() + kBinaryPrefixBytes;
     for (uint64_t t = 0; t < triangles; ++t, record += kBinaryTriangleBytes) {
         cv::Vec3i face;
@@ -141,6 +142,7 @@ Mesh parse_binary_stl(const std::string& data, const std::string& path) {
             face[corner] = merger.index_of({load_le_float(p), load_le_float(p + 4), load_le_float(p + 8)});
         }
         mesh.faces.push_back(face);
+        read.record_done();
     }
     return mesh;
 }
@@ -189,10 +191,12 @@ private:
     const std::string& path_;
 };
 
-Mesh parse_ascii_stl(const std::string& data, const std::string& path) {
+Mesh parse_ascii_stl(const std::string& data, const std::string& path, const ProgressCallback& progress) {
     AsciiTokens tokens(data, path);
     Mesh mesh;
-    VertexMerger merger(mesh, data.size() / 512);  // ~250 bytes of text per triangle
+    constexpr size_t kTextBytesPerTriangle = 250;  // about; the progress is an estimate
+    VertexMerger merger(mesh, data.size() / (2 * kTextBytesPerTriangle));
+    detail::ReadProgress read(progress, path, data.size() / kTextBytesPerTriangle + 1);
     std::vector<int> polygon;
     bool in_solid = false;
     bool seen_solid = false;
@@ -224,6 +228,7 @@ Mesh parse_ascii_stl(const std::string& data, const std::string& path) {
             if (polygon.size() < 3) tokens.fail("facet with fewer than three vertices");
             for (size_t i = 2; i < polygon.size(); ++i)
                 mesh.faces.emplace_back(polygon[0], polygon[i - 1], polygon[i]);
+            read.record_done();
         } else {
             tokens.fail("unexpected '" + keyword.substr(0, 32) + "'");
         }
@@ -258,7 +263,7 @@ void write_stl(const Mesh& mesh, const std::string& path, Encoding encoding) {
     write_file_atomically(path, encoding == Encoding::Binary ? build_binary_stl(mesh) : build_ascii_stl(mesh));
 }
 
-Mesh read_stl(const std::string& path) {
+Mesh read_stl(const std::string& path, const ProgressCallback& progress) {
     const std::string data = detail::read_whole_file(path);
     // Binary files often start with "solid" too, so the size decides: a binary file is
     // exactly 84 + 50 n bytes. A file that does not start with "solid" is binary anyway
@@ -266,9 +271,9 @@ Mesh read_stl(const std::string& path) {
     if (data.size() >= kBinaryPrefixBytes) {
         const uint64_t triangles = load_le_u32(data.data() + kBinaryHeaderBytes);
         const bool exact = kBinaryPrefixBytes + triangles * kBinaryTriangleBytes == data.size();
-        if (exact || !starts_with_solid(data) || has_binary_bytes(data)) return parse_binary_stl(data, path);
+        if (exact || !starts_with_solid(data) || has_binary_bytes(data)) return parse_binary_stl(data, path, progress);
     }
-    if (starts_with_solid(data)) return parse_ascii_stl(data, path);
+    if (starts_with_solid(data)) return parse_ascii_stl(data, path, progress);
     throw Error(path, "not an STL file (too short for binary, no 'solid' for ASCII)");
 }
 

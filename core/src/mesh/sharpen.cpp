@@ -7,6 +7,10 @@
 #include "mesh/sharpen.h"
 #include "register/point_grid.h"
 
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
+
 #include <opencv2/core.hpp>
 #include <algorithm>
 #include <array>
@@ -14,6 +18,7 @@
 #include <deque>
 #include <limits>
 #include <numeric>
+#include <set>
 #include <map>
 #include <unordered_map>
 
@@ -456,6 +461,83 @@ struct VertexPlanes {
     bool has(int p) const { return std::find(plane.begin(), plane.begin() + count, p) != plane.begin() + count; }
 };
 
+// A vertex of a rounded edge onto its own plane. Straight along the plane's normal, the thin
+// strip of faces along the edge, nearly square to the plane, folds wherever Poisson's surface
+// turns a little past square (its order across the edge is scrambled); along the sum of the
+// normals of the plane and of those it meets at an edge (square to the edge), a face
+// keeps its way round unless it faces more than 90 degrees away from that direction, and a
+// vertex on the bisector goes onto the line from either side.
+cv::Vec3d onto_own_plane(const Regions& regions, const VertexPlanes& vp, const cv::Vec3d& x) {
+    const Plane& own = regions.planes[vp.plane[0]];
+    if (own.cylinder) return own.project(x);
+    cv::Vec3d direction = own.normal;
+    for (int c = 1; c < vp.count; ++c) {
+        const Plane& other = regions.planes[vp.plane[c]];
+        const double angle = degrees_between(own.normal, other.normal);
+        if (!other.cylinder && angle >= kSharpEdgeDeg && angle < 120) direction += other.normal;  // not a thin wall's far side
+    }
+    return x - own.distance(x) / own.normal.dot(direction) * direction;
+}
+
+constexpr double kOnPlaneMm = 1e-4;
+
+// The plane a face's three corners all go onto (one of them put on the plane alone, the others
+// on it or on its lines and corners), or -1.
+int on_one_plane(const cv::Vec3i& face, const Regions& regions, const std::vector<int>& surface_of,
+                 const std::vector<cv::Vec3d>& target) {
+    int s = -1;
+    for (int k = 0; k < 3 && s < 0; ++k) s = surface_of[face[k]];
+    if (s < 0 || regions.planes[s].cylinder) return -1;
+    for (int k = 0; k < 3; ++k)
+        if (std::abs(regions.planes[s].distance(target[face[k]])) > kOnPlaneMm) return -1;
+    return s;
+}
+
+// Faces whose three corners all go onto one plane but come out turned over in it (a sliver
+// along an edge whose corners the projection put in another order across it, or a cut merged
+// with its neighbour): pulling their corners back cannot unfold a face that was already folded
+// where they came from, and leaves the edge as Poisson rounded it. Their corners that lie on the
+// plane alone (not on a line or a corner) are moved within the plane, each to the mean of its
+// neighbours on the plane, until no face on the plane is turned over: the surface stays where
+// the points put it, only the triangles are untangled.
+void untangle_on_planes(const std::vector<cv::Vec3i>& faces, const Regions& regions, const std::vector<cv::Vec3d>& safe,
+                        const std::vector<int>& surface_of, double longest_move, std::vector<cv::Vec3d>& target) {
+    auto turned_over_on = [&](const cv::Vec3i& face) {
+        const int s = on_one_plane(face, regions, surface_of, target);
+        if (s < 0) return -1;
+        const cv::Vec3d normal = (target[face[1]] - target[face[0]]).cross(target[face[2]] - target[face[0]]);
+        return normal.dot(regions.planes[s].normal) < 0 ? s : -1;
+    };
+    std::vector<std::vector<int>> ring;
+    for (int round = 0; round < 20; ++round) {
+        std::vector<int> tangled;
+        for (const cv::Vec3i& face : faces) {
+            const int s = turned_over_on(face);
+            for (int k = 0; s >= 0 && k < 3; ++k)
+                if (surface_of[face[k]] == s) tangled.push_back(face[k]);
+        }
+        if (tangled.empty()) return;
+        if (ring.empty()) {
+            ring.resize(target.size());
+            for (const cv::Vec3i& face : faces)
+                for (int k = 0; k < 3; ++k) {
+                    ring[face[k]].push_back(face[(k + 1) % 3]);
+                    ring[face[k]].push_back(face[(k + 2) % 3]);
+                }
+        }
+        for (int v : tangled) {
+            const Plane& plane = regions.planes[surface_of[v]];
+            cv::Vec3d sum(0, 0, 0);
+            int count = 0;
+            for (int w : ring[v])
+                if (std::abs(plane.distance(target[w])) < kOnPlaneMm) sum += target[w], ++count;
+            if (count < 2) continue;
+            const cv::Vec3d relaxed = plane.project(sum * (1.0 / count));
+            if (cv::norm(relaxed - safe[v]) <= longest_move) target[v] = relaxed;
+        }
+    }
+}
+
 // A hole's wall (a cylinder facing its axis) and the turns about its axis at which its points
 // were seen, at any depth: where a wall was seen at that turn it goes on round the hole there
 // (a hole round at its mouth and flat further down on the side no view saw keeps its flat).
@@ -470,6 +552,7 @@ struct HoleWall {
         return std::clamp(int((angle + CV_PI) / (2 * CV_PI) * kTurns), 0, kTurns - 1);
     }
     bool seen_at(const Plane& hole, const cv::Vec3d& x) const { return seen[turn_of(hole, x)] >= 5; }
+    bool rebuilt = false;  // its unseen wall triangulated anew on the cylinder (rebuild_hole_walls)
 };
 
 std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::Vec3d>& positions) {
@@ -489,8 +572,264 @@ std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::V
 }
 
 // Walls of a hole that no view saw (filled in: too few points around the vertex), where
-// Poisson narrowed the hole or bulged it out into the material by a millimetre. Such a
-// vertex goes onto the hole's fitted cylinder only where the cylinder has support: between
+// Poisson narrowed the hole or bulged a pocket out into the material by a millimetre or two.
+// The patch of guessed vertices goes where the fitted cylinder has support: at a turn about the
+// axis where the wall was seen at some depth (HoleWall), along the axis between its seen
+// wall's ends and on to the faces it opens on (within the reach), within half a radius of the
+// wall; grown over the mesh from the vertices whose surface faces the axis (the faces the hole
+// opens on face along it and are left alone). Moving such vertices onto the cylinder folds a
+// pocket, however they are relaxed (its many vertices have a small place there); so the faces
+// around them are cut out and the hole left is triangulated anew on the cylinder, between the
+// vertices around it (which stay): unrolled by the conformal map (angle about the axis, and
+// e^(along / radius) from it: a patch is a polygon, a band all round the hole a ring),
+// constrained Delaunay with points about `spacing` apart inside, mapped back. The patch is
+// left as Poisson made it when its rim does not unroll into simple loops or the result is
+// not a closed manifold. Returns the vertices made.
+using CdtVertex = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;  // mesh index, -1 new
+using CdtFace = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Triangulation_face_base_with_info_2<int, Kernel>>;
+using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<CdtVertex, CdtFace>,
+                                                       CGAL::No_constraint_intersection_tag>;
+
+// Each face's nesting: how many constraint loops lie between it and the outside (odd: inside).
+void mark_nesting(Cdt& cdt) {
+    for (Cdt::Face_handle f : cdt.all_face_handles()) f->info() = -1;
+    std::vector<Cdt::Face_handle> seeds{cdt.infinite_face()}, across, stack;
+    for (int nesting = 0; !seeds.empty(); ++nesting, seeds.swap(across), across.clear()) {
+        for (Cdt::Face_handle seed : seeds)
+            if (seed->info() < 0) {
+                seed->info() = nesting;
+                stack.push_back(seed);
+            }
+        while (!stack.empty()) {
+            const Cdt::Face_handle f = stack.back();
+            stack.pop_back();
+            for (int i = 0; i < 3; ++i) {
+                const Cdt::Face_handle n = f->neighbor(i);
+                if (n->info() >= 0) continue;
+                if (cdt.is_constrained(Cdt::Edge(f, i))) {
+                    across.push_back(n);
+                } else {
+                    n->info() = nesting;
+                    stack.push_back(n);
+                }
+            }
+        }
+    }
+}
+
+size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWall>& walls, const PointGrid& grid,
+                          double reach, double filled_reach, double spacing) {
+    size_t made = 0;
+    for (HoleWall& wall : walls) {
+        const size_t vertex_count = mesh.vertices.size();
+        std::vector<std::vector<int>> neighbours(vertex_count);
+        std::vector<cv::Vec3d> vertex_normal(vertex_count, cv::Vec3d(0, 0, 0));
+        for (const cv::Vec3i& face : mesh.faces) {
+            const cv::Vec3d a(mesh.vertices[face[0]]), b(mesh.vertices[face[1]]), c(mesh.vertices[face[2]]);
+            for (int k = 0; k < 3; ++k) {
+                neighbours[face[k]].push_back(face[(k + 1) % 3]);
+                vertex_normal[face[k]] += (b - a).cross(c - a);
+            }
+        }
+        std::vector<int> near;
+        std::vector<uint8_t> guessed(vertex_count, 0);
+        for (size_t v = 0; v < vertex_count; ++v) {
+            grid.within(cv::Vec3d(mesh.vertices[v]), filled_reach, near);
+            guessed[v] = near.size() < 3;
+            if (cv::norm(vertex_normal[v]) > 0) vertex_normal[v] = cv::normalize(vertex_normal[v]);
+        }
+        const Plane& hole = regions.planes[wall.surface];
+        const double along_axis = std::cos(20.0 * CV_PI / 180.0);
+        auto in_tube = [&](size_t v) {  // within half a radius of the wall, and of its seen ends
+            const cv::Vec3d x(mesh.vertices[v]);
+            const double along = hole.axis.dot(x - hole.centre);
+            return along >= hole.low - reach && along <= hole.high + reach &&
+                   std::abs(hole.distance(x)) <= std::max(reach, 0.5 * hole.radius);
+        };
+        auto candidate = [&](size_t v) {
+            const cv::Vec3d x(mesh.vertices[v]);
+            return guessed[v] && in_tube(v) && hole.distance(x) <= 0.5 * hole.radius && wall.seen_at(hole, x) &&
+                   std::abs(vertex_normal[v].dot(hole.axis)) <= along_axis;
+        };
+        // The patch, grown over the mesh.
+        std::vector<uint8_t> in_patch(vertex_count, 0);
+        for (size_t seed = 0; seed < vertex_count; ++seed) {
+            if (in_patch[seed] || !candidate(seed) ||
+                vertex_normal[seed].dot(hole.normal_at(cv::Vec3d(mesh.vertices[seed]))) < kHoleWallFacing)
+                continue;
+            std::vector<int> queue{int(seed)};
+            in_patch[seed] = 1;
+            while (!queue.empty()) {
+                const int v = queue.back();
+                queue.pop_back();
+                for (int w : neighbours[v])
+                    if (!in_patch[w] && candidate(size_t(w))) {
+                        in_patch[w] = 1;
+                        queue.push_back(w);
+                    }
+            }
+        }
+        // Unrolled: angle about the axis, and the radius of the circle it goes on grows with
+        // the distance along the axis (conformal: the triangles keep their shape).
+        const double lowest = hole.low - reach;
+        auto unrolled = [&](const cv::Vec3d& x) {
+            const cv::Vec3d r = x - hole.centre;
+            const double angle = std::atan2(r.dot(wall.e2), r.dot(wall.e1));
+            const double scale = std::exp((hole.axis.dot(r) - lowest) / hole.radius);
+            return Kernel::Point_2(scale * std::cos(angle), scale * std::sin(angle));
+        };
+        auto rolled = [&](const Kernel::Point_2& p) {
+            const double along = lowest + hole.radius * std::log(std::hypot(p.x(), p.y()));
+            const double angle = std::atan2(p.y(), p.x());
+            return hole.centre + hole.axis * along + hole.radius * (std::cos(angle) * wall.e1 + std::sin(angle) * wall.e2);
+        };
+        // The faces cut out (those with a vertex in the patch), and their rim: the edges (a ->
+        // b) of a cut face whose other face stays. The pieces of the faces that stay that the
+        // patch encloses (guessed, or within the wall's reach: a pocket's far end, a face or two
+        // left between the patch's vertices) join it; and where Poisson's guess overhangs, so
+        // that the rim crosses itself unrolled, the guessed vertices of the crossing edges join
+        // it; then the rim is found again.
+        std::vector<cv::Vec3i> kept, cut;
+        std::map<int, int> rim_next;  // a -> b along the rim
+        bool simple = false;
+        for (int attempt = 0; attempt < 8 && !simple; ++attempt) {
+            kept.clear();
+            cut.clear();
+            rim_next.clear();
+            for (const cv::Vec3i& face : mesh.faces)
+                (in_patch[face[0]] || in_patch[face[1]] || in_patch[face[2]] ? cut : kept).push_back(face);
+            // The pieces of the kept faces, joined across their edges.
+            std::vector<int> root(kept.size());
+            std::iota(root.begin(), root.end(), 0);
+            auto find = [&](int f) {
+                while (root[f] != f) f = root[f] = root[root[f]];
+                return f;
+            };
+            std::map<std::pair<int, int>, int> face_of_edge;  // a -> b: its kept face
+            for (size_t f = 0; f < kept.size(); ++f)
+                for (int k = 0; k < 3; ++k) face_of_edge[{kept[f][k], kept[f][(k + 1) % 3]}] = int(f);
+            for (const auto& [edge, f] : face_of_edge) {
+                const auto other = face_of_edge.find({edge.second, edge.first});
+                if (other != face_of_edge.end()) root[find(f)] = find(other->second);
+            }
+            std::vector<uint8_t> reaches_out(kept.size(), 0);  // the piece has a measured vertex beyond the wall's reach
+            for (size_t f = 0; f < kept.size(); ++f)
+                for (int k = 0; k < 3; ++k)
+                    if (!guessed[kept[f][k]]) reaches_out[find(int(f))] = 1;
+            bool joined = false;
+            for (size_t f = 0; f < kept.size(); ++f)
+                if (!reaches_out[find(int(f))])
+                    for (int k = 0; k < 3; ++k) in_patch[kept[f][k]] = joined = true;
+            if (joined) continue;
+            simple = true;
+            for (const cv::Vec3i& face : cut)
+                for (int k = 0; k < 3; ++k) {
+                    const int a = face[k], b = face[(k + 1) % 3];
+                    if (face_of_edge.count({b, a})) simple = simple && rim_next.emplace(a, b).second;
+                }
+            if (!simple) break;  // the rim touches itself at a vertex
+            const std::vector<std::pair<int, int>> edges(rim_next.begin(), rim_next.end());
+            std::vector<Kernel::Segment_2> unrolled_edges;
+            for (const auto& [a, b] : edges)
+                unrolled_edges.emplace_back(unrolled(cv::Vec3d(mesh.vertices[a])), unrolled(cv::Vec3d(mesh.vertices[b])));
+            for (size_t i = 0; i < edges.size(); ++i)
+                for (size_t j = i + 1; j < edges.size(); ++j) {
+                    const auto [a, b] = edges[i];
+                    const auto [c, d] = edges[j];
+                    if (a == c || a == d || b == c || b == d || !CGAL::do_intersect(unrolled_edges[i], unrolled_edges[j])) continue;
+                    simple = false;
+                    for (int v : {a, b, c, d})
+                        if (guessed[v] && !in_patch[v]) in_patch[v] = joined = true;
+                }
+            if (!joined) break;
+        }
+        if (!simple || rim_next.empty()) continue;
+        Cdt cdt;
+        std::map<int, Cdt::Vertex_handle> handle;
+        try {
+            for (const auto& [a, b] : rim_next)
+                for (int v : {a, b})
+                    if (!handle.count(v)) {
+                        handle[v] = cdt.insert(unrolled(cv::Vec3d(mesh.vertices[v])));
+                        handle[v]->info() = v;
+                    }
+            if (cdt.number_of_vertices() != handle.size()) continue;  // two rim vertices on one point
+            for (const auto& [a, b] : rim_next) cdt.insert_constraint(handle[a], handle[b]);
+        } catch (const Cdt::Intersection_of_constraints_exception&) {
+            continue;  // the rim crosses itself unrolled
+        }
+        mark_nesting(cdt);
+        // Points inside, on a grid over the cylinder, not within half the spacing of the rim.
+        std::vector<cv::Vec3d> rim_on_wall;
+        double bottom = 1e30, top = -1e30;
+        for (const auto& [a, b] : rim_next) {
+            rim_on_wall.push_back(hole.project(cv::Vec3d(mesh.vertices[a])));
+            const double along = hole.axis.dot(cv::Vec3d(mesh.vertices[a]) - hole.centre);
+            bottom = std::min(bottom, along);
+            top = std::max(top, along);
+        }
+        const int turns = std::max(8, int(std::ceil(2 * CV_PI * hole.radius / spacing)));
+        std::vector<Kernel::Point_2> inside;
+        for (double along = bottom + 0.5 * spacing; along < top; along += spacing)
+            for (int t = 0; t < turns; ++t) {
+                const double angle = 2 * CV_PI * (t + 0.5 * (int(std::lround((along - bottom) / spacing)) % 2)) / turns;
+                const cv::Vec3d x = hole.centre + hole.axis * along +
+                                    hole.radius * (std::cos(angle) * wall.e1 + std::sin(angle) * wall.e2);
+                const Kernel::Point_2 p = unrolled(x);
+                const Cdt::Face_handle f = cdt.locate(p);
+                if (cdt.is_infinite(f) || f->info() % 2 == 0) continue;
+                bool clear = true;
+                for (const cv::Vec3d& r : rim_on_wall) clear = clear && cv::norm(r - x) > 0.5 * spacing;
+                if (clear) inside.push_back(p);
+            }
+        for (const Kernel::Point_2& p : inside) cdt.insert(p)->info() = -1;
+        mark_nesting(cdt);
+        // The new faces, turned the way the rim runs in the faces cut out.
+        Mesh rebuilt;
+        rebuilt.vertices = mesh.vertices;
+        rebuilt.faces = kept;
+        std::vector<cv::Vec3i> added;
+        int turned = 0;  // +1: as unrolled, -1: reversed
+        for (Cdt::Face_handle f : cdt.finite_face_handles()) {
+            if (f->info() % 2 == 0) continue;
+            cv::Vec3i face;
+            for (int k = 0; k < 3; ++k) {
+                Cdt::Vertex_handle v = f->vertex(k);
+                if (v->info() < 0) {
+                    v->info() = int(rebuilt.vertices.size());
+                    rebuilt.vertices.push_back(cv::Vec3f(rolled(v->point())));
+                }
+                face[k] = v->info();
+            }
+            for (int k = 0; k < 3 && turned == 0; ++k) {
+                const auto found = rim_next.find(face[k]);
+                if (found == rim_next.end()) continue;
+                if (found->second == face[(k + 1) % 3]) turned = 1;
+                else if (found->second == face[(k + 2) % 3]) turned = -1;
+            }
+            added.push_back(face);
+        }
+        for (cv::Vec3i& face : added) {
+            if (turned < 0) std::swap(face[1], face[2]);
+            rebuilt.faces.push_back(face);
+        }
+        // Closed and manifold: each directed edge once, and its reverse there too.
+        std::map<std::pair<int, int>, int> directed;
+        for (const cv::Vec3i& face : rebuilt.faces)
+            for (int k = 0; k < 3; ++k) ++directed[{face[k], face[(k + 1) % 3]}];
+        bool closed = turned != 0;
+        for (const auto& [edge, count] : directed) closed = closed && count == 1 && directed.count({edge.second, edge.first});
+        if (!closed) continue;
+        made += rebuilt.vertices.size() - mesh.vertices.size();
+        wall.rebuilt = true;
+        mesh = std::move(rebuilt);
+    }
+    return made;
+}
+
+// The fallback for a wall whose rebuild was refused (rebuild_hole_walls): filled-in vertices
+// of a hole's wall that no view saw, where Poisson narrowed the hole or bulged it out into the
+// material by a millimetre. Such a vertex goes onto the hole's fitted cylinder only where the cylinder has support: between
 // the ends of its seen wall along the axis, at a turn about the axis where the wall was seen
 // at some depth (HoleWall), within half a radius of the wall. The patch is grown over the
 // mesh from the vertices whose surface faces the axis (the faces a hole opens on face along
@@ -515,6 +854,7 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     std::vector<int> near;
     size_t moved = 0;
     for (const HoleWall& wall : walls) {
+        if (wall.rebuilt) continue;
         const int h = wall.surface;
         const Plane& hole = regions.planes[h];
         auto candidate = [&](size_t v) {
@@ -584,7 +924,10 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     report.planes = regions.planes.size();
     if (regions.planes.size() < 2) return report;
     const double agree = 2 * regions.tolerance;
-    const std::vector<HoleWall> walls = hole_walls(regions, positions);
+    std::vector<HoleWall> walls = hole_walls(regions, positions);
+    // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
+    const double filled_reach = std::max(2 * spacing_mm, 0.5);
+    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm);
     // A vertex further than this from where its planes put it is left alone (not an edge Poisson rounded).
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
 
@@ -762,8 +1105,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (int k = 0; k < 3; ++k) vertex_normal[face[k]] += n;
     }
     for (cv::Vec3d& n : vertex_normal) n = cv::norm(n) > 0 ? cv::normalize(n) : n;
-    // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
-    const double filled_reach = std::max(2 * spacing_mm, 0.5);
     // Corners: three planes meeting in a point, each with its points beside it, get a vertex
     // within the largest move of that point whose points lie on all three (Poisson leaves none
     // there, and an edge split near it rarely lands on it).
@@ -851,7 +1192,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         }
         // On its own plane, within the part of it its points are on (not past an edge).
         const Plane& own = regions.planes[vp.plane[0]];
-        moved = own.project(x);
+        moved = onto_own_plane(regions, vp, x);
         std::vector<int> crossed;
         for (int c = 1; c < vp.count; ++c)
             if (vp.side[c] != 0 && sharp_pair(vp.plane[0], vp.plane[c], x) &&
@@ -865,7 +1206,8 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             if (crossed.empty()) surface_of[v] = vp.plane[0];
         }
     }
-    report.hole_vertices = fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
+    // Walls whose rebuild was refused: Poisson's vertices relaxed onto the cylinder instead.
+    report.hole_vertices += fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
 
     // 4. Split the edges that cross a line, each once.
     std::unordered_map<long long, int> split_vertex;
@@ -1016,15 +1358,19 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         original_normal[f] = (b - a).cross(c - a);
     }
     // A face whose corners all go onto one fitted surface is judged by that surface's normal
-    // (a bulge put onto a hole's wall turns its faces by up to 90 degrees); others by the
-    // face they came from.
+    // (Poisson's faces put onto a hole's wall can turn a long way), and so is a face
+    // whose corners all go onto one plane, some of them onto its lines (the rounded edge's
+    // faces Poisson turned a little past square); others by the face they came from.
     surface_of.resize(target.size(), -1);  // the split vertices: on lines
     auto reference_normal = [&](size_t f) {
         const cv::Vec3i& face = faces[f];
         const int s = surface_of[face[0]];
-        if (s < 0 || surface_of[face[1]] != s || surface_of[face[2]] != s) return original_normal[parent[f]];
-        return regions.planes[s].normal_at((target[face[0]] + target[face[1]] + target[face[2]]) * (1.0 / 3));
+        if (s >= 0 && surface_of[face[1]] == s && surface_of[face[2]] == s)
+            return regions.planes[s].normal_at((target[face[0]] + target[face[1]] + target[face[2]]) * (1.0 / 3));
+        const int p = on_one_plane(face, regions, surface_of, target);
+        return p >= 0 ? regions.planes[p].normal : original_normal[parent[f]];
     };
+    untangle_on_planes(faces, regions, safe, surface_of, longest_move, target);
     std::vector<cv::Vec3d> position = target;
     std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
     auto movable = [&](int v) { return share[v] > 0 && target[v] != safe[v]; };

@@ -372,14 +372,29 @@ public:
                 continue;
             }
             const long to_before = has_after ? (has_before ? arc.count / 2 : 0) : arc.count;
-            if (has_before) spans[(j + n - 1) % n].count += to_before;
+            std::vector<Span> given = spans;
+            if (has_before) given[(j + n - 1) % n].count += to_before;
             if (has_after) {
-                Span& next = spans[(j + 1) % n];
+                Span& next = given[(j + 1) % n];
                 next.first -= arc.count - to_before;
                 next.count += arc.count - to_before;
             }
-            for (const size_t k : {(j + n - 1) % n, (j + 1) % n})
-                if (k != j) spans[k].shape = fit(spans[k].shape.circle, spans[k].first, spans[k].count);
+            // At an open end, a neighbour that cannot take the points within the tolerance meets a
+            // real short piece (a face's stub where a cut grazes a hole's rim): kept as its own
+            // element. Between two elements the points are a rounded corner's, shared out.
+            bool taken = has_before && has_after;
+            std::vector<size_t> receivers;
+            if (has_before) receivers.push_back((j + n - 1) % n);
+            if (has_after && (receivers.empty() || receivers[0] != (j + 1) % n)) receivers.push_back((j + 1) % n);
+            for (const size_t k : receivers) {
+                given[k].shape = fit(given[k].shape.circle, given[k].first, given[k].count);
+                taken = taken || fits_on_average(given[k]);
+            }
+            if (!taken) {
+                ++j;
+                continue;
+            }
+            spans = std::move(given);
             spans.erase(spans.begin() + long(j));
         }
     }
@@ -1132,6 +1147,19 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
         };
         e.start = project(pts[span.first]);
         e.end = project(pts[span.first + span.count - 1]);
+        // The last word on every element: an element far off its own points (a fillet of too few
+        // points for an arc, covered by lines across it) is refused, never handed on as fitted.
+        // Twice the tolerance: the final fits leave out the points at corners, which may sit a
+        // little off.
+        if (e.rms_mm > 2 * result.tolerance_mm) {
+            char text[200];
+            std::snprintf(text, sizeof text,
+                          "a %s from (%.3f, %.3f) to (%.3f, %.3f) mm is %.4f mm RMS off its points, more than twice the "
+                          "tolerance of %.4f mm (a tolerance set above it fits it)",
+                          span.shape.circle ? "arc" : "line", e.start[0], e.start[1], e.end[0], e.end[1], e.rms_mm,
+                          result.tolerance_mm);
+            throw Error("polyline", text);
+        }
         result.elements.push_back(e);
     }
     const size_t count = spans.size();

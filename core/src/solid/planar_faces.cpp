@@ -4,14 +4,17 @@
 #include "picoscan/solid.h"
 
 #include "picoscan/error.h"
+#include "solid/cylinder_faces.h"
 #include "solid/simplify_surface.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <numeric>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
@@ -213,7 +216,10 @@ FaceDefect merged_face_defect(const PlanarFaceModel& model, const BrepFace& face
 std::string PlanarFaceModel::summary() const {
     std::ostringstream text;
     text << faces.size() << " faces from " << facet_count << " facets: " << merged_faces << " planar regions holding "
-         << merged_facets << " facets, " << faces.size() - merged_faces << " triangles; noise " << noise_mm << " mm";
+         << merged_facets << " facets, ";
+    if (cylinder_faces > 0) text << cylinder_faces << " cylinders replacing " << cylinder_facets << " facets, ";
+    text << faces.size() - merged_faces - cylinder_faces << " triangles; noise " << noise_mm << " mm";
+    for (const std::string& note : cylinder_notes) text << "; " << note;
     if (!refused_merges.empty())
         text << "; " << refused_merges.size() << " merge(s) undone where a face would be invalid, first: " << refused_merges.front();
     if (curved_facets_after < curved_facets_before)
@@ -776,17 +782,30 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         return [=](double fraction, const std::string& stage) { return progress(from + (to - from) * fraction, stage); };
     };
     PlanarFaceModel model = faces_of_mesh(mesh, options, share(0, simplify ? 0.3 : 1));
-    if (!simplify) return model;
+    // Cylinders are found on the mesh's own facets (its vertices carry the scan's noise, which
+    // their fit is held to), then made once the rest is simplified.
+    std::vector<detail::CylinderRegion> cylinders;
+    if (options.merge && options.cylinders) cylinders = detail::cylinder_regions(model, options, {}, model.cylinder_notes);
+    if (!simplify) {
+        detail::add_cylinder_faces(model, cylinders);
+        return model;
+    }
 
-    // The facets of planar faces stay, and so do their vertices; the others are simplified.
+    // The facets of planar faces and cylinders stay, and so do their vertices; the others are simplified.
+    std::vector<char> on_cylinder(model.faces.size(), 0);
+    for (const detail::CylinderRegion& region : cylinders)
+        for (size_t f : region.faces) on_cylinder[f] = 1;
     std::vector<cv::Vec3i> kept, curved;
     std::vector<char> fixed(model.vertices.size(), 0);
-    for (const BrepFace& face : model.faces)
+    for (size_t f = 0; f < model.faces.size(); ++f) {
+        const BrepFace& face = model.faces[f];
+        const bool keep = face.merged || on_cylinder[f];
         for (const cv::Vec3i& facet : face.triangles) {
-            (face.merged ? kept : curved).push_back(facet);
-            if (face.merged)
+            (keep ? kept : curved).push_back(facet);
+            if (keep)
                 for (int k = 0; k < 3; ++k) fixed[size_t(facet[k])] = 1;
         }
+    }
     const double tolerance = options.simplify_mm > 0 ? options.simplify_mm : options.distance_factor * model.noise_mm;
     const detail::SimplifiedSurface simplified =
         detail::simplify_surface(model.vertices, curved, kept, fixed, tolerance, share(0.3, 0.9));
@@ -794,6 +813,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         model.curved_facets_before = model.curved_facets_after = curved.size();
         model.simplify_mm = tolerance;
         model.simplified_volume_mm3 = model.mesh_volume_mm3;
+        detail::add_cylinder_faces(model, cylinders);
         return model;
     }
 
@@ -810,6 +830,8 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         regions.planes.push_back({face.origin, face.normal});
         regions.rms.push_back(face.rms_mm);
     }
+    for (size_t f = 0; f < model.faces.size(); ++f)
+        if (on_cylinder[f] && !model.faces[f].merged) smaller.faces.push_back(model.faces[f].triangles[0]);
     smaller.faces.insert(smaller.faces.end(), simplified.facets.begin(), simplified.facets.end());
     regions.of_facet.resize(smaller.faces.size(), -1);
     PlanarFaceOptions again = options;
@@ -833,16 +855,55 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
         model.simplify_mm = tolerance;
         model.simplified_volume_mm3 = model.mesh_volume_mm3;
         model.simplify_note = text;
+        detail::add_cylinder_faces(model, cylinders);
         return model;
     }
+    // The cylinders' facets came through unchanged (their vertices fixed, positions rounded to the
+    // mesh's floats): found again among them alone, on the faces built from the simplified mesh.
+    using FacetKey = std::array<float, 9>;
+    auto key_of = [](const std::vector<cv::Vec3d>& vertices, const cv::Vec3i& facet) {
+        std::array<cv::Vec3f, 3> corners{cv::Vec3f(vertices[size_t(facet[0])]), cv::Vec3f(vertices[size_t(facet[1])]),
+                                          cv::Vec3f(vertices[size_t(facet[2])])};
+        std::sort(corners.begin(), corners.end(),
+                  [](const cv::Vec3f& p, const cv::Vec3f& q) { return std::tie(p[0], p[1], p[2]) < std::tie(q[0], q[1], q[2]); });
+        FacetKey key;
+        for (int k = 0; k < 9; ++k) key[size_t(k)] = corners[size_t(k / 3)][k % 3];
+        return key;
+    };
+    std::set<FacetKey> cylinder_facets;
+    for (const detail::CylinderRegion& region : cylinders)
+        for (size_t f : region.faces)
+            for (const cv::Vec3i& facet : model.faces[f].triangles) cylinder_facets.insert(key_of(model.vertices, facet));
+    std::vector<char> eligible(result.faces.size(), 0);
+    for (size_t f = 0; f < result.faces.size(); ++f) {
+        const auto& facets = result.faces[f].triangles;
+        eligible[f] = !facets.empty() && std::all_of(facets.begin(), facets.end(), [&](const cv::Vec3i& facet) {
+            return cylinder_facets.count(key_of(result.vertices, facet)) > 0;
+        });
+    }
+    result.cylinder_notes = model.cylinder_notes;
+    if (!cylinders.empty())
+        detail::add_cylinder_faces(result, detail::cylinder_regions(result, again, eligible, result.cylinder_notes));
     return result;
 }
+
+namespace {
+
+// A planar face with a circle in its wires (a cylinder's end): its loops are not polygons.
+bool bounded_by_circle(const PlanarFaceModel& model, const BrepFace& face) {
+    for (const auto& wire : face.wires)
+        for (int e : wire)
+            if (model.edges[size_t(std::abs(e) - 1)].radius_mm > 0) return true;
+    return false;
+}
+
+}  // namespace
 
 std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options) {
     std::vector<std::string> defects;
     const FaceLimits limits = face_limits(model, options);
     for (size_t f = 0; f < model.faces.size(); ++f) {
-        if (!model.faces[f].merged) continue;
+        if (!model.faces[f].merged || bounded_by_circle(model, model.faces[f])) continue;
         const FaceDefect defect = merged_face_defect(model, model.faces[f], limits);
         if (!defect.reason.empty()) defects.push_back("face " + std::to_string(f) + ": " + defect.reason);
     }

@@ -202,13 +202,12 @@ class BestFitCommand(Command):
 
     def run(self):
         from picoscan_wb.operations import alignment
-        from picoscan_wb.progress import run_in_background
 
         selection = FreeCADGui.Selection.getSelection()
         if len(selection) != 2:
             raise picoscan.Error("Best fit: select the scan, then the model (%d selected)" % len(selection))
         scan, reference = selection
-        result = run_in_background("Best fit", lambda progress: alignment.best_fit(scan, reference, progress=progress))
+        result = alignment.best_fit(scan, reference)
         FreeCAD.Console.PrintMessage("%s: best fit in %d steps, rms %.4f mm over %d points\n" % (
             scan.Label, result.iterations, result.rms_mm, result.pairs))
         scan.Document.recompute()

@@ -32,60 +32,26 @@ def _plane_axes(base, axis):
     return placement, placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
 
 
-def section_polylines(mesh, core, label, axis, offset_mm=None, progress=None):
-    """(placement of the cutting plane, [(N x 2 array in the plane, closed)]) of the section of a FreeCAD
-    mesh (`core`: the same as a picoscan.Mesh)."""
-    base, _ = section_plane(mesh, axis, offset_mm)
-    placement, u_axis, v_axis = _plane_axes(base, axis)
-    polylines = picoscan.cut_mesh(core, tuple(base), tuple(u_axis), tuple(v_axis), progress)
-    if not polylines:
-        raise picoscan.Error("%s: the %s plane at %.2f mm does not cut the mesh" % (
-            label, axis, getattr(base, axis.lower())))
-    if all(len(line.points) < 4 for line in polylines):  # a grazing cut through a few facets holds no shape
-        raise picoscan.Error("%s: the %s plane only grazes the mesh (no section of 4 or more points)" % (label, axis))
-    return placement, [(line.points, line.closed) for line in polylines]
-
-
-def parallel_cuts(mesh, core, axis, offset_mm, band_mm, count=picoscan.SECTION_BAND_CUTS, progress=None):
-    """The section's cuts (picoscan.ParallelCut: offset from the plane in mm, 2D points) at `count` other
-    positions spread over +- band_mm around the plane (the same 2D frame: the plane only moves along its normal); empty
-    when band_mm is 0."""
-    if band_mm < 0:
-        raise picoscan.Error("Band: must be 0 (one cut) or positive, is %g mm" % band_mm)
-    if band_mm == 0:
-        return []
-    base, _ = section_plane(mesh, axis, offset_mm)
-    _, u_axis, v_axis = _plane_axes(base, axis)
-    cuts = []
-    for step in range(count + 1):
-        shift = band_mm * (2.0 * step / count - 1.0)
-        if step == count // 2:
-            continue  # the section itself
-        origin = base + AXES[axis] * shift
-        this_cut = None if progress is None else (
-            lambda fraction, stage, step=step: progress((step + fraction) / (count + 1.0), "parallel cuts"))
-        cuts += [picoscan.ParallelCut(shift, line.points)
-                 for line in picoscan.cut_mesh(core, tuple(origin), tuple(u_axis), tuple(v_axis), this_cut)]
-    return cuts
-
-
 def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=picoscan.DEFAULT_SECTION_BAND_MM, progress=None):
     """(placement of the cutting plane, picoscan.SectionFits) of a FreeCAD mesh (not a document
-    object: this runs on the worker thread). The section's polylines are judged together
+    object: this runs on the worker thread). The core cuts the section and its Band (band_mm = 0:
+    the one cut; picoscan.cut_mesh_section) and judges the section's polylines together
     (picoscan.fit_section_polylines): one noise and tolerance for all; crumbs too small or too
     noisy to be a feature of the part are in `left_out`, with the reason."""
     from picoscan_wb.objects.scan_mesh import core_mesh
 
+    options = fit_options(tolerance_mm)
     cancel_point(progress, 0.0, "cutting the mesh")
     core = core_mesh(mesh, progress)
-    placement, polylines = section_polylines(mesh, core, label, axis, offset_mm, progress)
-    others = parallel_cuts(mesh, core, axis, offset_mm, band_mm, progress=progress)
+    base, _ = section_plane(mesh, axis, offset_mm)
+    placement, u_axis, v_axis = _plane_axes(base, axis)
     try:
-        fits = picoscan.fit_section_polylines(polylines, others, fit_options(tolerance_mm), progress)
+        cut = picoscan.cut_mesh_section(core, tuple(base), tuple(u_axis), tuple(v_axis), band_mm, progress)
+        fits = picoscan.fit_section_polylines(cut.polylines, cut.parallel_cuts, options, progress)
     except picoscan.Error as error:
         if str(error).startswith("cancelled"):
             raise
-        raise picoscan.Error("%s: %s" % (label, error))
+        raise picoscan.Error("%s, %s plane at %.2f mm: %s" % (label, axis, getattr(base, axis.lower()), error))
     return placement, fits
 
 

@@ -2,7 +2,9 @@
 merges the facets that lie on one plane (within the scan's noise) into one planar face, keeps
 the rest as triangles (and turns back into triangles the facets where a merged face's boundary
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
-simplifies those curved regions into fewer, larger triangles (every mesh vertex within
+makes a hole or boss between two planar faces one cylindrical face bounded by circles when its
+facets lie on a cylinder square to both (`model.cylinder_notes` says which were near one and why
+they were not made), simplifies the other curved regions into fewer, larger triangles (every mesh vertex within
 `simplify_mm`, by default 4 x the noise, of them; the volume kept within 0.05 %; the summary in
 SolidReport says how many and how far: FreeCAD draws a solid in a time that grows with its faces),
 and writes the B-rep in OpenCASCADE's BREP format (`picoscan.write_brep`), each face with its
@@ -32,11 +34,12 @@ CHECK_FACES = 20000    # up to here OpenCASCADE's BRepCheck confirms the solid t
 VOLUME_TOLERANCE = 1e-3
 
 
-def face_options(merge_planes=True, noise_mm=0.0, simplify_mm=0.0):
+def face_options(merge_planes=True, noise_mm=0.0, simplify_mm=0.0, cylinders=True):
     options = picoscan.PlanarFaceOptions()
     options.merge = merge_planes
     options.noise_mm = noise_mm
     options.simplify_mm = simplify_mm
+    options.cylinders = cylinders
     return options
 
 
@@ -45,29 +48,42 @@ def solid_with_model(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progre
     saying why not. check_valid: run OpenCASCADE's isValid() (default: up to CHECK_FACES faces).
     When the merged planar faces move the volume beyond the tolerance (regions of a coarse, curved
     mesh taken for planes) or make a solid OpenCASCADE finds invalid, the solid is made of the
-    mesh's own triangles instead, and the note says so."""
-    try:
-        return _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid) + ("",)
-    except _MergedFacesRefused as refusal:
-        if not merge_planes:
-            raise picoscan.Error(str(refusal)) from None
-        shape, model = _solid_with_model(mesh, label, False, noise_mm, progress, check_valid)
-        return shape, model, "planar faces not merged: %s" % refusal
+    mesh's own triangles instead, and the note says so. Cylindrical faces (holes, bosses) are
+    given up first: when the solid with them is refused, it is made again without them."""
+    notes, merge, cylinders = [], merge_planes, merge_planes
+    while True:
+        try:
+            shape, model = _solid_with_model(mesh, label, merge, cylinders, noise_mm, progress, check_valid)
+            return shape, model, "; ".join(notes)
+        except _MergedFacesRefused as refusal:
+            if not merge:
+                raise picoscan.Error(str(refusal)) from None
+            if refusal.had_cylinders:
+                notes.append("cylindrical faces not made: %s" % refusal)
+                cylinders = False
+            else:
+                notes.append("planar faces not merged: %s" % refusal)
+                merge = cylinders = False
 
 
 class _MergedFacesRefused(Exception):
     """The solid of the merged faces is wrong; one of the mesh's own triangles may still be right."""
 
+    def __init__(self, message, had_cylinders):
+        super().__init__(message)
+        self.had_cylinders = had_cylinders
 
-def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid):
+
+def _solid_with_model(mesh, label, merge_planes, cylinders, noise_mm, progress, check_valid):
     if mesh.CountFacets == 0:
         raise picoscan.Error("%s: the mesh is empty" % label)
     if mesh.CountFacets > MAX_FACETS:
         raise picoscan.Error("%s: %d facets, more than %d; use a coarser mesh or Fit primitives" % (
             label, mesh.CountFacets, MAX_FACETS))
     try:
-        # Through a binary STL, which releases the GIL (mesh.Topology builds Python objects holding it).
-        model = picoscan.planar_face_model(core_mesh(mesh), face_options(merge_planes, noise_mm), progress)
+        # Through a file, which releases the GIL (mesh.Topology builds Python objects holding it).
+        model = picoscan.planar_face_model(core_mesh(mesh, progress),
+                                           face_options(merge_planes, noise_mm, cylinders=cylinders), progress)
     except picoscan.Error as error:
         raise picoscan.Error("%s: %s" % (label, str(error).replace("mesh: ", "", 1))) from None
     # FreeCAD's Mesh check holds the GIL (0.1 s for 64 000 facets) and cannot be stopped inside.
@@ -83,10 +99,11 @@ def _solid_with_model(mesh, label, merge_planes, noise_mm, progress, check_valid
     volume = model.mesh_volume_mm3
     if checked["type"] != "Solid" or abs(checked["volume"] - volume) > VOLUME_TOLERANCE * volume:
         raise _MergedFacesRefused("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
-            label, checked["volume"], volume))
+            label, checked["volume"], volume), model.cylinder_faces > 0)
     if check_valid and not checked["valid"]:
         if merge_planes:
-            raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged planar faces invalid" % label)
+            raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged faces invalid" % label,
+                                      model.cylinder_faces > 0)
         raise picoscan.Error("%s: OpenCASCADE finds the solid built from this mesh invalid" % label)
     return shape, model
 

@@ -1460,6 +1460,30 @@ def outline_block_mesh(sigma_mm, spacing_mm=0.5, seed=5):
     return mesh
 
 
+class PicoScanMeshHandOverTest(unittest.TestCase):
+    """scan_mesh.core_mesh, the way Cross-section, Make solid and Deviation map hand a FreeCAD mesh to
+    the core."""
+
+    def test_core_mesh_is_the_placed_mesh_and_hears_cancel_while_reading(self):
+        mesh = Mesh.createSphere(10.0, 200)  # 39 802 points and 79 600 facets: the reader reports once inside
+        mesh.Placement = FreeCAD.Placement(FreeCAD.Vector(100, -20, 5), FreeCAD.Rotation(FreeCAD.Vector(1, 2, 3), 40))
+        points, facets = mesh.Topology  # with the placement applied
+        core = scan_mesh.core_mesh(mesh)
+        numpy.testing.assert_allclose(numpy.asarray(core.vertices), numpy.array([tuple(p) for p in points]), atol=1e-5)
+        numpy.testing.assert_array_equal(numpy.asarray(core.faces), numpy.array(facets))
+
+        reports = []
+
+        def cancel_at_once(fraction, stage):
+            reports.append((fraction, stage))
+            return False
+
+        with self.assertRaises(picoscan.Error) as raised:
+            scan_mesh.core_mesh(mesh, cancel_at_once)
+        self.assertTrue(str(raised.exception).startswith("cancelled"), str(raised.exception))
+        self.assertEqual(reports, [(65536 / (39802 + 79600), "reading the mesh")])
+
+
 class PicoScanBigSolidTest(unittest.TestCase):
     """Make solid merges coplanar facets: a noisy closed mesh of the demo part's block becomes a valid
     solid whose flat faces are one B-rep face each, with the mesh's volume."""
@@ -1578,6 +1602,154 @@ class PicoScanBigSolidTest(unittest.TestCase):
         shape = solid.solid_of_mesh(obj.Mesh, "sphere", merge_planes=False)
         self.assertEqual(len(shape.Faces), obj.Mesh.CountFacets)
         self.assertTrue(shape.isValid())
+
+
+BUSHING_CENTRE = (12.3, -7.1, 2.5)
+
+
+def bushing_plate_mesh(sigma_mm, seed=5, oval_mm=0.0, tilt_deg=0.0):
+    """A closed mesh of a 30 x 30 x 6 mm plate with a boss (radius 8 mm, 4 mm high) on it and a
+    hole (radius 4 mm) through both, about the vertical axis through BUSHING_CENTRE (the part the
+    core's tests/solid/test_cylinder_faces.cpp builds): 96 segments round, Gaussian noise of
+    sigma_mm on every vertex. oval_mm: the hole's radius varies by +- this, twice round; tilt_deg:
+    the hole is a round cylinder leaning by this (the plate's faces cut it obliquely). Returns a
+    picoscan.Mesh."""
+    segments, rings = 96, 4
+    half, thickness, boss_radius, boss_height, hole_radius = 15.0, 6.0, 8.0, 4.0, 4.0
+    cx, cy, cz = BUSHING_CENTRE
+    tilt = math.radians(tilt_deg)
+    positions, index_of, faces = [], {}, []
+
+    def vertex(p):
+        if p not in index_of:
+            index_of[p] = len(positions)
+            positions.append(p)
+        return index_of[p]
+
+    def square(a, z):
+        reach = half / max(abs(math.cos(a)), abs(math.sin(a)))
+        return (cx + reach * math.cos(a), cy + reach * math.sin(a), cz + z)
+
+    def boss(a, z):
+        return (cx + boss_radius * math.cos(a), cy + boss_radius * math.sin(a), cz + z)
+
+    def hole(a, z):
+        radius = hole_radius + oval_mm * math.cos(2 * a)
+        return (cx + z * math.tan(tilt) + radius * math.cos(a) / math.cos(tilt), cy + radius * math.sin(a), cz + z)
+
+    def ring(curve, z):
+        return [vertex(curve(2 * math.pi * (k % segments) / segments, z)) for k in range(segments + 1)]
+
+    def strip(a, b):  # outward when ring a runs counter-clockwise below ring b
+        for k in range(segments):
+            faces.extend([(a[k], a[k + 1], b[k + 1]), (a[k], b[k + 1], b[k])])
+
+    def annulus(inner, outer, z, up):
+        steps = [ring(inner, z)]
+        for i in range(1, rings):
+            def between(a, h, t=i / rings):
+                p, q = inner(a, h), outer(a, h)
+                return tuple(p[j] + (q[j] - p[j]) * t for j in range(3))
+            steps.append(ring(between, z))
+        steps.append(ring(outer, z))
+        for i in range(rings):
+            strip(steps[i + 1], steps[i]) if up else strip(steps[i], steps[i + 1])
+
+    def wall(curve, z0, z1, outward):
+        rows = int(round(z1 - z0))
+        for j in range(rows):
+            below, above = ring(curve, z0 + (z1 - z0) * j / rows), ring(curve, z0 + (z1 - z0) * (j + 1) / rows)
+            strip(below, above) if outward else strip(above, below)
+
+    top = thickness + boss_height
+    annulus(hole, square, 0.0, False)
+    wall(square, 0.0, thickness, True)
+    annulus(boss, square, thickness, True)
+    wall(boss, thickness, top, True)
+    annulus(hole, boss, top, True)
+    wall(hole, 0.0, top, False)
+    mesh = picoscan.Mesh()
+    points = numpy.array(positions) + numpy.random.default_rng(seed).normal(0.0, sigma_mm, (len(positions), 3))
+    mesh.vertices = points.astype(numpy.float32)
+    mesh.faces = numpy.array(faces, dtype=numpy.int32)
+    return mesh
+
+
+class PicoScanCylinderSolidTest(unittest.TestCase):
+    """Make solid gives a hole and a boss as cylindrical faces bounded by circles (what a designer
+    selects, dimensions and refers to), and keeps a hole that is not a true cylinder square to the
+    plate as triangles, saying why."""
+
+    def setUp(self):
+        self.doc = FreeCAD.newDocument("PicoScanCylinderSolidTest")
+
+    def tearDown(self):
+        FreeCAD.closeDocument(self.doc.Name)
+
+    def solid_of(self, mesh, name):
+        obj = self.doc.addObject("Mesh::Feature", name)
+        obj.Mesh = scan_mesh.freecad_mesh(mesh)
+        shape, model, note = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+        FreeCAD.Console.PrintMessage("%s: %s; solid volume %.4f mm3, mesh %.4f mm3\n" % (
+            name, model.summary(), shape.Volume, obj.Mesh.Volume))
+        self.assertEqual(note, "")
+        self.assertEqual(shape.ShapeType, "Solid")
+        self.assertTrue(shape.isValid())
+        self.assertAlmostEqual(shape.Volume, obj.Mesh.Volume, delta=1e-3 * obj.Mesh.Volume)
+        return obj, shape, model
+
+    @staticmethod
+    def cylinders_of(shape):
+        return sorted((f for f in shape.Faces if isinstance(f.Surface, Part.Cylinder)), key=lambda f: f.Surface.Radius)
+
+    def test_hole_and_boss_become_cylinders(self):
+        for sigma in (0.0, 0.01):
+            obj, shape, model = self.solid_of(bushing_plate_mesh(sigma), "Bushing%d" % round(sigma * 1000))
+            self.assertEqual(model.cylinder_faces, 2)
+            hole, boss = self.cylinders_of(shape)
+            for face, radius in ((hole, 4.0), (boss, 8.0)):
+                self.assertLess(abs(face.Surface.Radius - radius), 0.02, (sigma, face.Surface.Radius))
+                self.assertGreater(abs(face.Surface.Axis.z), 1 - 1e-6)  # square to the plate within 0.08 degrees
+                centre = face.Surface.Center
+                self.assertLess(math.hypot(centre.x - BUSHING_CENTRE[0], centre.y - BUSHING_CENTRE[1]), 0.02)
+                # Bounded by two circles of its radius (and its seam): a designer's edges to dimension.
+                circles = [e for e in face.Edges if isinstance(e.Curve, Part.Circle)]
+                self.assertEqual(len(circles), 2)
+                for edge in circles:
+                    self.assertAlmostEqual(edge.Curve.Radius, face.Surface.Radius, delta=1e-9)
+            # The hole's face looks into the hole; the boss's out of it.
+            self.assertLess(hole.normalAt(0, 0).dot(hole.valueAt(0, 0) - hole.Surface.Center), 0)
+            self.assertGreater(boss.normalAt(0, 0).dot(boss.valueAt(0, 0) - boss.Surface.Center), 0)
+            # The hole's area is its circumference times the plate and boss (10 mm).
+            self.assertAlmostEqual(hole.Area, 2 * math.pi * hole.Surface.Radius * 10.0, delta=0.05)
+            # Usable in modelling: a box cut off a corner through the boss and the hole leaves a valid solid.
+            corner = Part.makeBox(20, 20, 20, FreeCAD.Vector(BUSHING_CENTRE[0], BUSHING_CENTRE[1], 0))
+            cut = shape.cut(corner)
+            self.assertTrue(cut.isValid())
+            self.assertLess(cut.Volume, shape.Volume)
+            feature = solid.make_solid(self.doc, obj)
+            self.assertIn("2 cylinders", feature.SolidReport)
+            # The hole's edge as Sketcher external geometry: a circle about the hole's axis.
+            hole_edge = next(i for i, e in enumerate(feature.Shape.Edges)
+                             if isinstance(e.Curve, Part.Circle) and abs(e.Curve.Radius - 4.0) < 0.02)
+            sketch = self.doc.addObject("Sketcher::SketchObject", "HoleSketch")
+            sketch.addExternal(feature.Name, "Edge%d" % (hole_edge + 1))
+            self.doc.recompute()
+            self.assertEqual(sketch.State, ["Up-to-date"])
+            centre = sketch.getPoint(-3, 3)  # the first external geometry's centre
+            self.assertLess(math.hypot(centre.x - BUSHING_CENTRE[0], centre.y - BUSHING_CENTRE[1]), 0.02)
+            self.doc.removeObject(sketch.Name)
+            self.doc.removeObject(feature.Name)
+
+    def test_oval_or_oblique_hole_stays_triangles_with_the_reason(self):
+        for name, oval, tilt in (("OvalHole", 0.03, 0.0), ("ObliqueHole", 0.0, 2.0)):
+            obj, shape, model = self.solid_of(bushing_plate_mesh(0.005, oval_mm=oval, tilt_deg=tilt), name)
+            cylinders = self.cylinders_of(shape)
+            self.assertEqual(len(cylinders), 1, name)
+            self.assertLess(abs(cylinders[0].Surface.Radius - 8.0), 0.02)
+            feature = solid.make_solid(self.doc, obj)
+            self.assertIn("not a cylinder square to its planes", feature.SolidReport)
+            self.doc.removeObject(feature.Name)
 
 
 class PicoScanRegionFitTest(unittest.TestCase):

@@ -1206,11 +1206,15 @@ class PicoScanGuiTest(unittest.TestCase):
         self.walkthrough_screenshot("8-deviation-map", [maps[0]])
         self.assertEqual(self.messages, [])
 
-    # Out of the suite until the core's Table fill is repeatable: in the full GUI suite (CI run of
-    # 2026-11-24 01:41) its mesh of the stitched round came out with 8 border edges (NOT watertight,
-    # as its Check said), while alone it was closed; meshing still depends on the process's state.
+    # Out of the suite: it takes minutes (2026-11-24, branch cancelread: 180 s to the Cross-section
+    # step at load 11, 564 s at load 12 to 21), far beyond what the suite's time budget leaves. Its
+    # mesh is now repeatable: alone and after test_y in one process it gave the same Stitch, part
+    # frame, Poisson (Table) mesh (19 998 facets, 42 565 mm3), primitives and section. Both runs
+    # failed at the Cross-section: the 42 mm side and the rounded corner came out as lines of
+    # 35.505 and 40.873 mm (rms 0.078 and 0.031 mm, max 0.60 and 0.31 mm), not 36 mm and an arc; a
+    # run with main's scan_mesh.py (the meshes through STL) failed there the same way.
     @unittest.skipUnless("test_y2_" in os.environ.get("PICOSCAN_GUI_TESTS", ""),
-                         "run by name (scripts/walkthrough-screenshots): the Table fill's mesh is not yet repeatable")
+                         "run by name (scripts/walkthrough-screenshots): minutes long, beyond the suite's time budget")
     def test_y2_walkthrough_eight_turntable_views_to_cad_every_command_in_order(self):
         """docs/freecad.md's multi-view walkthrough: eight turntable views of the demo part (half
         resolution; the workbench's turntable simulation writes one capture folder per view, as a

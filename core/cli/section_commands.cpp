@@ -1,0 +1,240 @@
+// picoscan section: a fitted profile (lines, arcs, circles) of a mesh, as FreeCAD's Cross-section
+// makes it, written as SVG and DXF for users without FreeCAD.
+#include "cli_support.h"
+#include "commands.h"
+
+#include "picoscan/error.h"
+#include "picoscan/file_output.h"
+#include "picoscan/io.h"
+#include "picoscan/section_fit.h"
+
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+namespace picoscan::cli {
+
+namespace {
+
+const char* kSectionHelp = R"(picoscan section MESH --axis x|y|z [--at MM] [--svg PROFILE.svg] [--dxf PROFILE.dxf] [options]
+picoscan section MESH --normal DX,DY,DZ [--point X,Y,Z] [...]
+
+Cuts a mesh (STL, PLY or 3MF, in millimetres) with a plane and fits lines, arcs and circles
+to the cut, as FreeCAD's Cross-section does, so that a designer gets an editable profile: each
+element within a tolerance of its points, each reported with its size, direction and residual.
+Crumbs of the mesh (loops or chains too small or too noisy to be a feature of the part) are left
+out, each with the reason. When the part's outline itself cannot be fitted, nothing is written.
+
+The plane:
+  --axis x|y|z       across this axis of the mesh's coordinates
+  --at MM            where along --axis (default: the middle of the mesh)
+  --normal DX,DY,DZ  or any plane, by its normal ...
+  --point X,Y,Z      ... and a point of it (default: the centre of the mesh's bounding box)
+The drawing's x and y are those of a view looking at the plane against its normal: --axis z
+draws x, y (the top view), --axis y draws x, z (the front view), --axis x draws y, z (the right
+view), in the mesh's own coordinates. With --normal, the drawing's origin is --point, its x runs
+along the plane square to Z (to Y for a plane nearly across Z), its y up; both are printed.
+
+The fit:
+  --band MM          each element is fitted again with the points of 16 more cuts spread over
+                     +- MM around the plane, wherever they follow it (a pad's sides): one cut of
+                     a scanned mesh gives a short line's direction to about 0.1 degrees, the band
+                     to about 0.04. An element whose cuts trend with their height (a drafted wall,
+                     a cone, a sphere) keeps to its own cut, and the report says why.
+                     Default 3; 0: the one cut.
+  --tolerance MM     largest distance of a point to its element (default: 5 x the noise the cut
+                     shows, at least 0.005 mm)
+
+Outputs (each optional; the report is always printed):
+  --svg FILE.svg     lines and arcs as SVG paths, circles as circles, in millimetres
+  --dxf FILE.dxf     LINE, ARC and CIRCLE entities (DXF R12 ASCII, millimetres), for CAD tools
+Both are replaced together, and only when the fit succeeds.
+
+The report: the plane, the noise and tolerance, then per polyline its elements: kind, length and
+direction (lines, degrees from the drawing's x axis) or radius and swept angle (arcs, circles),
+the standard error of the direction or radius, RMS and largest distance of its points, and how
+many band cuts refitted it (or why it kept to its own cut); then the polylines left out, and why.
+
+Example (the built-in demo part, cut across its block at 12 mm height):
+  picoscan demo --out demo
+  picoscan section demo/part.stl --axis z --at 12 --svg outline.svg --dxf outline.dxf
+)";
+
+std::string vector_text(const cv::Vec3d& v) {
+    char text[96];
+    std::snprintf(text, sizeof text, "(%.4f, %.4f, %.4f)", v[0], v[1], v[2]);
+    return text;
+}
+
+std::string point_text(const cv::Vec2d& p) {
+    char text[64];
+    std::snprintf(text, sizeof text, "(%.4f, %.4f)", p[0], p[1]);
+    return text;
+}
+
+// The plane and the drawing's frame on it: x (u) square to `up` (Z, or Y for a plane nearly across
+// Z), y (v) completing a right-handed frame with the normal towards the viewer.
+struct Plane {
+    cv::Vec3d origin, normal, u, v;
+};
+
+Plane plane_with_normal(const cv::Vec3d& origin, cv::Vec3d normal) {
+    normal /= cv::norm(normal);
+    const cv::Vec3d up = std::abs(normal[2]) > 0.9 ? cv::Vec3d(0, 1, 0) : cv::Vec3d(0, 0, 1);
+    cv::Vec3d u = up.cross(normal);
+    u /= cv::norm(u);
+    return {origin, normal, u, normal.cross(u)};
+}
+
+cv::Vec3d box_centre(const Mesh& mesh) {
+    cv::Vec3d low(HUGE_VAL, HUGE_VAL, HUGE_VAL), high(-HUGE_VAL, -HUGE_VAL, -HUGE_VAL);
+    for (const cv::Vec3f& p : mesh.vertices)
+        for (int k = 0; k < 3; ++k) {
+            low[k] = std::min(low[k], double(p[k]));
+            high[k] = std::max(high[k], double(p[k]));
+        }
+    return 0.5 * (low + high);
+}
+
+// The plane as the options give it (--axis/--at or --normal/--point), read before the mesh so
+// that a mistyped option is refused at once; the mesh's middle fills in what is left out.
+struct PlaneRequest {
+    int axis = -1;  // 0, 1, 2 for --axis x, y, z; -1 with --normal
+    std::optional<double> at;
+    cv::Vec3d normal;
+    std::optional<cv::Vec3d> point;
+    std::string flag;  // the option that placed the plane, named when it misses the mesh
+};
+
+PlaneRequest plane_request(const Arguments& arguments) {
+    const bool by_axis = arguments.has("--axis") || arguments.has("--at");
+    const bool by_normal = arguments.has("--normal") || arguments.has("--point");
+    if (by_axis && by_normal) throw Error("--axis", "give either --axis (and --at) or --normal (and --point), not both");
+    if (!by_axis && !by_normal) throw Error("--axis", "give the plane: --axis x|y|z (and --at MM) or --normal DX,DY,DZ");
+    PlaneRequest request;
+    if (by_normal) {
+        if (!arguments.has("--normal")) throw Error("--normal", "give the plane's normal with its --point");
+        const std::vector<double> n = arguments.numbers("--normal", 3);
+        request.normal = {n[0], n[1], n[2]};
+        if (!(cv::norm(request.normal) > 1e-9) || !std::isfinite(cv::norm(request.normal)))
+            throw Error("--normal", "must be a non-zero direction, e.g. 0,0,1");
+        if (arguments.has("--point")) {
+            const std::vector<double> p = arguments.numbers("--point", 3);
+            request.point = cv::Vec3d(p[0], p[1], p[2]);
+        }
+        request.flag = request.point ? "--point" : "--normal";
+        return request;
+    }
+    const std::string axis = arguments.text("--axis");
+    const std::string axes = "xyz";
+    if (axis.size() != 1 || axes.find(char(std::tolower(axis[0]))) == std::string::npos)
+        throw Error("--axis", "must be x, y or z, not '" + axis + "'");
+    request.axis = int(axes.find(char(std::tolower(axis[0]))));
+    if (arguments.has("--at")) {
+        request.at = arguments.number("--at", 0);
+        if (!std::isfinite(*request.at)) throw Error("--at", "must be a finite position in mm");
+    }
+    request.flag = "--at";
+    return request;
+}
+
+Plane section_plane(const PlaneRequest& request, const Mesh& mesh) {
+    const cv::Vec3d centre = box_centre(mesh);
+    if (request.axis < 0) return plane_with_normal(request.point.value_or(centre), request.normal);
+    // Normals towards the viewer of the right (x), front (y, looking along +y) and top (z) views.
+    const cv::Vec3d normals[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
+    cv::Vec3d origin(0, 0, 0);
+    origin[request.axis] = request.at.value_or(centre[request.axis]);
+    return plane_with_normal(origin, normals[request.axis]);
+}
+
+std::string band_text(const SectionElement& e) {
+    if (e.band_cuts > 0) return std::to_string(e.band_cuts) + " band cuts";
+    if (!e.band_note.empty()) return "band: " + e.band_note;
+    return "one cut";
+}
+
+void print_element(int number, const SectionElement& e) {
+    if (e.kind == SectionElementKind::Line) {
+        const cv::Vec2d along = e.end - e.start;
+        std::printf("  %2d line   length %9.4f mm, angle %9.4f deg (sigma %.4f), from %s to %s", number, cv::norm(along),
+                    std::atan2(along[1], along[0]) * 180 / 3.14159265358979323846, e.angle_sigma_deg,
+                    point_text(e.start).c_str(), point_text(e.end).c_str());
+    } else {
+        std::printf("  %2d %-6s radius %9.4f mm (sigma %.4f), %7.2f deg around %s", number, to_string(e.kind).c_str(),
+                    e.radius_mm, e.radius_sigma_mm, swept_angle_deg(e), point_text(e.centre).c_str());
+        if (e.kind == SectionElementKind::Arc)
+            std::printf(" %s from %s to %s", e.counter_clockwise ? "counter-clockwise" : "clockwise",
+                        point_text(e.start).c_str(), point_text(e.end).c_str());
+    }
+    std::printf(", %d points, rms %.4f mm, max %.4f mm%s, %s\n", e.point_count, e.rms_mm, e.max_mm,
+                e.tangent_to_next ? ", tangent to the next" : "", band_text(e).c_str());
+}
+
+int run_section(const Arguments& arguments) {
+    const std::string input = single_input(arguments);
+    const std::string svg = arguments.text("--svg"), dxf = arguments.text("--dxf");
+    check_extension(svg, {".svg"}, "SVG drawing");
+    check_extension(dxf, {".dxf"}, "DXF drawing");
+    for (const std::string& out : {svg, dxf})
+        if (!out.empty()) refuse_overwriting(out, {input});
+    const double band = arguments.number("--band", kDefaultSectionBandMm);
+    if (!std::isfinite(band) || band < 0) throw Error("--band", "must be 0 (one cut) or a positive distance in mm");
+    SectionFitOptions options;
+    if (arguments.has("--tolerance")) {
+        options.tolerance_mm = arguments.number("--tolerance", 0);
+        if (!std::isfinite(options.tolerance_mm) || options.tolerance_mm <= 0)
+            throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the cut's noise)");
+    }
+    const PlaneRequest request = plane_request(arguments);
+    arguments.reject_unknown();
+    const Mesh mesh = read_mesh(input);
+    if (mesh.faces.empty()) throw Error(input, "holds no triangles (a point cloud? mesh it first with 'picoscan mesh')");
+    const Plane plane = section_plane(request, mesh);
+
+    MeshSection section;
+    try {
+        section = cut_mesh_section(mesh, plane.origin, plane.u, plane.v, band, terminal_progress());
+    } catch (const Error& error) {
+        if (error.subject() != "plane") throw;
+        throw Error(request.flag, "the plane through " + vector_text(plane.origin) + " with normal " +
+                                    vector_text(plane.normal) + " " + std::string(error.what()).substr(7));
+    }
+    const SectionFits fits = fit_section_polylines(section.polylines, section.parallel_cuts, options, terminal_progress());
+
+    std::printf("plane: through %s mm, normal %s; the drawing's x along %s, y along %s\n", vector_text(plane.origin).c_str(),
+                vector_text(plane.normal).c_str(), vector_text(plane.u).c_str(), vector_text(plane.v).c_str());
+    std::printf("cut: %zu polylines; band +- %.3f mm: %zu parallel cuts' polylines\n", section.polylines.size(), band,
+                section.parallel_cuts.size());
+    std::printf("noise %.4f mm, tolerance %.4f mm (%s)\n", fits.noise_mm, fits.tolerance_mm,
+                options.tolerance_mm > 0 ? "given" : "5 x the noise");
+    for (size_t k = 0; k < fits.fits.size(); ++k) {
+        const SectionFit& fit = fits.fits[k];
+        const SectionPolyline& line = section.polylines[size_t(fits.fitted_index[k])];
+        std::printf("polyline %d (%s, %zu points): %zu elements, tolerance %.4f mm\n", fits.fitted_index[k] + 1,
+                    fit.closed ? "closed" : "open", line.points.size(), fit.elements.size(), fit.tolerance_mm);
+        for (size_t e = 0; e < fit.elements.size(); ++e) print_element(int(e) + 1, fit.elements[e]);
+    }
+    for (const LeftOutPolyline& left : fits.left_out)
+        std::printf("left out: polyline %d (%s, %d points, %.2f mm across, around %s mm): %s\n", left.index + 1,
+                    left.closed ? "closed" : "open", left.point_count, left.across_mm, point_text(left.centre).c_str(),
+                    left.reason.c_str());
+
+    OutputBatch outputs;  // the drawings appear together
+    if (!svg.empty()) write_file_atomically(svg, section_svg(fits));
+    if (!dxf.empty()) write_file_atomically(dxf, section_dxf(fits));
+    outputs.commit();
+    for (const std::string& out : {svg, dxf})
+        if (!out.empty()) std::printf("wrote %s\n", out.c_str());
+    return 0;
+}
+
+}  // namespace
+
+std::vector<Command> section_commands() {
+    return {{"section", "fit lines, arcs and circles to a plane cut of a mesh -> SVG/DXF profile", kSectionHelp,
+             run_section, {{}, {}, true}}};
+}
+
+}  // namespace picoscan::cli

@@ -1,0 +1,385 @@
+// Regions of facets between two planar faces that lie on a cylinder square to both (a drilled
+// hole, a boss, a shaft) become cylindrical B-rep faces bounded by circles.
+#include "solid/cylinder_faces.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace picoscan::detail {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Circle2 {
+    cv::Vec2d center;
+    double radius = 0, rms = 0;
+};
+
+// Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
+// on the points' distances from the circle.
+Circle2 fit_circle(const std::vector<cv::Vec2d>& points) {
+    cv::Matx33d normal = cv::Matx33d::zeros();
+    cv::Vec3d right(0, 0, 0);
+    for (const cv::Vec2d& p : points) {
+        const cv::Vec3d row(2 * p[0], 2 * p[1], 1);
+        normal += row * row.t();
+        right += row * p.dot(p);
+    }
+    cv::Vec3d solution;
+    if (!cv::solve(normal, right, solution, cv::DECOMP_SVD)) return {};
+    Circle2 circle{{solution[0], solution[1]}, std::sqrt(std::max(0.0, solution[2] + solution[0] * solution[0] + solution[1] * solution[1]))};
+    for (int iteration = 0; iteration < 20; ++iteration) {
+        cv::Matx33d jtj = cv::Matx33d::zeros();
+        cv::Vec3d jtr(0, 0, 0);
+        for (const cv::Vec2d& p : points) {
+            const cv::Vec2d offset = p - circle.center;
+            const double distance = cv::norm(offset);
+            if (distance == 0) continue;
+            const cv::Vec3d gradient(-offset[0] / distance, -offset[1] / distance, -1);
+            jtj += gradient * gradient.t();
+            jtr += gradient * (distance - circle.radius);
+        }
+        cv::Vec3d step;
+        if (!cv::solve(jtj, -jtr, step, cv::DECOMP_CHOLESKY)) break;
+        circle.center += cv::Vec2d(step[0], step[1]);
+        circle.radius += step[2];
+        if (cv::norm(step) < 1e-12 * (1 + circle.radius)) break;
+    }
+    double sum = 0;
+    for (const cv::Vec2d& p : points) sum += std::pow(cv::norm(p - circle.center) - circle.radius, 2);
+    circle.rms = std::sqrt(sum / double(points.size()));
+    return circle;
+}
+
+std::string point_text(const cv::Vec3d& p) {
+    char text[96];
+    std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f)", p[0], p[1], p[2]);
+    return text;
+}
+
+// Any unit vector square to `axis`.
+cv::Vec3d square_to(const cv::Vec3d& axis) {
+    const cv::Vec3d helper = std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
+    return cv::normalize(helper - helper.dot(axis) * axis);
+}
+
+// The distance along the axis (through origin, unit) from origin to where it meets a face's plane.
+double level_of(const BrepFace& plane, const cv::Vec3d& origin, const cv::Vec3d& axis) {
+    return (plane.origin - origin).dot(plane.normal) / axis.dot(plane.normal);
+}
+
+// Where a cylinder's ends are along its axis, and which way each plane must run its circle for
+// the shell to be consistent (add_cylinder_faces writes them so; cylinder_regions checks that the
+// planes' loops already run that way).
+struct Loops {
+    size_t low = 0;            // which of planes[] is at the lower level
+    double low_level = 0, length = 0;
+    int plane_sign[2] = {0, 0};  // the circle's direction in each plane's wire (+1: as the circle runs)
+};
+
+Loops loops_of(const PlanarFaceModel& model, const CylinderRegion& region) {
+    Loops loops;
+    double levels[2];
+    for (int i = 0; i < 2; ++i) levels[i] = level_of(model.faces[region.planes[i]], region.origin, region.axis);
+    loops.low = levels[0] <= levels[1] ? 0 : 1;
+    loops.low_level = levels[loops.low];
+    loops.length = levels[1 - loops.low] - levels[loops.low];
+    // Seen from outside the solid the cylinder's wire runs the low circle forwards, the high one
+    // backwards (a hole's face is reversed: the other way); each plane runs its circle the other way.
+    const int low_in_cylinder = region.hole ? -1 : 1;
+    loops.plane_sign[loops.low] = -low_in_cylinder;
+    loops.plane_sign[1 - loops.low] = low_in_cylinder;
+    return loops;
+}
+
+}  // namespace
+
+std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
+                                             const std::vector<char>& eligible, std::vector<std::string>& notes) {
+    const size_t face_count = model.faces.size();
+    auto allowed = [&](size_t f) { return model.faces[f].radius_mm == 0 && (eligible.empty() || eligible[f]); };
+    auto one_facet = [&](size_t f) { return !model.faces[f].merged && model.faces[f].triangles.size() == 1 && allowed(f); };
+    std::vector<std::vector<size_t>> faces_of_edge(model.edges.size());
+    for (size_t f = 0; f < face_count; ++f)
+        for (const auto& wire : model.faces[f].wires)
+            for (int e : wire) faces_of_edge[size_t(std::abs(e) - 1)].push_back(f);
+    auto neighbours = [&](size_t f) {
+        std::vector<size_t> around;
+        for (const auto& wire : model.faces[f].wires)
+            for (int e : wire)
+                for (size_t g : faces_of_edge[size_t(std::abs(e) - 1)])
+                    if (g != f) around.push_back(g);
+        return around;
+    };
+
+    const double distance_limit = options.distance_factor * model.noise_mm;
+    const double rms_limit = options.max_rms_factor * model.noise_mm;
+    std::vector<CylinderRegion> regions;
+    std::vector<char> seen(face_count, 0);
+    for (size_t start = 0; start < face_count; ++start) {
+        if (seen[start] || !one_facet(start)) continue;
+        // The region: one-facet faces joined by their edges; then, square to the axis (the normal
+        // of the planar face it meets that its facets' normals are most square to), the planar
+        // faces it meets that are strips of its wall (flat within the noise on a finely divided
+        // cylinder) and whatever they lead to.
+        std::vector<size_t> members{start};
+        seen[start] = 1;
+        std::vector<size_t> met;
+        for (size_t next = 0; next < members.size(); ++next)
+            for (size_t g : neighbours(members[next])) {
+                if (seen[g]) continue;
+                if (one_facet(g)) {
+                    seen[g] = 1;
+                    members.push_back(g);
+                } else if (model.faces[g].merged) {
+                    met.push_back(g);
+                }
+            }
+        if (met.empty()) continue;
+        auto across = [&](size_t g) {  // how far the facets' normals are from square to g's
+            double sum = 0;
+            for (size_t f : members) sum += std::abs(model.faces[f].normal.dot(model.faces[g].normal));
+            return sum;
+        };
+        std::sort(met.begin(), met.end());
+        met.erase(std::unique(met.begin(), met.end()), met.end());
+        const size_t end_face = *std::min_element(met.begin(), met.end(), [&](size_t a, size_t b) { return across(a) < across(b); });
+        const cv::Vec3d axis = cv::normalize(model.faces[end_face].normal);
+        std::vector<size_t> ends;
+        bool other_faces = false;  // faces neither a strip nor an end, or triangles not eligible
+        for (size_t next = 0; next < members.size(); ++next)
+            for (size_t g : neighbours(members[next])) {
+                if (seen[g] || std::find(ends.begin(), ends.end(), g) != ends.end()) continue;
+                const BrepFace& face = model.faces[g];
+                const double along = std::abs(cv::normalize(face.normal).dot(axis));
+                if (one_facet(g) || (face.merged && along < 0.5 && allowed(g))) {
+                    seen[g] = 1;
+                    members.push_back(g);
+                } else if (face.merged && along > 0.9) {
+                    ends.push_back(g);
+                } else {
+                    other_faces = true;
+                }
+            }
+        size_t facets = 0;
+        for (size_t f : members) facets += model.faces[f].triangles.size();
+        if (other_faces || ends.size() != 2 || int(facets) < options.min_facets) continue;
+
+        CylinderRegion region;
+        region.faces = members;
+        std::sort(region.faces.begin(), region.faces.end());
+        region.planes[0] = ends[0];
+        region.planes[1] = ends[1];
+        const std::string name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) +
+                                 " and " + point_text(model.faces[ends[1]].origin);
+        auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
+        auto in_region = [&](size_t f) { return std::binary_search(region.faces.begin(), region.faces.end(), f); };
+
+        // The cylinder square to the first plane: a circle through the vertices seen along its normal.
+        const BrepFace& first = model.faces[region.planes[0]];
+        region.axis = cv::normalize(first.normal);
+        region.x_axis = square_to(region.axis);
+        const cv::Vec3d y_axis = region.axis.cross(region.x_axis);
+        std::vector<int> vertices;
+        for (size_t f : members)
+            for (const cv::Vec3i& triangle : model.faces[f].triangles)
+                for (int k = 0; k < 3; ++k) vertices.push_back(triangle[k]);
+        std::sort(vertices.begin(), vertices.end());
+        vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+        std::vector<cv::Vec2d> seen_along;
+        for (int v : vertices) {
+            const cv::Vec3d p = model.vertices[size_t(v)] - first.origin;
+            seen_along.emplace_back(p.dot(region.x_axis), p.dot(y_axis));
+        }
+        const Circle2 circle = fit_circle(seen_along);
+        region.radius_mm = circle.radius;
+        region.rms_mm = circle.rms;
+        region.origin = first.origin + circle.center[0] * region.x_axis + circle.center[1] * y_axis;
+        // Far from any circle (the walls of a box with a rounded edge): not a candidate, not reported.
+        if (!(circle.radius > 0) || !(circle.rms < 0.05 * circle.radius)) continue;
+        char text[200];
+        if (!(circle.rms <= rms_limit)) {
+            std::snprintf(text, sizeof text,
+                          "not a cylinder square to its planes (RMS %.4f mm from the best one, radius %.4f mm; at most %.4f mm, "
+                          "%.2g x the noise)", circle.rms, circle.radius, rms_limit, options.max_rms_factor);
+            refuse(text);
+            continue;
+        }
+
+        // Each plane must meet the region along one whole loop of its own.
+        bool whole_loops = true;
+        for (int i = 0; i < 2 && whole_loops; ++i) {
+            const BrepFace& plane = model.faces[region.planes[i]];
+            size_t loops_met = 0;
+            for (size_t w = 0; w < plane.wires.size(); ++w) {
+                size_t shared = 0;
+                for (int e : plane.wires[w]) {
+                    const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
+                    shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+                }
+                if (shared == 0) continue;
+                ++loops_met;
+                if (shared != plane.wires[w].size()) whole_loops = false;
+                region.wires[i] = w;
+            }
+            if (loops_met != 1) whole_loops = false;
+        }
+        if (!whole_loops) {
+            refuse("they do not meet each plane along one whole loop of it");
+            continue;
+        }
+        // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
+        // (their vertices not within twice the merge distance of it), or the face would cross itself.
+        std::string crossing;
+        for (int i = 0; i < 2 && crossing.empty(); ++i) {
+            const BrepFace& plane = model.faces[region.planes[i]];
+            for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
+                if (w == region.wires[i]) continue;
+                for (int e : plane.wires[w]) {
+                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                    for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
+                        const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
+                        const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
+                        if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit) crossing = point_text(model.vertices[size_t(v)]);
+                    }
+                }
+            }
+        }
+        if (!crossing.empty()) {
+            refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
+            continue;
+        }
+        const BrepFace& second = model.faces[region.planes[1]];
+        const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
+        if (region.radius_mm * tilt > distance_limit) {
+            std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
+                          "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi, region.radius_mm * tilt, distance_limit);
+            refuse(text);
+            continue;
+        }
+
+        // A hole when the facets face the axis.
+        double outwards = 0;
+        for (size_t f : members)
+            for (const cv::Vec3i& t : model.faces[f].triangles) {
+                const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+                const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
+                outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+            }
+        region.hole = outwards < 0;
+        const Loops loops = loops_of(model, region);
+        if (!(loops.length > distance_limit)) {
+            refuse("its planes are not apart along the axis");
+            continue;
+        }
+        // Each plane's loop must run the way its circle will: around its face's outside counter-
+        // clockwise (seen from outside), around a hole clockwise.
+        bool consistent = true;
+        for (int i = 0; i < 2; ++i) {
+            const BrepFace& plane = model.faces[region.planes[i]];
+            cv::Vec3d area(0, 0, 0);
+            for (int e : plane.wires[region.wires[i]]) {
+                const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
+                                &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
+                area += a.cross(b);
+            }
+            const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
+            const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
+            const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
+            consistent = consistent && sign == loops.plane_sign[i];
+        }
+        if (!consistent) {
+            refuse("its loops on the planes run the wrong way for a cylinder between them");
+            continue;
+        }
+        regions.push_back(region);
+    }
+    return regions;
+}
+
+void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion>& regions) {
+    std::vector<char> replaced(model.faces.size(), 0);
+    std::vector<BrepFace> cylinders;
+    for (const CylinderRegion& region : regions) {
+        const Loops loops = loops_of(model, region);
+        const cv::Vec3d low_centre = region.origin + loops.low_level * region.axis;
+        const cv::Vec3d high_centre = low_centre + loops.length * region.axis;
+        const cv::Vec3d seam_offset = region.radius_mm * region.x_axis;
+        const int low_vertex = int(model.vertices.size()), high_vertex = low_vertex + 1;
+        model.vertices.push_back(low_centre + seam_offset);
+        model.vertices.push_back(high_centre + seam_offset);
+        // Each circle lies in the plane square to the axis; its tolerance covers the plane it is
+        // in (tilted from that by at most the limit cylinder_regions allows).
+        int circle_edges[2];
+        for (int i = 0; i < 2; ++i) {
+            const bool low = size_t(i) == loops.low;
+            const BrepFace& plane = model.faces[region.planes[i]];
+            const cv::Vec3d centre = low ? low_centre : high_centre;
+            const double off_plane = std::abs((centre - plane.origin).dot(plane.normal)) +
+                                     region.radius_mm * cv::norm(region.axis.cross(cv::normalize(plane.normal)));
+            BrepEdge circle;
+            circle.start = circle.end = low ? low_vertex : high_vertex;
+            circle.tolerance_mm = off_plane * 1.01 + 1e-7;
+            circle.radius_mm = region.radius_mm;
+            circle.center = centre;
+            circle.axis = region.axis;
+            circle.x_axis = region.x_axis;
+            model.edges.push_back(circle);
+            circle_edges[i] = int(model.edges.size());
+            model.faces[region.planes[i]].wires[region.wires[i]] = {loops.plane_sign[i] * circle_edges[i]};
+            model.faces[region.planes[i]].triangles.clear();
+        }
+        model.edges.push_back({low_vertex, high_vertex, 1e-7, {}});
+        const int seam = int(model.edges.size());
+        model.vertex_tolerance_mm.push_back(std::max(1e-7, model.edges[size_t(circle_edges[loops.low]) - 1].tolerance_mm));
+        model.vertex_tolerance_mm.push_back(std::max(1e-7, model.edges[size_t(circle_edges[1 - loops.low]) - 1].tolerance_mm));
+
+        BrepFace face;
+        face.origin = low_centre;
+        face.normal = region.axis;
+        face.facet_count = 0;
+        for (size_t f : region.faces) {
+            const BrepFace& replaced_face = model.faces[f];
+            face.facet_count += int(replaced_face.triangles.size());
+            if (replaced_face.merged) {  // a strip of its wall
+                --model.merged_faces;
+                model.merged_facets -= size_t(replaced_face.facet_count);
+            }
+            replaced[f] = 1;
+        }
+        face.rms_mm = region.rms_mm;
+        face.radius_mm = region.radius_mm;
+        face.x_axis = region.x_axis;
+        face.reversed = region.hole;
+        face.wires = {{circle_edges[loops.low], seam, -circle_edges[1 - loops.low], -seam}};
+        cylinders.push_back(face);
+        model.cylinder_facets += size_t(face.facet_count);
+    }
+    std::vector<BrepFace> faces;
+    for (size_t f = 0; f < model.faces.size(); ++f)
+        if (!replaced[f]) faces.push_back(std::move(model.faces[f]));
+    faces.insert(faces.end(), cylinders.begin(), cylinders.end());
+    model.faces = std::move(faces);
+    model.cylinder_faces += cylinders.size();
+
+    // Only the edges some face still runs along stay.
+    std::vector<int> renumbered(model.edges.size(), 0);
+    for (const BrepFace& face : model.faces)
+        for (const auto& wire : face.wires)
+            for (int e : wire) renumbered[size_t(std::abs(e) - 1)] = 1;
+    std::vector<BrepEdge> edges;
+    for (size_t e = 0; e < model.edges.size(); ++e)
+        if (renumbered[e]) {
+            edges.push_back(std::move(model.edges[e]));
+            renumbered[e] = int(edges.size());
+        }
+    model.edges = std::move(edges);
+    for (BrepFace& face : model.faces)
+        for (auto& wire : face.wires)
+            for (int& e : wire) e = e > 0 ? renumbered[size_t(e - 1)] : -renumbered[size_t(-e - 1)];
+}
+
+}  // namespace picoscan::detail

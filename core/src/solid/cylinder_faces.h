@@ -1,0 +1,34 @@
+// Cylindrical faces of a solid: a region of one-facet faces left between two planar faces (a
+// drilled hole, a boss, a shaft) that lies on a cylinder square to both becomes one B-rep
+// cylinder, its two loops circles.
+#pragma once
+
+#include "picoscan/solid.h"
+
+#include <string>
+#include <vector>
+
+namespace picoscan::detail {
+
+struct CylinderRegion {
+    std::vector<size_t> faces;        // the model's faces it replaces: one-facet faces and planar strips of its wall
+    size_t planes[2] = {0, 0};        // the planar faces at its ends
+    size_t wires[2] = {0, 0};         // the wire of each that it bounds
+    cv::Vec3d origin, axis, x_axis;   // origin: on the axis, in the plane of planes[0]
+    double radius_mm = 0, rms_mm = 0;
+    bool hole = false;                // the solid is outside the cylinder
+};
+
+// The regions of `model` that make cylindrical faces, with the fitted cylinders: connected
+// one-facet faces, with the planar faces they meet square to the axis (strips of a finely divided
+// wall), bounded by two planar faces square to it; only faces marked in `eligible` (all when it is
+// empty). Each region near a cylinder but refused is said in `notes` with the reason.
+std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
+                                             const std::vector<char>& eligible, std::vector<std::string>& notes);
+
+// Replaces each region's facets by its cylinder: one cylindrical face (at the end of the faces), a
+// circle in each planar face instead of the loop it bounded (those planar faces lose their
+// triangulations, which do not follow the circles), and the seam between the circles.
+void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion>& regions);
+
+}  // namespace picoscan::detail
