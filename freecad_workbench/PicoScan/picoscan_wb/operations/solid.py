@@ -122,7 +122,6 @@ def _read_and_check(path, label, check_valid, progress):
     return shape, answers[-1]
 
 
-
 def solid_of_mesh(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=None):
     """Part.Solid of a closed FreeCAD mesh (placement applied). Raises picoscan.Error saying why not."""
     return solid_with_model(mesh, label, merge_planes, noise_mm, progress)[0]
