@@ -1057,3 +1057,185 @@ TEST(SectionFit, SectionMeshFitsAFacetedFilletAsOneArc) {
     EXPECT_NE(test_support::error_of([&] { section_mesh(prism, {0, 0, 20}, u, v); }).find("plane: does not cut the mesh"),
               std::string::npos);
 }
+
+// A cut of a mesh with planar facets (a CAD export, an extruded outline): `vertices` are where the cut
+// crosses the mesh's edges along the outline (on the true curve, up to the noise given to them), joined
+// by straight chords, each with `inner` points between its ends (where the cut crosses facets'
+// diagonals: exactly on the chord).
+namespace {
+std::vector<cv::Vec2d> chorded(const std::vector<cv::Vec2d>& vertices, int inner) {
+    std::vector<cv::Vec2d> polyline;
+    for (size_t k = 0; k < vertices.size(); ++k) {
+        const cv::Vec2d a = vertices[k], b = vertices[(k + 1) % vertices.size()];
+        for (int i = 0; i <= inner; ++i) polyline.push_back(a + (b - a) * (double(i) / (inner + 1)));
+    }
+    return polyline;
+}
+
+// `chords` vertices (chords + 1 ends) on an arc from `from_deg` to `to_deg`, the last one left out (it
+// starts what follows), each `sigma` off the circle at random.
+void add_faceted_arc(std::vector<cv::Vec2d>& vertices, cv::Vec2d centre, double radius, double from_deg, double to_deg,
+                     int chords, double sigma, std::mt19937& random) {
+    std::normal_distribution<double> noise;
+    for (int k = 0; k < chords; ++k) {
+        const double angle = (from_deg + (to_deg - from_deg) * k / chords) * kPi / 180;
+        vertices.push_back(centre + (radius + sigma * noise(random)) * cv::Vec2d(std::cos(angle), std::sin(angle)));
+    }
+}
+
+// Vertices every 0.4 mm from a to b (b left out), each `sigma` across the side at random.
+void add_side(std::vector<cv::Vec2d>& vertices, cv::Vec2d a, cv::Vec2d b, double sigma, std::mt19937& random) {
+    std::normal_distribution<double> noise;
+    const int steps = std::max(1, int(std::round(cv::norm(b - a) / 0.4)));
+    const cv::Vec2d across = cv::Vec2d(a[1] - b[1], b[0] - a[0]) / cv::norm(b - a);
+    for (int i = 0; i < steps; ++i) vertices.push_back(a + (b - a) * (double(i) / steps) + sigma * noise(random) * across);
+}
+
+// The 50 x 36 block with its (-25, -18) corner a fillet of `radius` meshed with `chords` chords.
+std::vector<cv::Vec2d> block_with_faceted_fillet(double radius, int chords, int inner, double sigma, unsigned seed) {
+    std::mt19937 random(seed);
+    std::vector<cv::Vec2d> vertices;
+    add_side(vertices, {25, -18}, {25, 18}, sigma, random);
+    add_side(vertices, {25, 18}, {-25, 18}, sigma, random);
+    add_side(vertices, {-25, 18}, {-25, -18 + radius}, sigma, random);
+    add_faceted_arc(vertices, {-25 + radius, -18 + radius}, radius, 180, 270, chords, sigma, random);
+    add_side(vertices, {-25 + radius, -18}, {25, -18}, sigma, random);
+    return chorded(vertices, inner);
+}
+}  // namespace
+
+// A faceted fillet whose chords sag 1-2 x the tolerance: every point's circle misses the chords'
+// middles by less than 2 x the tolerance, so the all-points fit did not refuse but covered the fillet
+// another way. The chords' ends lie on one circle within the tolerance and turn alike: the fillet
+// is one arc of its radius, fitted to the chords' ends, tangent to both sides; its point_count is
+// those ends (not the chords' middles).
+TEST(SectionFit, AFilletWhoseChordsSagAboutTheToleranceIsOneArc) {
+    for (const double radius : {3.0, 5.0, 10.0}) {
+        for (const double sag_in_tolerances : {1.2, 1.8}) {
+            // Chords of the fillet's sag with the 5 um tolerance a noise-free or 1 um-noise cut gets.
+            const double chord = std::sqrt(8 * radius * sag_in_tolerances * 0.005);
+            const int chords = int(std::round(radius * kPi / 2 / chord));
+            for (const int inner : {1, 3}) {
+                for (const double sigma : {0.0, 0.001}) {
+                    SCOPED_TRACE("radius " + std::to_string(radius) + ", " + std::to_string(chords) + " chords, " +
+                                 std::to_string(inner) + " inner points, sigma " + std::to_string(sigma));
+                    const std::vector<cv::Vec2d> polyline = block_with_faceted_fillet(radius, chords, inner, sigma, 11);
+                    std::string refused;
+                    SectionFit fit;
+                    try {
+                        fit = fit_section(polyline, true);
+                    } catch (const Error& e) {
+                        refused = e.what();
+                    }
+                    ASSERT_EQ(refused, "");
+                    const double c = 2 * radius * std::sin(kPi / 4 / chords), sag = c * c / (8 * radius);
+                    std::printf("r %4.1f mm, %2d chords of %.3f mm (%d inner, sigma %.3f): sag %.4f mm = %.2f x tolerance: "
+                                "%d lines, %d arcs\n",
+                                radius, chords, c, inner, sigma, sag, sag / fit.tolerance_mm, count(fit, SectionElementKind::Line),
+                                count(fit, SectionElementKind::Arc));
+                    EXPECT_GE(sag, fit.tolerance_mm);
+                    EXPECT_LE(sag, 2 * fit.tolerance_mm);
+                    ASSERT_EQ(count(fit, SectionElementKind::Arc), 1);
+                    EXPECT_EQ(count(fit, SectionElementKind::Line), 4);
+                    for (size_t j = 0; j < fit.elements.size(); ++j) {
+                        const SectionElement& e = fit.elements[j];
+                        if (e.kind != SectionElementKind::Arc) continue;
+                        EXPECT_NEAR(e.radius_mm, radius, 0.020);
+                        EXPECT_NEAR(swept_angle_deg(e), 90, 0.5);
+                        EXPECT_NEAR(e.chord_sag_mm, sag, 1e-3);
+                        EXPECT_TRUE(e.tangent_to_next);
+                        EXPECT_TRUE(fit.elements[(j + 4) % 5].tangent_to_next);
+                        // The chords' ends it holds: the fillet's chords + 1, give or take the one at each
+                        // tangent point a neighbour line takes.
+                        EXPECT_GE(e.point_count, chords - 1);
+                        EXPECT_LE(e.point_count, chords + 1);
+                    }
+                }
+            }
+        }
+    }
+}
+
+// A hole of a coarse mesh: chords of 1-3 mm (a Poisson mesh of 1-2 mm spacing, an STL at a coarse
+// angular deflection) on radii of 10-20 mm, with and without noise on its vertices: one circle of
+// its radius, fitted to the chords' ends.
+TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
+    for (const double radius : {10.0, 15.0, 20.0}) {
+        for (const double chord : {1.0, 2.0, 3.0}) {
+            for (const double sigma : {0.0, 0.001}) {
+                const int chords = int(std::round(2 * kPi * radius / chord));
+                SCOPED_TRACE("radius " + std::to_string(radius) + ", " + std::to_string(chords) + " chords, sigma " +
+                             std::to_string(sigma));
+                std::mt19937 random(17);
+                std::vector<cv::Vec2d> vertices;
+                add_faceted_arc(vertices, {3, -4}, radius, 0, 360, chords, sigma, random);
+                const std::vector<cv::Vec2d> polyline = chorded(vertices, 1);
+                std::string refused;
+                SectionFit fit;
+                try {
+                    fit = fit_section(polyline, true);
+                } catch (const Error& e) {
+                    refused = e.what();
+                }
+                ASSERT_EQ(refused, "");
+                ASSERT_EQ(fit.elements.size(), 1u);
+                const SectionElement& hole = fit.elements[0];
+                EXPECT_EQ(hole.kind, SectionElementKind::Circle);
+                EXPECT_NEAR(hole.radius_mm, radius, 0.020);
+                EXPECT_NEAR(cv::norm(hole.centre - cv::Vec2d(3, -4)), 0, 0.020);
+                EXPECT_EQ(hole.point_count, chords);
+                const double c = 2 * radius * std::sin(kPi / chords);
+                EXPECT_NEAR(hole.chord_sag_mm, c * c / (8 * radius), 1e-3);
+            }
+        }
+    }
+}
+
+// Built to fool the chords' test: a slot of two faceted half circles (10 mm, 2 mm chords) joined by
+// real straight sides of 2 mm (each split by a facet's diagonal like a chord): the sides turn into
+// the arcs by half a chord's turn, so they stay lines; and real polygons whose corners lie on one
+// circle and turn alike, but far more than a curve's facets: a hexagon of 2 mm sides (60 deg), a
+// 12-gon of 1.5 mm sides (30 deg), and the block's corner chamfered 0.5 mm: no arc.
+TEST(SectionFit, ShortRealSidesAndPolygonsStayLines) {
+    for (const double sigma : {0.0, 0.001}) {
+        SCOPED_TRACE("sigma " + std::to_string(sigma));
+        std::mt19937 random(23);
+        std::vector<cv::Vec2d> vertices;
+        add_faceted_arc(vertices, {1, 0}, 10, -90, 90, 31, sigma, random);
+        vertices.push_back({1, 10});
+        add_faceted_arc(vertices, {-1, 0}, 10, 90, 270, 31, sigma, random);
+        vertices.push_back({-1, -10});
+        const SectionFit slot = fit_section(chorded(vertices, 1), true);
+        ASSERT_EQ(count(slot, SectionElementKind::Arc), 2);
+        ASSERT_EQ(count(slot, SectionElementKind::Line), 2);
+        for (const SectionElement& e : slot.elements) {
+            if (e.kind == SectionElementKind::Arc) {
+                EXPECT_NEAR(e.radius_mm, 10, 0.020);
+            } else {
+                EXPECT_NEAR(cv::norm(e.end - e.start), 2, 0.05);
+                EXPECT_TRUE(e.tangent_to_next);
+            }
+        }
+    }
+    const auto polygon = [](int sides, double side) {
+        std::vector<cv::Vec2d> vertices;
+        const double radius = side / (2 * std::sin(kPi / sides));
+        for (int k = 0; k < sides; ++k) vertices.push_back(radius * cv::Vec2d(std::cos(2 * kPi * k / sides), std::sin(2 * kPi * k / sides)));
+        return vertices;
+    };
+    for (const auto& [sides, side] : {std::pair{6, 2.0}, std::pair{12, 1.5}}) {
+        SCOPED_TRACE(std::to_string(sides) + " sides");
+        const SectionFit fit = fit_section(chorded(polygon(sides, side), 3), true);
+        EXPECT_EQ(count(fit, SectionElementKind::Arc) + count(fit, SectionElementKind::Circle), 0);
+        EXPECT_EQ(count(fit, SectionElementKind::Line), sides);
+    }
+    std::mt19937 random(29);
+    std::vector<cv::Vec2d> vertices;
+    add_side(vertices, {25, -18}, {25, 18}, 0, random);
+    add_side(vertices, {25, 18}, {-25, 18}, 0, random);
+    add_side(vertices, {-25, 18}, {-25, -17.5}, 0, random);
+    vertices.push_back({-25, -17.5});  // the chamfer's chord to the next side's first vertex
+    add_side(vertices, {-24.5, -18}, {25, -18}, 0, random);
+    const SectionFit chamfered = fit_section(chorded(vertices, 1), true);
+    EXPECT_EQ(count(chamfered, SectionElementKind::Arc), 0);
+}
