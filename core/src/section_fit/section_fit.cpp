@@ -17,8 +17,7 @@ namespace picoscan {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// A piece of a section shorter than this is no element of the part: a corner a mesh rounded, or a
-// facet's chord on a curve.
+// A piece of a section shorter than this is no element of the part: a corner a mesh rounded or cut off.
 constexpr double kSmallestElementMm = 1.0;
 
 // A fitted line (point + unit direction) or circle (centre + radius), before it becomes an element.
@@ -1178,8 +1177,12 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
         const cv::Vec2d near = 0.5 * (pts[spans[j].first + spans[j].count - 1] + pts[spans[k].first]);
         bool tangent = can_be_tangent(a, b, result.tolerance_mm);
         const cv::Vec2d point = joint(a, b, near, tangent);
-        // A joint far from the points (nearly parallel neighbours) is not trusted: keep the ends.
-        if (cv::norm(point - near) > 10 * result.tolerance_mm + 2 * cv::norm(pts[spans[k].first] - near)) continue;
+        // A joint far from the points (nearly parallel neighbours) is not trusted: keep the ends. A
+        // tangent joint may lie up to sqrt(2 r t) from them: so far an arc of radius r stays within the
+        // tolerance t of its tangent line (0.32 mm for 10 mm), and either may have taken the points there.
+        double reach = 10 * result.tolerance_mm + 2 * cv::norm(pts[spans[k].first] - near);
+        if (tangent) reach += std::sqrt(2 * std::min(a.circle ? a.radius : HUGE_VAL, b.circle ? b.radius : HUGE_VAL) * result.tolerance_mm);
+        if (cv::norm(point - near) > reach) continue;
         result.elements[j].end = point;
         result.elements[k].start = point;
         // Tangent, not a cusp: the two run on in about the same direction there.
@@ -1194,48 +1197,142 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
 // The corners of a faceted cut. A plane cuts a mesh's curved face (a fillet, a hole) along the
 // chords of its facets: the chords' ends (where the cut crosses an edge along the curve) lie on the
 // true curve, the points between them (where it crosses a facet's diagonal) on the straight chord, up
-// to c^2 / (8 r) inside the curve for a chord of length c on radius r. With chords coarse for the
-// tolerance (1 mm chords on a 5 mm fillet sag 0.025 mm), no arc holds every point within it. So the
-// points strictly inside a straight run shorter than kSmallestElementMm (a facet's chord: no element
-// of the part is that short) are not fitted; the run's ends are. A straight run that long is a line
-// of the part and keeps all its points. `kept` gives the index of each point kept.
+// to c^2 / (8 r) inside the curve for a chord of length c on radius r. A circle fitted to every point
+// lies between the two, off the true radius by up to half that sag (56 um for 3 mm chords on a 10 mm
+// hole), and none holds them all once the sag passes about twice the tolerance. Where the chords'
+// ends lie on one curve (facet_runs), only they are fitted.
+//
+// Points of a polyline where it turns: not within the rounding of a mesh's float vertices (a few
+// 1e-7 of their coordinates: 1e-5 mm at 25 mm) of the line through their neighbours, allowed 1e-6
+// of the coordinates. A scan mesh's cut turns at every point by its noise (its facets are not
+// coplanar), so there every point turns and no chord has inner points.
+std::vector<long> turning_points(const std::vector<cv::Vec2d>& polyline, bool closed) {
+    constexpr double kStraightRelative = 1e-6;
+    const long n = long(polyline.size());
+    const Points pts{polyline, closed};
+    std::vector<long> turning;
+    for (long i = 0; i < n; ++i) {
+        if (!closed && (i == 0 || i == n - 1)) {
+            turning.push_back(i);
+            continue;
+        }
+        const cv::Vec2d a = pts[i - 1], b = pts[i + 1], d = b - a;
+        const double length = cv::norm(d);
+        const cv::Vec2d p = pts[i] - a;
+        const double along = length > 0 ? p.dot(d) / length : 0;
+        const double straight = kStraightRelative * std::max({1.0, cv::norm(a), cv::norm(b)});
+        if (length == 0 || along <= 0 || along >= length || std::abs(p[0] * d[1] - p[1] * d[0]) / length > straight)
+            turning.push_back(i);
+    }
+    return turning;
+}
+
+// A run of chords along one curve: the polyline indices of its first and last chord ends (`last`
+// past the end of a closed polyline wraps; first + n: the whole loop).
+struct FacetRun {
+    long first = 0, last = 0;
+};
+
+// Chords whose ends turn alike, by the geometry alone: at least 4 chords in a row, each end between
+// two of them turning the same way by at most kLargestFacetTurnDeg, the turn per length of chord
+// (the curvature) within 25 % of the next end's, and neighbouring chords within 2 x of each other's
+// length. A real polygon turns more at each corner (a hexagon 60 deg, an octagon 45, a 0.5 mm
+// chamfer 45); a real straight piece between two arcs (tangent to them) turns into them by half a
+// chord's turn, which breaks the run. Whether the ends lie on one circle within the tolerance is
+// on_one_circle's to say.
+constexpr double kLargestFacetTurnDeg = 20;
+std::vector<FacetRun> facet_runs(const std::vector<cv::Vec2d>& polyline, bool closed) {
+    const long n = long(polyline.size());
+    std::vector<long> w = turning_points(polyline, closed);
+    const long count = long(w.size());
+    std::vector<FacetRun> runs;
+    if (count < 4) return runs;
+    if (closed) w.push_back(w[0] + n);  // chord k runs from w[k] to w[k + 1]
+    const long chords = long(w.size()) - 1;
+    const Points pts{polyline, closed};
+    const auto chord_vector = [&](long k) {
+        const long j = (k % chords + chords) % chords;
+        return cv::Vec2d(pts[w[size_t(j + 1)]] - pts[w[size_t(j)]]);
+    };
+    // Vertex k joins chord k - 1 to chord k (k = 1 .. chords - 1 open; all closed).
+    const auto curvature = [&](long k, bool& facet) {
+        const cv::Vec2d a = chord_vector(k - 1), b = chord_vector(k);
+        const double la = cv::norm(a), lb = cv::norm(b);
+        const double turn = std::atan2(a[0] * b[1] - a[1] * b[0], a.dot(b));
+        facet = turn != 0 && std::abs(turn) <= kLargestFacetTurnDeg * kPi / 180 && std::max(la, lb) <= 2 * std::min(la, lb);
+        return turn / (0.5 * (la + lb));
+    };
+    const long first_vertex = closed ? 0 : 1, vertices = closed ? chords : chords - 1;
+    std::vector<bool> facet(static_cast<size_t>(vertices)), alike_next(static_cast<size_t>(vertices), false);
+    std::vector<double> kappa(static_cast<size_t>(vertices));
+    for (long v = 0; v < vertices; ++v) {
+        bool is_facet = false;
+        kappa[size_t(v)] = curvature(first_vertex + v, is_facet);
+        facet[size_t(v)] = is_facet;
+    }
+    for (long v = 0; v < vertices; ++v) {
+        const long next = closed ? (v + 1) % vertices : v + 1;
+        if (next >= vertices) continue;
+        const double a = kappa[size_t(v)], b = kappa[size_t(next)];
+        alike_next[size_t(v)] = facet[size_t(v)] && facet[size_t(next)] && a * b > 0 &&
+                                std::abs(a - b) <= 0.25 * std::max(std::abs(a), std::abs(b));
+    }
+    // Runs of vertices each alike the next; closed: started after a break, or the whole loop.
+    long begin = 0;
+    if (closed) {
+        while (begin < vertices && alike_next[size_t((begin + vertices - 1) % vertices)]) ++begin;
+        if (begin == vertices) return {{w[0], w[0] + n}};
+    }
+    for (long v = begin; v < begin + vertices;) {
+        long last = v;  // the run's vertices are v .. last
+        while (last < begin + vertices - 1 && alike_next[size_t(last % vertices)]) ++last;
+        // 4 chords or more: chords (first_vertex + v - 1) .. (first_vertex + last). Their 5 ends or more
+        // test a circle (3 unknowns) twice; any 4 ends of a symmetric run lie on one (a short straight
+        // side between two arcs with a chord of each).
+        if (last - v + 1 >= 3) {
+            const long first_chord = first_vertex + v - 1, last_chord = first_vertex + last;
+            const long from = w[size_t((first_chord % chords + chords) % chords)];
+            long to = w[size_t(((last_chord % chords + chords) % chords) + 1)];
+            if (to <= from) to += n;
+            runs.push_back({from, to});
+        }
+        v = last + 1;
+    }
+    return runs;
+}
+
+// Whether a run's chord ends lie on one circle within the tolerance, and its chords sag enough for
+// it to matter (more than a tenth of the tolerance: a straight side's noise makes runs of a huge
+// radius).
+bool on_one_circle(const std::vector<cv::Vec2d>& polyline, bool closed, const FacetRun& run, double tolerance,
+                   const SectionFitOptions& options) {
+    const Points pts{polyline, closed};
+    const std::vector<long> turning = turning_points(polyline, closed);
+    std::vector<cv::Vec2d> ends;
+    for (long i = run.first; i <= run.last && long(ends.size()) < long(polyline.size()); ++i)
+        if (std::binary_search(turning.begin(), turning.end(), i % long(polyline.size()))) ends.push_back(pts[i]);
+    const Points end_points{ends, false};
+    const Shape circle = fit_circle(end_points, 0, long(ends.size()));
+    if (!circle.ok || circle.radius > options.max_arc_radius_mm) return false;
+    double longest = 0;
+    for (size_t k = 1; k < ends.size(); ++k) longest = std::max(longest, cv::norm(ends[k] - ends[k - 1]));
+    return longest * longest / (8 * circle.radius) > 0.1 * tolerance && max_distance(circle, end_points, 0, long(ends.size())) <= tolerance;
+}
+
+// The polyline without the points strictly inside the chords of `runs`; `kept` gives the index of
+// each point kept.
 struct Corners {
     std::vector<cv::Vec2d> points;
     std::vector<long> kept;
 };
-Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed) {
-    // Straight: within the rounding of a mesh's float vertices (a few 1e-7 of their coordinates: 1e-5 mm
-    // at 25 mm) of the line through its neighbours, allowed 1e-6 of the coordinates. A scan mesh's cut
-    // turns at every point by its noise (its facets are not coplanar), so it keeps (nearly) every point.
-    constexpr double kStraightRelative = 1e-6;
+Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed, const std::vector<FacetRun>& runs) {
     const long n = long(polyline.size());
-    const Points pts{polyline, closed};
-    std::vector<bool> turns(size_t(n), true);
-    for (long i = closed ? 0 : 1; i < (closed ? n : n - 1); ++i) {
-        const cv::Vec2d a = pts[i - 1], b = pts[i + 1], d = b - a;
-        const double length = cv::norm(d);
-        if (length == 0) continue;
-        const cv::Vec2d p = pts[i] - a;
-        const double along = p.dot(d) / length;
-        const double straight = kStraightRelative * std::max({1.0, cv::norm(a), cv::norm(b)});
-        turns[size_t(i)] = along <= 0 || along >= length || std::abs(p[0] * d[1] - p[1] * d[0]) / length > straight;
-    }
-    Corners corners;
-    const long start = long(std::find(turns.begin(), turns.end(), true) - turns.begin());
-    if (start == n) {  // no corner at all (a closed polyline cannot be straight all round)
-        corners.points = polyline;
-        for (long i = 0; i < n; ++i) corners.kept.push_back(i);
-        return corners;
-    }
+    const std::vector<long> turning = turning_points(polyline, closed);
     std::vector<bool> keep(size_t(n), true);
-    for (long i = start; i < start + (closed ? n : n - start);) {  // each corner to the next
-        long next = i + 1;
-        while (next < start + n && !turns[size_t(next % n)]) ++next;
-        if (!closed && next >= n) break;
-        if (next - i > 1 && cv::norm(pts[next] - pts[i]) < kSmallestElementMm)
-            for (long k = i + 1; k < next; ++k) keep[size_t(k % n)] = false;
-        i = next;
-    }
+    for (const FacetRun& run : runs)
+        for (long i = run.first + 1; i < run.last; ++i)
+            if (!std::binary_search(turning.begin(), turning.end(), i % n)) keep[size_t(i % n)] = false;
+    Corners corners;
     for (long i = 0; i < n; ++i)
         if (keep[size_t(i)]) {
             corners.points.push_back(polyline[size_t(i)]);
@@ -1244,34 +1341,37 @@ Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed) {
     return corners;
 }
 
-// Fits a polyline with all its points; when they cannot be split into elements within the tolerance
-// and the polyline has chords (corners_of), its corners (and the parallel cuts' corners, for arcs),
-// with the elements given back in the polyline's own numbering: each element takes the points up to
-// the next one's first. An arc's or circle's chord_sag_mm is then the largest sag c^2 / (8 r) of the
-// chords whose inner points were not fitted: they lie up to that far inside it. (All points first: a
-// scan mesh's flattened faces give short straight runs too, and a side's line is better with them.)
-SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
-                            const std::vector<ParallelCut>& parallel_cuts, double noise_mm) {
-    const Corners corners = corners_of(polyline, closed);
+// The points a polyline's noise is measured on: without the inner points of chords that turn alike
+// (facet_runs), whose sag is no noise (it read 0.038 mm on a slot of 2 mm chords on 10 mm arcs).
+std::vector<cv::Vec2d> without_chord_middles(const std::vector<cv::Vec2d>& polyline, bool closed) {
+    return corners_of(polyline, closed, facet_runs(polyline, closed)).points;
+}
+
+// The faceted runs of a polyline whose ends lie on one circle within the tolerance.
+std::vector<FacetRun> curved_facet_runs(const std::vector<cv::Vec2d>& polyline, bool closed, double tolerance,
+                                        const SectionFitOptions& options) {
+    std::vector<FacetRun> runs;
+    for (const FacetRun& run : facet_runs(polyline, closed))
+        if (on_one_circle(polyline, closed, run, tolerance, options)) runs.push_back(run);
+    return runs;
+}
+
+// A fit of `corners` given back in the polyline's own numbering: each element starts at its first point
+// fitted and runs to the next one's first; point_count stays the points fitted. An arc's or circle's
+// chord_sag_mm is the largest sag c^2 / (8 r) of the chords whose inner points were not fitted: they
+// lie up to that far inside it.
+SectionFit in_polyline_numbering(SectionFit fit, const std::vector<cv::Vec2d>& polyline, bool closed, const Corners& corners) {
     const long n = long(polyline.size()), m = long(corners.points.size());
-    try {
-        return fit_points(polyline, closed, options, parallel_cuts, parallel_cuts, noise_mm);
-    } catch (const Error& error) {
-        if (m == n || error.subject() != "polyline") throw;
-    }
-    std::vector<ParallelCut> corner_cuts;
-    for (const ParallelCut& cut : parallel_cuts) corner_cuts.push_back({cut.offset_mm, corners_of(cut.points, false).points});
-    SectionFit fit = fit_points(corners.points, closed, options, parallel_cuts, corner_cuts, noise_mm);
     const auto original = [&](long i) { return corners.kept[size_t(((i % m) + m) % m)]; };
     for (size_t j = 0; j < fit.elements.size(); ++j) {
         SectionElement& e = fit.elements[j];
         const long first = original(e.first_point);
         const bool runs_to_end = !closed && e.first_point + e.point_count >= m;
         const long end = runs_to_end ? n : original(e.first_point + e.point_count);
+        const long span = e.point_count >= m ? n : ((end - first) % n + n) % n;  // polyline points up to the next element
         e.first_point = int(first);
-        e.point_count = int(e.point_count >= m ? n : ((end - first) % n + n) % n);
         if (e.kind == SectionElementKind::Line) continue;
-        for (long k = 0; k + 1 < e.point_count; ++k) {  // chords within the element
+        for (long k = 0; k + 1 < span; ++k) {  // chords within the element
             const long a = first + k;
             if (!closed && a + 1 >= n) break;
             if (std::binary_search(corners.kept.begin(), corners.kept.end(), (a + 1) % n)) continue;
@@ -1285,6 +1385,62 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
     return fit;
 }
 
+// Straight runs between two turning points shorter than kSmallestElementMm (no element of the part is
+// that short: a corner a mesh cut off, a 0.5 mm chamfer), as runs whose inner points carry nothing
+// the run's ends do not.
+std::vector<FacetRun> short_straight_runs(const std::vector<cv::Vec2d>& polyline, bool closed) {
+    const long n = long(polyline.size());
+    std::vector<long> w = turning_points(polyline, closed);
+    if (w.empty()) return {};
+    if (closed) w.push_back(w[0] + n);
+    std::vector<FacetRun> runs;
+    const Points pts{polyline, closed};
+    for (size_t k = 0; k + 1 < w.size(); ++k)
+        if (w[k + 1] - w[k] > 1 && cv::norm(pts[w[k + 1]] - pts[w[k]]) < kSmallestElementMm) runs.push_back({w[k], w[k + 1]});
+    return runs;
+}
+
+// Fits a polyline. Where it has chords whose ends lie on one curve (curved_facet_runs), to those ends
+// first (and the parallel cuts' likewise, for arcs); then, or else, with all its points; and when
+// those cannot be split into elements within the tolerance, without the inner points of straight runs
+// shorter than kSmallestElementMm (short_straight_runs). An element fitted without some points is
+// given back in the polyline's numbering (in_polyline_numbering).
+SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
+                            const std::vector<ParallelCut>& parallel_cuts, double noise_mm) {
+    const double tolerance = tolerance_for(noise_mm, options);
+    const auto fit_without = [&](const std::vector<FacetRun>& runs,
+                                 const std::function<std::vector<FacetRun>(const std::vector<cv::Vec2d>&)>& cut_runs) {
+        const Corners corners = corners_of(polyline, closed, runs);
+        std::vector<ParallelCut> corner_cuts;
+        for (const ParallelCut& cut : parallel_cuts)
+            corner_cuts.push_back({cut.offset_mm, corners_of(cut.points, false, cut_runs(cut.points)).points});
+        return in_polyline_numbering(fit_points(corners.points, closed, options, parallel_cuts, corner_cuts, noise_mm), polyline,
+                                     closed, corners);
+    };
+    const auto refused = [](const Error& error) { return error.subject() == "polyline"; };
+    const std::vector<FacetRun> curved = curved_facet_runs(polyline, closed, tolerance, options);
+    if (!curved.empty()) {
+        try {
+            SectionFit fit = fit_without(curved, [&](const std::vector<cv::Vec2d>& cut) { return curved_facet_runs(cut, false, tolerance, options); });
+            // Chord ends are a mesh's vertices, on the part within its noise: an element passing a
+            // point 3 x the tolerance away has swallowed a real piece too short for an element of its
+            // own (a 2 mm side of 3 points between two arcs, 0.05 mm off the arc that took it).
+            if (std::all_of(fit.elements.begin(), fit.elements.end(),
+                            [&](const SectionElement& e) { return e.max_mm <= 3 * fit.tolerance_mm; }))
+                return fit;
+        } catch (const Error& error) {
+            if (!refused(error)) throw;
+        }
+    }
+    const std::vector<FacetRun> short_runs = short_straight_runs(polyline, closed);
+    try {
+        return fit_points(polyline, closed, options, parallel_cuts, parallel_cuts, noise_mm);
+    } catch (const Error& error) {
+        if (short_runs.empty() || !refused(error)) throw;
+    }
+    return fit_without(short_runs, [&](const std::vector<cv::Vec2d>& cut) { return short_straight_runs(cut, false); });
+}
+
 }  // namespace
 
 SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options) {
@@ -1296,7 +1452,8 @@ SectionFit fit_extruded_section(const std::vector<cv::Vec2d>& input, bool closed
     check_tolerance(options);
     check_cuts(parallel_cuts);
     const std::vector<cv::Vec2d> polyline = distinct_points(input, closed);
-    return fit_section_with(polyline, closed, options, parallel_cuts, estimate_noise({polyline, closed}, options.noise_window_mm));
+    return fit_section_with(polyline, closed, options, parallel_cuts,
+                            estimate_noise({without_chord_middles(polyline, closed), closed}, options.noise_window_mm));
 }
 
 SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
@@ -1319,7 +1476,8 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
     SectionFits result;
     std::vector<double> windows;
     for (size_t k = 0; k < polylines.size(); ++k)
-        if (big_enough(k)) window_noises({polylines[k], input[k].closed}, options.noise_window_mm, windows);
+        if (big_enough(k))
+            window_noises({without_chord_middles(polylines[k], input[k].closed), input[k].closed}, options.noise_window_mm, windows);
     result.noise_mm = median(windows);
     result.tolerance_mm = tolerance_for(result.noise_mm, options);
 
@@ -1337,7 +1495,7 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         if (!big_enough(k)) {
             reason = "fewer points than the " + std::to_string(std::max(4, options.min_polyline_points)) +
                      " a feature of the part needs (min_polyline_points)";
-        } else if (const double own = estimate_noise({points, closed}, options.noise_window_mm);
+        } else if (const double own = estimate_noise({without_chord_middles(points, closed), closed}, options.noise_window_mm);
                    own > result.tolerance_mm && (options.tolerance_mm > 0 || own > options.loop_noise_limit_mm)) {
             reason = "its points scatter by " + number(own) + " mm about short line or arc fits, more than the section's "
                      "tolerance of " + number(result.tolerance_mm) + " mm" +
