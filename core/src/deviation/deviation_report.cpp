@@ -1,4 +1,5 @@
 // Figures, histogram, colours, PLY and HTML report of a deviation map.
+#include "common/text_format.h"
 #include "picoscan/deviation.h"
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
@@ -8,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <sstream>
 
 namespace picoscan {
@@ -90,12 +90,6 @@ void write_deviation_ply(const std::vector<cv::Vec3f>& points, const DeviationMa
 }
 
 namespace {
-
-std::string format(const char* pattern, double value) {
-    char text[64];
-    std::snprintf(text, sizeof text, pattern, value);
-    return text;
-}
 
 std::string summary_line(const DeviationStatistics& s, double tolerance_mm) {
     return format("mean %+.4f mm", s.mean_mm) + format(", sigma %.4f mm", s.sigma_mm) +

@@ -1,11 +1,11 @@
 // The part frame recipe: a scan placed Z up on its turntable's axis or its base plane.
+#include "common/text_format.h"
 #include "picoscan/error.h"
 #include "picoscan/pipeline.h"
 #include "picoscan/shapes.h"
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 namespace picoscan {
@@ -18,12 +18,6 @@ const cv::Vec3d kCameraUp(0, -1, -1);
 // Camera x made square to Z, or its y when x is nearly along Z.
 cv::Vec3d x_hint_for(const cv::Vec3d& up) {
     return std::abs(up.dot(cv::Vec3d(1, 0, 0))) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
-}
-
-std::string format(const char* pattern, double a, double b = 0, double c = 0) {
-    char text[160];
-    std::snprintf(text, sizeof text, pattern, a, b, c);
-    return text;
 }
 
 PartFrame on_turntable(const PointCloud& cloud, const TurntableAxis& axis) {

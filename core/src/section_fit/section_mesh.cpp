@@ -1,10 +1,9 @@
 // The Cross-section in one call: the cut with its Band, the fit, the report.
+#include "common/text_format.h"
 #include "picoscan/error.h"
 #include "picoscan/section_fit.h"
 
 #include <cmath>
-#include <cstdarg>
-#include <cstdio>
 #include <string>
 
 namespace picoscan {
@@ -12,16 +11,6 @@ namespace picoscan {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-std::string format(const char* pattern, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char* pattern, ...) {
-    char text[1024];
-    va_list arguments;
-    va_start(arguments, pattern);
-    std::vsnprintf(text, sizeof text, pattern, arguments);
-    va_end(arguments);
-    return text;
-}
 
 std::string point_text(const cv::Vec2d& p) { return format("(%.4f, %.4f)", p[0], p[1]); }
 std::string vector_text(const cv::Vec3d& v) { return format("(%.4f, %.4f, %.4f)", v[0], v[1], v[2]); }
