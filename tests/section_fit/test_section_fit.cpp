@@ -1164,6 +1164,7 @@ TEST(SectionFit, AFilletWhoseChordsSagAboutTheToleranceIsOneArc) {
 // angular deflection) on radii of 10-20 mm, with and without noise on its vertices: one circle of
 // its radius, fitted to the chords' ends.
 TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
+    double worst = 0;
     for (const double radius : {10.0, 15.0, 20.0}) {
         for (const double chord : {1.0, 2.0, 3.0}) {
             for (const double sigma : {0.0, 0.001}) {
@@ -1186,6 +1187,7 @@ TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
                 const SectionElement& hole = fit.elements[0];
                 EXPECT_EQ(hole.kind, SectionElementKind::Circle);
                 EXPECT_NEAR(hole.radius_mm, radius, 0.020);
+                worst = std::max(worst, std::abs(hole.radius_mm - radius));
                 EXPECT_NEAR(cv::norm(hole.centre - cv::Vec2d(3, -4)), 0, 0.020);
                 EXPECT_EQ(hole.point_count, chords);
                 const double c = 2 * radius * std::sin(kPi / chords);
@@ -1193,6 +1195,7 @@ TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
             }
         }
     }
+    std::printf("holes of 10-20 mm in chords of 1-3 mm, 0 and 1 um noise: radius within %.4f mm\n", worst);
 }
 
 // Built to fool the chords' test: a slot of two faceted half circles (10 mm, 1 mm chords) joined by
@@ -1213,10 +1216,6 @@ TEST(SectionFit, ShortRealSidesAndPolygonsStayLines) {
         // swallowed by the arcs.
         const std::string refused = test_support::error_of([&] { fit_section(chorded(vertices, 1), true); });
         EXPECT_EQ(refused.rfind("polyline", 0), 0u) << refused;
-        if (refused.empty()) {
-            const SectionFit f = fit_section(chorded(vertices, 1), true);
-            for (const SectionElement& e : f.elements) std::printf("  3-point side: %s\n", section_element_text(e).c_str());
-        }
         const SectionFit slot = fit_section(chorded(vertices, 3), true);
         ASSERT_EQ(count(slot, SectionElementKind::Arc), 2);
         ASSERT_EQ(count(slot, SectionElementKind::Line), 2);
@@ -1259,8 +1258,7 @@ TEST(SectionFit, RealPolygonsWithShortSidesStayLines) {
     add_side(vertices, {-25, 18}, {-25, -17.5}, 0, random);
     vertices.push_back({-25, -17.5});  // the chamfer's chord to the next side's first vertex
     add_side(vertices, {-24.5, -18}, {25, -18}, 0, random);
-    const std::string why = test_support::error_of([&] { fit_section(chorded(vertices, 1), true); });
-    std::printf("chamfer: %s\n", why.c_str());
+    EXPECT_EQ(test_support::error_of([&] { fit_section(chorded(vertices, 1), true); }), "");
     const SectionFit chamfered = fit_section(chorded(vertices, 1), true);
     EXPECT_EQ(count(chamfered, SectionElementKind::Arc), 0);
 }
