@@ -1201,8 +1201,7 @@ TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
 // Built to fool the chords' test: a slot of two faceted half circles (10 mm, 1 mm chords) joined by
 // real straight sides of 2 mm (each split by facets' diagonals like a chord): the sides turn into
 // the arcs by half a chord's turn, so they stay lines; and real polygons whose corners lie on one
-// circle and turn alike, but far more than a curve's facets: a hexagon of 2 mm sides (60 deg), a
-// 12-gon of 1.5 mm sides (30 deg), and the block's corner chamfered 0.5 mm: no arc.
+// circle and turn alike, but far more than a curve's facets (RealPolygonsWithShortSidesStayLines).
 TEST(SectionFit, ShortRealSidesAndPolygonsStayLines) {
     for (const double sigma : {0.0, 0.001}) {
         SCOPED_TRACE("sigma " + std::to_string(sigma));
@@ -1230,6 +1229,9 @@ TEST(SectionFit, ShortRealSidesAndPolygonsStayLines) {
     }
 }
 
+// Real polygons whose corners lie on one circle and turn alike, but by more than a curve's facets:
+// hexagons of 5.77 and 2 mm sides (60 deg), 12-gons of 3 and 1.5 mm sides (30 deg), each side split
+// by facets' diagonals; and the block's corner chamfered 0.5 mm (45 deg): lines, no arc.
 TEST(SectionFit, RealPolygonsWithShortSidesStayLines) {
     const auto polygon = [](int sides, double side) {
         std::vector<cv::Vec2d> vertices;
