@@ -1201,8 +1201,8 @@ TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
 // Built to fool the chords' test: a slot of two faceted half circles (10 mm, 1 mm chords) joined by
 // real straight sides of 2 mm (each split by facets' diagonals like a chord): the sides turn into
 // the arcs by half a chord's turn, so they stay lines; and real polygons whose corners lie on one
-// circle and turn alike, but far more than a curve's facets (RealPolygonsWithShortSidesStayLines).
-TEST(SectionFit, ShortRealSidesAndPolygonsStayLines) {
+// circle and turn alike, but by more than a curve's facets: RealPolygonsWithShortSidesStayLines.
+TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
     for (const double sigma : {0.0, 0.001}) {
         SCOPED_TRACE("sigma " + std::to_string(sigma));
         std::mt19937 random(23);
