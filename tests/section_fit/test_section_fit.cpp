@@ -1121,14 +1121,8 @@ TEST(SectionFit, AFilletWhoseChordsSagAboutTheToleranceIsOneArc) {
                     SCOPED_TRACE("radius " + std::to_string(radius) + ", " + std::to_string(chords) + " chords, " +
                                  std::to_string(inner) + " inner points, sigma " + std::to_string(sigma));
                     const std::vector<cv::Vec2d> polyline = block_with_faceted_fillet(radius, chords, inner, sigma, 11);
-                    std::string refused;
                     SectionFit fit;
-                    try {
-                        fit = fit_section(polyline, true);
-                    } catch (const Error& e) {
-                        refused = e.what();
-                    }
-                    ASSERT_EQ(refused, "");
+                    ASSERT_EQ(test_support::error_of([&] { fit = fit_section(polyline, true); }), "");
                     const double c = 2 * radius * std::sin(kPi / 4 / chords), sag = c * c / (8 * radius);
                     std::printf("r %4.1f mm, %2d chords of %.3f mm (%d inner, sigma %.3f): sag %.4f mm = %.2f x tolerance: "
                                 "%d lines, %d arcs\n",
@@ -1175,14 +1169,8 @@ TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
                 std::vector<cv::Vec2d> vertices;
                 add_faceted_arc(vertices, {3, -4}, radius, 0, 360, chords, sigma, random);
                 const std::vector<cv::Vec2d> polyline = chorded(vertices, 1);
-                std::string refused;
                 SectionFit fit;
-                try {
-                    fit = fit_section(polyline, true);
-                } catch (const Error& e) {
-                    refused = e.what();
-                }
-                ASSERT_EQ(refused, "");
+                ASSERT_EQ(test_support::error_of([&] { fit = fit_section(polyline, true); }), "");
                 ASSERT_EQ(fit.elements.size(), 1u);
                 const SectionElement& hole = fit.elements[0];
                 EXPECT_EQ(hole.kind, SectionElementKind::Circle);
