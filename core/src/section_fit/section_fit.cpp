@@ -760,18 +760,27 @@ Band band_of(const Shape& shape, const Points& pts, long first, long count, cons
     };
     Trend trend = trend_of(heights);
     if (!significant(trend)) return keep(heights);
-    // A cut next to a height that does not follow the element may be where the face ends (the block's
-    // top, 0.38 mm above such a cut on the demo scan), which a mesh rounds over a sample spacing or
-    // two: that cut lay 0.015-0.017 mm inside the wall the other 11-15 followed within 0.003 mm, and
-    // alone made a trend of 0.0100 mm (limit 0.0079-0.0086) at z = 21 and 22.5 mm. Such cuts are left
-    // out when the rest then show no trend; where they still do (a sphere, a cone, a draft: every
-    // cut drifts), the element keeps to its own cut.
-    std::set<double> inner = heights;
-    for (const double height : heights) {
+    // A cut next to a height that does not follow the element, or at the band's end, may be where the
+    // face ends (the block's top, 0.38 mm above such a cut on the demo scan), which a mesh rounds over a
+    // sample spacing or two: that cut lay 0.015-0.017 mm inside the wall the other cuts followed within
+    // 0.003 mm, and alone made a trend of 0.0100 mm (limit 0.0079-0.0086, 3 standard errors 0.0096-0.0102)
+    // at z = 21 and 22.5 mm. A cut with fewer than half the points of the median one grazes the edge
+    // itself (4 points of 230 at the top face's height). Such cuts are left out when the rest then show
+    // no trend; where they still do (a sphere, a cone, a draft: every cut drifts), the element keeps to
+    // its own cut.
+    std::vector<size_t> sizes;
+    for (const auto& [height, within] : following) sizes.push_back(within.size());
+    std::nth_element(sizes.begin(), sizes.begin() + long(sizes.size() / 2), sizes.end());
+    const size_t median_size = sizes.empty() ? 0 : sizes[sizes.size() / 2];
+    std::set<double> full = heights;  // the following heights not grazing an edge
+    for (const auto& [height, within] : following)
+        if (2 * within.size() < median_size) full.erase(height);
+    std::set<double> inner;
+    for (const double height : full) {
         const auto at = all_heights.find(height);
-        const bool below_ends = at != all_heights.begin() && *std::prev(at) != 0.0 && !heights.count(*std::prev(at));
-        const bool above_ends = std::next(at) != all_heights.end() && *std::next(at) != 0.0 && !heights.count(*std::next(at));
-        if (below_ends || above_ends) inner.erase(height);
+        const bool below_ends = at == all_heights.begin() || (*std::prev(at) != 0.0 && !full.count(*std::prev(at)));
+        const bool above_ends = std::next(at) == all_heights.end() || (*std::next(at) != 0.0 && !full.count(*std::next(at)));
+        if (!below_ends && !above_ends) inner.insert(height);
     }
     // Only a few of many: the rest must still be most of them and enough for a quadratic trend (5
     // heights with its own). A sphere 0.5 mm off its equator is followed by 5 cuts, its 2 outer ones
