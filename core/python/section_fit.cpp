@@ -39,7 +39,8 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("radius_mm", &SectionElement::radius_mm)
         .def_readonly("counter_clockwise", &SectionElement::counter_clockwise)
         .def_readonly("first_point", &SectionElement::first_point)
-        .def_readonly("point_count", &SectionElement::point_count)
+        .def_readonly("point_count", &SectionElement::point_count,
+                      "The points fitted (a faceted cut's chords' inner points not counted)")
         .def_readonly("rms_mm", &SectionElement::rms_mm)
         .def_readonly("max_mm", &SectionElement::max_mm)
         .def_readonly("chord_sag_mm", &SectionElement::chord_sag_mm,

@@ -71,14 +71,18 @@ struct SectionElement {
     cv::Vec2d centre;                  // arc and circle
     double radius_mm = 0;              // arc and circle
     bool counter_clockwise = true;     // arc: the polyline runs counter-clockwise around the centre
-    int first_point = 0, point_count = 0;  // the polyline points fitted (indices wrap on closed polylines)
-    double rms_mm = 0, max_mm = 0;     // distances of those points to the element
-    // A faceted cut (a mesh's curved face cut along its facets' chords, coarse for the tolerance):
-    // when a polyline cannot be split into elements within the tolerance with all its points, the
-    // points strictly inside a straight run shorter than 1 mm (on a chord, not on the curve) are left
-    // out of the fit; the residuals above are then those of the points fitted (the chords' ends, on
-    // the curve), and an arc's or circle's chord_sag_mm its largest chord sag c^2 / (8 r): how far
-    // inside it such points may lie. 0 otherwise.
+    // The element's points start at first_point and run to the next element's first_point (indices
+    // wrap on closed polylines); point_count counts those it was fitted to (fewer on a faceted cut).
+    int first_point = 0, point_count = 0;
+    double rms_mm = 0, max_mm = 0;     // distances of the points fitted to the element
+    // A faceted cut (a mesh's curved face cut along its facets' chords): where at least 4 chords in a
+    // row turn alike (by at most 20 deg each, the turn per length within 25 %) and their ends lie on
+    // one circle within the tolerance, whatever their length, the points strictly inside those chords
+    // (on the chord, not on the curve) are left out of the fit; so too, when a polyline cannot be split
+    // into elements within the tolerance otherwise, the points inside straight runs shorter than 1 mm.
+    // The residuals above are then those of the points fitted (the chords' ends, on the curve), and
+    // an arc's or circle's chord_sag_mm its largest chord sag c^2 / (8 r): how far inside it such
+    // points may lie. 0 otherwise.
     double chord_sag_mm = 0;
     // Standard errors of the fit, from the points it used (parallel cuts included) by the block
     // jackknife: the fit repeated without each run of about 1 mm along the element, since a
@@ -145,7 +149,9 @@ struct ParallelCut {
 // Each element checks that the part is prismatic there: where the mean offsets of its cuts from
 // it trend with their height (a straight or quadratic trend whose change over the cuts is more
 // than 3 standard errors and more than band_trend_fraction of the tolerance), it is fitted to
-// `polyline` alone and band_note says why.
+// `polyline` alone and band_note says why; unless the trend goes once the cuts at a face's end are
+// left out (those at the band's ends, or next to a height that no longer follows the element or only
+// grazes it: a mesh rounds the face's edge there) and at least 4 cuts, most of them, remain.
 // An arc or circle whose radius is not known within the tolerance (its standard error above the
 // tolerance and above 1 % of the radius: a short sliver of a curve) is refused, unless it is a
 // fillet tangent to both neighbours (their lines fix it):
