@@ -395,6 +395,20 @@ std::vector<Case> hostile_cases() {
                          return std::vector<std::string>{"stitch", "a.ply", "b.ply", "--out", "merged.ply"};
                      },
                      1, {"a.ply", "picoscan_grid"}});
+    // Coordinates: a view's points 1e15 mm away overflowed the registration's cell keys (UBSan).
+    cases.push_back({"stitch of views whose points lie 1e15 mm away", [](const fs::path& dir) {
+                         for (const char* name : {"a.ply", "b.ply"}) {
+                             std::string text = "ply\nformat ascii 1.0\ncomment picoscan_grid 20 20\nelement vertex 400\n"
+                                                "property float x\nproperty float y\nproperty float z\nproperty int pixel\n"
+                                                "end_header\n";
+                             for (int pixel = 0; pixel < 400; ++pixel)
+                                 text += std::to_string((pixel % 20) * 1e14) + " " + std::to_string((pixel / 20) * 1e14) +
+                                         " 3e17 " + std::to_string(pixel) + "\n";
+                             write_text(dir / name, text);
+                         }
+                         return std::vector<std::string>{"stitch", "a.ply", "b.ply", "--out", "merged.ply"};
+                     },
+                     1, {"a.ply", "beyond 1 km"}});
     cases.push_back({"calibration with projector_size 65536x65536", [](const fs::path& dir) {
                          std::string text = calibration_text(small_rig(), dir / "scratch.yml");
                          text.replace(text.find("projector_size: [ 64, 32 ]"), 26, "projector_size: [ 65536, 65536 ]");

@@ -111,6 +111,28 @@ TEST(HostilePly, ZeroSizedElementWithHugeCountIsSkippedQuickly) {
     EXPECT_TRUE(read_ply(dir + "/ghost.ply").vertices.empty());
 }
 
+// A view's point 1e15 mm away overflowed the registration's integer cell keys (UBSan, stitch):
+// the reader refuses points beyond 1 km and keeps those within.
+TEST(HostilePly, ViewPointsBeyondAKilometreAreRefused) {
+    const std::string dir = test_support::make_temp_dir("hostile");
+    auto view_file = [&](const std::string& name, const std::string& second_point) {
+        const std::string path = dir + "/" + name;
+        write_bytes(path, "ply\nformat ascii 1.0\ncomment picoscan_grid 2 1\nelement vertex 2\nproperty float x\n"
+                          "property float y\nproperty float z\nproperty int pixel\nend_header\n0 0 400 0\n" +
+                              second_point + " 1\n");
+        return path;
+    };
+    auto read_view = [](const std::string& path, const ProgressCallback&) {
+        read_view_ply(path);
+        return Mesh();
+    };
+    expect_error(read_view, view_file("far.ply", "1e15 0 400"), "vertex 1 lies beyond 1 km");
+    expect_error(read_view, view_file("below.ply", "0 -2000000 400"), "vertex 1 lies beyond 1 km");
+    expect_error(read_view, view_file("infinite.ply", "0 0 inf"), "vertex 1 lies beyond 1 km");
+    const ScanView near = read_view_ply(view_file("near.ply", "0 -999999 400"));
+    EXPECT_EQ(near.valid_count(), 2);
+}
+
 TEST(HostileStl, BrokenFilesThrowErrorNamingTheFile) {
     const std::string dir = test_support::make_temp_dir("hostile");
     std::string lying(84, '\0');

@@ -160,7 +160,9 @@ std::string plain_part_name(PlainPart part) {
 }
 
 const TurntableScan& plain_turntable_scan(PlainPart part) {
-    static std::map<PlainPart, TurntableScan> scans;
+    // Never destroyed: at exit, OpenCV's statics may go before this cache's cv::Mats, and
+    // freeing them then crashed test_register under AddressSanitizer (SEGV in Mat::deallocate).
+    static auto& scans = *new std::map<PlainPart, TurntableScan>;
     const auto found = scans.find(part);
     if (found != scans.end()) return found->second;
     TurntablePlan plan;
@@ -196,7 +198,9 @@ std::string placement_part_name(PlacementPart part) {
 }
 
 const TurntableScan& two_placement_scan(PlacementPart part) {
-    static std::map<PlacementPart, TurntableScan> scans;
+    // Never destroyed: at exit, OpenCV's statics may go before this cache's cv::Mats, and
+    // freeing them then crashed test_register under AddressSanitizer (SEGV in Mat::deallocate).
+    static auto& scans = *new std::map<PlacementPart, TurntableScan>;
     const auto found = scans.find(part);
     if (found != scans.end()) return found->second;
     Mesh mesh;
