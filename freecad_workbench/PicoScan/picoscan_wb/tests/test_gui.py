@@ -1377,16 +1377,19 @@ class PicoScanGuiTest(unittest.TestCase):
         panel = run("PicoScan_CrossSection", surface).panel
         panel.axis.setCurrentText("Z")
         panel.position.setValue(12.0)  # half the block's height, in the part frame
-        # The default tolerance (5 x the cut's noise) falls to its 0.005 mm floor on this mesh: Make
-        # solid's sharpening leaves its flat sides without noise. At z = 12 mm the mesh's vertical
-        # edge at (-25, 18) is cut off 0.58 mm deep (a facet across it), which no line or arc fits
-        # within 0.005 mm: the default is refused with the reason, and the user sets a tolerance, as
-        # the message says; 0.1 mm is about the stitched scan's own spread about the solid.
+        # The default tolerance (5 x the cut's noise) falls to its 0.005 mm floor on this mesh: the
+        # mesher's edge sharpening leaves its flat sides without noise. At z = 12 mm the mesh's
+        # vertical edge at (-25, 18) is cut off 0.58 mm deep (facets across it; 0.40 mm at z = 18,
+        # sharp at z = 6, 10, 14), which no line or arc fits within 0.005 mm: the default is refused
+        # with the reason and the advice to set a tolerance; 0.1 mm is about the stitched scan's
+        # own spread about the solid (p95 |d| 0.096 mm in the map below).
         panel.tolerance.setValue(0.1)
         self.assertTrue(panel.accept(), self.messages)
         sketch = panel.created
         FreeCAD.Console.PrintMessage("multi-view walkthrough, Cross-section at z = 12 mm: %s\n" % "; ".join(sketch.FitReport))
         self.assertEqual(len(sketch.FitReport), sketch.GeometryCount)
+        # The sketch's origin and axes are the part frame's (its coordinates are the part's).
+        self.assertLess((sketch.Placement.Base - FreeCAD.Vector(0, 0, 12)).Length, 1e-9, sketch.Placement)
         lines = [float(row.split("length ")[1].split()[0]) for row in sketch.FitReport if row.split(": ", 1)[1].startswith("line ")]
         # The block's outline at z = 12: the sides of 50 and 36 mm, those of 42 and 28 mm that the
         # chamfer shortens (the longer of them ends at the cut-off edge) and the chamfer (8 mm legs).
