@@ -1352,6 +1352,8 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertTrue(panel.accept(), self.messages)
         surface = panel.created
         self.assertEqual(surface.Fill, "Table")
+        # The property editor shows the Poisson's parameters, not the Grid's.
+        self.assertEqual((surface.getEditorMode("PixelStep"), surface.getEditorMode("SampleSpacing")), (["Hidden"], []))
         self.assertTrue(surface.Mesh.isSolid(), surface.Check)
         FreeCAD.Console.PrintMessage("multi-view walkthrough, Poisson (Fill Table): %d facets, %.1f mm3 (%+.2f %% "
                                      "of the part's); %s\n" % (surface.Mesh.CountFacets, surface.Mesh.Volume, 100 * (
