@@ -1260,13 +1260,10 @@ class PicoScanGuiTest(unittest.TestCase):
         self.walkthrough_screenshot("8-deviation-map", [maps[0]])
         self.assertEqual(self.messages, [])
 
-    # Out of the suite: it takes minutes (2026-11-24, branch cancelread: 180 s to the Cross-section
-    # step at load 11, 564 s at load 12 to 21), far beyond what the suite's time budget leaves. Its
-    # mesh is now repeatable: alone and after test_y in one process it gave the same Stitch, part
-    # frame, Poisson (Table) mesh (19 998 facets, 42 565 mm3), primitives and section. Both runs
-    # failed at the Cross-section: the 42 mm side and the rounded corner came out as lines of
-    # 35.505 and 40.873 mm (rms 0.078 and 0.031 mm, max 0.60 and 0.31 mm), not 36 mm and an arc; a
-    # run with main's scan_mesh.py (the meshes through STL) failed there the same way.
+    # Out of the suite: it takes minutes (2026-11-24, branch y2: 103 s at load 3.6 to 6.3, 143 s at
+    # load 4.1 to 8.9; the suite's budget leaves it about 60 s, and decoding, stitching, Poisson, Make
+    # solid and the map alone took 90-128 s of it). Last result and how to run it: docs/freecad.md,
+    # "Eight turntable views in the GUI".
     @unittest.skipUnless("test_y2_" in os.environ.get("PICOSCAN_GUI_TESTS", ""),
                          "run by name (scripts/walkthrough-screenshots): minutes long, beyond the suite's time budget")
     def test_y2_walkthrough_eight_turntable_views_to_cad_every_command_in_order(self):
