@@ -177,6 +177,21 @@ TEST(Deviation, WritesPlyWithQualityAndAReport) {
     EXPECT_THROW(write_deviation_ply({{0, 0, 0}}, map, folder + "/bad.ply"), Error);
 }
 
+// The histogram's colour scale is the map's legend: every label of it, the range's ends included,
+// must be whole on the picture (the last one, "+0.200", was cut off at its right edge).
+TEST(Deviation, HistogramLegendLabelsFitOnThePicture) {
+    const Mesh reference = box(10, true);
+    const DeviationMap map = measure_deviation({{5, 5, 10.01f}, {5, 5, 9.9f}, {5, 5, 10.2f}}, reference);
+    const cv::Mat image = plot_deviation_histogram(map, "box");
+    int inked_edge_pixels = 0;  // text or lines touching the left or right edge
+    for (int y = 0; y < image.rows; ++y)
+        for (const int x : {0, 1, image.cols - 2, image.cols - 1}) {
+            const cv::Vec3b pixel = image.at<cv::Vec3b>(y, x);
+            inked_edge_pixels += pixel[0] < 200 || pixel[1] < 200 || pixel[2] < 200;
+        }
+    EXPECT_EQ(inked_edge_pixels, 0);
+}
+
 TEST(Deviation, RefusesBadInputNamingIt) {
     const Mesh reference = box(10, true);
     const std::vector<cv::Vec3f> points = {{5, 5, 11}};

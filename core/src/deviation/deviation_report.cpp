@@ -106,7 +106,7 @@ std::string escape_html(const std::string& text) {
 }  // namespace
 
 cv::Mat plot_deviation_histogram(const DeviationMap& map, const std::string& title) {
-    const int width = 900, height = 480, left = 70, right = 20, top = 60, bottom = 70;
+    const int width = 900, height = 480, left = 70, right = 40, top = 60, bottom = 70;  // room for half a label
     cv::Mat image(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
     const int plot_w = width - left - right, plot_h = height - top - bottom;
     const size_t bins = map.histogram.size();
@@ -132,9 +132,12 @@ cv::Mat plot_deviation_histogram(const DeviationMap& map, const std::string& tit
     const auto text = [&](const std::string& s, cv::Point at, double scale = 0.45) {
         cv::putText(image, s, at, cv::FONT_HERSHEY_SIMPLEX, scale, ink, 1, cv::LINE_AA);
     };
-    for (int k = -4; k <= 4; ++k) {
+    for (int k = -4; k <= 4; ++k) {  // each label centred under its tick
         const double d = map.range_mm * k / 4;
-        text(format("%+.3f", d), {x_of(d) - 22, top + plot_h + 34});
+        const std::string label = format("%+.3f", d);
+        int baseline = 0;
+        const int label_w = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.45, 1, &baseline).width;
+        text(label, {x_of(d) - label_w / 2, top + plot_h + 34});
     }
     text("signed distance to the reference (mm); band: tolerance", {left, top + plot_h + 56});
     text(title, {left, 24}, 0.6);

@@ -75,6 +75,21 @@ class ScanMesh(DocumentObjectProxy):
         super().onDocumentRestored(obj)
         if not hasattr(obj, "Fill"):  # documents saved before the property existed
             self.add_fill(obj)
+        self.show_method_properties(obj)
+
+    def onChanged(self, obj, prop):
+        if prop == "Method":
+            self.show_method_properties(obj)
+
+    @staticmethod
+    def show_method_properties(obj):
+        """Only the chosen method's parameters in the property editor: a Poisson mesh showed the Grid's
+        PixelStep and MaxEdgeFactor, a Grid mesh the Surface's."""
+        grid = obj.Method == "Grid"
+        for name, used in (("PixelStep", grid), ("MaxEdgeFactor", grid), ("SampleSpacing", not grid),
+                           ("MaxHoleDiameter", not grid), ("TargetFaces", not grid), ("Fill", not grid)):
+            if hasattr(obj, name):
+                obj.setEditorMode(name, 0 if used else 2)  # 2: hidden
 
     @brief_input_errors
     def execute(self, obj):

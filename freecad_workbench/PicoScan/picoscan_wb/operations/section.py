@@ -14,15 +14,16 @@ AXES = {"X": Vector(1, 0, 0), "Y": Vector(0, 1, 0), "Z": Vector(0, 0, 1)}
 
 
 def section_plane(mesh, axis, offset_mm=None):
-    """(base, normal) of a plane across `axis`; through the mesh's bounding-box centre by default."""
+    """(base, normal) of a plane across `axis` at offset_mm (by default through the mesh's
+    bounding-box centre). The base is the document's origin moved onto the plane, so that the
+    sketch's own origin and axes are the document's (the part frame's): its coordinates are the
+    part's, as in a sketch on FreeCAD's XY plane with an offset."""
     if axis not in AXES:
         raise picoscan.Error("%s: section axis must be one of X, Y, Z" % axis)
     normal = AXES[axis]
-    centre = mesh.BoundBox.Center
-    base = Vector(centre)
-    if offset_mm is not None:
-        base = Vector(centre.x, centre.y, centre.z)
-        setattr(base, axis.lower(), float(offset_mm))
+    position = getattr(mesh.BoundBox.Center, axis.lower()) if offset_mm is None else float(offset_mm)
+    base = Vector(0, 0, 0)
+    setattr(base, axis.lower(), position)
     return base, normal
 
 
