@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 
 namespace picoscan::detail {
 
@@ -22,7 +21,11 @@ struct Circle2 {
 // A cylinder is taken as round when its vertices' RMS distance from it is at most max_rms_factor
 // x the noise, or this share of its radius when that is more: a smooth (Poisson) mesh's planes
 // are flat to a micrometre and its noise estimate says nothing of how round its walls are.
-constexpr double kRoundness = 0.0005;
+constexpr double kRoundness = 0.002;
+constexpr double kSquareToAxis = 0.26;  // sin(15 degrees)
+// The facets where a wall meets its ends (rounded by a smooth mesh) may change the volume by at
+// most this share of the mesh's when the cylinder and the planes are continued over them.
+constexpr double kRingVolumeShare = 1e-4;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -197,6 +200,9 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
         // keep the walls of one mesh apart.
         auto wall = [&](size_t f) { return !taken[f] && allowed(f) && (one_facet(f) || model.faces[f].merged) && along(f) < 0.5; };
         std::vector<char> in_wall(face_count, 0);
+        std::vector<size_t> square_planes;
+        for (size_t f = 0; f < face_count; ++f)
+            if (model.faces[f].merged && along(f) > 0.9) square_planes.push_back(f);
         for (size_t start = 0; start < face_count; ++start) {
             if (in_wall[start] || !one_facet(start) || !wall(start)) continue;
             std::vector<size_t> members{start};
@@ -221,15 +227,28 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
             // limit) go with it, and the planes at its ends are continued to the circles instead.
             const double ring = std::max(limits.distance, 2 * mean_edge(model, members));
             const size_t wall_count = members.size();
+            // How far a point is from the ideal surface there: the cylinder or a plane square to it.
+            auto off_surface = [&](const cv::Vec3d& p) {
+                const cv::Vec3d offset = p - seen.origin;
+                double off = std::abs(cv::norm(offset - offset.dot(axis) * axis) - seen.radius);
+                for (size_t h : square_planes)
+                    off = std::min(off, std::abs((p - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+                return off;
+            };
+            // What the facets next to the wall that go with it (within `ring` of the cylinder or of a
+            // plane square to it: the cylinder and the plane are continued over them) change the
+            // volume by, at most: each facet's area times its corners' largest distance.
+            double ring_volume = 0;
             for (size_t next = 0; next < members.size(); ++next)
                 for (size_t g : neighbours(members[next])) {
                     if (in_wall[g] || taken[g] || !one_facet(g)) continue;
-                    bool near = true;
-                    for (int k = 0; k < 3 && near; ++k) {
-                        const cv::Vec3d offset = model.vertices[size_t(model.faces[g].triangles[0][k])] - seen.origin;
-                        near = std::abs(cv::norm(offset - offset.dot(axis) * axis) - seen.radius) <= ring;
-                    }
-                    if (!near) continue;
+                    const cv::Vec3i& facet = model.faces[g].triangles[0];
+                    double off = 0;
+                    for (int k = 0; k < 3; ++k) off = std::max(off, off_surface(model.vertices[size_t(facet[k])]));
+                    if (!(off <= ring)) continue;
+                    const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])],
+                                    &r = model.vertices[size_t(facet[2])];
+                    ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * off;
                     in_wall[g] = 1;
                     members.push_back(g);
                 }
@@ -242,13 +261,7 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 for (size_t g : neighbours(f)) {
                     if (in_wall[g] || std::find(ends.begin(), ends.end(), g) != ends.end()) continue;
                     if (model.faces[g].merged && along(g) > 0.9) ends.push_back(g);
-                    else {
-                        ++other_faces;
-                        if (std::getenv("CYL_DEBUG")) {
-                            const cv::Vec3d o = model.faces[g].origin - seen.origin;
-                            std::fprintf(stderr, "DBG other %zu merged %d along %.3f tris %zu taken %d allowed %d radial %.3f\n", g, int(model.faces[g].merged), along(g), model.faces[g].triangles.size(), int(taken[g]), int(allowed(g)), cv::norm(o - o.dot(axis) * axis) - seen.radius);
-                        }
-                    }
+                    else ++other_faces;
                 }
             for (size_t f : members) taken[f] = 1;
 
@@ -268,6 +281,14 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 refuse(text);
                 continue;
             }
+            if (ring_volume > kRingVolumeShare * model.mesh_volume_mm3) {
+                std::snprintf(text, sizeof text,
+                              "the %zu facets where its wall meets its ends are too far from the cylinder and the planes continued "
+                              "to it: the volume would change by up to %.3g mm3 (at most %.2g %% of the mesh's, %.3g mm3)",
+                              members.size() - wall_count, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
+                refuse(text);
+                continue;
+            }
             region.planes[0] = ends[0];
             region.planes[1] = ends[1];
             name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) + " and " +
@@ -278,7 +299,12 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
             const BrepFace& first = model.faces[region.planes[0]];
             region.axis = cv::normalize(first.normal);
             region.x_axis = square_to(region.axis);
-            const Circle2 circle = circle_along(model, vertices_of(model, wall_faces), first.origin, region.axis);
+            // Fitted to the facets within 15 degrees of square to the axis: a smooth mesh's wall
+            // bends into the rounded edges at its ends.
+            std::vector<size_t> square_facets;
+            for (size_t f : wall_faces)
+                if (along(f) < kSquareToAxis) square_facets.push_back(f);
+            const Circle2 circle = circle_along(model, vertices_of(model, square_facets), first.origin, region.axis);
             region.radius_mm = circle.radius;
             region.rms_mm = circle.rms;
             region.origin = circle.origin;
