@@ -237,18 +237,24 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
             };
             // What the facets next to the wall that go with it (within `ring` of the cylinder or of a
             // plane square to it: the cylinder and the plane are continued over them) change the
-            // volume by, at most: each facet's area times its corners' largest distance.
+            // volume by.
             double ring_volume = 0;
             for (size_t next = 0; next < members.size(); ++next)
                 for (size_t g : neighbours(members[next])) {
                     if (in_wall[g] || taken[g] || !one_facet(g)) continue;
                     const cv::Vec3i& facet = model.faces[g].triangles[0];
-                    double off = 0;
-                    for (int k = 0; k < 3; ++k) off = std::max(off, off_surface(model.vertices[size_t(facet[k])]));
-                    if (!(off <= ring)) continue;
                     const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])],
                                     &r = model.vertices[size_t(facet[2])];
-                    ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * off;
+                    // Its corners, the middles of its sides and its centre (a chamfer's facets have
+                    // their corners on the cylinder and the plane, and cut the corner between).
+                    double off = 0;
+                    for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
+                    const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
+                    for (double side : sides) off = std::max(off, side);
+                    if (!(off <= ring)) continue;
+                    // The volume between the facet and that surface: its area times the mean distance
+                    // at the middles of its sides (the rule exact for quadratics).
+                    ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
                     in_wall[g] = 1;
                     members.push_back(g);
                 }
