@@ -23,6 +23,7 @@ struct Circle2 {
 // are flat to a micrometre and its noise estimate says nothing of how round its walls are.
 constexpr double kRoundness = 0.002;
 constexpr double kSquareToAxis = 0.26;  // sin(15 degrees)
+constexpr double kSameAxis = 0.996;     // cos(5 degrees)
 // The facets where a wall meets its ends (rounded by a smooth mesh) may change the volume by at
 // most this share of the mesh's when the cylinder and the planes are continued over them.
 constexpr double kRingVolumeShare = 1e-4;
@@ -188,9 +189,10 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
     std::vector<cv::Vec3d> axes_tried;
     for (size_t axis_face = 0; axis_face < face_count; ++axis_face) {
         if (!model.faces[axis_face].merged) continue;
-        // A cylinder's ends are square to it: each planar face's normal is an axis to try.
+        // A cylinder's ends are square to it: each planar face's normal is an axis to try, once
+        // within 5 degrees (the walls are found the same; each is fitted along its own end's normal).
         const cv::Vec3d axis = cv::normalize(model.faces[axis_face].normal);
-        if (std::any_of(axes_tried.begin(), axes_tried.end(), [&](const cv::Vec3d& a) { return std::abs(a.dot(axis)) > 1 - 1e-9; }))
+        if (std::any_of(axes_tried.begin(), axes_tried.end(), [&](const cv::Vec3d& a) { return std::abs(a.dot(axis)) > kSameAxis; }))
             continue;
         axes_tried.push_back(axis);
         auto along = [&](size_t f) { return std::abs(cv::normalize(model.faces[f].normal).dot(axis)); };

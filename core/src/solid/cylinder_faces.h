@@ -1,6 +1,6 @@
-// Cylindrical faces of a solid: a region of one-facet faces left between two planar faces (a
-// drilled hole, a boss, a shaft) that lies on a cylinder square to both becomes one B-rep
-// cylinder, its two loops circles.
+// Cylindrical faces of a solid: a wall of facets left between two planar faces (a drilled hole, a
+// boss, a shaft) that lies on a cylinder square to both becomes one B-rep cylinder, its two loops
+// circles.
 #pragma once
 
 #include "picoscan/solid.h"
@@ -19,10 +19,13 @@ struct CylinderRegion {
     bool hole = false;                // the solid is outside the cylinder
 };
 
-// The regions of `model` that make cylindrical faces, with the fitted cylinders: connected
-// one-facet faces, with the planar faces they meet square to the axis (strips of a finely divided
-// wall), bounded by two planar faces square to it; only faces marked in `eligible` (all when it is
-// empty). Each region near a cylinder but refused is said in `notes` with the reason.
+// The regions of `model` that make cylindrical faces, with the fitted cylinders. Along each planar
+// face's normal: walls of one-facet faces and planar strips square to it (within 60 degrees) that go
+// all round a circle, with the facets next to them within two edge lengths of the cylinder or of a
+// plane square to it (a smooth mesh's rounded ends: the cylinder and the planes are continued over
+// them while that changes the volume by at most 0.01 %), bounded by two planar faces square to the
+// axis and nothing else; only faces marked in `eligible` (all when it is empty). Each wall near a
+// cylinder but refused is said in `notes` with the reason.
 std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
                                              const std::vector<char>& eligible, std::vector<std::string>& notes);
 
