@@ -326,93 +326,94 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 continue;
             }
 
-        // Each plane must meet the region along one whole loop of its own.
-        bool whole_loops = true;
-        for (int i = 0; i < 2 && whole_loops; ++i) {
-            const BrepFace& plane = model.faces[region.planes[i]];
-            size_t loops_met = 0;
-            for (size_t w = 0; w < plane.wires.size(); ++w) {
-                size_t shared = 0;
-                for (int e : plane.wires[w]) {
-                    const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
-                    shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+            // Each plane must meet the region along one whole loop of its own.
+            bool whole_loops = true;
+            for (int i = 0; i < 2 && whole_loops; ++i) {
+                const BrepFace& plane = model.faces[region.planes[i]];
+                size_t loops_met = 0;
+                for (size_t w = 0; w < plane.wires.size(); ++w) {
+                    size_t shared = 0;
+                    for (int e : plane.wires[w]) {
+                        const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
+                        shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+                    }
+                    if (shared == 0) continue;
+                    ++loops_met;
+                    if (shared != plane.wires[w].size()) whole_loops = false;
+                    region.wires[i] = w;
                 }
-                if (shared == 0) continue;
-                ++loops_met;
-                if (shared != plane.wires[w].size()) whole_loops = false;
-                region.wires[i] = w;
+                if (loops_met != 1) whole_loops = false;
             }
-            if (loops_met != 1) whole_loops = false;
-        }
-        if (!whole_loops) {
-            refuse("they do not meet each plane along one whole loop of it");
-            continue;
-        }
-        // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
-        // (their vertices not within twice the merge distance of it), or the face would cross itself.
-        std::string crossing;
-        for (int i = 0; i < 2 && crossing.empty(); ++i) {
-            const BrepFace& plane = model.faces[region.planes[i]];
-            for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
-                if (w == region.wires[i]) continue;
-                for (int e : plane.wires[w]) {
-                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
-                    for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
-                        const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
-                        const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
-                        if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit) crossing = point_text(model.vertices[size_t(v)]);
+            if (!whole_loops) {
+                refuse("they do not meet each plane along one whole loop of it");
+                continue;
+            }
+            // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
+            // (their vertices not within twice the merge distance of it), or the face would cross itself.
+            std::string crossing;
+            for (int i = 0; i < 2 && crossing.empty(); ++i) {
+                const BrepFace& plane = model.faces[region.planes[i]];
+                for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
+                    if (w == region.wires[i]) continue;
+                    for (int e : plane.wires[w]) {
+                        const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                        for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
+                            const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
+                            const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
+                            if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit)
+                                crossing = point_text(model.vertices[size_t(v)]);
+                        }
                     }
                 }
             }
-        }
-        if (!crossing.empty()) {
-            refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
-            continue;
-        }
-        const BrepFace& second = model.faces[region.planes[1]];
-        const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
-        if (region.radius_mm * tilt > distance_limit) {
-            std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
-                          "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi, region.radius_mm * tilt, distance_limit);
-            refuse(text);
-            continue;
-        }
+            if (!crossing.empty()) {
+                refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
+                continue;
+            }
+            const BrepFace& second = model.faces[region.planes[1]];
+            const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
+            if (region.radius_mm * tilt > distance_limit) {
+                std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
+                              "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi, region.radius_mm * tilt, distance_limit);
+                refuse(text);
+                continue;
+            }
 
-        // A hole when the facets face the axis.
-        double outwards = 0;
-        for (size_t f : members)
-            for (const cv::Vec3i& t : model.faces[f].triangles) {
-                const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
-                const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
-                outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+            // A hole when the facets face the axis.
+            double outwards = 0;
+            for (size_t f : members)
+                for (const cv::Vec3i& t : model.faces[f].triangles) {
+                    const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+                    const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
+                    outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+                }
+            region.hole = outwards < 0;
+            const Loops loops = loops_of(model, region);
+            if (!(loops.length > distance_limit)) {
+                refuse("its planes are not apart along the axis");
+                continue;
             }
-        region.hole = outwards < 0;
-        const Loops loops = loops_of(model, region);
-        if (!(loops.length > distance_limit)) {
-            refuse("its planes are not apart along the axis");
-            continue;
-        }
-        // Each plane's loop must run the way its circle will: around its face's outside counter-
-        // clockwise (seen from outside), around a hole clockwise.
-        bool consistent = true;
-        for (int i = 0; i < 2; ++i) {
-            const BrepFace& plane = model.faces[region.planes[i]];
-            cv::Vec3d area(0, 0, 0);
-            for (int e : plane.wires[region.wires[i]]) {
-                const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
-                const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
-                                &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
-                area += a.cross(b);
+            // Each plane's loop must run the way its circle will: around its face's outside counter-
+            // clockwise (seen from outside), around a hole clockwise.
+            bool consistent = true;
+            for (int i = 0; i < 2; ++i) {
+                const BrepFace& plane = model.faces[region.planes[i]];
+                cv::Vec3d area(0, 0, 0);
+                for (int e : plane.wires[region.wires[i]]) {
+                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                    const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
+                                    &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
+                    area += a.cross(b);
+                }
+                const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
+                const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
+                const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
+                consistent = consistent && sign == loops.plane_sign[i];
             }
-            const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
-            const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
-            const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
-            consistent = consistent && sign == loops.plane_sign[i];
-        }
-        if (!consistent) {
-            refuse("its loops on the planes run the wrong way for a cylinder between them");
-            continue;
-        }
+            if (!consistent) {
+                refuse("its loops on the planes run the wrong way for a cylinder between them");
+                continue;
+            }
             regions.push_back(region);
         }
     }
