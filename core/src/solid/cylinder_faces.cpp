@@ -240,7 +240,7 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
             // What the facets next to the wall that go with it (within `ring` of the cylinder or of a
             // plane square to it: the cylinder and the plane are continued over them) change the
             // volume by.
-            double ring_volume = 0;
+            double ring_volume = 0, ring_farthest = 0;
             for (size_t next = 0; next < members.size(); ++next)
                 for (size_t g : neighbours(members[next])) {
                     if (in_wall[g] || taken[g] || !one_facet(g)) continue;
@@ -257,6 +257,7 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     // The volume between the facet and that surface: its area times the mean distance
                     // at the middles of its sides (the rule exact for quadratics).
                     ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+                    ring_farthest = std::max(ring_farthest, off);
                     in_wall[g] = 1;
                     members.push_back(g);
                 }
@@ -299,6 +300,9 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
             }
             region.planes[0] = ends[0];
             region.planes[1] = ends[1];
+            region.end_facets = members.size() - wall_count;
+            region.end_mm = ring_farthest;
+            region.end_volume_mm3 = ring_volume;
             name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) + " and " +
                    point_text(model.faces[ends[1]].origin);
             auto in_region = [&](size_t f) { return std::binary_search(region.faces.begin(), region.faces.end(), f); };
@@ -477,6 +481,9 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
         face.wires = {{circle_edges[loops.low], seam, -circle_edges[1 - loops.low], -seam}};
         cylinders.push_back(face);
         model.cylinder_facets += size_t(face.facet_count);
+        model.cylinder_end_facets += region.end_facets;
+        model.cylinder_end_mm = std::max(model.cylinder_end_mm, region.end_mm);
+        model.cylinder_end_volume_mm3 += region.end_volume_mm3;
     }
     std::vector<BrepFace> faces;
     for (size_t f = 0; f < model.faces.size(); ++f)

@@ -17,6 +17,8 @@ struct CylinderRegion {
     cv::Vec3d origin, axis, x_axis;   // origin: on the axis, in the plane of planes[0]
     double radius_mm = 0, rms_mm = 0;
     bool hole = false;                // the solid is outside the cylinder
+    size_t end_facets = 0;            // facets at its ends the cylinder and planes are continued over
+    double end_mm = 0, end_volume_mm3 = 0;  // the farthest of them, and the volume between them and those surfaces
 };
 
 // The regions of `model` that make cylindrical faces, with the fitted cylinders. Along each planar
