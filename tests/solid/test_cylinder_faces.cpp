@@ -11,6 +11,8 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <map>
 #include <random>
 
@@ -259,5 +261,161 @@ TEST(CylinderFaces, AnObliqueShaftBecomesOneCylinderBetweenItsEnds) {
         const cv::Vec3d off = face->origin - shift;
         EXPECT_NEAR(cv::norm(off - off.dot(axis) * axis), 0, 0.02);
         EXPECT_EQ(model.merged_faces, 2u);  // its ends
+    }
+}
+
+namespace {
+
+// A smooth mesh as Poisson makes of a scan: a round plate (radius 20 mm, 8 mm thick) with a boss
+// (radius 8 mm, 4 mm high) and a hole (radius 4 mm) through both, about the vertical axis through
+// kCentre, every edge rounded (radius 0.15 mm, 3 facets), 96 segments round; the rounded edges
+// join all its curved facets into one region. The decoys change it: the hole oval by 0.03 mm, or
+// leaning by 2 degrees, or widening by 0.1 mm over its length (a cone); a flat 0.4 mm deep on the
+// boss; everything above the plate cut obliquely (10 degrees); the hole's top a 0.5 mm chamfer.
+enum class Decoy { None, OvalHole, LeaningHole, ConeHole, FlatOnBoss, ObliqueTop, ChamferedHoleMouth };
+
+Mesh rounded_bushing(double sigma, unsigned seed, Decoy decoy) {
+    constexpr double outer = 20, thickness = 8, boss = 8, top = 12, hole = 4, fillet = 0.15;
+    constexpr int segments = 96, fillet_steps = 3;
+    // The profile (radius, height) around the material, counter-clockwise; each corner rounded
+    // (or the hole's top chamfered), each straight run in steps of at most 0.5 mm.
+    const std::vector<cv::Vec2d> corners{{hole, 0}, {outer, 0}, {outer, thickness}, {boss, thickness}, {boss, top}, {hole, top}};
+    std::vector<cv::Vec2d> profile;
+    for (size_t k = 0; k < corners.size(); ++k) {
+        const cv::Vec2d before = corners[(k + corners.size() - 1) % corners.size()], at = corners[k],
+                        after = corners[(k + 1) % corners.size()];
+        const bool chamfer = decoy == Decoy::ChamferedHoleMouth && k == 5;
+        const double cut = chamfer ? 0.5 : fillet;
+        const cv::Vec2d in = cv::normalize(at - before), out = cv::normalize(after - at);
+        const cv::Vec2d from = at - cut * in, to = at + cut * out;
+        if (chamfer) {
+            profile.push_back(from);
+            profile.push_back(to);
+        } else {
+            // A quarter circle of radius `cut` tangent to both runs.
+            const cv::Vec2d centre = from + cut * out;
+            for (int i = 0; i <= fillet_steps; ++i) {
+                const double t = 0.5 * kPi * i / fillet_steps;
+                profile.push_back(centre - cut * out * std::cos(t) + cut * in * std::sin(t));
+            }
+        }
+        const cv::Vec2d next_from = after - cut * cv::normalize(after - at);
+        const int steps = int(std::ceil(cv::norm(next_from - to) / 0.5));
+        for (int i = 1; i < steps; ++i) profile.push_back(to + (next_from - to) * (double(i) / steps));
+    }
+    Mesh mesh;
+    std::mt19937 random(seed);
+    std::normal_distribution<double> unit_noise;
+    const size_t n = profile.size();
+    for (const cv::Vec2d& point : profile)
+        for (int k = 0; k < segments; ++k) {
+            const double a = 2 * kPi * k / segments;
+            double rho = point[0], z = point[1];
+            const bool at_hole = rho < hole + 1;
+            if (at_hole && decoy == Decoy::OvalHole) rho += 0.03 * std::cos(2 * a);
+            if (at_hole && decoy == Decoy::ConeHole) rho += 0.1 * z / top;
+            cv::Vec3d p(rho * std::cos(a), rho * std::sin(a), z);
+            if (at_hole && decoy == Decoy::LeaningHole) p[0] += z * std::tan(2 * kPi / 180);
+            if (decoy == Decoy::FlatOnBoss && rho > boss - 1 && z > thickness + 0.5) p[0] = std::min(p[0], boss - 0.4);
+            if (decoy == Decoy::ObliqueTop && z > thickness + 0.5) p[2] += (z - thickness) / (top - thickness) * std::tan(10 * kPi / 180) * p[0];
+            p += kCentre + sigma * cv::Vec3d(unit_noise(random), unit_noise(random), unit_noise(random));
+            mesh.vertices.emplace_back(p);
+        }
+    for (size_t j = 0; j < n; ++j)
+        for (int k = 0; k < segments; ++k) {
+            const int a = int(j * segments) + k, b = int(j * segments) + (k + 1) % segments;
+            const int c = int(((j + 1) % n) * segments) + (k + 1) % segments, d = int(((j + 1) % n) * segments) + k;
+            mesh.faces.emplace_back(a, c, b);
+            mesh.faces.emplace_back(a, d, c);
+        }
+    return mesh;
+}
+
+// OpenCASCADE's answer about a model's B-rep (FreeCAD's Part, in the process Make solid runs it
+// in): {valid, volume}; nullopt when FreeCAD is not installed.
+struct OccAnswer {
+    bool valid = false;
+    double volume = 0;
+    std::string text;
+};
+
+OccAnswer occ_check(const PlanarFaceModel& model, const std::string& name) {
+    const std::string path = test_support::make_temp_dir("cylinder_faces") + "/" + name + ".brep";
+    write_brep(model, path);
+    const std::string command = std::string("/usr/bin/python3 ") + PICOSCAN_SOURCE_DIR +
+                                "/freecad_workbench/PicoScan/picoscan_wb/operations/brep_check.py /usr/lib/freecad/lib " + path + " 1";
+    OccAnswer answer;
+    FILE* pipe = popen(command.c_str(), "r");
+    if (!pipe) return answer;
+    char line[512];
+    while (std::fgets(line, sizeof line, pipe)) answer.text = line;  // the answer is the last line
+    pclose(pipe);
+    answer.valid = answer.text.find("\"valid\": true") != std::string::npos;
+    const size_t at = answer.text.find("\"volume\": ");
+    if (at != std::string::npos) answer.volume = std::atof(answer.text.c_str() + at + 10);
+    return answer;
+}
+
+bool freecad_installed() { return std::ifstream("/usr/lib/freecad/lib/FreeCAD.so").good(); }
+
+}  // namespace
+
+TEST(CylinderFaces, SmoothMeshWithRoundedEdgesGivesHoleAndBossAsValidCylindersOfItsVolume) {
+    if (!freecad_installed()) GTEST_SKIP() << "FreeCAD (OpenCASCADE's check) not installed in /usr/lib/freecad/lib";
+    int seed = 20;
+    for (double sigma : {0.0, 0.01}) {
+        SCOPED_TRACE("noise " + std::to_string(sigma));
+        const Mesh mesh = rounded_bushing(sigma, unsigned(++seed), Decoy::None);
+        const PlanarFaceModel model = planar_face_model(mesh);
+        std::printf("rounded bushing, noise %.3f mm: %s\n", sigma, model.summary().c_str());
+        ASSERT_EQ(model.cylinder_faces, 3u) << notes_of(model);  // the hole, the boss and the plate's rim
+        EXPECT_TRUE(model.cylinder_notes.empty()) << notes_of(model);
+        for (const auto& [radius, hole] : {std::pair{4.0, true}, std::pair{8.0, false}, std::pair{20.0, false}}) {
+            const BrepFace* face = cylinder_of_radius(model, radius);
+            ASSERT_NE(face, nullptr);
+            const cv::Vec3d off_axis = face->origin - kCentre;
+            const double tilt_deg = std::acos(std::min(1.0, std::abs(face->normal[2]))) * 180 / kPi;
+            std::printf("  %s: radius %.5f mm (true %.1f), axis %.5f mm off, %.5f degrees from vertical, RMS %.4f mm\n",
+                        hole ? "hole" : "boss", face->radius_mm, radius, std::hypot(off_axis[0], off_axis[1]), tilt_deg, face->rms_mm);
+            EXPECT_NEAR(face->radius_mm, radius, 0.02);
+            EXPECT_EQ(face->reversed, hole);
+            EXPECT_LT(tilt_deg, 0.05);
+            EXPECT_NEAR(std::hypot(off_axis[0], off_axis[1]), 0, 0.02);
+        }
+        const OccAnswer occ = occ_check(model, "rounded_bushing");
+        std::printf("  OpenCASCADE: %s", occ.text.c_str());
+        EXPECT_TRUE(occ.valid) << occ.text;
+        EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+    }
+}
+
+TEST(CylinderFaces, SmoothMeshDecoysStayFacetedWithTheReason) {
+    const struct {
+        const char* name;
+        Decoy decoy;
+        size_t cylinders;  // the rim, and the boss or the hole when it is not the decoy
+        const char* reason;
+    } cases[] = {
+        {"oval hole", Decoy::OvalHole, 2, "not a cylinder square to its planes"},
+        {"leaning hole", Decoy::LeaningHole, 2, "not a cylinder square to its planes"},
+        {"cone hole", Decoy::ConeHole, 2, "not a cylinder square to its planes"},
+        {"flat on the boss", Decoy::FlatOnBoss, 2, "not a cylinder square to its planes"},
+        {"cut obliquely above the plate", Decoy::ObliqueTop, 1, "degrees from parallel"},
+        {"hole mouth chamfered", Decoy::ChamferedHoleMouth, 2, "the volume would change"},
+    };
+    for (const auto& c : cases) {
+        SCOPED_TRACE(c.name);
+        const PlanarFaceModel model = planar_face_model(rounded_bushing(0.005, 9, c.decoy));
+        std::printf("rounded bushing, %s: %s\n", c.name, model.summary().c_str());
+        EXPECT_EQ(model.cylinder_faces, c.cylinders) << notes_of(model);
+        EXPECT_NE(notes_of(model).find(c.reason), std::string::npos) << notes_of(model);
+        const bool boss_decoy = c.decoy == Decoy::FlatOnBoss || c.decoy == Decoy::ObliqueTop;
+        const bool hole_decoy = c.decoy != Decoy::FlatOnBoss;
+        if (hole_decoy) {
+            EXPECT_EQ(cylinder_of_radius(model, 4), nullptr);
+        }
+        if (boss_decoy) {
+            EXPECT_EQ(cylinder_of_radius(model, 8), nullptr);
+        }
     }
 }

@@ -78,6 +78,11 @@ struct PlanarFaceModel {
     std::vector<std::string> refused_merges;     // planar regions left as triangles, and why
     size_t cylinder_faces = 0, cylinder_facets = 0;  // cylindrical faces (the last faces) and the facets they replace
     std::vector<std::string> cylinder_notes;     // regions between two planar faces left as triangles, and why
+    // Facets where a cylinder's wall meets its ends (a smooth mesh's rounded edges) that the
+    // cylinder and its planes are continued over: how many, the farthest from them, and the volume
+    // between them and the facets (summed over the cylinders).
+    size_t cylinder_end_facets = 0;
+    double cylinder_end_mm = 0, cylinder_end_volume_mm3 = 0;
     // Simplification of the curved regions (simplify): facets there before and after (equal: none
     // done), the tolerance, how far the mesh's vertices are from the simplified facets (the
     // farthest), and the volume enclosed once simplified. Refused (curved facets kept as they

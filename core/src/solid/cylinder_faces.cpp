@@ -15,7 +15,18 @@ constexpr double kPi = 3.14159265358979323846;
 struct Circle2 {
     cv::Vec2d center;
     double radius = 0, rms = 0;
+    cv::Vec3d origin = cv::Vec3d(0, 0, 0);  // circle_along: the centre in 3-D, in the plane it was seen from
 };
+
+// A cylinder is taken as round when its vertices' RMS distance from it is at most max_rms_factor
+// x the noise, or this share of its radius when that is more: a smooth (Poisson) mesh's planes
+// are flat to a micrometre and its noise estimate says nothing of how round its walls are.
+constexpr double kRoundness = 0.002;
+constexpr double kSquareToAxis = 0.26;  // sin(15 degrees)
+constexpr double kSameAxis = 0.996;     // cos(5 degrees)
+// The facets where a wall meets its ends (rounded by a smooth mesh) may change the volume by at
+// most this share of the mesh's when the cylinder and the planes are continued over them.
+constexpr double kRingVolumeShare = 1e-4;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -29,7 +40,9 @@ Circle2 fit_circle(const std::vector<cv::Vec2d>& points) {
     }
     cv::Vec3d solution;
     if (!cv::solve(normal, right, solution, cv::DECOMP_SVD)) return {};
-    Circle2 circle{{solution[0], solution[1]}, std::sqrt(std::max(0.0, solution[2] + solution[0] * solution[0] + solution[1] * solution[1]))};
+    Circle2 circle;
+    circle.center = {solution[0], solution[1]};
+    circle.radius = std::sqrt(std::max(0.0, solution[2] + solution[0] * solution[0] + solution[1] * solution[1]));
     for (int iteration = 0; iteration < 20; ++iteration) {
         cv::Matx33d jtj = cv::Matx33d::zeros();
         cv::Vec3d jtr(0, 0, 0);
@@ -63,6 +76,63 @@ std::string point_text(const cv::Vec3d& p) {
 cv::Vec3d square_to(const cv::Vec3d& axis) {
     const cv::Vec3d helper = std::abs(axis[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
     return cv::normalize(helper - helper.dot(axis) * axis);
+}
+
+// The vertices of some faces' facets, each once.
+std::vector<int> vertices_of(const PlanarFaceModel& model, const std::vector<size_t>& faces) {
+    std::vector<int> vertices;
+    for (size_t f : faces)
+        for (const cv::Vec3i& triangle : model.faces[f].triangles)
+            for (int k = 0; k < 3; ++k) vertices.push_back(triangle[k]);
+    std::sort(vertices.begin(), vertices.end());
+    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+    return vertices;
+}
+
+// The circle the vertices lie nearest, seen along the axis (unit) from a point of the plane square to it.
+Circle2 circle_along(const PlanarFaceModel& model, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
+    const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
+    std::vector<cv::Vec2d> seen;
+    for (int v : vertices) {
+        const cv::Vec3d p = model.vertices[size_t(v)] - from;
+        seen.emplace_back(p.dot(x_axis), p.dot(y_axis));
+    }
+    Circle2 circle = fit_circle(seen);
+    circle.origin = from + circle.center[0] * x_axis + circle.center[1] * y_axis;
+    return circle;
+}
+
+// Whether the vertices go all round the circle's axis: no gap between them wider than 45 degrees.
+bool all_round(const PlanarFaceModel& model, const std::vector<int>& vertices, const Circle2& circle, const cv::Vec3d& axis) {
+    const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
+    std::vector<double> angles;
+    for (int v : vertices) {
+        const cv::Vec3d p = model.vertices[size_t(v)] - circle.origin;
+        angles.push_back(std::atan2(p.dot(y_axis), p.dot(x_axis)));
+    }
+    if (angles.empty()) return false;
+    std::sort(angles.begin(), angles.end());
+    double widest = angles.front() + 2 * kPi - angles.back();
+    for (size_t k = 1; k < angles.size(); ++k) widest = std::max(widest, angles[k] - angles[k - 1]);
+    return widest < kPi / 4;
+}
+
+double mean_edge(const PlanarFaceModel& model, const std::vector<size_t>& faces) {
+    double sum = 0;
+    size_t count = 0;
+    for (size_t f : faces)
+        for (const cv::Vec3i& t : model.faces[f].triangles)
+            for (int k = 0; k < 3; ++k, ++count) sum += cv::norm(model.vertices[size_t(t[k])] - model.vertices[size_t(t[(k + 1) % 3])]);
+    return count ? sum / double(count) : 0;
+}
+
+struct Tolerances {
+    double distance = 0, rms = 0;  // a vertex's distance, the vertices' RMS distance (mm)
+};
+
+Tolerances tolerances(const PlanarFaceModel& model, const PlanarFaceOptions& options, double radius_mm) {
+    const double noise = std::max(model.noise_mm, kRoundness * radius_mm);
+    return {options.distance_factor * noise, options.max_rms_factor * noise};
 }
 
 // The distance along the axis (through origin, unit) from origin to where it meets a face's plane.
@@ -114,188 +184,242 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
         return around;
     };
 
-    const double distance_limit = options.distance_factor * model.noise_mm;
-    const double rms_limit = options.max_rms_factor * model.noise_mm;
     std::vector<CylinderRegion> regions;
-    std::vector<char> seen(face_count, 0);
-    for (size_t start = 0; start < face_count; ++start) {
-        if (seen[start] || !one_facet(start)) continue;
-        // The region: one-facet faces joined by their edges; then, square to the axis (the normal
-        // of the planar face it meets that its facets' normals are most square to), the planar
-        // faces it meets that are strips of its wall (flat within the noise on a finely divided
-        // cylinder) and whatever they lead to.
-        std::vector<size_t> members{start};
-        seen[start] = 1;
-        std::vector<size_t> met;
-        for (size_t next = 0; next < members.size(); ++next)
-            for (size_t g : neighbours(members[next])) {
-                if (seen[g]) continue;
-                if (one_facet(g)) {
-                    seen[g] = 1;
-                    members.push_back(g);
-                } else if (model.faces[g].merged) {
-                    met.push_back(g);
-                }
-            }
-        if (met.empty()) continue;
-        auto across = [&](size_t g) {  // how far the facets' normals are from square to g's
-            double sum = 0;
-            for (size_t f : members) sum += std::abs(model.faces[f].normal.dot(model.faces[g].normal));
-            return sum;
-        };
-        std::sort(met.begin(), met.end());
-        met.erase(std::unique(met.begin(), met.end()), met.end());
-        const size_t end_face = *std::min_element(met.begin(), met.end(), [&](size_t a, size_t b) { return across(a) < across(b); });
-        const cv::Vec3d axis = cv::normalize(model.faces[end_face].normal);
-        std::vector<size_t> ends;
-        bool other_faces = false;  // faces neither a strip nor an end, or triangles not eligible
-        for (size_t next = 0; next < members.size(); ++next)
-            for (size_t g : neighbours(members[next])) {
-                if (seen[g] || std::find(ends.begin(), ends.end(), g) != ends.end()) continue;
-                const BrepFace& face = model.faces[g];
-                const double along = std::abs(cv::normalize(face.normal).dot(axis));
-                if (one_facet(g) || (face.merged && along < 0.5 && allowed(g))) {
-                    seen[g] = 1;
-                    members.push_back(g);
-                } else if (face.merged && along > 0.9) {
-                    ends.push_back(g);
-                } else {
-                    other_faces = true;
-                }
-            }
-        size_t facets = 0;
-        for (size_t f : members) facets += model.faces[f].triangles.size();
-        if (other_faces || ends.size() != 2 || int(facets) < options.min_facets) continue;
-
-        CylinderRegion region;
-        region.faces = members;
-        std::sort(region.faces.begin(), region.faces.end());
-        region.planes[0] = ends[0];
-        region.planes[1] = ends[1];
-        const std::string name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) +
-                                 " and " + point_text(model.faces[ends[1]].origin);
-        auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
-        auto in_region = [&](size_t f) { return std::binary_search(region.faces.begin(), region.faces.end(), f); };
-
-        // The cylinder square to the first plane: a circle through the vertices seen along its normal.
-        const BrepFace& first = model.faces[region.planes[0]];
-        region.axis = cv::normalize(first.normal);
-        region.x_axis = square_to(region.axis);
-        const cv::Vec3d y_axis = region.axis.cross(region.x_axis);
-        std::vector<int> vertices;
-        for (size_t f : members)
-            for (const cv::Vec3i& triangle : model.faces[f].triangles)
-                for (int k = 0; k < 3; ++k) vertices.push_back(triangle[k]);
-        std::sort(vertices.begin(), vertices.end());
-        vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-        std::vector<cv::Vec2d> seen_along;
-        for (int v : vertices) {
-            const cv::Vec3d p = model.vertices[size_t(v)] - first.origin;
-            seen_along.emplace_back(p.dot(region.x_axis), p.dot(y_axis));
-        }
-        const Circle2 circle = fit_circle(seen_along);
-        region.radius_mm = circle.radius;
-        region.rms_mm = circle.rms;
-        region.origin = first.origin + circle.center[0] * region.x_axis + circle.center[1] * y_axis;
-        // Far from any circle (the walls of a box with a rounded edge): not a candidate, not reported.
-        if (!(circle.radius > 0) || !(circle.rms < 0.05 * circle.radius)) continue;
-        char text[200];
-        if (!(circle.rms <= rms_limit)) {
-            std::snprintf(text, sizeof text,
-                          "not a cylinder square to its planes (RMS %.4f mm from the best one, radius %.4f mm; at most %.4f mm, "
-                          "%.2g x the noise)", circle.rms, circle.radius, rms_limit, options.max_rms_factor);
-            refuse(text);
+    std::vector<char> taken(face_count, 0);  // in a region found already (made or refused)
+    std::vector<cv::Vec3d> axes_tried;
+    for (size_t axis_face = 0; axis_face < face_count; ++axis_face) {
+        if (!model.faces[axis_face].merged) continue;
+        // A cylinder's ends are square to it: each planar face's normal is an axis to try, once
+        // within 5 degrees (the walls are found the same; each is fitted along its own end's normal).
+        const cv::Vec3d axis = cv::normalize(model.faces[axis_face].normal);
+        if (std::any_of(axes_tried.begin(), axes_tried.end(), [&](const cv::Vec3d& a) { return std::abs(a.dot(axis)) > kSameAxis; }))
             continue;
-        }
-
-        // Each plane must meet the region along one whole loop of its own.
-        bool whole_loops = true;
-        for (int i = 0; i < 2 && whole_loops; ++i) {
-            const BrepFace& plane = model.faces[region.planes[i]];
-            size_t loops_met = 0;
-            for (size_t w = 0; w < plane.wires.size(); ++w) {
-                size_t shared = 0;
-                for (int e : plane.wires[w]) {
-                    const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
-                    shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+        axes_tried.push_back(axis);
+        auto along = [&](size_t f) { return std::abs(cv::normalize(model.faces[f].normal).dot(axis)); };
+        // Its wall: one-facet faces and planar strips (a finely divided wall is flat within the
+        // noise in strips) whose normals are within 60 degrees of square to the axis. The rounded
+        // or sharpened edges where a smooth (Poisson) mesh's wall meets its ends tilt further and
+        // keep the walls of one mesh apart.
+        auto wall = [&](size_t f) { return !taken[f] && allowed(f) && (one_facet(f) || model.faces[f].merged) && along(f) < 0.5; };
+        std::vector<char> in_wall(face_count, 0);
+        std::vector<size_t> square_planes;
+        for (size_t f = 0; f < face_count; ++f)
+            if (model.faces[f].merged && along(f) > 0.9) square_planes.push_back(f);
+        for (size_t start = 0; start < face_count; ++start) {
+            if (in_wall[start] || !one_facet(start) || !wall(start)) continue;
+            std::vector<size_t> members{start};
+            in_wall[start] = 1;
+            for (size_t next = 0; next < members.size(); ++next)
+                for (size_t g : neighbours(members[next]))
+                    if (!in_wall[g] && wall(g)) {
+                        in_wall[g] = 1;
+                        members.push_back(g);
+                    }
+            size_t wall_facets = 0;
+            for (size_t f : members) wall_facets += model.faces[f].triangles.size();
+            if (int(wall_facets) < options.min_facets) continue;
+            const Circle2 seen = circle_along(model, vertices_of(model, members), model.faces[axis_face].origin, axis);
+            // Far from any circle or not around it (the walls of a box with a rounded edge, a flat
+            // strip): not a candidate, not reported.
+            if (!(seen.radius > 0) || !(seen.rms < 0.05 * seen.radius) || !all_round(model, vertices_of(model, members), seen, axis))
+                continue;
+            const Tolerances limits = tolerances(model, options, seen.radius);
+            // Where a smooth (Poisson) mesh rounds or bevels the wall's ends: the facets next to it
+            // that lie within `ring` of its cylinder (two of the wall's mean edges, or the distance
+            // limit) go with it, and the planes at its ends are continued to the circles instead.
+            const double ring = std::max(limits.distance, 2 * mean_edge(model, members));
+            const size_t wall_count = members.size();
+            // How far a point is from the ideal surface there: the cylinder or a plane square to it.
+            auto off_surface = [&](const cv::Vec3d& p) {
+                const cv::Vec3d offset = p - seen.origin;
+                double off = std::abs(cv::norm(offset - offset.dot(axis) * axis) - seen.radius);
+                for (size_t h : square_planes)
+                    off = std::min(off, std::abs((p - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+                return off;
+            };
+            // What the facets next to the wall that go with it (within `ring` of the cylinder or of a
+            // plane square to it: the cylinder and the plane are continued over them) change the
+            // volume by.
+            double ring_volume = 0, ring_farthest = 0;
+            for (size_t next = 0; next < members.size(); ++next)
+                for (size_t g : neighbours(members[next])) {
+                    if (in_wall[g] || taken[g] || !one_facet(g)) continue;
+                    const cv::Vec3i& facet = model.faces[g].triangles[0];
+                    const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])],
+                                    &r = model.vertices[size_t(facet[2])];
+                    // Its corners, the middles of its sides and its centre (a chamfer's facets have
+                    // their corners on the cylinder and the plane, and cut the corner between).
+                    double off = 0;
+                    for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
+                    const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
+                    for (double side : sides) off = std::max(off, side);
+                    if (!(off <= ring)) continue;
+                    // The volume between the facet and that surface: its area times the mean distance
+                    // at the middles of its sides (the rule exact for quadratics).
+                    ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+                    ring_farthest = std::max(ring_farthest, off);
+                    in_wall[g] = 1;
+                    members.push_back(g);
                 }
-                if (shared == 0) continue;
-                ++loops_met;
-                if (shared != plane.wires[w].size()) whole_loops = false;
-                region.wires[i] = w;
+            const std::vector<size_t> wall_faces(members.begin(), members.begin() + std::ptrdiff_t(wall_count));
+            size_t facets = 0;
+            for (size_t f : members) facets += model.faces[f].triangles.size();
+            std::vector<size_t> ends;
+            size_t other_faces = 0;  // faces next to it neither an end nor its own
+            for (size_t f : members)
+                for (size_t g : neighbours(f)) {
+                    if (in_wall[g] || std::find(ends.begin(), ends.end(), g) != ends.end()) continue;
+                    if (model.faces[g].merged && along(g) > 0.9) ends.push_back(g);
+                    else ++other_faces;
+                }
+            for (size_t f : members) taken[f] = 1;
+
+            CylinderRegion region;
+            region.faces = members;
+            std::sort(region.faces.begin(), region.faces.end());
+            char text[240];
+            std::snprintf(text, sizeof text, "%zu facets near a cylinder of radius %.3f mm about the axis through %s along %s", facets,
+                          seen.radius, point_text(seen.origin).c_str(), point_text(axis).c_str());
+            std::string name = text;
+            auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
+            if (ends.size() != 2 || other_faces > 0) {
+                std::snprintf(text, sizeof text,
+                              "its wall does not end in two planar faces square to it (it meets %zu such planes and %zu other "
+                              "faces: a cone or chamfer, a plane cut obliquely, a flat on it, or triangles beyond it)",
+                              ends.size(), other_faces);
+                refuse(text);
+                continue;
             }
-            if (loops_met != 1) whole_loops = false;
-        }
-        if (!whole_loops) {
-            refuse("they do not meet each plane along one whole loop of it");
-            continue;
-        }
-        // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
-        // (their vertices not within twice the merge distance of it), or the face would cross itself.
-        std::string crossing;
-        for (int i = 0; i < 2 && crossing.empty(); ++i) {
-            const BrepFace& plane = model.faces[region.planes[i]];
-            for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
-                if (w == region.wires[i]) continue;
-                for (int e : plane.wires[w]) {
-                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
-                    for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
-                        const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
-                        const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
-                        if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit) crossing = point_text(model.vertices[size_t(v)]);
+            if (ring_volume > kRingVolumeShare * model.mesh_volume_mm3) {
+                std::snprintf(text, sizeof text,
+                              "the %zu facets where its wall meets its ends are too far from the cylinder and the planes continued "
+                              "to it: the volume would change by up to %.3g mm3 (at most %.2g %% of the mesh's, %.3g mm3)",
+                              members.size() - wall_count, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
+                refuse(text);
+                continue;
+            }
+            region.planes[0] = ends[0];
+            region.planes[1] = ends[1];
+            region.end_facets = members.size() - wall_count;
+            region.end_mm = ring_farthest;
+            region.end_volume_mm3 = ring_volume;
+            name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) + " and " +
+                   point_text(model.faces[ends[1]].origin);
+            auto in_region = [&](size_t f) { return std::binary_search(region.faces.begin(), region.faces.end(), f); };
+
+            // The cylinder square to the first plane: a circle through the wall's vertices seen along its normal.
+            const BrepFace& first = model.faces[region.planes[0]];
+            region.axis = cv::normalize(first.normal);
+            region.x_axis = square_to(region.axis);
+            // Fitted to the facets within 15 degrees of square to the axis: a smooth mesh's wall
+            // bends into the rounded edges at its ends.
+            std::vector<size_t> square_facets;
+            for (size_t f : wall_faces)
+                if (along(f) < kSquareToAxis) square_facets.push_back(f);
+            const Circle2 circle = circle_along(model, vertices_of(model, square_facets), first.origin, region.axis);
+            region.radius_mm = circle.radius;
+            region.rms_mm = circle.rms;
+            region.origin = circle.origin;
+            const double distance_limit = limits.distance, rms_limit = limits.rms;
+            if (!(circle.rms <= rms_limit)) {
+                std::snprintf(text, sizeof text,
+                              "not a cylinder square to its planes (RMS %.4f mm from the best one, radius %.4f mm; at most %.4f mm: "
+                              "%.2g x the noise or %.2g %% of the radius)", circle.rms, circle.radius, rms_limit,
+                              options.max_rms_factor, 100 * options.max_rms_factor * kRoundness);
+                refuse(text);
+                continue;
+            }
+
+            // Each plane must meet the region along one whole loop of its own.
+            bool whole_loops = true;
+            for (int i = 0; i < 2 && whole_loops; ++i) {
+                const BrepFace& plane = model.faces[region.planes[i]];
+                size_t loops_met = 0;
+                for (size_t w = 0; w < plane.wires.size(); ++w) {
+                    size_t shared = 0;
+                    for (int e : plane.wires[w]) {
+                        const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
+                        shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+                    }
+                    if (shared == 0) continue;
+                    ++loops_met;
+                    if (shared != plane.wires[w].size()) whole_loops = false;
+                    region.wires[i] = w;
+                }
+                if (loops_met != 1) whole_loops = false;
+            }
+            if (!whole_loops) {
+                refuse("they do not meet each plane along one whole loop of it");
+                continue;
+            }
+            // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
+            // (their vertices not within twice the merge distance of it), or the face would cross itself.
+            std::string crossing;
+            for (int i = 0; i < 2 && crossing.empty(); ++i) {
+                const BrepFace& plane = model.faces[region.planes[i]];
+                for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
+                    if (w == region.wires[i]) continue;
+                    for (int e : plane.wires[w]) {
+                        const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                        for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
+                            const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
+                            const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
+                            if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit)
+                                crossing = point_text(model.vertices[size_t(v)]);
+                        }
                     }
                 }
             }
-        }
-        if (!crossing.empty()) {
-            refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
-            continue;
-        }
-        const BrepFace& second = model.faces[region.planes[1]];
-        const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
-        if (region.radius_mm * tilt > distance_limit) {
-            std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
-                          "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi, region.radius_mm * tilt, distance_limit);
-            refuse(text);
-            continue;
-        }
+            if (!crossing.empty()) {
+                refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
+                continue;
+            }
+            const BrepFace& second = model.faces[region.planes[1]];
+            const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
+            if (region.radius_mm * tilt > distance_limit) {
+                std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
+                              "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi, region.radius_mm * tilt, distance_limit);
+                refuse(text);
+                continue;
+            }
 
-        // A hole when the facets face the axis.
-        double outwards = 0;
-        for (size_t f : members)
-            for (const cv::Vec3i& t : model.faces[f].triangles) {
-                const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
-                const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
-                outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+            // A hole when the facets face the axis.
+            double outwards = 0;
+            for (size_t f : members)
+                for (const cv::Vec3i& t : model.faces[f].triangles) {
+                    const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+                    const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
+                    outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+                }
+            region.hole = outwards < 0;
+            const Loops loops = loops_of(model, region);
+            if (!(loops.length > distance_limit)) {
+                refuse("its planes are not apart along the axis");
+                continue;
             }
-        region.hole = outwards < 0;
-        const Loops loops = loops_of(model, region);
-        if (!(loops.length > distance_limit)) {
-            refuse("its planes are not apart along the axis");
-            continue;
-        }
-        // Each plane's loop must run the way its circle will: around its face's outside counter-
-        // clockwise (seen from outside), around a hole clockwise.
-        bool consistent = true;
-        for (int i = 0; i < 2; ++i) {
-            const BrepFace& plane = model.faces[region.planes[i]];
-            cv::Vec3d area(0, 0, 0);
-            for (int e : plane.wires[region.wires[i]]) {
-                const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
-                const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
-                                &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
-                area += a.cross(b);
+            // Each plane's loop must run the way its circle will: around its face's outside counter-
+            // clockwise (seen from outside), around a hole clockwise.
+            bool consistent = true;
+            for (int i = 0; i < 2; ++i) {
+                const BrepFace& plane = model.faces[region.planes[i]];
+                cv::Vec3d area(0, 0, 0);
+                for (int e : plane.wires[region.wires[i]]) {
+                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                    const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
+                                    &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
+                    area += a.cross(b);
+                }
+                const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
+                const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
+                const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
+                consistent = consistent && sign == loops.plane_sign[i];
             }
-            const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
-            const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
-            const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
-            consistent = consistent && sign == loops.plane_sign[i];
+            if (!consistent) {
+                refuse("its loops on the planes run the wrong way for a cylinder between them");
+                continue;
+            }
+            regions.push_back(region);
         }
-        if (!consistent) {
-            refuse("its loops on the planes run the wrong way for a cylinder between them");
-            continue;
-        }
-        regions.push_back(region);
     }
     return regions;
 }
@@ -357,6 +481,9 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
         face.wires = {{circle_edges[loops.low], seam, -circle_edges[1 - loops.low], -seam}};
         cylinders.push_back(face);
         model.cylinder_facets += size_t(face.facet_count);
+        model.cylinder_end_facets += region.end_facets;
+        model.cylinder_end_mm = std::max(model.cylinder_end_mm, region.end_mm);
+        model.cylinder_end_volume_mm3 += region.end_volume_mm3;
     }
     std::vector<BrepFace> faces;
     for (size_t f = 0; f < model.faces.size(); ++f)

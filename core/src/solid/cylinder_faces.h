@@ -1,6 +1,6 @@
-// Cylindrical faces of a solid: a region of one-facet faces left between two planar faces (a
-// drilled hole, a boss, a shaft) that lies on a cylinder square to both becomes one B-rep
-// cylinder, its two loops circles.
+// Cylindrical faces of a solid: a wall of facets left between two planar faces (a drilled hole, a
+// boss, a shaft) that lies on a cylinder square to both becomes one B-rep cylinder, its two loops
+// circles.
 #pragma once
 
 #include "picoscan/solid.h"
@@ -17,12 +17,17 @@ struct CylinderRegion {
     cv::Vec3d origin, axis, x_axis;   // origin: on the axis, in the plane of planes[0]
     double radius_mm = 0, rms_mm = 0;
     bool hole = false;                // the solid is outside the cylinder
+    size_t end_facets = 0;            // facets at its ends the cylinder and planes are continued over
+    double end_mm = 0, end_volume_mm3 = 0;  // the farthest of them, and the volume between them and those surfaces
 };
 
-// The regions of `model` that make cylindrical faces, with the fitted cylinders: connected
-// one-facet faces, with the planar faces they meet square to the axis (strips of a finely divided
-// wall), bounded by two planar faces square to it; only faces marked in `eligible` (all when it is
-// empty). Each region near a cylinder but refused is said in `notes` with the reason.
+// The regions of `model` that make cylindrical faces, with the fitted cylinders. Along each planar
+// face's normal: walls of one-facet faces and planar strips square to it (within 60 degrees) that go
+// all round a circle, with the facets next to them within two edge lengths of the cylinder or of a
+// plane square to it (a smooth mesh's rounded ends: the cylinder and the planes are continued over
+// them while that changes the volume by at most 0.01 %), bounded by two planar faces square to the
+// axis and nothing else; only faces marked in `eligible` (all when it is empty). Each wall near a
+// cylinder but refused is said in `notes` with the reason.
 std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
                                              const std::vector<char>& eligible, std::vector<std::string>& notes);
 

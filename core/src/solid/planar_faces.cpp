@@ -217,7 +217,13 @@ std::string PlanarFaceModel::summary() const {
     std::ostringstream text;
     text << faces.size() << " faces from " << facet_count << " facets: " << merged_faces << " planar regions holding "
          << merged_facets << " facets, ";
-    if (cylinder_faces > 0) text << cylinder_faces << " cylinders replacing " << cylinder_facets << " facets, ";
+    if (cylinder_faces > 0) {
+        text << cylinder_faces << " cylinders replacing " << cylinder_facets << " facets";
+        if (cylinder_end_facets > 0)
+            text << " (continued over " << cylinder_end_facets << " facets at their ends, up to " << cylinder_end_mm
+                 << " mm from them, " << cylinder_end_volume_mm3 << " mm3 between)";
+        text << ", ";
+    }
     text << faces.size() - merged_faces - cylinder_faces << " triangles; noise " << noise_mm << " mm";
     for (const std::string& note : cylinder_notes) text << "; " << note;
     if (!refused_merges.empty())
