@@ -72,6 +72,15 @@ struct SearchMemory {
     cv::Vec3d at{0, 0, 0};
 };
 
+// Coarse to fine, for a start from features (often far off, or never settling): the first
+// iterations pair only every kCoarseStride-th moving sample, about an eighth of the work, until
+// they settle or kCoarseIterations have run; then every sample, from where they got to, with
+// the whole budget of full-density iterations (options.icp_iterations) still to spend: a start
+// that needs them all converges as it did without the coarse stage. Every start still runs,
+// and ends and is judged at full density.
+constexpr size_t kCoarseStride = 8;
+constexpr int kCoarseIterations = 30;
+
 // How much farther than its last partner a sample searches: a wider search costs little
 // (the grid's cells are 3 mm) and its runner-up lets later iterations skip the search.
 constexpr double kClearanceMarginMm = 0.3;
@@ -98,12 +107,12 @@ int nearest_partner(const NearestGrid& grid, const std::vector<cv::Vec3d>& fixed
 }  // namespace
 
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
-                             const RegistrationOptions& options, const EarlierFits& earlier) {
-    return icp_point_to_plane({{&fixed, &moving}}, initial, options, earlier);
+                             const RegistrationOptions& options, const EarlierFits& earlier, bool coarse_first) {
+    return icp_point_to_plane({{&fixed, &moving}}, initial, options, earlier, coarse_first);
 }
 
 IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options,
-                             const EarlierFits& earlier) {
+                             const EarlierFits& earlier, bool coarse_first) {
     IcpResult result;
     result.transform = initial;
     std::vector<std::unique_ptr<NearestGrid>> grids;
@@ -123,14 +132,19 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
     std::vector<double> distances;
     std::vector<std::vector<SearchMemory>> memories(pairs.size());
     for (size_t k = 0; k < pairs.size(); ++k) memories[k].resize(pairs[k].moving->points.size());
-    for (int iteration = 0; iteration < options.icp_iterations; ++iteration) {
+    int coarse_left = coarse_first ? kCoarseIterations : 0, fine_left = options.icp_iterations;
+    for (int iteration = 0; fine_left > 0; ++iteration) {
+        const bool coarse = coarse_left > 0;
+        if (coarse) --coarse_left;
+        else --fine_left;
+        const size_t stride = coarse ? kCoarseStride : 1;
         const cv::Matx33d rotation = result.transform.get_minor<3, 3>(0, 0);
         const cv::Vec3d translation(result.transform(0, 3), result.transform(1, 3), result.transform(2, 3));
         pairings.clear();
         for (size_t k = 0; k < pairs.size(); ++k) {
             const SurfaceSamples& fixed = *pairs[k].fixed;
             const SurfaceSamples& moving = *pairs[k].moving;
-            for (size_t i = 0; i < moving.points.size(); ++i) {
+            for (size_t i = 0; i < moving.points.size(); i += stride) {
                 const cv::Vec3d p = rotation * moving.points[i] + translation;
                 const int j = nearest_partner(*grids[k], fixed.points, p, limit, memories[k][i]);
                 if (j < 0) continue;
@@ -188,12 +202,16 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
         for (size_t k = 0; k < kept; ++k) distances.push_back(pairings[k].distance);
         std::nth_element(distances.begin(), distances.begin() + static_cast<long>(kept / 2), distances.end());
         limit = std::clamp(6.0 * distances[kept / 2], options.sample_spacing_mm, options.icp_max_distance_mm);
-        result.overlap = static_cast<double>(pairings.size()) / static_cast<double>(smaller_total);
+        result.overlap = static_cast<double>(pairings.size() * stride) / static_cast<double>(smaller_total);
         std::swap(pairings, finished);
         finished_kept = kept;
         // A start that shares almost nothing with the fixed view will not get better.
         if (iteration == 10 && result.overlap < options.min_overlap / 2) break;
         if (cv::norm(omega) < 1e-5 && cv::norm(delta) < 1e-3) {  // 0.0006 degrees, 1 um: far below what is measured
+            if (coarse) {  // settled on the few: on to all samples
+                coarse_left = 0;
+                continue;
+            }
             result.converged = true;
             break;
         }

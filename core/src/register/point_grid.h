@@ -23,6 +23,15 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm);
 
 SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& transform);
 
+// A cube of a uniform grid of side cell_mm, by its integer coordinates. Cells are told apart
+// by all three coordinates, never by a hash of them alone: a hash shared by two cells would
+// merge them (points found twice, or a thinned cloud missing a cell).
+using GridCell = cv::Vec<long long, 3>;
+GridCell grid_cell(const cv::Vec3d& p, double cell_mm);
+struct GridCellHash {
+    size_t operator()(const GridCell& cell) const;
+};
+
 class PointGrid {
 public:
     // cell_mm: the largest distance nearest() and within() will usually be asked for (larger
@@ -41,12 +50,10 @@ public:
     int nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const;
 
 private:
-    static long long key(long long ix, long long iy, long long iz) { return (ix * 73856093LL) ^ (iy * 19349663LL) ^ (iz * 83492791LL); }
-    cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
-    // The points of one cell key: a run of sorted_, in index order. Cells live in an
+    // The points of one cell: a run of sorted_, in index order. Cells live in an
     // open-addressed table (no node allocations, few cache misses: ICP asks up to 8 per query).
-    struct Cell { long long key = 0; int begin = -1, end = -1; };
-    const Cell* find(long long key) const;
+    struct Cell { GridCell at; int begin = -1, end = -1; };
+    const Cell* find(const GridCell& at) const;
     // Calls visit(point, index) for every point of the cells that the cube of half-side
     // radius_mm around the query touches (for radius_mm <= cell_mm, 1 to 8 cells, not the 27 around the
     // query's own cell; fewer as ICP tightens its radius). Cells in a fixed order, their
@@ -54,11 +61,11 @@ private:
     template <class Visit>
     void visit_near(const cv::Vec3d& query, double radius_mm, Visit&& visit) const {
         const double margin = radius_mm + 1e-9;  // rounding never drops a cell that holds a point in range
-        const cv::Vec<long long, 3> low = cell_of(query - cv::Vec3d::all(margin)), high = cell_of(query + cv::Vec3d::all(margin));
+        const GridCell low = grid_cell(query - cv::Vec3d::all(margin), cell_mm_), high = grid_cell(query + cv::Vec3d::all(margin), cell_mm_);
         for (long long x = low[0]; x <= high[0]; ++x)
             for (long long y = low[1]; y <= high[1]; ++y)
                 for (long long z = low[2]; z <= high[2]; ++z) {
-                    const Cell* cell = find(key(x, y, z));
+                    const Cell* cell = find(GridCell(x, y, z));
                     if (!cell) continue;
                     for (int k = cell->begin; k < cell->end; ++k)
                         visit(sorted_[static_cast<size_t>(k)], index_[static_cast<size_t>(k)]);
@@ -83,7 +90,6 @@ public:
     int nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const;
 
 private:
-    cv::Vec<long long, 3> cell_of(const cv::Vec3d& p) const;
     double cell_mm_;
     // Cells per axis size_, the first at first_: cell c holds sorted_[start_[c]] ..
     // sorted_[start_[c + 1] - 1], numbered z fastest, so a row of cells along z is one run.
