@@ -582,9 +582,10 @@ std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::V
 // around them are cut out and the hole left is triangulated anew on the cylinder, between the
 // vertices around it (which stay): unrolled by the conformal map (angle about the axis, and
 // e^(along / radius) from it: a patch is a polygon, a band all round the hole a ring),
-// constrained Delaunay with points about `spacing` apart inside, mapped back. The patch is
-// left as Poisson made it when its rim does not unroll into simple loops or the result is
-// not a closed manifold. Returns the vertices made.
+// constrained Delaunay with points about `spacing` apart inside, mapped back; where the rim
+// runs along a face the wall opens on, it goes onto their edge first (rim_onto_edges). The
+// patch is left as Poisson made it when its rim does not unroll into simple loops or the
+// result is not a closed manifold. Returns the vertices made.
 using CdtVertex = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;  // mesh index, -1 new
 using CdtFace = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Triangulation_face_base_with_info_2<int, Kernel>>;
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<CdtVertex, CdtFace>,
@@ -617,8 +618,97 @@ void mark_nesting(Cdt& cdt) {
     }
 }
 
+// The rim of a rebuilt wall where it meets a face at an edge (a hole's mouth, a blind hole's
+// floor): its vertices lie near that face's points, so they are not in the patch, and stay as
+// Poisson rounded them (or, where the face's points went on into the mouth, as it ran the face
+// on into the hole). Each of them, and of the kept vertices next to them, goes onto the nearer of the two surfaces, and onto the curve where
+// they meet when that puts it past the curve (the face's points say which side of the wall
+// the face lies on, and the wall lies on the same side of the face) or, a rim vertex, within a
+// third of the spacing of it; when the move is short, only one face is that near (two: a corner, left to
+// the sharp-edge code), the wall was seen at that turn, and the points around lie on the face,
+// on the wall, or within the edge's blur of the curve (a chamfer's or a fillet's do not).
+// A vertex whose kept faces would turn over stays. `placed`: the mesh's vertices, the rim's
+// moved; returns how many moved.
+size_t rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, const std::map<int, int>& rim_next,
+                      const Regions& regions, const HoleWall& wall, const std::vector<cv::Vec3d>& positions,
+                      const PointGrid& grid, double reach, double agree, double longest_move, double spacing,
+                      std::vector<cv::Vec3f>& placed) {
+    const Plane& hole = regions.planes[wall.surface];
+    std::vector<int> near;
+    std::vector<uint8_t> is_moved(placed.size(), 0);
+    // The rim and the kept vertices next to it (Poisson's rounding is often two vertices deep).
+    std::set<int> ring;
+    for (const auto& [v, next] : rim_next) ring.insert(v);  // every rim vertex starts one rim edge
+    for (const cv::Vec3i& f : kept)
+        if (rim_next.count(f[0]) || rim_next.count(f[1]) || rim_next.count(f[2])) ring.insert({f[0], f[1], f[2]});
+    for (int v : ring) {
+        const cv::Vec3d x(mesh.vertices[v]);
+        grid.within(x, reach, near);
+        std::map<int, int> points_of;  // plane -> its points this near
+        for (int k : near)
+            if (regions.label[k] >= 0 && !regions.planes[regions.label[k]].cylinder) ++points_of[regions.label[k]];
+        int face = -1, faces = 0;
+        for (const auto& [id, count] : points_of) {
+            cv::Vec3d on_curve;
+            if (count < 3 || from_line(hole, regions.planes[id], x) > longest_move || !onto_line(hole, regions.planes[id], x, on_curve))
+                continue;
+            const double angle = degrees_between(regions.planes[id].normal, hole.normal_at(on_curve));
+            if (angle < kSharpEdgeDeg || angle > 180 - kSharpEdgeDeg) continue;
+            face = id;
+            ++faces;
+        }
+        if (faces != 1) continue;
+        const Plane& plane = regions.planes[face];
+        // The side of the wall the face's points lie on (a convex edge: inside it).
+        int inside = 0, outside = 0;
+        for (int k : near)
+            if (regions.label[k] == face) (hole.distance(positions[k]) < 0 ? inside : outside)++;
+        if (std::max(inside, outside) < 2 * std::min(inside, outside) || inside + outside < 3) continue;
+        const double side = inside > outside ? -1 : 1;
+        const bool on_face = std::abs(plane.distance(x)) < std::abs(hole.distance(x));
+        cv::Vec3d at = on_face ? plane.project(x) : hole.project(x);
+        const bool past = side * (on_face ? hole.distance(at) : plane.distance(at)) < 0;
+        const bool near_curve = rim_next.count(v) && from_line(hole, plane, at) < spacing / 3;
+        if ((past || near_curve) && !onto_line(hole, plane, at, at)) continue;
+        const double along = hole.axis.dot(at - hole.centre);
+        if (cv::norm(at - x) > longest_move || !wall.seen_at(hole, at) || along < hole.low - reach || along > hole.high + reach)
+            continue;
+        grid.within(at, reach, near);
+        size_t on = 0;
+        for (int k : near) {
+            const cv::Vec3d& p = positions[k];
+            on += std::abs(plane.distance(p)) < agree || std::abs(hole.distance(p)) < agree || from_line(hole, plane, p) < kEdgeBlurMm;
+        }
+        if (near.size() < 3 || double(on) < kLeastAgreement * double(near.size())) continue;
+        placed[v] = cv::Vec3f(at);
+        is_moved[v] = 1;
+    }
+    // Self-check: the kept faces around a moved vertex keep their way round; those that turn
+    // over send their moved vertices back.
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (const cv::Vec3i& f : kept) {
+            if (!is_moved[f[0]] && !is_moved[f[1]] && !is_moved[f[2]]) continue;
+            const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
+            const cv::Vec3d pa(placed[f[0]]), pb(placed[f[1]]), pc(placed[f[2]]);
+            if ((pb - pa).cross(pc - pa).dot((b - a).cross(c - a)) > 0) continue;
+            // The kept vertices next to the rim go back first; the rim's when none is left.
+            bool next_to_rim = false;
+            for (int k = 0; k < 3; ++k) next_to_rim = next_to_rim || (is_moved[f[k]] && !rim_next.count(f[k]));
+            for (int k = 0; k < 3; ++k)
+                if (is_moved[f[k]] && (!next_to_rim || !rim_next.count(f[k]))) {
+                    placed[f[k]] = mesh.vertices[f[k]];
+                    is_moved[f[k]] = 0;
+                    changed = true;
+                }
+        }
+    }
+    return size_t(std::count(is_moved.begin(), is_moved.end(), uint8_t(1)));
+}
+
 size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWall>& walls, const PointGrid& grid,
-                          double reach, double filled_reach, double spacing) {
+                          const std::vector<cv::Vec3d>& positions, double reach, double filled_reach, double agree,
+                          double longest_move, double spacing, size_t& rim_moved) {
     size_t made = 0;
     for (HoleWall& wall : walls) {
         const size_t vertex_count = mesh.vertices.size();
@@ -744,13 +834,32 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
             if (!joined) break;
         }
         if (!simple || rim_next.empty()) continue;
+        // The rim where the wall meets a face, onto their edge; kept as it was when that makes
+        // the rim, unrolled, cross itself.
+        std::vector<cv::Vec3f> placed = mesh.vertices;
+        const size_t rim_on_edge =
+            rim_onto_edges(mesh, kept, rim_next, regions, wall, positions, grid, reach, agree, longest_move, spacing, placed);
+        if (rim_on_edge > 0) {
+            std::vector<Kernel::Segment_2> unrolled_edges;
+            for (const auto& [a, b] : rim_next)
+                unrolled_edges.emplace_back(unrolled(cv::Vec3d(placed[a])), unrolled(cv::Vec3d(placed[b])));
+            bool crossing = false;
+            for (size_t i = 0; i < unrolled_edges.size() && !crossing; ++i)
+                for (size_t j = i + 1; j < unrolled_edges.size() && !crossing; ++j) {
+                    const Kernel::Segment_2 &e = unrolled_edges[i], &f = unrolled_edges[j];
+                    const bool touching = e.source() == f.source() || e.source() == f.target() || e.target() == f.source() ||
+                                          e.target() == f.target();
+                    crossing = !touching && CGAL::do_intersect(e, f);
+                }
+            if (crossing) placed = mesh.vertices;
+        }
         Cdt cdt;
         std::map<int, Cdt::Vertex_handle> handle;
         try {
             for (const auto& [a, b] : rim_next)
                 for (int v : {a, b})
                     if (!handle.count(v)) {
-                        handle[v] = cdt.insert(unrolled(cv::Vec3d(mesh.vertices[v])));
+                        handle[v] = cdt.insert(unrolled(cv::Vec3d(placed[v])));
                         handle[v]->info() = v;
                     }
             if (cdt.number_of_vertices() != handle.size()) continue;  // two rim vertices on one point
@@ -763,8 +872,8 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         std::vector<cv::Vec3d> rim_on_wall;
         double bottom = 1e30, top = -1e30;
         for (const auto& [a, b] : rim_next) {
-            rim_on_wall.push_back(hole.project(cv::Vec3d(mesh.vertices[a])));
-            const double along = hole.axis.dot(cv::Vec3d(mesh.vertices[a]) - hole.centre);
+            rim_on_wall.push_back(hole.project(cv::Vec3d(placed[a])));
+            const double along = hole.axis.dot(cv::Vec3d(placed[a]) - hole.centre);
             bottom = std::min(bottom, along);
             top = std::max(top, along);
         }
@@ -786,7 +895,7 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         mark_nesting(cdt);
         // The new faces, turned the way the rim runs in the faces cut out.
         Mesh rebuilt;
-        rebuilt.vertices = mesh.vertices;
+        rebuilt.vertices = placed;
         rebuilt.faces = kept;
         std::vector<cv::Vec3i> added;
         int turned = 0;  // +1: as unrolled, -1: reversed
@@ -821,6 +930,7 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         for (const auto& [edge, count] : directed) closed = closed && count == 1 && directed.count({edge.second, edge.first});
         if (!closed) continue;
         made += rebuilt.vertices.size() - mesh.vertices.size();
+        if (placed != mesh.vertices) rim_moved += rim_on_edge;
         wall.rebuilt = true;
         mesh = std::move(rebuilt);
     }
@@ -927,9 +1037,10 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<HoleWall> walls = hole_walls(regions, positions);
     // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
     const double filled_reach = std::max(2 * spacing_mm, 0.5);
-    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm);
     // A vertex further than this from where its planes put it is left alone (not an edge Poisson rounded).
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
+    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, positions, reach, filled_reach, agree, longest_move,
+                                              spacing_mm, report.rim_vertices);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
     const size_t vertex_count = mesh.vertices.size();
