@@ -621,14 +621,14 @@ void mark_nesting(Cdt& cdt) {
 // The rim of a rebuilt wall where it meets a face at an edge (a hole's mouth, a blind hole's
 // floor): its vertices lie near that face's points, so they are not in the patch, and stay as
 // Poisson rounded them (or, where the face's points went on into the mouth, as it ran the face
-// on into the hole). Each of them, and of the kept vertices next to them, goes onto the nearer of the two surfaces, and onto the curve where
-// they meet when that puts it past the curve (the face's points say which side of the wall
-// the face lies on, and the wall lies on the same side of the face) or, a rim vertex, within a
-// third of the spacing of it; when the move is short, only one face is that near (two: a corner, left to
-// the sharp-edge code), the wall was seen at that turn, and the points around lie on the face,
-// on the wall, or within the edge's blur of the curve (a chamfer's or a fillet's do not).
-// A vertex whose kept faces would turn over stays. `placed`: the mesh's vertices, the rim's
-// moved; returns how many moved.
+// on into the hole). Each of them, and each kept vertex next to them, goes onto the nearer of
+// the two surfaces, and onto the curve where they meet when that puts it past the curve (the
+// face's points say which side of the wall the face lies on, and the wall lies on the same
+// side of the face) or, a rim vertex, within a third of the spacing of it; only when the move
+// is short, one face alone is that near (two: a corner, left to the sharp-edge code), the wall
+// was seen at that turn, and the points around lie on the face, on the wall, or within the
+// edge's blur of the curve (a chamfer's or a fillet's do not). A vertex whose kept faces would
+// turn over stays. `placed`: the mesh's vertices, the rim's moved; returns how many moved.
 size_t rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, const std::map<int, int>& rim_next,
                       const Regions& regions, const HoleWall& wall, const std::vector<cv::Vec3d>& positions,
                       const PointGrid& grid, double reach, double agree, double longest_move, double spacing,
@@ -835,23 +835,24 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         }
         if (!simple || rim_next.empty()) continue;
         // The rim where the wall meets a face, onto their edge; kept as it was when that makes
-        // the rim, unrolled, cross itself.
+        // the rim, unrolled, cross itself or two of its vertices one point.
         std::vector<cv::Vec3f> placed = mesh.vertices;
         const size_t rim_on_edge =
             rim_onto_edges(mesh, kept, rim_next, regions, wall, positions, grid, reach, agree, longest_move, spacing, placed);
         if (rim_on_edge > 0) {
+            const std::vector<std::pair<int, int>> edges(rim_next.begin(), rim_next.end());
             std::vector<Kernel::Segment_2> unrolled_edges;
-            for (const auto& [a, b] : rim_next)
-                unrolled_edges.emplace_back(unrolled(cv::Vec3d(placed[a])), unrolled(cv::Vec3d(placed[b])));
-            bool crossing = false;
-            for (size_t i = 0; i < unrolled_edges.size() && !crossing; ++i)
-                for (size_t j = i + 1; j < unrolled_edges.size() && !crossing; ++j) {
-                    const Kernel::Segment_2 &e = unrolled_edges[i], &f = unrolled_edges[j];
-                    const bool touching = e.source() == f.source() || e.source() == f.target() || e.target() == f.source() ||
-                                          e.target() == f.target();
-                    crossing = !touching && CGAL::do_intersect(e, f);
+            for (const auto& [a, b] : edges) unrolled_edges.emplace_back(unrolled(cv::Vec3d(placed[a])), unrolled(cv::Vec3d(placed[b])));
+            bool tangled = false;
+            for (size_t i = 0; i < edges.size() && !tangled; ++i) {
+                tangled = unrolled_edges[i].is_degenerate();
+                for (size_t j = i + 1; j < edges.size() && !tangled; ++j) {
+                    const auto [a, b] = edges[i];
+                    const auto [c, d] = edges[j];
+                    tangled = a != c && a != d && b != c && b != d && CGAL::do_intersect(unrolled_edges[i], unrolled_edges[j]);
                 }
-            if (crossing) placed = mesh.vertices;
+            }
+            if (tangled) placed = mesh.vertices;
         }
         Cdt cdt;
         std::map<int, Cdt::Vertex_handle> handle;
