@@ -192,7 +192,9 @@ PointCloud holed_block_points(double flat_y, unsigned seed, double seen_down_deg
     for (double a = -h + spacing / 2; a < h; a += spacing)
         for (double b = -h + spacing / 2; b < h; b += spacing) {
             const double x = a + jitter(random) * spacing, y = b + jitter(random) * spacing;
-            if (std::hypot(x, y) >= kHoleRadius - mouth_blur_mm || !in_hole(x, y)) add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
+            // A negative blur: the bottom face's points stop that far short of the hole.
+            if (std::hypot(x, y) >= kHoleRadius - mouth_blur_mm || (mouth_blur_mm >= 0 && !in_hole(x, y)))
+                add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
             if (in_hole(x, y)) continue;
             add(cv::Vec3d(x, y, kHoleBlockHeight), cv::Vec3d(0, 0, 1));
         }
@@ -338,6 +340,46 @@ TEST(MeshSharpen, RebuiltHoleWallsRimOnTheFaceItOpensOnIsSharp) {
     std::printf("rebuilt wall's bottom rim: %zu vertices within 1.5 mm of it, worst %.1f um off the part at (%.2f, %.2f, %.2f)\n",
                 near_rim, 1000 * worst, worst_at[0], worst_at[1], worst_at[2]);
     ASSERT_GT(near_rim, 50u);
+    EXPECT_LT(worst, 0.050);
+}
+
+// The bottom face's points stopping short of the hole's mouth (as the real scans' do, the
+// edge's blur thinning them): the rebuilt wall's vertices near the rim have none of that face's
+// points near, and Poisson's rim vertices go onto the bottom face a few tenths of a millimetre
+// out from the circle. The faces between the two must be split on the circle, not span the
+// corner inside the material. Judged over points spread on the faces near the rim (a face
+// spanning the corner has its vertices on the part and its middle inside it). Measured
+// (2026-11-24, branch rim): 9.1 um; 315.9 um before the wall's vertices with no face points
+// near could have their edges split. With the points stopping 0.2-0.5 mm short it is still
+// 250-976 um (not fixed: see docs/multiview.md); 0.1 mm short: 7.5 um either way.
+TEST(MeshSharpen, RebuiltHoleWallsFacesDoNotSpanTheRimWhereTheFaceWasNotSeenUpToIt) {
+    const double gap_mm = 0.15;
+    const Mesh mesh = mesh_cloud(holed_block_points(0.0, 5, 180, -gap_mm));
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("holed block, the bottom face's points %.2f mm short of the hole: %s\n", gap_mm, check.summary().c_str());
+    ASSERT_TRUE(check.closed_volume);
+    EXPECT_FALSE(check.self_intersecting);
+    size_t samples = 0;
+    double worst = 0;
+    cv::Vec3d worst_at;
+    for (const cv::Vec3i& f : mesh.faces) {
+        const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
+        for (int i = 0; i <= 4; ++i)
+            for (int j = 0; i + j <= 4; ++j) {
+                const cv::Vec3d p = a + (i / 4.0) * (b - a) + (j / 4.0) * (c - a);
+                const double r = std::hypot(p[0], p[1]);
+                if (p[1] < 1.5 || std::hypot(r - kHoleRadius, p[2]) > 1.5) continue;  // the unseen side's rim
+                ++samples;
+                const double into_hole = kHoleRadius - r, below = -p[2];
+                const double off = into_hole > 0 && below > 0   ? std::hypot(into_hole, below)
+                                   : into_hole > 0 || below > 0 ? std::max(into_hole, below)
+                                                                : std::min(-into_hole, -below);
+                if (off > worst) worst = off, worst_at = p;
+            }
+    }
+    std::printf("rebuilt wall's bottom rim: %zu points on the faces within 1.5 mm of it, worst %.1f um off the part at "
+                "(%.2f, %.2f, %.2f)\n", samples, 1000 * worst, worst_at[0], worst_at[1], worst_at[2]);
+    ASSERT_GT(samples, 500u);
     EXPECT_LT(worst, 0.050);
 }
 

@@ -1176,13 +1176,20 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         int plane_a, plane_b;
     };
     std::unordered_map<long long, Crossing> crossings;
+    // A vertex of a rebuilt hole wall with no other surface's points near (the wall was not seen
+    // there, and the face it opens on rarely was right at the rim): an edge from it to a vertex
+    // of the face that knows the wall still crosses their edge, or the face spans the corner.
+    std::vector<uint8_t> rebuilt_surface(regions.planes.size(), 0);
+    for (const HoleWall& wall : walls) rebuilt_surface[wall.surface] = rebuilt_surface[wall.surface] || wall.rebuilt;
+    auto only_rebuilt_wall = [&](int v) { return model[v].count == 1 && rebuilt_surface[model[v].plane[0]]; };
     auto edge_key = [&](int a, int b) { return (long long)std::min(a, b) * (long long)vertex_count + std::max(a, b); };
     std::vector<std::vector<std::pair<int, int>>> snaps(vertex_count);  // planes pairs an end goes onto
     for (const cv::Vec3i& face : mesh.faces)
         for (int k = 0; k < 3; ++k) {
             const int a = face[k], b = face[(k + 1) % 3];
             const int pa = own_plane(a), pb = own_plane(b);
-            if (pa < 0 || pb < 0 || pa == pb || !model[a].has(pb) || !model[b].has(pa) ||
+            if (pa < 0 || pb < 0 || pa == pb || !(model[a].has(pb) || only_rebuilt_wall(a)) ||
+                !(model[b].has(pa) || only_rebuilt_wall(b)) ||
                 !sharp_pair(pa, pb, 0.5 * (cv::Vec3d(mesh.vertices[a]) + cv::Vec3d(mesh.vertices[b]))))
                 continue;
             const long long key = edge_key(a, b);
