@@ -67,12 +67,6 @@ std::string vector_text(const cv::Vec3d& v) {
     return text;
 }
 
-std::string point_text(const cv::Vec2d& p) {
-    char text[64];
-    std::snprintf(text, sizeof text, "(%.4f, %.4f)", p[0], p[1]);
-    return text;
-}
-
 // The plane and the drawing's frame on it: x (u) square to `up` (Z, or Y for a plane nearly across
 // Z), y (v) completing a right-handed frame with the normal towards the viewer.
 struct Plane {
@@ -149,29 +143,6 @@ Plane section_plane(const PlaneRequest& request, const Mesh& mesh) {
     return plane_with_normal(origin, normals[request.axis]);
 }
 
-std::string band_text(const SectionElement& e) {
-    if (e.band_cuts > 0) return std::to_string(e.band_cuts) + " band cuts";
-    if (!e.band_note.empty()) return "band: " + e.band_note;
-    return "one cut";
-}
-
-void print_element(int number, const SectionElement& e) {
-    if (e.kind == SectionElementKind::Line) {
-        const cv::Vec2d along = e.end - e.start;
-        std::printf("  %2d line   length %9.4f mm, angle %9.4f deg (sigma %.4f), from %s to %s", number, cv::norm(along),
-                    std::atan2(along[1], along[0]) * 180 / 3.14159265358979323846, e.angle_sigma_deg,
-                    point_text(e.start).c_str(), point_text(e.end).c_str());
-    } else {
-        std::printf("  %2d %-6s radius %9.4f mm (sigma %.4f), %7.2f deg around %s", number, to_string(e.kind).c_str(),
-                    e.radius_mm, e.radius_sigma_mm, swept_angle_deg(e), point_text(e.centre).c_str());
-        if (e.kind == SectionElementKind::Arc)
-            std::printf(" %s from %s to %s", e.counter_clockwise ? "counter-clockwise" : "clockwise",
-                        point_text(e.start).c_str(), point_text(e.end).c_str());
-    }
-    std::printf(", %d points, rms %.4f mm, max %.4f mm%s, %s\n", e.point_count, e.rms_mm, e.max_mm,
-                e.tangent_to_next ? ", tangent to the next" : "", band_text(e).c_str());
-}
-
 int run_section(const Arguments& arguments) {
     const std::string input = single_input(arguments);
     const std::string svg = arguments.text("--svg"), dxf = arguments.text("--dxf");
@@ -193,33 +164,16 @@ int run_section(const Arguments& arguments) {
     if (mesh.faces.empty()) throw Error(input, "holds no triangles (a point cloud? mesh it first with 'picoscan mesh')");
     const Plane plane = section_plane(request, mesh);
 
-    MeshSection section;
+    MeshSectionFit section;
     try {
-        section = cut_mesh_section(mesh, plane.origin, plane.u, plane.v, band, terminal_progress());
+        section = section_mesh(mesh, plane.origin, plane.u, plane.v, band, options, terminal_progress());
     } catch (const Error& error) {
         if (error.subject() != "plane") throw;
         throw Error(request.flag, "the plane through " + vector_text(plane.origin) + " with normal " +
                                     vector_text(plane.normal) + " " + std::string(error.what()).substr(7));
     }
-    const SectionFits fits = fit_section_polylines(section.polylines, section.parallel_cuts, options, terminal_progress());
-
-    std::printf("plane: through %s mm, normal %s; the drawing's x along %s, y along %s\n", vector_text(plane.origin).c_str(),
-                vector_text(plane.normal).c_str(), vector_text(plane.u).c_str(), vector_text(plane.v).c_str());
-    std::printf("cut: %zu polylines; band +- %.3f mm: %zu parallel cuts' polylines\n", section.polylines.size(), band,
-                section.parallel_cuts.size());
-    std::printf("noise %.4f mm, tolerance %.4f mm (%s)\n", fits.noise_mm, fits.tolerance_mm,
-                options.tolerance_mm > 0 ? "given" : "5 x the noise");
-    for (size_t k = 0; k < fits.fits.size(); ++k) {
-        const SectionFit& fit = fits.fits[k];
-        const SectionPolyline& line = section.polylines[size_t(fits.fitted_index[k])];
-        std::printf("polyline %d (%s, %zu points): %zu elements, tolerance %.4f mm\n", fits.fitted_index[k] + 1,
-                    fit.closed ? "closed" : "open", line.points.size(), fit.elements.size(), fit.tolerance_mm);
-        for (size_t e = 0; e < fit.elements.size(); ++e) print_element(int(e) + 1, fit.elements[e]);
-    }
-    for (const LeftOutPolyline& left : fits.left_out)
-        std::printf("left out: polyline %d (%s, %d points, %.2f mm across, around %s mm): %s\n", left.index + 1,
-                    left.closed ? "closed" : "open", left.point_count, left.across_mm, point_text(left.centre).c_str(),
-                    left.reason.c_str());
+    for (const std::string& line : section.report) std::printf("%s\n", line.c_str());
+    const SectionFits& fits = section.fits;
 
     OutputBatch outputs;  // the drawings appear together
     if (!svg.empty()) write_file_atomically(svg, section_svg(fits));

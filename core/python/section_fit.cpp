@@ -42,6 +42,8 @@ void bind_section_fit(py::module_& m) {
         .def_readonly("point_count", &SectionElement::point_count)
         .def_readonly("rms_mm", &SectionElement::rms_mm)
         .def_readonly("max_mm", &SectionElement::max_mm)
+        .def_readonly("chord_sag_mm", &SectionElement::chord_sag_mm,
+                      "Faceted cut: how far inside the arc the points on its chords may lie (not fitted)")
         .def_readonly("angle_sigma_deg", &SectionElement::angle_sigma_deg)
         .def_readonly("radius_sigma_mm", &SectionElement::radius_sigma_mm)
         .def_readonly("tangent_to_next", &SectionElement::tangent_to_next)
@@ -150,6 +152,25 @@ void bind_section_fit(py::module_& m) {
         py::arg("progress") = py::none(),
         "A section's polylines ([SectionPolyline], e.g. cut_mesh_section's) fitted with one noise and tolerance; too small or too noisy "
         "ones left out with the reason (left_out)");
+    py::class_<MeshSectionFit>(m, "MeshSectionFit")
+        .def_readonly("section", &MeshSectionFit::section, "The cut and its Band (MeshSection)")
+        .def_readonly("fits", &MeshSectionFit::fits, "The polylines fitted together (SectionFits)")
+        .def_readonly("report", &MeshSectionFit::report, "The report, one string per line");
+    m.def(
+        "section_mesh",
+        [](const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis, double band_mm,
+           const SectionFitOptions& options, const py::object& progress) {
+            const ProgressCallback callback = progress_from(progress);
+            py::gil_scoped_release release;
+            return section_mesh(mesh, origin, u_axis, v_axis, band_mm, options, callback);
+        },
+        py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
+        py::arg("band_mm") = kDefaultSectionBandMm, py::arg("options") = SectionFitOptions(), py::arg("progress") = py::none(),
+        "The Cross-section in one call: the mesh cut at the plane through origin spanned by u and v with its Band, "
+        "the polylines fitted together, and the report (MeshSectionFit); progress hears the cut and the fit, Cancel "
+        "raises Error('cancelled: ...')");
+    m.def("section_element_text", &section_element_text, py::arg("element"), "One element's line of the report");
+    m.def("left_out_text", &left_out_text, py::arg("left"), "One left-out polyline's line of the report (loop or chain, why)");
 }
 
 }  // namespace picoscan::python

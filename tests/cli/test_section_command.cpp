@@ -64,7 +64,8 @@ size_t count_of(const std::string& text, const std::string& part) {
 std::string noisy_demo_part(const fs::path& dir, double sigma) {
     Mesh part = mechanical_part();
     std::mt19937 random(3);
-    std::normal_distribution<float> noise(0.0f, float(sigma));
+    std::normal_distribution<float> unit_noise;  // scaled: its deviation must be positive, and sigma may be 0
+    const auto noise = [&](auto& engine) { return float(sigma) * unit_noise(engine); };
     std::map<std::tuple<float, float, float>, cv::Vec3f> moved;
     for (cv::Vec3f& v : part.vertices) {
         const auto key = std::make_tuple(v[0], v[1], v[2]);

@@ -27,7 +27,8 @@ CaptureSet render(const PatternSequence& sequence, const SyntheticView& view) {
     CaptureSet captures;
     captures.sequence = sequence;
     std::mt19937 random(7);
-    std::normal_distribution<double> noise(0, view.noise);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and view.noise may be 0
+    const auto noise = [&](auto& engine) { return view.noise * unit_noise(engine); };
     const double scale = view.depth == CV_16U ? 257.0 : 1.0;
     for (const Frame& frame : sequence.frames) {
         const cv::Mat pattern = render_pattern(sequence, frame);

@@ -21,7 +21,8 @@ namespace {
 std::vector<cv::Vec3f> face_points(int axis, double level, double noise_mm, const cv::Matx33d& rotation, const cv::Vec3d& shift,
                                    std::mt19937& random) {
     std::uniform_real_distribution<double> along(2.0, 38.0);
-    std::normal_distribution<double> noise(0.0, noise_mm);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and noise_mm may be 0
+    const auto noise = [&](auto& engine) { return noise_mm * unit_noise(engine); };
     std::vector<cv::Vec3f> points;
     for (int i = 0; i < 4000; ++i) {
         cv::Vec3d part(along(random), along(random), along(random));

@@ -139,6 +139,19 @@ class ModuleTest(unittest.TestCase):
         self.assertEqual(len(section.polylines), len(picoscan.cut_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1))))
         with self.assertRaisesRegex(picoscan.Error, "plane: does not cut the mesh"):
             picoscan.cut_mesh_section(mesh, (0, 0, 900), (1, 0, 0), (0, 1, 0))
+        # The whole Cross-section in one call (section_mesh, as FreeCAD's Cross-section and picoscan
+        # section run it): its progress runs through the cuts (up to 0.5), then the fit; Cancel stops either.
+        for stop in ("parallel cuts", "fitting lines and arcs"):
+            told = []
+            with self.assertRaisesRegex(picoscan.Error, "cancelled"):
+                picoscan.section_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), 2.0, picoscan.SectionFitOptions(),
+                                      lambda f, s: told.append((f, s)) or s != stop)
+            self.assertEqual((told[0][1], told[-1][1]), ("cutting the mesh", stop))
+            self.assertEqual(told, sorted(told, key=lambda t: t[0]))
+            self.assertTrue(all(f <= 0.5 for f, s in told if s != "fitting lines and arcs"))
+            self.assertTrue(all(f >= 0.5 for f, s in told if s == "fitting lines and arcs"))
+        with self.assertRaisesRegex(picoscan.Error, "plane: does not cut the mesh"):
+            picoscan.section_mesh(mesh, (0, 0, 900), (1, 0, 0), (0, 1, 0))
 
         self.assertGreater(len(cloud.points), 65536)
         selecting = []

@@ -76,8 +76,10 @@ Outcome run_cli(const std::vector<std::string>& arguments, const fs::path& direc
     const auto start = std::chrono::steady_clock::now();
     const pid_t child = ::fork();
     if (child == 0) {
+#ifndef __SANITIZE_ADDRESS__  // AddressSanitizer reserves terabytes of address space for its shadow
         rlimit limit{kAddressSpaceLimit, kAddressSpaceLimit};
         ::setrlimit(RLIMIT_AS, &limit);
+#endif
         ::setenv("PICOSCAN_MEMORY_MB", kMemoryBudgetMb, 1);
         if (::chdir(directory.c_str()) != 0) ::_exit(127);
         ::dup2(::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), 1);

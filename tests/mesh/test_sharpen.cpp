@@ -39,10 +39,10 @@ double signed_distance(const cv::Vec3d& p) {
 // along the normal.
 // Samples surfaces: points on a jittered grid about `spacing` apart, `noise_mm` along the normal.
 struct SurfaceSampler {
-    SurfaceSampler(double spacing, double noise_mm, unsigned seed) : spacing(spacing), random(seed), noise(0, noise_mm) {}
+    SurfaceSampler(double spacing, double noise_mm, unsigned seed) : spacing(spacing), random(seed), noise_mm(noise_mm) {}
 
     void add(const cv::Vec3d& p, const cv::Vec3d& n) {
-        cloud.points.emplace_back(p + noise(random) * n);
+        cloud.points.emplace_back(p + noise_mm * unit_noise(random) * n);
         cloud.normals.emplace_back(n);
     }
 
@@ -56,7 +56,8 @@ struct SurfaceSampler {
 
     double spacing;
     std::mt19937 random;
-    std::normal_distribution<double> noise;
+    double noise_mm;
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and noise_mm may be 0
     std::uniform_real_distribution<double> jitter{-0.5, 0.5};
     PointCloud cloud;
 };

@@ -40,7 +40,8 @@ Mesh band_mesh(const test_support::TurntableScan& scan, double extra_noise_mm) {
     for (size_t i = 0; i < views.size(); ++i) views[i].pose = scan.part_to_camera[i].inv();
     const PointCloud merged = merge_views(views);
     std::mt19937 random(3);
-    std::normal_distribution<float> noise(0.0f, float(extra_noise_mm));
+    std::normal_distribution<float> unit_noise;  // scaled: its deviation must be positive, and extra_noise_mm may be 0
+    const auto noise = [&](auto& engine) { return float(extra_noise_mm) * unit_noise(engine); };
     PointCloud thinned;
     for (size_t i = 0; i < merged.points.size(); i += 2) {
         const float shift = extra_noise_mm > 0 ? noise(random) : 0.0f;

@@ -141,40 +141,44 @@ TEST(DetectShapes, CancelStopsWithinASecondEvenInsideCgalsScoring) {
     add_shaft(scan, {0, -30, 438}, cv::Vec3d(0, 1, 0), 12.0, 60);
     using Clock = std::chrono::steady_clock;
     const auto seconds = [](Clock::duration duration) { return std::chrono::duration<double>(duration).count(); };
-    // The detection proper, uncancelled, sets when to press: on an idle machine it ends in about
-    // 1.5 s, so a fixed time could come after its end on a faster one. Counted from the detection
-    // proper: CGAL's octrees (0.3-0.7 s on an idle machine, about 1.2 s at load 12) come first and
-    // cannot be stopped inside.
+    // The detection proper, uncancelled, sets when to press: as a count of its progress calls, not
+    // a time (a time taken on a loaded machine came after the detection's end once the load fell).
+    // Counted from the detection proper: CGAL's octrees (0.3-0.7 s on an idle machine, about 1.2 s
+    // at load 12) come first and cannot be stopped inside.
+    size_t detection_calls = 0;
     double detection_s = 0;
     {
         Clock::time_point detecting;
-        bool started = false;
         detect_shapes(scan.cloud, {}, [&](double, const std::string& stage) {
-            if (stage != "shapes: octrees" && !started) detecting = Clock::now(), started = true;
+            if (stage != "shapes: octrees" && detection_calls++ == 0) detecting = Clock::now();
             return true;
         });
-        detection_s = started ? seconds(Clock::now() - detecting) : 0;
+        detection_s = detection_calls > 0 ? seconds(Clock::now() - detecting) : 0;
     }
-    for (const double cancel_after_s : {0.25 * detection_s, 0.6 * detection_s}) {
-        bool started = false;
-        Clock::time_point detecting, last;
+    ASSERT_GT(detection_calls, 8u);
+    for (const double fraction : {0.25, 0.6}) {
+        const size_t cancel_at_call = static_cast<size_t>(fraction * static_cast<double>(detection_calls));
+        size_t calls = 0;
+        Clock::time_point last, cancelled;
         double longest_gap_s = 0;
         const ProgressCallback progress = [&](double, const std::string& stage) {
             const Clock::time_point now = Clock::now();
             if (stage == "shapes: octrees") return true;
-            if (!started) detecting = last = now;
-            started = true;
+            if (calls == 0) last = now;
             longest_gap_s = std::max(longest_gap_s, seconds(now - last));
             last = now;
-            return seconds(now - detecting) < cancel_after_s;
+            if (++calls < cancel_at_call) return true;
+            if (calls == cancel_at_call) cancelled = now;
+            return false;
         };
+        const double cancel_after_s = fraction * detection_s;  // for the messages only
         double stopped_after_s = 0;
         try {
             detect_shapes(scan.cloud, {}, progress);
-            ADD_FAILURE() << "detection ended before the Cancel at " << cancel_after_s << " s";
+            ADD_FAILURE() << "detection ended before the Cancel at call " << cancel_at_call << " of " << detection_calls;
         } catch (const Error& error) {
             EXPECT_EQ(error.subject(), "cancelled");
-            stopped_after_s = seconds(Clock::now() - detecting) - cancel_after_s;
+            stopped_after_s = seconds(Clock::now() - cancelled);
         }
         // Measured 0.05-0.4 s (longest time without asking 0.7 s) at load 12 on 2 cores.
         EXPECT_LT(stopped_after_s, 1.0) << "Cancel at " << cancel_after_s << " s";

@@ -88,7 +88,8 @@ Mesh bushing_plate(double sigma, unsigned seed, double oval_mm = 0, double tilt_
     annulus(hole, boss, top, true);
     wall(hole, 0, top, false);
     std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0.0, sigma);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and sigma may be 0
+    const auto noise = [&](auto& engine) { return sigma * unit_noise(engine); };
     for (const cv::Vec3d& p : positions)
         mesh.vertices.emplace_back(float(p[0] + noise(random)), float(p[1] + noise(random)), float(p[2] + noise(random)));
     return mesh;
@@ -198,7 +199,8 @@ Mesh shaft(double sigma, unsigned seed, const cv::Matx33d& turn, const cv::Vec3d
     const double radius = 5, length = 30;
     Mesh mesh;
     std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0.0, sigma);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and sigma may be 0
+    const auto noise = [&](auto& engine) { return sigma * unit_noise(engine); };
     auto add = [&](double r, int k, double z) {
         const double a = 2 * kPi * k / segments;
         const cv::Vec3d p = turn * cv::Vec3d(r * std::cos(a), r * std::sin(a), z) + shift;

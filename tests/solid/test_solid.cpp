@@ -29,7 +29,8 @@ Mesh grid_box(int nx, int ny, int nz, double step, double sigma, unsigned seed =
     Mesh mesh;
     std::map<std::tuple<int, int, int>, int> index_of;
     std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0.0, sigma);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and sigma may be 0
+    const auto noise = [&](auto& engine) { return sigma * unit_noise(engine); };
     auto vertex = [&](int i, int j, int k) {
         const auto key = std::make_tuple(i, j, k);
         const auto found = index_of.find(key);
@@ -300,7 +301,8 @@ Mesh prism(const std::vector<cv::Vec2d>& outline, const std::vector<int>& segmen
     const int n = int(ring.size());
     Mesh mesh;
     std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0.0, sigma);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and sigma may be 0
+    const auto noise = [&](auto& engine) { return sigma * unit_noise(engine); };
     auto add = [&](double x, double y, double z) {
         mesh.vertices.emplace_back(float(x + noise(random)), float(y + noise(random)), float(z + noise(random)));
     };
@@ -483,7 +485,8 @@ size_t triangle_count(const PlanarFaceModel& model) {
 
 void add_noise(Mesh& mesh, double sigma, unsigned seed) {
     std::mt19937 random(seed);
-    std::normal_distribution<double> noise(0.0, sigma);
+    std::normal_distribution<double> unit_noise;  // scaled: its deviation must be positive, and sigma may be 0
+    const auto noise = [&](auto& engine) { return sigma * unit_noise(engine); };
     for (cv::Vec3f& v : mesh.vertices) v += cv::Vec3f(float(noise(random)), float(noise(random)), float(noise(random)));
 }
 

@@ -73,6 +73,13 @@ struct SectionElement {
     bool counter_clockwise = true;     // arc: the polyline runs counter-clockwise around the centre
     int first_point = 0, point_count = 0;  // the polyline points fitted (indices wrap on closed polylines)
     double rms_mm = 0, max_mm = 0;     // distances of those points to the element
+    // A faceted cut (a mesh's curved face cut along its facets' chords, coarse for the tolerance):
+    // when a polyline cannot be split into elements within the tolerance with all its points, the
+    // points strictly inside a straight run shorter than 1 mm (on a chord, not on the curve) are left
+    // out of the fit; the residuals above are then those of the points fitted (the chords' ends, on
+    // the curve), and an arc's or circle's chord_sag_mm its largest chord sag c^2 / (8 r): how far
+    // inside it such points may lie. 0 otherwise.
+    double chord_sag_mm = 0;
     // Standard errors of the fit, from the points it used (parallel cuts included) by the block
     // jackknife: the fit repeated without each run of about 1 mm along the element, since a
     // scan's deviations are shared over about that (its bumps, a facet). NaN for an element of
@@ -202,6 +209,27 @@ struct MeshSection {
 // when `progress` (told every 65 536 vertices and triangles of each cut) answers false.
 MeshSection cut_mesh_section(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
                              double band_mm = kDefaultSectionBandMm, const ProgressCallback& progress = nullptr);
+
+// The whole Cross-section, as every host runs it (FreeCAD's Cross-section, picoscan section): the mesh
+// cut with its Band (cut_mesh_section), the polylines fitted together (fit_section_polylines), and
+// the report. The hosts only translate: the plane in, the sketch or drawing and the report out.
+struct MeshSectionFit {
+    MeshSection section;
+    SectionFits fits;
+    // The plane, the cuts, the noise and tolerance, each fitted polyline with one line per element
+    // (section_element_text) and each polyline left out (left_out_text).
+    std::vector<std::string> report;
+};
+// Throws cut_mesh_section's and fit_section_polylines' errors. `progress` hears the cut (0 to 0.5)
+// and the fit (0.5 to 1); answering false cancels: Error("cancelled", ...).
+MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
+                            double band_mm = kDefaultSectionBandMm, const SectionFitOptions& options = {},
+                            const ProgressCallback& progress = nullptr);
+// One element as the report gives it: kind, size (with its standard error), where, its points and
+// residuals, its chords' sag on a faceted cut, tangency, and the Band's part (or why none).
+std::string section_element_text(const SectionElement& element);
+// A polyline left out: loop or chain, its number (from 1), points, size, where, and why.
+std::string left_out_text(const LeftOutPolyline& left);
 
 // A fitted section as a drawing, in millimetres in the section's 2D frame (left-out polylines are
 // not drawn). SVG: one path per line and arc, a circle element per circle, the section's y up (SVG's

@@ -109,7 +109,10 @@ std::vector<SectionPolyline> cut_welded(const WeldedMesh& mesh, const cv::Vec3d&
                 const cv::Vec3d p = mesh.vertices[size_t(a)] + t * (mesh.vertices[size_t(b)] - mesh.vertices[size_t(a)]) - origin;
                 crossing[key] = {p.dot(u_axis), p.dot(v_axis)};
             }
-            ends[found++] = key;
+            // Each segment runs from the edge the winding crosses downwards to the one it crosses
+            // upwards: around the material counter-clockwise seen from the plane's normal.
+            ends[above(a) ? 0 : 1] = key;
+            ++found;
         }
         if (found != 2) continue;
         segments_at[ends[0]].push_back(segments.size());
@@ -124,6 +127,7 @@ std::vector<SectionPolyline> cut_welded(const WeldedMesh& mesh, const cv::Vec3d&
         SectionPolyline line;
         uint64_t at = start;
         line.points.push_back(crossing[at]);
+        long along = 0;  // segments walked their own way minus those walked against it
         while (true) {
             size_t next = segments.size();
             for (const size_t s : segments_at[at])
@@ -133,6 +137,7 @@ std::vector<SectionPolyline> cut_welded(const WeldedMesh& mesh, const cv::Vec3d&
                 }
             if (next == segments.size()) break;
             used[next] = true;
+            along += segments[next].first == at ? 1 : -1;
             at = segments[next].first == at ? segments[next].second : segments[next].first;
             if (at == start) {
                 line.closed = true;
@@ -140,6 +145,7 @@ std::vector<SectionPolyline> cut_welded(const WeldedMesh& mesh, const cv::Vec3d&
             }
             line.points.push_back(crossing[at]);
         }
+        if (along < 0) std::reverse(line.points.begin(), line.points.end());  // the way its triangles run
         if (line.points.size() > 1) result.push_back(std::move(line));
     };
     for (const auto& [key, list] : segments_at)

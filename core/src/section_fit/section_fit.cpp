@@ -17,6 +17,9 @@ namespace picoscan {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// A piece of a section shorter than this is no element of the part: a corner a mesh rounded, or a
+// facet's chord on a curve.
+constexpr double kSmallestElementMm = 1.0;
 
 // A fitted line (point + unit direction) or circle (centre + radius), before it becomes an element.
 struct Shape {
@@ -221,7 +224,9 @@ public:
                 continue;
             }
             spans.push_back(chosen);
-            position += chosen.count;
+            // From the element's own end: the first one starts at `start`, with the stray points before
+            // it (counting them twice skipped as many points of the next element: 2 of a 9-point fillet).
+            position = chosen.first + chosen.count;
         }
         return spans;
     }
@@ -358,7 +363,6 @@ public:
     // follows an edge only to within a few sample spacings), not fillets or facets: their points
     // go to the neighbours, half to each, for refine() to place the split.
     void drop_rounded_corners(std::vector<Span>& spans) const {
-        constexpr double kSmallestElementMm = 1.0;
         for (size_t j = 0; j < spans.size() && spans.size() > 1;) {
             const size_t n = spans.size();
             const bool has_before = pts_.closed || j > 0, has_after = pts_.closed || j + 1 < n;
@@ -982,8 +986,11 @@ void check_radius_known(const Shape& shape, double sigma, double tolerance, long
 
 // Fits a polyline of distinct points with the tolerance that `noise_mm` (the polyline's own or
 // the whole section's) and the options give.
-SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
-                            const std::vector<ParallelCut>& parallel_cuts, double noise_mm) {
+// `corner_cuts` are the parallel cuts' corners (corners_of), for arcs and circles: a faceted cut's
+// points between them lie inside the curve. Lines take every point of the cuts.
+SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
+                      const std::vector<ParallelCut>& parallel_cuts, const std::vector<ParallelCut>& corner_cuts,
+                      double noise_mm) {
     if (polyline.size() < 4) throw Error("polyline", "needs at least 4 distinct points, has " + std::to_string(polyline.size()));
     SectionFit result;
     result.closed = closed;
@@ -995,7 +1002,7 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
 
     // The whole closed polyline as one circle.
     const auto whole_circle = [&](Shape whole) {
-        const Band band = band_of(whole, pts, 0, n, parallel_cuts, result.tolerance_mm, true, options.band_trend_fraction);
+        const Band band = band_of(whole, pts, 0, n, corner_cuts, result.tolerance_mm, true, options.band_trend_fraction);
         whole = refit_with_band(whole, pts, 0, n, band);
         SectionElement circle;
         circle.band_cuts = band.cuts;
@@ -1065,7 +1072,8 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
             fitted[j] = {spans[j].first + head, spans[j].count - head - tail};
         }
         for (size_t j = 0; j < count; ++j) {
-            bands[j] = band_of(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, parallel_cuts, result.tolerance_mm,
+            bands[j] = band_of(trimmed[j].shape, pts, fitted[j].first, fitted[j].second,
+                               trimmed[j].shape.circle ? corner_cuts : parallel_cuts, result.tolerance_mm,
                                false, options.band_trend_fraction);
             trimmed[j].shape = refit_with_band(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, bands[j]);
         }
@@ -1181,6 +1189,100 @@ SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed,
     }
     find_constraints(result, pts, options);
     return result;
+}
+
+// The corners of a faceted cut. A plane cuts a mesh's curved face (a fillet, a hole) along the
+// chords of its facets: the chords' ends (where the cut crosses an edge along the curve) lie on the
+// true curve, the points between them (where it crosses a facet's diagonal) on the straight chord, up
+// to c^2 / (8 r) inside the curve for a chord of length c on radius r. With chords coarse for the
+// tolerance (1 mm chords on a 5 mm fillet sag 0.025 mm), no arc holds every point within it. So the
+// points strictly inside a straight run shorter than kSmallestElementMm (a facet's chord: no element
+// of the part is that short) are not fitted; the run's ends are. A straight run that long is a line
+// of the part and keeps all its points. `kept` gives the index of each point kept.
+struct Corners {
+    std::vector<cv::Vec2d> points;
+    std::vector<long> kept;
+};
+Corners corners_of(const std::vector<cv::Vec2d>& polyline, bool closed) {
+    // Straight: within the rounding of a mesh's float vertices (a few 1e-7 of their coordinates: 1e-5 mm
+    // at 25 mm) of the line through its neighbours, allowed 1e-6 of the coordinates. A scan mesh's cut
+    // turns at every point by its noise (its facets are not coplanar), so it keeps (nearly) every point.
+    constexpr double kStraightRelative = 1e-6;
+    const long n = long(polyline.size());
+    const Points pts{polyline, closed};
+    std::vector<bool> turns(size_t(n), true);
+    for (long i = closed ? 0 : 1; i < (closed ? n : n - 1); ++i) {
+        const cv::Vec2d a = pts[i - 1], b = pts[i + 1], d = b - a;
+        const double length = cv::norm(d);
+        if (length == 0) continue;
+        const cv::Vec2d p = pts[i] - a;
+        const double along = p.dot(d) / length;
+        const double straight = kStraightRelative * std::max({1.0, cv::norm(a), cv::norm(b)});
+        turns[size_t(i)] = along <= 0 || along >= length || std::abs(p[0] * d[1] - p[1] * d[0]) / length > straight;
+    }
+    Corners corners;
+    const long start = long(std::find(turns.begin(), turns.end(), true) - turns.begin());
+    if (start == n) {  // no corner at all (a closed polyline cannot be straight all round)
+        corners.points = polyline;
+        for (long i = 0; i < n; ++i) corners.kept.push_back(i);
+        return corners;
+    }
+    std::vector<bool> keep(size_t(n), true);
+    for (long i = start; i < start + (closed ? n : n - start);) {  // each corner to the next
+        long next = i + 1;
+        while (next < start + n && !turns[size_t(next % n)]) ++next;
+        if (!closed && next >= n) break;
+        if (next - i > 1 && cv::norm(pts[next] - pts[i]) < kSmallestElementMm)
+            for (long k = i + 1; k < next; ++k) keep[size_t(k % n)] = false;
+        i = next;
+    }
+    for (long i = 0; i < n; ++i)
+        if (keep[size_t(i)]) {
+            corners.points.push_back(polyline[size_t(i)]);
+            corners.kept.push_back(i);
+        }
+    return corners;
+}
+
+// Fits a polyline with all its points; when they cannot be split into elements within the tolerance
+// and the polyline has chords (corners_of), its corners (and the parallel cuts' corners, for arcs),
+// with the elements given back in the polyline's own numbering: each element takes the points up to
+// the next one's first. An arc's or circle's chord_sag_mm is then the largest sag c^2 / (8 r) of the
+// chords whose inner points were not fitted: they lie up to that far inside it. (All points first: a
+// scan mesh's flattened faces give short straight runs too, and a side's line is better with them.)
+SectionFit fit_section_with(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options,
+                            const std::vector<ParallelCut>& parallel_cuts, double noise_mm) {
+    const Corners corners = corners_of(polyline, closed);
+    const long n = long(polyline.size()), m = long(corners.points.size());
+    try {
+        return fit_points(polyline, closed, options, parallel_cuts, parallel_cuts, noise_mm);
+    } catch (const Error& error) {
+        if (m == n || error.subject() != "polyline") throw;
+    }
+    std::vector<ParallelCut> corner_cuts;
+    for (const ParallelCut& cut : parallel_cuts) corner_cuts.push_back({cut.offset_mm, corners_of(cut.points, false).points});
+    SectionFit fit = fit_points(corners.points, closed, options, parallel_cuts, corner_cuts, noise_mm);
+    const auto original = [&](long i) { return corners.kept[size_t(((i % m) + m) % m)]; };
+    for (size_t j = 0; j < fit.elements.size(); ++j) {
+        SectionElement& e = fit.elements[j];
+        const long first = original(e.first_point);
+        const bool runs_to_end = !closed && e.first_point + e.point_count >= m;
+        const long end = runs_to_end ? n : original(e.first_point + e.point_count);
+        e.first_point = int(first);
+        e.point_count = int(e.point_count >= m ? n : ((end - first) % n + n) % n);
+        if (e.kind == SectionElementKind::Line) continue;
+        for (long k = 0; k + 1 < e.point_count; ++k) {  // chords within the element
+            const long a = first + k;
+            if (!closed && a + 1 >= n) break;
+            if (std::binary_search(corners.kept.begin(), corners.kept.end(), (a + 1) % n)) continue;
+            long b = a + 1;  // a is the chord's start, b its end (the next kept point)
+            while (!std::binary_search(corners.kept.begin(), corners.kept.end(), b % n)) ++b;
+            const double c = cv::norm(polyline[size_t(b % n)] - polyline[size_t(a % n)]);
+            e.chord_sag_mm = std::max(e.chord_sag_mm, c * c / (8 * e.radius_mm));
+            k = b - first - 1;
+        }
+    }
+    return fit;
 }
 
 }  // namespace

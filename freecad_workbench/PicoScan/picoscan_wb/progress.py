@@ -140,3 +140,50 @@ def run_on_gui_thread(title, action):
         dialog.reset()
         dialog.setParent(None)
         dialog.deleteLater()
+
+
+def run_freecad_process(script, arguments, progress, shown, what):
+    """Runs `script` (a file of picoscan_wb) in FreeCAD's Python as a separate process, for FreeCAD
+    work that holds the GIL and cannot be stopped (OpenCASCADE), with FreeCAD's library folder as
+    its first argument. Its stdout lines that are JSON objects are its answers; while it runs, each
+    {"stage": ...} is shown as shown.format(stage) and Cancel (progress answering False) ends the
+    process at once. Returns the answers; raises picoscan.Error "<what> failed in its own process
+    (<its last line>)" when it failed."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import threading
+    import time
+
+    import Part  # its folder is FreeCAD's library folder
+
+    import picoscan
+
+    python = os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2])  # FreeCAD's own Python
+    if not os.path.isfile(python):
+        raise picoscan.Error("%s: FreeCAD's Python interpreter %s is missing" % (what, python))
+    command = [python, script, os.path.dirname(Part.__file__)] + [str(a) for a in arguments]
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+
+    def read_lines():
+        for line in child.stdout:
+            lines.append(line.strip())
+
+    def answers():
+        return [json.loads(line) for line in list(lines) if line.startswith("{")]
+    reader = threading.Thread(target=read_lines, name="PicoScan " + what, daemon=True)
+    reader.start()
+    try:
+        while child.poll() is None or reader.is_alive():
+            stages = [answer["stage"] for answer in answers() if "stage" in answer]
+            cancel_point(progress, 0.0, shown.format(stages[-1] if stages else "starting"))
+            time.sleep(0.05)
+    except BaseException:  # Cancel (or anything else): the process stops now
+        child.kill()
+        child.wait()
+        raise
+    if child.returncode != 0:
+        raise picoscan.Error("%s failed in its own process (%s)" % (what, (lines or ["exit code %d" % child.returncode])[-1]))
+    return answers()

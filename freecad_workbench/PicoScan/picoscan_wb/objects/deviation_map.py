@@ -5,12 +5,12 @@ the scan, recompute, and the map follows."""
 import os
 
 import FreeCAD
-import Points
 
 import picoscan
+from picoscan_wb import property_content
 from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors
 from picoscan_wb.operations import deviation
-from picoscan_wb.progress import run_in_background
+from picoscan_wb.progress import cancel_point, run_in_background
 
 TYPE = "PicoScan::DeviationMap"
 
@@ -42,16 +42,29 @@ class DeviationMap(DocumentObjectProxy):
 
     @brief_input_errors
     def execute(self, obj):
-        points = deviation.scan_points(obj.Scan)
-        reference = deviation.reference_mesh(obj.Reference, obj.Deflection.Value)
+        # Read on the GUI thread; everything heavy (tessellating, measuring, colouring, the bytes of
+        # the result's properties, the report) on a worker; back here only FreeCAD reading those
+        # bytes (its own C++) and its view provider drawing them.
         options = deviation.options(obj.Tolerance.Value, obj.MaxDistance.Value)
-        result = run_in_background("Deviation of " + obj.Label,
-                                   lambda progress: picoscan.measure_deviation(points, reference, options, progress))
+        points = deviation.scan_points(obj.Scan)
+        reference = deviation.reference_reader(obj.Reference, obj.Deflection.Value)  # last: it may leave a file to read
+        report_file, title = obj.ReportFile, "%s against %s" % (obj.Scan.Label, obj.Reference.Label)
+
+        def work(progress):
+            result = picoscan.measure_deviation(points, reference(progress), options, progress)
+            cancel_point(progress, 1.0, "colouring the points")
+            contents = {"Points": property_content.points_content(points),
+                        "Color": property_content.colour_list_content(result.colours()),
+                        "Distances": property_content.float_list_content(result.distances_mm)}
+            if report_file:
+                cancel_point(progress, 1.0, "writing the report")
+                picoscan.write_deviation_report(result, title, report_file)
+                picoscan.write_deviation_ply(points, result, os.path.splitext(report_file)[0] + ".ply")
+            return result, contents
+        result, contents = run_in_background("Deviation of " + obj.Label, work)
+        for name, content in contents.items():
+            obj.restorePropertyContent(name, content)
         statistics = result.statistics
-        obj.Points = Points.Points([tuple(p) for p in points.tolist()])
-        colours = result.colours() / 255.0
-        obj.Color = [tuple(c) for c in colours.tolist()]
-        obj.Distances = result.distances_mm.tolist()
         obj.MeanDeviation = statistics.mean_mm
         obj.MeanAbsDeviation = statistics.mean_abs_mm
         obj.Sigma = statistics.sigma_mm
@@ -60,9 +73,6 @@ class DeviationMap(DocumentObjectProxy):
         obj.WithinTolerance = int(round(100 * statistics.within_tolerance))
         obj.PointCount = statistics.count
         obj.Summary = deviation.summary(statistics, obj.Tolerance.Value)
-        if obj.ReportFile:
-            picoscan.write_deviation_report(result, "%s against %s" % (obj.Scan.Label, obj.Reference.Label), obj.ReportFile)
-            picoscan.write_deviation_ply(points, result, os.path.splitext(obj.ReportFile)[0] + ".ply")
         self.last_map = result  # for the GUI's histogram; goes with the object
 
 

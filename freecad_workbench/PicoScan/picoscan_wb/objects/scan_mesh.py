@@ -17,12 +17,15 @@ FILLS = ["Poisson", "Table", "Open"]  # picoscan.MeshFill: what closes the side 
 
 
 def freecad_mesh(mesh):
-    """FreeCAD Mesh from a picoscan.Mesh, through a binary STL. (A PLY reads about four times faster,
-    benchmarks/freecad_mesh_handover.py, but the mesh FreeCAD makes of it is cut the other way round:
-    the demo outline's section came out clockwise and PicoScanSectionFitTest failed; not yet found why.)"""
+    """FreeCAD Mesh from a picoscan.Mesh, through a binary PLY: FreeCAD keeps the core's points and
+    triangles as they are (same order, same corners), five times faster than an STL
+    (benchmarks/freecad_mesh_handover.py). FreeCAD's STL reader stores every triangle starting
+    from its third corner; that alone reversed the polylines of a section (the core's
+    cut_mesh_section and Mesh.crossSections orient a loop by the corner order of the first triangle
+    they cut, not by the triangles' winding), so a section's direction says nothing here."""
     with tempfile.TemporaryDirectory() as folder:
-        path = os.path.join(folder, "mesh.stl")
-        picoscan.write_stl(mesh, path)
+        path = os.path.join(folder, "mesh.ply")
+        picoscan.write_ply(mesh, path)
         return Mesh.Mesh(path)
 
 

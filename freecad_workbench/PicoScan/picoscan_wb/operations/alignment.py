@@ -13,13 +13,13 @@ def best_fit(scan, reference, deflection_mm=0.01, keep_fraction=0.9):
     """Moves `scan` (its Placement) onto `reference` from where it is now. Returns picoscan.BestFit
     (its transform is the move applied). Raises picoscan.Error, leaving the scan where it was, when
     the points cannot fix the six degrees of freedom or lie too far from the model, or when
-    cancelled. The objects are read and moved on the calling thread; the ICP runs off it
-    (run_in_background)."""
+    cancelled. The objects are read and moved on the calling thread; the model's tessellation and
+    the ICP run off it (run_in_background)."""
     options = picoscan.BestFitOptions()
     options.keep_fraction = keep_fraction
-    points, model = deviation.scan_points(scan), deviation.reference_mesh(reference, deflection_mm)
+    points, model = deviation.scan_points(scan), deviation.reference_reader(reference, deflection_mm)
     result = run_in_background("Best fit of " + scan.Label, lambda progress: picoscan.best_fit_to_reference(
-        points, model, options, progress))
+        points, model(progress), options, progress))
     if not result.converged:
         raise picoscan.Error("%s: the best fit did not settle in %d steps (rms %.3f mm); place the scan nearer to "
                              "the model first" % (scan.Label, result.iterations, result.rms_mm))

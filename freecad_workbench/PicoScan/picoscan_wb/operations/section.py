@@ -33,11 +33,11 @@ def _plane_axes(base, axis):
 
 
 def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=picoscan.DEFAULT_SECTION_BAND_MM, progress=None):
-    """(placement of the cutting plane, picoscan.SectionFits) of a FreeCAD mesh (not a document
-    object: this runs on the worker thread). The core cuts the section and its Band (band_mm = 0:
-    the one cut; picoscan.cut_mesh_section) and judges the section's polylines together
-    (picoscan.fit_section_polylines): one noise and tolerance for all; crumbs too small or too
-    noisy to be a feature of the part are in `left_out`, with the reason."""
+    """(placement of the cutting plane, picoscan.MeshSectionFit) of a FreeCAD mesh (not a document
+    object: this runs on the worker thread). The core's one call for the whole section
+    (picoscan.section_mesh): the cut and its Band (band_mm = 0: the one cut), the polylines judged
+    together (one noise and tolerance for all; crumbs too small or too noisy to be a feature of the
+    part in `fits.left_out`, with the reason) and the report."""
     from picoscan_wb.objects.scan_mesh import core_mesh
 
     options = fit_options(tolerance_mm)
@@ -46,20 +46,17 @@ def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=
     base, _ = section_plane(mesh, axis, offset_mm)
     placement, u_axis, v_axis = _plane_axes(base, axis)
     try:
-        cut = picoscan.cut_mesh_section(core, tuple(base), tuple(u_axis), tuple(v_axis), band_mm, progress)
-        fits = picoscan.fit_section_polylines(cut.polylines, cut.parallel_cuts, options, progress)
+        section = picoscan.section_mesh(core, tuple(base), tuple(u_axis), tuple(v_axis), band_mm, options, progress)
     except picoscan.Error as error:
         if str(error).startswith("cancelled"):
             raise
         raise picoscan.Error("%s, %s plane at %.2f mm: %s" % (label, axis, getattr(base, axis.lower()), error))
-    return placement, fits
+    return placement, section
 
 
 def left_out_report(fits):
     """One line per polyline of the section left out of the sketch: which, how many points, where, why."""
-    return ["Left out: %s %d (%d points, %.2f mm across, around (%.2f, %.2f) mm): %s" % (
-        "loop" if left.closed else "chain", left.index + 1, left.point_count, left.across_mm, left.centre[0],
-        left.centre[1], left.reason) for left in fits.left_out]
+    return ["Left out: " + picoscan.left_out_text(left) for left in fits.left_out]
 
 
 def fit_options(tolerance_mm=0.0):
@@ -145,23 +142,15 @@ def add_fitted_geometry(sketch, fit):
     constraints the core found to keep every point within the tolerance. Returns the report lines."""
     import Sketcher
 
-    Kind, Snap = picoscan.SectionElementKind, picoscan.SectionConstraintKind
+    Snap = picoscan.SectionConstraintKind
     placed = []
     report = []
     for element in fit.elements:
         geometry, start_id, end_id = _geometry(element)
         index = sketch.addGeometry(geometry, False)
         placed.append((index, start_id, end_id))
-        # The fit's standard error (the core's block jackknife; nan when the element is too short to tell).
-        size = "radius %.4f mm (sigma %.4f mm)" % (element.radius_mm, element.radius_sigma_mm) \
-            if element.kind != Kind.Line else "length %.3f mm, angle sigma %.4f deg" % (
-                numpy.linalg.norm(numpy.asarray(element.end) - numpy.asarray(element.start)), element.angle_sigma_deg)
-        # The Band: how many parallel cuts refitted it, or why it kept to its own cut (the part is not prismatic there).
-        band = "; %d parallel cuts" % element.band_cuts if element.band_cuts else (
-            "; " + element.band_note if element.band_note else "")
-        report.append("Edge%d: %s, %s, %d points, rms %.4f mm, max %.4f mm%s" % (
-            index + 1, str(element.kind).split(".")[-1].lower(), size, element.point_count, element.rms_mm, element.max_mm,
-            band))
+        # The core's line: size with its standard error, residuals, tangency, the Band's part (or why none).
+        report.append("Edge%d: %s" % (index + 1, picoscan.section_element_text(element)))
     # The constraints may move the fitted geometry by about the tolerance; much more means they fight.
     max_move = 10 * fit.tolerance_mm + 0.01
 
@@ -217,8 +206,9 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     line says why. Each element's report gives its standard error. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
-    placement, fits = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
+    placement, section = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
         mesh, label, axis, offset_mm, tolerance_mm, band_mm, progress))
+    fits = section.fits
     sketch = doc.addObject("Sketcher::SketchObject", name)
     try:
         sketch.Placement = placement
@@ -251,6 +241,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     except Exception:
         doc.removeObject(sketch.Name)
         raise
+    FreeCAD.Console.PrintLog("%s: the core's report of the section:\n    %s\n" % (sketch.Label, "\n    ".join(section.report)))
     for line in list(sketch.LeftOut) + [line for line in sketch.FitReport if "not prismatic" in line]:
         FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, line))
     return sketch

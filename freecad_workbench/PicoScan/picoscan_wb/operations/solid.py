@@ -14,12 +14,8 @@ figures). No sewing: the time grows linearly
 with the facets. The solid's volume is checked against the mesh's, and OpenCASCADE's own
 validity check (BRepCheck, the slowest part by far) runs when the solid has up to CHECK_FACES
 faces; both run in another process (brep_check.py), then this one reads the B-rep."""
-import json
 import os
-import subprocess
-import sys
 import tempfile
-import threading
 import time
 
 import Part
@@ -27,7 +23,7 @@ import Part
 import picoscan
 from picoscan_wb.objects.scan_mesh import core_mesh
 from picoscan_wb.operations import brep_check
-from picoscan_wb.progress import cancel_point, run_in_background, run_on_gui_thread
+from picoscan_wb.progress import cancel_point, run_freecad_process, run_in_background, run_on_gui_thread
 
 MAX_FACETS = 2000000   # beyond this, Fit primitives or a coarser mesh
 CHECK_FACES = 20000    # up to here OpenCASCADE's BRepCheck confirms the solid too
@@ -115,41 +111,15 @@ def _read_and_check(path, label, check_valid, progress):
     cannot be stopped: 0.1 s for 7 080 faces on an idle machine, 1 to 2 s at load 10 to 16). The
     text B-rep, not a binary copy: FreeCAD's binary format drops the faces' triangulations, and
     without them FreeCAD's view provider meshes every face again."""
-    python = os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2])  # FreeCAD's own Python
-    if not os.path.isfile(python):
-        raise picoscan.Error("%s: cannot check the solid: FreeCAD's Python interpreter %s is missing" % (label, python))
-    command = [python, brep_check.__file__, os.path.dirname(Part.__file__), path, "1" if check_valid else "0"]
-    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines = []
-
-    def read_lines():
-        for line in child.stdout:
-            lines.append(line.strip())
-    reader = threading.Thread(target=read_lines, name="PicoScan B-rep check", daemon=True)
-    reader.start()
-    try:
-        while child.poll() is None or reader.is_alive():
-            stages = [answer.get("stage") for answer in _json_lines(lines)]
-            cancel_point(progress, 0.0, "solid: %s (checked in another process)" % (
-                stages[-1] if stages else "starting"))
-            time.sleep(0.05)
-    except BaseException:  # Cancel (or anything else): the child stops now
-        child.kill()
-        child.wait()
-        raise
-    answers = _json_lines(lines)
-    if child.returncode != 0 or not answers or "type" not in answers[-1]:
-        raise picoscan.Error("%s: FreeCAD could not check the solid written for it (%s)" % (
-            label, (lines or ["exit code %d" % child.returncode])[-1]))
+    answers = run_freecad_process(brep_check.__file__, [path, "1" if check_valid else "0"], progress,
+                                  "solid: {} (checked in another process)", "%s: checking the solid" % label)
+    if not answers or "type" not in answers[-1]:
+        raise picoscan.Error("%s: FreeCAD could not check the solid written for it (no answer)" % label)
     cancel_point(progress, 0.0, "solid: reading the B-rep")
     time.sleep(0.1)  # the dialog shows this stage before the read holds the GIL
     shape = Part.Shape()
     shape.read(path)
     return shape, answers[-1]
-
-
-def _json_lines(lines):
-    return [json.loads(line) for line in list(lines) if line.startswith("{")]
 
 
 def solid_of_mesh(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progress=None):

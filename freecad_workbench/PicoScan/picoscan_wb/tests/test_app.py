@@ -880,6 +880,13 @@ class PicoScanSectionFitTest(unittest.TestCase):
         corners = self.CORNERS
         return [math.degrees(math.atan2(b[1] - a[1], b[0] - a[0])) for a, b in zip(corners, corners[1:] + corners[:1])]
 
+    def direction_error(self, line):
+        """Degrees between the sketch line and the nearest side of the true outline, either way along
+        it: which way a section's loop runs is set by the order the mesh stores its triangles and their
+        corners (the cut starts from the first triangle it meets), not by the part."""
+        direction = math.degrees(math.atan2(line.EndPoint.y - line.StartPoint.y, line.EndPoint.x - line.StartPoint.x))
+        return min(min(abs(direction - t) % 180, 180 - abs(direction - t) % 180) for t in self.true_directions())
+
     def seen_points(self, scan):
         """What a scanner sees of the part: the mesh's vertices (with their normals) less those inside
         it (the boss is a separate cylinder sunk 1 mm into the block, so the block's top under it and
@@ -938,14 +945,12 @@ class PicoScanSectionFitTest(unittest.TestCase):
             lines = [g for g in sketch.Geometry if g.TypeId == "Part::GeomLineSegment"]
             circles = [g for g in sketch.Geometry if g.TypeId == "Part::GeomCircle"]
             self.assertEqual((len(lines), len(circles), sketch.GeometryCount), (5, 1, 6))
-            truth = self.true_directions()
             for line in lines:  # after the constraints were solved
-                direction = math.degrees(math.atan2(line.EndPoint.y - line.StartPoint.y, line.EndPoint.x - line.StartPoint.x))
-                error = min(min(abs(direction - t) % 360, 360 - abs(direction - t) % 360) for t in truth)
+                error = self.direction_error(line)
                 # One cut alone missed 0.05 degrees on the 11.3 mm chamfer at 20 and 40 um (0.075, 0.149):
                 # the default band's 17 cuts hold it (0.0099 and 0.0193 when this was written).
                 FreeCAD.Console.PrintMessage("  line of %.3f mm: direction error %.4f deg\n" % (line.length(), error))
-                self.assertLess(error, 0.05, "line at %.4f deg" % direction)
+                self.assertLess(error, 0.05, "line from %s to %s" % (line.StartPoint, line.EndPoint))
             hole = circles[0]
             centre = sketch.Placement.multVec(hole.Center)
             FreeCAD.Console.PrintMessage("hole radius %.4f mm (error %.1f um)\n" % (hole.Radius, 1000 * (hole.Radius - 5)))
@@ -1080,11 +1085,9 @@ class PicoScanSectionFitTest(unittest.TestCase):
         lines = [g for g in outline.Geometry if g.TypeId == "Part::GeomLineSegment"]
         circles = [g for g in outline.Geometry if g.TypeId == "Part::GeomCircle"]
         self.assertEqual((len(lines), len(circles)), (5, 1), outline.FitReport)
-        truth = self.true_directions()
         worst_angle = 0.0
         for line in lines:
-            direction = math.degrees(math.atan2(line.EndPoint.y - line.StartPoint.y, line.EndPoint.x - line.StartPoint.x))
-            error = min(min(abs(direction - t) % 360, 360 - abs(direction - t) % 360) for t in truth)
+            error = self.direction_error(line)
             FreeCAD.Console.PrintMessage("  outline line of %.3f mm: direction error %.4f deg\n" % (line.length(), error))
             worst_angle = max(worst_angle, error)
         body = self.doc.addObject("PartDesign::Body", "Body")
@@ -1482,6 +1485,78 @@ class PicoScanMeshHandOverTest(unittest.TestCase):
             scan_mesh.core_mesh(mesh, cancel_at_once)
         self.assertTrue(str(raised.exception).startswith("cancelled"), str(raised.exception))
         self.assertEqual(reports, [(65536 / (39802 + 79600), "reading the mesh")])
+
+    def test_freecad_mesh_keeps_the_core_triangles_corner_for_corner(self):
+        """The other way (core -> FreeCAD, through a PLY): the same points and triangles, each from the
+        same corner. (FreeCAD's STL reader started every triangle at its third corner, and that alone
+        reversed the sections' loops.)"""
+        part = picoscan.mechanical_part()
+        points, facets = scan_mesh.freecad_mesh(part).Topology
+        numpy.testing.assert_array_equal(numpy.array([tuple(p) for p in points], dtype=numpy.float32),
+                                         numpy.asarray(part.vertices))
+        numpy.testing.assert_array_equal(numpy.array(facets), numpy.asarray(part.faces))
+
+    def test_big_properties_through_their_content(self):
+        """property_content's bytes give FreeCAD's properties exactly the values, and a moved Points
+        object's points read back in document coordinates."""
+        from picoscan_wb.property_content import colour_list_content, float_list_content, points_content, points_from_content
+
+        doc = FreeCAD.newDocument("PicoScanContent")
+        try:
+            obj = doc.addObject("Points::FeaturePython", "Map")
+            obj.addProperty("App::PropertyColorList", "Color", "Test", "")
+            obj.addProperty("App::PropertyFloatList", "Distances", "Test", "")
+            rng = numpy.random.default_rng(2)
+            points = rng.normal(0.0, 50.0, (1000, 3)).astype(numpy.float32)
+            colours = rng.integers(0, 256, (1000, 3)).astype(numpy.uint8)
+            distances = rng.normal(0.0, 0.1, 1000)
+            obj.restorePropertyContent("Points", points_content(points))
+            obj.restorePropertyContent("Color", colour_list_content(colours))
+            obj.restorePropertyContent("Distances", float_list_content(distances))
+            numpy.testing.assert_array_equal(numpy.array([tuple(p) for p in obj.Points.Points], dtype=numpy.float32), points)
+            numpy.testing.assert_allclose(numpy.array([c[:3] for c in obj.Color]), colours / 255.0, atol=1e-6)
+            self.assertEqual([c[3] for c in obj.Color], [0.0] * 1000)  # opaque
+            numpy.testing.assert_array_equal(numpy.array(obj.Distances), distances)
+            moved = doc.addObject("Points::Feature", "Moved")
+            moved.Points = Points.Points([tuple(map(float, p)) for p in points])
+            moved.Placement = FreeCAD.Placement(FreeCAD.Vector(10, -20, 30), FreeCAD.Rotation(FreeCAD.Vector(1, 2, 3), 40))
+            doc.recompute()
+            numpy.testing.assert_allclose(points_from_content(moved.dumpPropertyContent("Points", Compression=0)),
+                                          numpy.array([tuple(p) for p in moved.Points.Points]), atol=1e-3)  # float32
+        finally:
+            FreeCAD.closeDocument(doc.Name)
+
+    def test_reference_tessellated_in_its_own_process_and_cancelled_there(self):
+        """The reference shape's triangles from tessellate_shape.py's process are those FreeCAD makes
+        in its own, at the placed shape; Cancel ends the process. A shape of planes only is
+        tessellated in FreeCAD's process."""
+        from picoscan_wb.operations import deviation
+
+        doc = FreeCAD.newDocument("PicoScanTessellate")
+        try:
+            model = doc.addObject("Part::Cylinder", "Model")
+            model.Radius, model.Height = 12.5, 80.0
+            model.Placement = FreeCAD.Placement(FreeCAD.Vector(0, -40, 400), FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 90))
+            doc.recompute()
+            reference = deviation.reference_reader(model, 0.01)(None)
+            vertices, facets = model.Shape.copy().tessellate(0.01)
+            self.assertEqual(numpy.asarray(reference.faces).shape, (len(facets), 3))
+            ordered = lambda points: points[numpy.lexsort(numpy.round(points, 3).T)]  # noqa: E731 (the faces come in another order)
+            numpy.testing.assert_allclose(ordered(numpy.asarray(reference.vertices, dtype=float)),
+                                          ordered(numpy.array([tuple(v) for v in vertices])), atol=1e-4)
+            reports = []
+
+            def cancel(fraction, stage):
+                reports.append(stage)
+                return len(reports) < 3
+            with self.assertRaisesRegex(picoscan.Error, "^cancelled: tessellating the reference"):
+                deviation.reference_reader(model, 0.01)(cancel)
+            # Planes only: tessellated at once on the calling thread (12 triangles, no process to cancel).
+            box = doc.addObject("Part::Box", "Box")
+            doc.recompute()
+            self.assertEqual(numpy.asarray(deviation.reference_reader(box, 0.01)(lambda fraction, stage: False).faces).shape, (12, 3))
+        finally:
+            FreeCAD.closeDocument(doc.Name)
 
 
 class PicoScanBigSolidTest(unittest.TestCase):

@@ -1,0 +1,100 @@
+// The Cross-section in one call: the cut with its Band, the fit, the report.
+#include "picoscan/error.h"
+#include "picoscan/section_fit.h"
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <string>
+
+namespace picoscan {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string format(const char* pattern, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char* pattern, ...) {
+    char text[1024];
+    va_list arguments;
+    va_start(arguments, pattern);
+    std::vsnprintf(text, sizeof text, pattern, arguments);
+    va_end(arguments);
+    return text;
+}
+
+std::string point_text(const cv::Vec2d& p) { return format("(%.4f, %.4f)", p[0], p[1]); }
+std::string vector_text(const cv::Vec3d& v) { return format("(%.4f, %.4f, %.4f)", v[0], v[1], v[2]); }
+
+// Progress of one part of the work mapped onto [from, from + share] of the whole.
+ProgressCallback part_of(const ProgressCallback& progress, double from, double share) {
+    if (!progress) return nullptr;
+    return [progress, from, share](double fraction, const std::string& stage) {
+        return progress(from + share * fraction, stage);
+    };
+}
+
+}  // namespace
+
+std::string section_element_text(const SectionElement& e) {
+    std::string text;
+    if (e.kind == SectionElementKind::Line) {
+        const cv::Vec2d along = e.end - e.start;
+        text = format("line   length %9.4f mm, angle %9.4f deg (sigma %.4f), from %s to %s", cv::norm(along),
+                      std::atan2(along[1], along[0]) * 180 / kPi, e.angle_sigma_deg, point_text(e.start).c_str(),
+                      point_text(e.end).c_str());
+    } else {
+        text = format("%-6s radius %9.4f mm (sigma %.4f), %7.2f deg around %s", to_string(e.kind).c_str(), e.radius_mm,
+                      e.radius_sigma_mm, swept_angle_deg(e), point_text(e.centre).c_str());
+        if (e.kind == SectionElementKind::Arc)
+            text += format(" %s from %s to %s", e.counter_clockwise ? "counter-clockwise" : "clockwise",
+                           point_text(e.start).c_str(), point_text(e.end).c_str());
+    }
+    text += format(", %d points, rms %.4f mm, max %.4f mm", e.point_count, e.rms_mm, e.max_mm);
+    if (e.chord_sag_mm > 0)
+        text += format(" at the chords' ends (a faceted cut: its chords sag up to %.4f mm inside)", e.chord_sag_mm);
+    if (e.tangent_to_next) text += ", tangent to the next";
+    if (e.band_cuts > 0) return text + format(", %d band cuts", e.band_cuts);
+    if (!e.band_note.empty()) return text + ", band: " + e.band_note;
+    return text + ", one cut";
+}
+
+std::string left_out_text(const LeftOutPolyline& left) {
+    return format("%s %d (%d points, %.2f mm across, around %s mm): ", left.closed ? "loop" : "chain", left.index + 1,
+                  left.point_count, left.across_mm, point_text(left.centre).c_str()) +
+           left.reason;
+}
+
+MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
+                            double band_mm, const SectionFitOptions& options, const ProgressCallback& progress) {
+    MeshSectionFit result;
+    result.section = cut_mesh_section(mesh, origin, u_axis, v_axis, band_mm, part_of(progress, 0, 0.5));
+    result.fits = fit_section_polylines(result.section.polylines, result.section.parallel_cuts, options,
+                                        part_of(progress, 0.5, 0.5));
+    if (progress && !progress(1.0, "fitting lines and arcs")) throw Error("cancelled", "the section fit was cancelled");
+
+    const MeshSection& section = result.section;
+    const SectionFits& fits = result.fits;
+    std::vector<std::string>& report = result.report;
+    report.push_back("plane: through " + vector_text(origin) + " mm, normal " + vector_text(u_axis.cross(v_axis)) +
+                     "; the drawing's x along " + vector_text(u_axis) + ", y along " + vector_text(v_axis));
+    report.push_back(format("cut: %zu polylines; band +- %.3f mm: %zu parallel cuts' polylines", section.polylines.size(),
+                            band_mm, section.parallel_cuts.size()));
+    report.push_back(format("noise %.4f mm, tolerance %.4f mm (%s)", fits.noise_mm, fits.tolerance_mm,
+                            options.tolerance_mm > 0 ? "given" : "5 x the noise"));
+    for (size_t k = 0; k < fits.fits.size(); ++k) {
+        const SectionFit& fit = fits.fits[k];
+        const SectionPolyline& polyline = section.polylines[size_t(fits.fitted_index[k])];
+        std::string line = format("%s %d (%zu points): %zu elements, tolerance %.4f mm", fit.closed ? "loop" : "chain",
+                                  fits.fitted_index[k] + 1, polyline.points.size(), fit.elements.size(), fit.tolerance_mm);
+        if (fit.tolerance_mm > fits.tolerance_mm)  // a measured hole in a mesh whose sides were flattened
+            line += format(" (its own noise, %.4f mm, is above the section's tolerance)", fit.noise_mm);
+        report.push_back(line);
+        for (size_t e = 0; e < fit.elements.size(); ++e)
+            report.push_back(format("  %2zu ", e + 1) + section_element_text(fit.elements[e]));
+    }
+    for (const LeftOutPolyline& left : fits.left_out) report.push_back("left out: " + left_out_text(left));
+    return result;
+}
+
+}  // namespace picoscan
