@@ -120,34 +120,3 @@ TEST(NearestGrid, RememberedSearchAgreesWithBruteForceAlongRandomWalks) {
     EXPECT_GT(found, compared / 4);          // the walks stay near the surface often enough
     EXPECT_LT(found, compared - compared / 10);  // and leave it often enough
 }
-
-TEST(NearestGrid, PointsAtExactlyTheSameDistanceGiveTheFirstInTheInput) {
-    // An integer lattice listed from its far corner down, queried halfway between lattice
-    // points (exact in binary): two, four or eight points tie, and the first listed must win
-    // whatever the cells' size, as a brute-force search in input order finds it.
-    std::vector<cv::Vec3d> points;
-    for (int x = 4; x >= 0; --x)
-        for (int y = 4; y >= 0; --y)
-            for (int z = 4; z >= 0; --z) points.push_back({static_cast<double>(x), static_cast<double>(y), 400.0 + z});
-    int compared = 0;
-    for (double cell : {3.0, 1.5, 1.0, 0.7}) {
-        const NearestGrid grid(points, cell);
-        for (double x = 0.5; x < 4; x += 0.5)
-            for (double y = 0.5; y < 4; y += 0.5) {
-                const cv::Vec3d query(x, y, 401.5);
-                int expected = -1;
-                double best_squared = 1.0;  // reach 1 mm
-                for (size_t i = 0; i < points.size(); ++i) {
-                    const cv::Vec3d d = points[i] - query;
-                    if (d.dot(d) < best_squared) {
-                        best_squared = d.dot(d);
-                        expected = static_cast<int>(i);
-                    }
-                }
-                SearchMemory memory;
-                ASSERT_EQ(grid.nearest_remembered(query, 1.0, memory), expected) << "cell " << cell << " query " << query;
-                ++compared;
-            }
-    }
-    EXPECT_EQ(compared, 4 * 7 * 7);
-}

@@ -70,11 +70,6 @@ double texture_correlation(const std::vector<Pairing>& pairings, size_t count, c
 constexpr size_t kCoarseStride = 8;
 constexpr int kCoarseIterations = 30;
 
-// The nearest-point grid's cells: about twice the sample spacing. Searches reach little more
-// than a sample's last partner once ICP has started to settle, so cells as wide as the largest
-// reach (3 mm) made each search test several times more points than lie within it.
-constexpr double kSearchCellMm = 1.5;
-
 }  // namespace
 
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
@@ -90,7 +85,7 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
     size_t smaller_total = 0;
     for (const SamplePair& pair : pairs) {
         if (pair.fixed->points.empty() || pair.moving->points.empty()) return result;
-        grids.push_back(std::make_unique<NearestGrid>(pair.fixed->points, kSearchCellMm));
+        grids.push_back(std::make_unique<NearestGrid>(pair.fixed->points, options.icp_max_distance_mm));
         smaller_total += std::min(pair.fixed->points.size(), pair.moving->points.size());
     }
     if (pairs.empty()) return result;

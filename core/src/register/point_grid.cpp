@@ -238,8 +238,9 @@ int NearestGrid::search(const cv::Vec3d& query, double radius_mm, double& best_s
     best_squared = best;
     clearance_mm = radius_mm;
     if (sorted_.empty()) return -1;
-    // The cells the cube of half-side radius_mm around the query touches, as PointGrid::nearest.
-    // Every point in reach is visited, so the runner-up bounds the rest.
+    // The cells the cube of half-side radius_mm around the query touches, and the same strict
+    // comparison, as PointGrid::nearest: the same point (ties included) is found. Every point
+    // in reach is visited, so the runner-up bounds the rest.
     const double margin = radius_mm + 1e-9;
     const cv::Vec<long long, 3> low_cell = grid_cell(query - cv::Vec3d::all(margin), cell_mm_), high_cell = grid_cell(query + cv::Vec3d::all(margin), cell_mm_);
     long long low[3], high[3];
@@ -255,9 +256,7 @@ int NearestGrid::search(const cv::Vec3d& query, double radius_mm, double& best_s
             for (int k = start_[row + static_cast<size_t>(low[2])]; k < end; ++k) {
                 const cv::Vec3d d = sorted_[static_cast<size_t>(k)] - query;
                 const double distance = d.dot(d);
-                // Of points at exactly the same distance, the first in the input: the answer
-                // does not depend on the cells' size or order.
-                if (distance < best || (distance == best && best_slot >= 0 && index_[static_cast<size_t>(k)] < index_[static_cast<size_t>(best_slot)])) {
+                if (distance < best) {
                     second = best;
                     best = distance;
                     best_slot = k;

@@ -91,8 +91,8 @@ struct SearchMemory {
 
 // PointGrid's nearest-point search over a dense table of the occupied cells' box instead of a
 // hash (one lookup per row of cells, not one per cell), with a memory per query: ICP asks it
-// for every sample in every iteration. It finds what PointGrid::nearest finds; of points at
-// exactly the same distance, the first in the input, whatever the cells' size.
+// for every sample in every iteration. The same cells in the same order, so it finds what
+// PointGrid::nearest finds (built with the same cell size).
 class NearestGrid {
 public:
     NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm);
@@ -102,7 +102,8 @@ public:
 
     // How much farther than needed a search reaches: what it finds there (the runner-up, or
     // that nothing lies that close) lets later calls skip the search while the query moves
-    // less than this, also for a query with nothing in reach.
+    // less than this, also for a query with nothing in reach. (Cells 1.5 mm wide instead of
+    // ICP's 3 mm reach tested a third of the points but took longer: a larger table.)
     static constexpr double kMarginMm = 0.3;
 
 private:
