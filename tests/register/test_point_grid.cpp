@@ -8,7 +8,9 @@
 #include <algorithm>
 
 using namespace picoscan;
+using picoscan::detail::NearestGrid;
 using picoscan::detail::PointGrid;
+using picoscan::detail::SearchMemory;
 
 namespace {
 
@@ -69,4 +71,52 @@ TEST(PointGrid, ThinningKeepsOnePointInEveryCellEvenWhenHashesCollide) {
     ASSERT_EQ(samples.points.size(), 2u);
     EXPECT_NEAR(samples.points[0][0], -0.35, 1e-6);
     EXPECT_NEAR(samples.points[1][0], 1.05, 1e-6);
+}
+
+TEST(NearestGrid, RememberedSearchAgreesWithBruteForceAlongRandomWalks) {
+    // Points on two planes meeting at an edge (as ICP's fixed samples lie on a part's faces),
+    // plus a sparse scatter, and queries that walk about them as ICP's samples do between
+    // iterations: mostly small steps, sometimes none, sometimes a jump, with the reach
+    // shrinking and growing. Every answer must be the brute-force nearest within reach.
+    cv::RNG rng(12);
+    std::vector<cv::Vec3d> points;
+    for (int i = 0; i < 1500; ++i) points.push_back({rng.uniform(-15.0, 15.0), rng.uniform(-15.0, 15.0), 400 + rng.gaussian(0.01)});
+    for (int i = 0; i < 1500; ++i) points.push_back({rng.uniform(-15.0, 15.0), 15 + rng.gaussian(0.01), 400 + rng.uniform(0.0, 20.0)});
+    for (int i = 0; i < 200; ++i) points.push_back({rng.uniform(-20.0, 20.0), rng.uniform(-20.0, 20.0), rng.uniform(390.0, 430.0)});
+    auto brute_force = [&](const cv::Vec3d& query, double reach) {
+        int best = -1;
+        double best_squared = reach * reach;
+        for (size_t i = 0; i < points.size(); ++i) {
+            const cv::Vec3d d = points[i] - query;
+            if (d.dot(d) < best_squared) {
+                best_squared = d.dot(d);
+                best = static_cast<int>(i);
+            }
+        }
+        return best;
+    };
+    const double reaches[] = {3.0, 1.5, 0.7, 0.4, 2.2};
+    int found = 0, compared = 0;
+    for (double cell : {3.0, 1.0}) {
+        const NearestGrid grid(points, cell);
+        for (int walk = 0; walk < 150; ++walk) {
+            SearchMemory memory;
+            cv::Vec3d query = points[static_cast<size_t>(rng.uniform(0, static_cast<int>(points.size())))] +
+                              cv::Vec3d(rng.gaussian(1.0), rng.gaussian(1.0), rng.gaussian(1.0));
+            for (int step = 0; step < 40; ++step) {
+                const int kind = rng.uniform(0, 10);
+                const double size = kind == 0 ? 0.0 : kind == 1 ? 4.0 : kind < 5 ? 0.3 : 0.02;
+                query += cv::Vec3d(rng.gaussian(size), rng.gaussian(size), rng.gaussian(size));
+                const double reach = reaches[(walk + step / 8) % 5];
+                const int expected = brute_force(query, reach);
+                ASSERT_EQ(grid.nearest_remembered(query, reach, memory), expected)
+                    << "cell " << cell << " walk " << walk << " step " << step << " query " << query << " reach " << reach;
+                found += expected >= 0;
+                ++compared;
+            }
+        }
+    }
+    EXPECT_EQ(compared, 2 * 150 * 40);
+    EXPECT_GT(found, compared / 4);          // the walks stay near the surface often enough
+    EXPECT_LT(found, compared - compared / 10);  // and leave it often enough
 }

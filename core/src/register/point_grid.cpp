@@ -208,15 +208,40 @@ NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) :
     }
 }
 
-int NearestGrid::nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const {
-    double best = max_distance_mm * max_distance_mm, second = best;
-    int best_index = -1;
-    clearance_mm = max_distance_mm;
+int NearestGrid::nearest_remembered(const cv::Vec3d& query, double max_distance_mm, SearchMemory& memory) const {
+    constexpr double hair_mm = 1e-9;  // far above rounding: the bounds never leave out a point in reach
+    const double moved = cv::norm(query - memory.at);
+    double radius = max_distance_mm;
+    if (memory.nearest < 0) {
+        // Nothing lay within clear_mm of `at`, so nothing lies within clear_mm - moved of the query.
+        if (memory.clear_mm - moved - hair_mm >= max_distance_mm) return -1;
+    } else {
+        // Every other point lies at least clear_mm - moved from the query.
+        const double to_nearest = cv::norm(query - sorted_[static_cast<size_t>(memory.nearest)]);
+        if (to_nearest + moved + hair_mm < memory.clear_mm) {
+            if (to_nearest + hair_mm < max_distance_mm) return index_[static_cast<size_t>(memory.nearest)];
+            if (to_nearest - hair_mm >= max_distance_mm) return -1;
+        }
+        radius = std::min(max_distance_mm, to_nearest);  // the nearest is no farther than the last one
+    }
+    double best_squared = 0;
+    const int slot = search(query, radius + kMarginMm, best_squared, memory.clear_mm);
+    memory.nearest = slot;
+    memory.at = query;
+    // The same test as PointGrid::nearest's: the squared distance below the squared bound.
+    return slot >= 0 && best_squared < max_distance_mm * max_distance_mm ? index_[static_cast<size_t>(slot)] : -1;
+}
+
+int NearestGrid::search(const cv::Vec3d& query, double radius_mm, double& best_squared, double& clearance_mm) const {
+    double best = radius_mm * radius_mm, second = best;
+    int best_slot = -1;
+    best_squared = best;
+    clearance_mm = radius_mm;
     if (sorted_.empty()) return -1;
-    // The cells the cube of half-side max_distance_mm around the query touches, and the same
-    // strict comparison, as PointGrid::nearest: the same point (ties included) is found. Every
-    // point in reach is visited, so the runner-up bounds the rest.
-    const double margin = max_distance_mm + 1e-9;
+    // The cells the cube of half-side radius_mm around the query touches, and the same strict
+    // comparison, as PointGrid::nearest: the same point (ties included) is found. Every point
+    // in reach is visited, so the runner-up bounds the rest.
+    const double margin = radius_mm + 1e-9;
     const cv::Vec<long long, 3> low_cell = grid_cell(query - cv::Vec3d::all(margin), cell_mm_), high_cell = grid_cell(query + cv::Vec3d::all(margin), cell_mm_);
     long long low[3], high[3];
     for (int a = 0; a < 3; ++a) {
@@ -234,14 +259,15 @@ int NearestGrid::nearest_with_clearance(const cv::Vec3d& query, double max_dista
                 if (distance < best) {
                     second = best;
                     best = distance;
-                    best_index = index_[static_cast<size_t>(k)];
+                    best_slot = k;
                 } else if (distance < second) {
                     second = distance;
                 }
             }
         }
+    best_squared = best;
     clearance_mm = std::sqrt(second);
-    return best_index;
+    return best_slot;
 }
 
 }  // namespace picoscan::detail
