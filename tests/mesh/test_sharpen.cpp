@@ -384,6 +384,59 @@ TEST(MeshSharpen, RebuiltHoleWallsFacesDoNotSpanTheRimWhereTheFaceWasNotSeenUpTo
     EXPECT_LT(worst, 0.050);
 }
 
+// Built to make the sharpening cross faces: a block with a fin 0.5 mm thick standing on its top
+// and a groove 0.5 mm wide cut beside it, both about one sample spacing across, so that Poisson
+// rounds each to a bump or a dent and the sharp edges of the two sides of one fin or groove are
+// less than a move apart (the moves onto one side's edge pass through the other side's faces).
+// The mesh must come out closed and not crossing itself, whatever the sharpening kept.
+TEST(MeshSharpen, ThinFinAndNarrowGrooveDoNotMakeTheMeshCrossItself) {
+    constexpr double kSize = 16, kHigh = 6, kThin = 0.5, kFinHigh = 2, kGrooveDeep = 2;
+    constexpr double kFinY = -3, kGrooveY = 3;  // their middles; both run along x
+    SurfaceSampler sampler(0.4, 0.01, 7);
+    auto add = [&](const cv::Vec3d& p, const cv::Vec3d& n) { sampler.add(p, n); };
+    const double h = kSize / 2, t = kThin / 2;
+    // Sides and bottom of the block.
+    sampler.grid(kSize, kHigh, [&](double a, double z) {
+        add(cv::Vec3d(a - h, -h, z), cv::Vec3d(0, -1, 0));
+        add(cv::Vec3d(a - h, h, z), cv::Vec3d(0, 1, 0));
+        if (std::abs(a - h - kGrooveY) < t && z > kHigh - kGrooveDeep) return;  // the groove's ends
+        add(cv::Vec3d(-h, a - h, z), cv::Vec3d(-1, 0, 0));
+        add(cv::Vec3d(h, a - h, z), cv::Vec3d(1, 0, 0));
+    });
+    sampler.grid(kSize, kSize, [&](double a, double b) {
+        const double x = a - h, y = b - h;
+        add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
+        if (std::abs(y - kGrooveY) < t) add(cv::Vec3d(x, y, kHigh - kGrooveDeep), cv::Vec3d(0, 0, 1));  // the groove's floor
+        else if (std::abs(y - kFinY) < t) add(cv::Vec3d(x, y, kHigh + kFinHigh), cv::Vec3d(0, 0, 1));  // the fin's top
+        else add(cv::Vec3d(x, y, kHigh), cv::Vec3d(0, 0, 1));
+    });
+    // The groove's walls (facing each other) and the fin's (facing away), and their ends at x = +-h.
+    sampler.grid(kSize, kGrooveDeep, [&](double a, double z) {
+        add(cv::Vec3d(a - h, kGrooveY - t, kHigh - z), cv::Vec3d(0, 1, 0));
+        add(cv::Vec3d(a - h, kGrooveY + t, kHigh - z), cv::Vec3d(0, -1, 0));
+        add(cv::Vec3d(a - h, kFinY - t, kHigh + z), cv::Vec3d(0, -1, 0));
+        add(cv::Vec3d(a - h, kFinY + t, kHigh + z), cv::Vec3d(0, 1, 0));
+    });
+    sampler.grid(kThin, kFinHigh, [&](double a, double z) {
+        for (double x : {-h, h}) add(cv::Vec3d(x, kFinY - t + a, kHigh + z), cv::Vec3d(x < 0 ? -1 : 1, 0, 0));
+    });
+    const Mesh mesh = mesh_cloud(sampler.cloud);
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("block with a 0.5 mm fin and a 0.5 mm groove: %s\n", check.summary().c_str());
+    EXPECT_TRUE(check.watertight());
+    EXPECT_FALSE(check.self_intersecting);
+    // Not by giving up the block's own edges: its outer top edges stay sharp (a vertex within
+    // 50 um of the edge line at x = -h, z = kHigh away from the fin, groove and corners).
+    double nearest_to_edge = 1e9;
+    for (const cv::Vec3f& v : mesh.vertices) {
+        const cv::Vec3d p(v);
+        if (std::abs(p[1]) < h - 1 && std::abs(p[1] - kFinY) > 1.5 && std::abs(p[1] - kGrooveY) > 1.5)
+            nearest_to_edge = std::min(nearest_to_edge, std::hypot(p[0] + h, p[2] - kHigh));
+    }
+    std::printf("nearest vertex to the block's top edge at x = -%.0f: %.1f um\n", h, 1000 * nearest_to_edge);
+    EXPECT_LT(nearest_to_edge, 0.050);
+}
+
 // The same points give the same mesh again in one process, with the heap in another state: the
 // holed block without its bottom (a part standing on the table), capped at the table. The cut at
 // the table (CGAL's corefinement) orders its work by memory address; without the cut mesh put in

@@ -583,9 +583,10 @@ std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::V
 // vertices around it (which stay): unrolled by the conformal map (angle about the axis, and
 // e^(along / radius) from it: a patch is a polygon, a band all round the hole a ring),
 // constrained Delaunay with points about `spacing` apart inside, mapped back; where the rim
-// runs along a face the wall opens on, it goes onto their edge first (rim_onto_edges). The
-// patch is left as Poisson made it when its rim does not unroll into simple loops or the
-// result is not a closed manifold. Returns the vertices made.
+// runs along a face the wall opens on, where it goes onto their edge is added to `rim_targets`
+// (rim_onto_edges). The patch is left as Poisson made it when its rim does not unroll into
+// simple loops, or the result is not a closed manifold or has faces crossing that did not
+// cross before. Returns the vertices made.
 using CdtVertex = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;  // mesh index, -1 new
 using CdtFace = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Triangulation_face_base_with_info_2<int, Kernel>>;
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<CdtVertex, CdtFace>,
@@ -618,6 +619,13 @@ void mark_nesting(Cdt& cdt) {
     }
 }
 
+// Where a rebuilt wall's rim vertex goes (rim_onto_edges), and the surface it goes onto (-1:
+// the curve where the wall meets the face).
+struct RimTarget {
+    cv::Vec3d at;
+    int surface;
+};
+
 // The rim of a rebuilt wall where it meets a face at an edge (a hole's mouth, a blind hole's
 // floor): its vertices lie near that face's points, so they are not in the patch, and stay as
 // Poisson rounded them (or, where the face's points went on into the mouth, as it ran the face
@@ -628,14 +636,19 @@ void mark_nesting(Cdt& cdt) {
 // is short, one face alone is that near (two: a corner, left to the sharp-edge code), the wall
 // was seen at that turn, and the points around lie on the face, on the wall, or within the
 // edge's blur of the curve (a chamfer's or a fillet's do not). A vertex whose kept faces would
-// turn over stays. `placed`: the mesh's vertices, the rim's moved; returns how many moved.
-size_t rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, const std::map<int, int>& rim_next,
-                      const Regions& regions, const HoleWall& wall, const std::vector<cv::Vec3d>& positions,
-                      const PointGrid& grid, double reach, double agree, double longest_move, double spacing,
-                      std::vector<cv::Vec3f>& placed) {
+// turn over stays. The moves are not made here but added to `targets`: sharpen_edges makes them
+// with its other moves, from the vertices' places on the rebuilt mesh, so that its fold and
+// crossing checks can send them back (made here, they became the `safe` places those checks
+// return to, and a rim move that crossed faces stayed: 4 crossing face pairs on a real mesh).
+void rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, const std::map<int, int>& rim_next,
+                    const Regions& regions, const HoleWall& wall, const std::vector<cv::Vec3d>& positions,
+                    const PointGrid& grid, double reach, double agree, double longest_move, double spacing,
+                    std::map<int, RimTarget>& targets) {
     const Plane& hole = regions.planes[wall.surface];
     std::vector<int> near;
+    std::vector<cv::Vec3f> placed = mesh.vertices;
     std::vector<uint8_t> is_moved(placed.size(), 0);
+    std::map<int, RimTarget> found;
     // The rim and the kept vertices next to it (Poisson's rounding is often two vertices deep).
     std::set<int> ring;
     for (const auto& [v, next] : rim_next) ring.insert(v);  // every rim vertex starts one rim edge
@@ -682,6 +695,7 @@ size_t rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, cons
         if (near.size() < 3 || double(on) < kLeastAgreement * double(near.size())) continue;
         placed[v] = cv::Vec3f(at);
         is_moved[v] = 1;
+        found[v] = RimTarget{at, past || near_curve ? -1 : (on_face ? face : wall.surface)};
     }
     // Self-check: the kept faces around a moved vertex keep their way round; those that turn
     // over send their moved vertices back.
@@ -703,12 +717,13 @@ size_t rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, cons
                 }
         }
     }
-    return size_t(std::count(is_moved.begin(), is_moved.end(), uint8_t(1)));
+    for (const auto& [v, target] : found)
+        if (is_moved[v]) targets[v] = target;
 }
 
 size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWall>& walls, const PointGrid& grid,
                           const std::vector<cv::Vec3d>& positions, double reach, double filled_reach, double agree,
-                          double longest_move, double spacing, size_t& rim_moved) {
+                          double longest_move, double spacing, std::map<int, RimTarget>& rim_targets) {
     size_t made = 0;
     for (HoleWall& wall : walls) {
         const size_t vertex_count = mesh.vertices.size();
@@ -834,33 +849,16 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
             if (!joined) break;
         }
         if (!simple || rim_next.empty()) continue;
-        // The rim where the wall meets a face, onto their edge; kept as it was when that makes
-        // the rim, unrolled, cross itself or two of its vertices one point.
-        std::vector<cv::Vec3f> placed = mesh.vertices;
-        const size_t rim_on_edge =
-            rim_onto_edges(mesh, kept, rim_next, regions, wall, positions, grid, reach, agree, longest_move, spacing, placed);
-        if (rim_on_edge > 0) {
-            const std::vector<std::pair<int, int>> edges(rim_next.begin(), rim_next.end());
-            std::vector<Kernel::Segment_2> unrolled_edges;
-            for (const auto& [a, b] : edges) unrolled_edges.emplace_back(unrolled(cv::Vec3d(placed[a])), unrolled(cv::Vec3d(placed[b])));
-            bool tangled = false;
-            for (size_t i = 0; i < edges.size() && !tangled; ++i) {
-                tangled = unrolled_edges[i].is_degenerate();
-                for (size_t j = i + 1; j < edges.size() && !tangled; ++j) {
-                    const auto [a, b] = edges[i];
-                    const auto [c, d] = edges[j];
-                    tangled = a != c && a != d && b != c && b != d && CGAL::do_intersect(unrolled_edges[i], unrolled_edges[j]);
-                }
-            }
-            if (tangled) placed = mesh.vertices;
-        }
+        // The rim where the wall meets a face: where it goes onto their edge, once the rebuild stands.
+        std::map<int, RimTarget> rim_on_edge;
+        rim_onto_edges(mesh, kept, rim_next, regions, wall, positions, grid, reach, agree, longest_move, spacing, rim_on_edge);
         Cdt cdt;
         std::map<int, Cdt::Vertex_handle> handle;
         try {
             for (const auto& [a, b] : rim_next)
                 for (int v : {a, b})
                     if (!handle.count(v)) {
-                        handle[v] = cdt.insert(unrolled(cv::Vec3d(placed[v])));
+                        handle[v] = cdt.insert(unrolled(cv::Vec3d(mesh.vertices[v])));
                         handle[v]->info() = v;
                     }
             if (cdt.number_of_vertices() != handle.size()) continue;  // two rim vertices on one point
@@ -873,8 +871,8 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         std::vector<cv::Vec3d> rim_on_wall;
         double bottom = 1e30, top = -1e30;
         for (const auto& [a, b] : rim_next) {
-            rim_on_wall.push_back(hole.project(cv::Vec3d(placed[a])));
-            const double along = hole.axis.dot(cv::Vec3d(placed[a]) - hole.centre);
+            rim_on_wall.push_back(hole.project(cv::Vec3d(mesh.vertices[a])));
+            const double along = hole.axis.dot(cv::Vec3d(mesh.vertices[a]) - hole.centre);
             bottom = std::min(bottom, along);
             top = std::max(top, along);
         }
@@ -896,7 +894,7 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         mark_nesting(cdt);
         // The new faces, turned the way the rim runs in the faces cut out.
         Mesh rebuilt;
-        rebuilt.vertices = placed;
+        rebuilt.vertices = mesh.vertices;
         rebuilt.faces = kept;
         std::vector<cv::Vec3i> added;
         int turned = 0;  // +1: as unrolled, -1: reversed
@@ -929,9 +927,9 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
             for (int k = 0; k < 3; ++k) ++directed[{face[k], face[(k + 1) % 3]}];
         bool closed = turned != 0;
         for (const auto& [edge, count] : directed) closed = closed && count == 1 && directed.count({edge.second, edge.first});
-        if (!closed) continue;
+        if (!closed || self_intersecting_faces(rebuilt).size() > self_intersecting_faces(mesh).size()) continue;
         made += rebuilt.vertices.size() - mesh.vertices.size();
-        if (placed != mesh.vertices) rim_moved += rim_on_edge;
+        rim_targets.insert(rim_on_edge.begin(), rim_on_edge.end());
         wall.rebuilt = true;
         mesh = std::move(rebuilt);
     }
@@ -1040,8 +1038,11 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     const double filled_reach = std::max(2 * spacing_mm, 0.5);
     // A vertex further than this from where its planes put it is left alone (not an edge Poisson rounded).
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
+    const Mesh unsharpened = mesh;
+    const size_t crossing_before = self_intersecting_faces(mesh).size();
+    std::map<int, RimTarget> rim_targets;
     report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, positions, reach, filled_reach, agree, longest_move,
-                                              spacing_mm, report.rim_vertices);
+                                              spacing_mm, rim_targets);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
     const size_t vertex_count = mesh.vertices.size();
@@ -1327,6 +1328,15 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     }
     // Walls whose rebuild was refused: Poisson's vertices relaxed onto the cylinder instead.
     report.hole_vertices += fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
+    // A rebuilt wall's rim where it meets a face: onto their edge (or the nearer surface), unless
+    // the sharp-edge code above put it on a line or a corner.
+    for (const auto& [v, rim] : rim_targets) {
+        if (on_feature[v]) continue;
+        target[v] = rim.at;
+        surface_of[v] = rim.surface;
+        on_feature[v] = rim.surface < 0;
+        ++report.rim_vertices;
+    }
 
     // 4. Split the edges that cross a line, each once.
     std::unordered_map<long long, int> split_vertex;
@@ -1583,6 +1593,13 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             face[k] = index;
         }
     compact.faces = std::move(out.faces);
+    // Last self-check, on the whole stage (the rebuilt walls too): faces crossing that did not
+    // cross before undo the sharpening; the mesh goes on as it came in.
+    if (self_intersecting_faces(compact).size() > crossing_before) {
+        mesh = unsharpened;
+        report.undone = true;
+        return report;
+    }
     mesh = std::move(compact);
     return report;
 }
