@@ -582,11 +582,10 @@ std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::V
 // around them are cut out and the hole left is triangulated anew on the cylinder, between the
 // vertices around it (which stay): unrolled by the conformal map (angle about the axis, and
 // e^(along / radius) from it: a patch is a polygon, a band all round the hole a ring),
-// constrained Delaunay with points about `spacing` apart inside, mapped back; where the rim
-// runs along a face the wall opens on, where it goes onto their edge is added to `rim_targets`
-// (rim_onto_edges). The patch is left as Poisson made it when its rim does not unroll into
-// simple loops, or the result is not a closed manifold or has faces crossing that did not
-// cross before. Returns the vertices made.
+// constrained Delaunay with points about `spacing` apart inside, mapped back.
+// The patch is left as Poisson made it when its rim does not unroll into simple loops, or the
+// result is not a closed manifold or has faces crossing that did not cross before. Returns the
+// vertices made.
 using CdtVertex = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;  // mesh index, -1 new
 using CdtFace = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Triangulation_face_base_with_info_2<int, Kernel>>;
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<CdtVertex, CdtFace>,
@@ -619,111 +618,8 @@ void mark_nesting(Cdt& cdt) {
     }
 }
 
-// Where a rebuilt wall's rim vertex goes (rim_onto_edges), and the surface it goes onto (-1:
-// the curve where the wall meets the face).
-struct RimTarget {
-    cv::Vec3d at;
-    int surface;
-};
-
-// The rim of a rebuilt wall where it meets a face at an edge (a hole's mouth, a blind hole's
-// floor): its vertices lie near that face's points, so they are not in the patch, and stay as
-// Poisson rounded them (or, where the face's points went on into the mouth, as it ran the face
-// on into the hole). Each of them, and each kept vertex next to them, goes onto the nearer of
-// the two surfaces, and onto the curve where they meet when that puts it past the curve (the
-// face's points say which side of the wall the face lies on, and the wall lies on the same
-// side of the face) or, a rim vertex, within a third of the spacing of it; only when the move
-// is short, one face alone is that near (two: a corner, left to the sharp-edge code), the wall
-// was seen at that turn, and the points around lie on the face, on the wall, or within the
-// edge's blur of the curve (a chamfer's or a fillet's do not). A vertex whose kept faces would
-// turn over stays. The moves are not made here but added to `targets`: sharpen_edges makes them
-// with its other moves, from the vertices' places on the rebuilt mesh, so that its fold and
-// crossing checks can send them back (made here, they became the `safe` places those checks
-// return to, and a rim move that crossed faces stayed: 4 crossing face pairs on a real mesh).
-void rim_onto_edges(const Mesh& mesh, const std::vector<cv::Vec3i>& kept, const std::map<int, int>& rim_next,
-                    const Regions& regions, const HoleWall& wall, const std::vector<cv::Vec3d>& positions,
-                    const PointGrid& grid, double reach, double agree, double longest_move, double spacing,
-                    std::map<int, RimTarget>& targets) {
-    const Plane& hole = regions.planes[wall.surface];
-    std::vector<int> near;
-    std::vector<cv::Vec3f> placed = mesh.vertices;
-    std::vector<uint8_t> is_moved(placed.size(), 0);
-    std::map<int, RimTarget> found;
-    // The rim and the kept vertices next to it (Poisson's rounding is often two vertices deep).
-    std::set<int> ring;
-    for (const auto& [v, next] : rim_next) ring.insert(v);  // every rim vertex starts one rim edge
-    for (const cv::Vec3i& f : kept)
-        if (rim_next.count(f[0]) || rim_next.count(f[1]) || rim_next.count(f[2])) ring.insert({f[0], f[1], f[2]});
-    for (int v : ring) {
-        const cv::Vec3d x(mesh.vertices[v]);
-        grid.within(x, reach, near);
-        std::map<int, int> points_of;  // plane -> its points this near
-        for (int k : near)
-            if (regions.label[k] >= 0 && !regions.planes[regions.label[k]].cylinder) ++points_of[regions.label[k]];
-        int face = -1, faces = 0;
-        for (const auto& [id, count] : points_of) {
-            cv::Vec3d on_curve;
-            if (count < 3 || from_line(hole, regions.planes[id], x) > longest_move || !onto_line(hole, regions.planes[id], x, on_curve))
-                continue;
-            const double angle = degrees_between(regions.planes[id].normal, hole.normal_at(on_curve));
-            if (angle < kSharpEdgeDeg || angle > 180 - kSharpEdgeDeg) continue;
-            face = id;
-            ++faces;
-        }
-        if (faces != 1) continue;
-        const Plane& plane = regions.planes[face];
-        // The side of the wall the face's points lie on (a convex edge: inside it).
-        int inside = 0, outside = 0;
-        for (int k : near)
-            if (regions.label[k] == face) (hole.distance(positions[k]) < 0 ? inside : outside)++;
-        if (std::max(inside, outside) < 2 * std::min(inside, outside) || inside + outside < 3) continue;
-        const double side = inside > outside ? -1 : 1;
-        const bool on_face = std::abs(plane.distance(x)) < std::abs(hole.distance(x));
-        cv::Vec3d at = on_face ? plane.project(x) : hole.project(x);
-        const bool past = side * (on_face ? hole.distance(at) : plane.distance(at)) < 0;
-        const bool near_curve = rim_next.count(v) && from_line(hole, plane, at) < spacing / 3;
-        if ((past || near_curve) && !onto_line(hole, plane, at, at)) continue;
-        const double along = hole.axis.dot(at - hole.centre);
-        if (cv::norm(at - x) > longest_move || !wall.seen_at(hole, at) || along < hole.low - reach || along > hole.high + reach)
-            continue;
-        grid.within(at, reach, near);
-        size_t on = 0;
-        for (int k : near) {
-            const cv::Vec3d& p = positions[k];
-            on += std::abs(plane.distance(p)) < agree || std::abs(hole.distance(p)) < agree || from_line(hole, plane, p) < kEdgeBlurMm;
-        }
-        if (near.size() < 3 || double(on) < kLeastAgreement * double(near.size())) continue;
-        placed[v] = cv::Vec3f(at);
-        is_moved[v] = 1;
-        found[v] = RimTarget{at, past || near_curve ? -1 : (on_face ? face : wall.surface)};
-    }
-    // Self-check: the kept faces around a moved vertex keep their way round; those that turn
-    // over send their moved vertices back.
-    for (bool changed = true; changed;) {
-        changed = false;
-        for (const cv::Vec3i& f : kept) {
-            if (!is_moved[f[0]] && !is_moved[f[1]] && !is_moved[f[2]]) continue;
-            const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
-            const cv::Vec3d pa(placed[f[0]]), pb(placed[f[1]]), pc(placed[f[2]]);
-            if ((pb - pa).cross(pc - pa).dot((b - a).cross(c - a)) > 0) continue;
-            // The kept vertices next to the rim go back first; the rim's when none is left.
-            bool next_to_rim = false;
-            for (int k = 0; k < 3; ++k) next_to_rim = next_to_rim || (is_moved[f[k]] && !rim_next.count(f[k]));
-            for (int k = 0; k < 3; ++k)
-                if (is_moved[f[k]] && (!next_to_rim || !rim_next.count(f[k]))) {
-                    placed[f[k]] = mesh.vertices[f[k]];
-                    is_moved[f[k]] = 0;
-                    changed = true;
-                }
-        }
-    }
-    for (const auto& [v, target] : found)
-        if (is_moved[v]) targets[v] = target;
-}
-
 size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWall>& walls, const PointGrid& grid,
-                          const std::vector<cv::Vec3d>& positions, double reach, double filled_reach, double agree,
-                          double longest_move, double spacing, std::map<int, RimTarget>& rim_targets) {
+                          double reach, double filled_reach, double spacing) {
     size_t made = 0;
     for (HoleWall& wall : walls) {
         const size_t vertex_count = mesh.vertices.size();
@@ -849,9 +745,6 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
             if (!joined) break;
         }
         if (!simple || rim_next.empty()) continue;
-        // The rim where the wall meets a face: where it goes onto their edge, once the rebuild stands.
-        std::map<int, RimTarget> rim_on_edge;
-        rim_onto_edges(mesh, kept, rim_next, regions, wall, positions, grid, reach, agree, longest_move, spacing, rim_on_edge);
         Cdt cdt;
         std::map<int, Cdt::Vertex_handle> handle;
         try {
@@ -929,7 +822,6 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
         for (const auto& [edge, count] : directed) closed = closed && count == 1 && directed.count({edge.second, edge.first});
         if (!closed || self_intersecting_faces(rebuilt).size() > self_intersecting_faces(mesh).size()) continue;
         made += rebuilt.vertices.size() - mesh.vertices.size();
-        rim_targets.insert(rim_on_edge.begin(), rim_on_edge.end());
         wall.rebuilt = true;
         mesh = std::move(rebuilt);
     }
@@ -1040,9 +932,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
     const Mesh unsharpened = mesh;
     const size_t crossing_before = self_intersecting_faces(mesh).size();
-    std::map<int, RimTarget> rim_targets;
-    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, positions, reach, filled_reach, agree, longest_move,
-                                              spacing_mm, rim_targets);
+    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
     const size_t vertex_count = mesh.vertices.size();
@@ -1328,15 +1218,6 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     }
     // Walls whose rebuild was refused: Poisson's vertices relaxed onto the cylinder instead.
     report.hole_vertices += fill_hole_walls(mesh, regions, walls, grid, model, vertex_normal, reach, filled_reach, target, surface_of);
-    // A rebuilt wall's rim where it meets a face: onto their edge (or the nearer surface), unless
-    // the sharp-edge code above put it on a line or a corner.
-    for (const auto& [v, rim] : rim_targets) {
-        if (on_feature[v]) continue;
-        target[v] = rim.at;
-        surface_of[v] = rim.surface;
-        on_feature[v] = rim.surface < 0;
-        ++report.rim_vertices;
-    }
 
     // 4. Split the edges that cross a line, each once.
     std::unordered_map<long long, int> split_vertex;

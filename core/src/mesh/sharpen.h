@@ -13,7 +13,6 @@ struct SharpenReport {
     size_t cut_edges = 0;        // mesh edges split where they cross a feature line
     size_t corners = 0;          // vertices put on the meeting point of three planes
     size_t hole_vertices = 0;    // vertices made on a hole's fitted wall where Poisson guessed it
-    size_t rim_vertices = 0;     // vertices of a rebuilt wall's rim put on the edge where it meets a face
     size_t reverted = 0;         // moves undone (all the way back) because they folded triangles
     bool undone = false;         // the whole sharpening undone: its mesh had faces crossing that did not before
 };
