@@ -168,7 +168,9 @@ namespace {
 constexpr double kHoleBlock = 20, kHoleBlockHeight = 14, kHoleRadius = 5, kSeenFromZ = 10;
 
 // `seen_down_deg`: the width of the side (about -y) whose wall was seen all the way down.
-PointCloud holed_block_points(double flat_y, unsigned seed, double seen_down_deg = 180) {
+// `mouth_blur_mm`: the bottom face's points go on this far into the hole's mouth (a camera pixel
+// at the rim sees the face and the hole's dark inside, and its point lands on the face's plane).
+PointCloud holed_block_points(double flat_y, unsigned seed, double seen_down_deg = 180, double mouth_blur_mm = 0) {
     const double spacing = 0.4, noise_mm = 0.01;
     std::mt19937 random(seed);
     std::normal_distribution<double> noise(0, noise_mm);
@@ -191,8 +193,10 @@ PointCloud holed_block_points(double flat_y, unsigned seed, double seen_down_deg
     for (double a = -h + spacing / 2; a < h; a += spacing)
         for (double b = -h + spacing / 2; b < h; b += spacing) {
             const double x = a + jitter(random) * spacing, y = b + jitter(random) * spacing;
+            // A negative blur: the bottom face's points stop that far short of the hole.
+            if (std::hypot(x, y) >= kHoleRadius - mouth_blur_mm || (mouth_blur_mm >= 0 && !in_hole(x, y)))
+                add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
             if (in_hole(x, y)) continue;
-            add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
             add(cv::Vec3d(x, y, kHoleBlockHeight), cv::Vec3d(0, 0, 1));
         }
     // The wall, by arc length around the round part and along the flat; its normals point into the hole.
@@ -304,6 +308,137 @@ TEST(MeshSharpen, UnseenHoleWallSeenDownOnlyOnAStripGoesOntoItsCylinder) {
     EXPECT_EQ(filled, unseen);  // invented, and said so
     EXPECT_LT(sum / double(unseen), 0.020);
     EXPECT_LT(worst, 0.150);  // issue 12's mesh -> truth maximum
+}
+
+// The rim where the rebuilt unseen wall meets the bottom face (the hole's mouth at z = 0 on its
+// y > 0 side): its vertices lie on the bottom face's points, so they are measured and are not
+// rebuilt; left as Poisson made them they round the edge off by a triangle. The rebuilt wall
+// must take its rim with it: the rim vertices on the circle where the cylinder meets the bottom
+// plane, as at any sharp edge. Judged by each vertex's distance from the true part near that
+// circle (exact there: from the circle below the face and inside the hole, else from the
+// nearer face). Bound: issue 12's mesh -> truth maximum (150 um), not yet 50 um: moving the
+// rim onto the circle inside the wall's rebuild (branch rim) gave 1.1 um here but a mesh that
+// crossed itself on a real scan (its moves escaped the fold and crossing checks), and made
+// under those checks 172.8 um here (2026-11-24, branch rim3), worse than none; so the rim stays
+// as Poisson and the sharp-edge code leave it (measured 2026-11-24: 120.2 um on register2).
+constexpr double kMouthBlurMm = 0.25;
+TEST(MeshSharpen, RebuiltHoleWallsRimOnTheFaceItOpensOnIsSharp) {
+    const Mesh mesh = mesh_cloud(holed_block_points(0.0, 5, 180, kMouthBlurMm));
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("holed block, the bottom face's points %.2f mm into the hole: %s\n", kMouthBlurMm, check.summary().c_str());
+    ASSERT_TRUE(check.closed_volume);
+    size_t near_rim = 0;
+    double worst = 0;
+    cv::Vec3d worst_at;
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+        const cv::Vec3d p(mesh.vertices[v]);
+        const double r = std::hypot(p[0], p[1]);
+        // 1.5 mm of the rim, on the unseen side (1.5 mm clear of the seen half).
+        if (p[1] < 1.5 || std::hypot(r - kHoleRadius, p[2]) > 1.5) continue;
+        ++near_rim;
+        const double into_hole = kHoleRadius - r, below = -p[2];
+        const double off = into_hole > 0 && below > 0   ? std::hypot(into_hole, below)
+                           : into_hole > 0 || below > 0 ? std::max(into_hole, below)
+                                                        : std::min(-into_hole, -below);
+        if (off > worst) worst = off, worst_at = p;
+    }
+    std::printf("rebuilt wall's bottom rim: %zu vertices within 1.5 mm of it, worst %.1f um off the part at (%.2f, %.2f, %.2f)\n",
+                near_rim, 1000 * worst, worst_at[0], worst_at[1], worst_at[2]);
+    ASSERT_GT(near_rim, 50u);
+    EXPECT_LT(worst, 0.150);
+}
+
+// The bottom face's points stopping short of the hole's mouth (as the real scans' do, the
+// edge's blur thinning them): the rebuilt wall's vertices near the rim have none of that face's
+// points near, and Poisson's rim vertices go onto the bottom face a few tenths of a millimetre
+// out from the circle. The faces between the two must be split on the circle, not span the
+// corner inside the material. Judged over points spread on the faces near the rim (a face
+// spanning the corner has its vertices on the part and its middle inside it). Measured
+// (2026-11-24, branch rim): 9.1 um; 315.9 um before the wall's vertices with no face points
+// near could have their edges split. With the points stopping 0.2-0.5 mm short it is still
+// 250-976 um (not fixed: see docs/multiview.md); 0.1 mm short: 7.5 um either way.
+TEST(MeshSharpen, RebuiltHoleWallsFacesDoNotSpanTheRimWhereTheFaceWasNotSeenUpToIt) {
+    const double gap_mm = 0.15;
+    const Mesh mesh = mesh_cloud(holed_block_points(0.0, 5, 180, -gap_mm));
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("holed block, the bottom face's points %.2f mm short of the hole: %s\n", gap_mm, check.summary().c_str());
+    ASSERT_TRUE(check.closed_volume);
+    EXPECT_FALSE(check.self_intersecting);
+    size_t samples = 0;
+    double worst = 0;
+    cv::Vec3d worst_at;
+    for (const cv::Vec3i& f : mesh.faces) {
+        const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);
+        for (int i = 0; i <= 4; ++i)
+            for (int j = 0; i + j <= 4; ++j) {
+                const cv::Vec3d p = a + (i / 4.0) * (b - a) + (j / 4.0) * (c - a);
+                const double r = std::hypot(p[0], p[1]);
+                if (p[1] < 1.5 || std::hypot(r - kHoleRadius, p[2]) > 1.5) continue;  // the unseen side's rim
+                ++samples;
+                const double into_hole = kHoleRadius - r, below = -p[2];
+                const double off = into_hole > 0 && below > 0   ? std::hypot(into_hole, below)
+                                   : into_hole > 0 || below > 0 ? std::max(into_hole, below)
+                                                                : std::min(-into_hole, -below);
+                if (off > worst) worst = off, worst_at = p;
+            }
+    }
+    std::printf("rebuilt wall's bottom rim: %zu points on the faces within 1.5 mm of it, worst %.1f um off the part at "
+                "(%.2f, %.2f, %.2f)\n", samples, 1000 * worst, worst_at[0], worst_at[1], worst_at[2]);
+    ASSERT_GT(samples, 500u);
+    EXPECT_LT(worst, 0.050);
+}
+
+// Built to make the sharpening cross faces: a block with a fin 0.5 mm thick standing on its top
+// and a groove 0.5 mm wide cut beside it, both about one sample spacing across, so that Poisson
+// rounds each to a bump or a dent and the sharp edges of the two sides of one fin or groove are
+// less than a move apart (the moves onto one side's edge pass through the other side's faces).
+// The mesh must come out closed and not crossing itself, whatever the sharpening kept.
+TEST(MeshSharpen, ThinFinAndNarrowGrooveDoNotMakeTheMeshCrossItself) {
+    constexpr double kSize = 16, kHigh = 6, kThin = 0.5, kFinHigh = 2, kGrooveDeep = 2;
+    constexpr double kFinY = -3, kGrooveY = 3;  // their middles; both run along x
+    SurfaceSampler sampler(0.4, 0.01, 7);
+    auto add = [&](const cv::Vec3d& p, const cv::Vec3d& n) { sampler.add(p, n); };
+    const double h = kSize / 2, t = kThin / 2;
+    // Sides and bottom of the block.
+    sampler.grid(kSize, kHigh, [&](double a, double z) {
+        add(cv::Vec3d(a - h, -h, z), cv::Vec3d(0, -1, 0));
+        add(cv::Vec3d(a - h, h, z), cv::Vec3d(0, 1, 0));
+        if (std::abs(a - h - kGrooveY) < t && z > kHigh - kGrooveDeep) return;  // the groove's ends
+        add(cv::Vec3d(-h, a - h, z), cv::Vec3d(-1, 0, 0));
+        add(cv::Vec3d(h, a - h, z), cv::Vec3d(1, 0, 0));
+    });
+    sampler.grid(kSize, kSize, [&](double a, double b) {
+        const double x = a - h, y = b - h;
+        add(cv::Vec3d(x, y, 0), cv::Vec3d(0, 0, -1));
+        if (std::abs(y - kGrooveY) < t) add(cv::Vec3d(x, y, kHigh - kGrooveDeep), cv::Vec3d(0, 0, 1));  // the groove's floor
+        else if (std::abs(y - kFinY) < t) add(cv::Vec3d(x, y, kHigh + kFinHigh), cv::Vec3d(0, 0, 1));  // the fin's top
+        else add(cv::Vec3d(x, y, kHigh), cv::Vec3d(0, 0, 1));
+    });
+    // The groove's walls (facing each other) and the fin's (facing away), and their ends at x = +-h.
+    sampler.grid(kSize, kGrooveDeep, [&](double a, double z) {
+        add(cv::Vec3d(a - h, kGrooveY - t, kHigh - z), cv::Vec3d(0, 1, 0));
+        add(cv::Vec3d(a - h, kGrooveY + t, kHigh - z), cv::Vec3d(0, -1, 0));
+        add(cv::Vec3d(a - h, kFinY - t, kHigh + z), cv::Vec3d(0, -1, 0));
+        add(cv::Vec3d(a - h, kFinY + t, kHigh + z), cv::Vec3d(0, 1, 0));
+    });
+    sampler.grid(kThin, kFinHigh, [&](double a, double z) {
+        for (double x : {-h, h}) add(cv::Vec3d(x, kFinY - t + a, kHigh + z), cv::Vec3d(x < 0 ? -1 : 1, 0, 0));
+    });
+    const Mesh mesh = mesh_cloud(sampler.cloud);
+    const MeshCheck check = check_mesh(mesh);
+    std::printf("block with a 0.5 mm fin and a 0.5 mm groove: %s\n", check.summary().c_str());
+    EXPECT_TRUE(check.watertight());
+    EXPECT_FALSE(check.self_intersecting);
+    // Not by giving up the block's own edges: its outer top edges stay sharp (a vertex within
+    // 50 um of the edge line at x = -h, z = kHigh away from the fin, groove and corners).
+    double nearest_to_edge = 1e9;
+    for (const cv::Vec3f& v : mesh.vertices) {
+        const cv::Vec3d p(v);
+        if (std::abs(p[1]) < h - 1 && std::abs(p[1] - kFinY) > 1.5 && std::abs(p[1] - kGrooveY) > 1.5)
+            nearest_to_edge = std::min(nearest_to_edge, std::hypot(p[0] + h, p[2] - kHigh));
+    }
+    std::printf("nearest vertex to the block's top edge at x = -%.0f: %.1f um\n", h, 1000 * nearest_to_edge);
+    EXPECT_LT(nearest_to_edge, 0.050);
 }
 
 // The same points give the same mesh again in one process, with the heap in another state: the

@@ -373,7 +373,8 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         // Last, on the surface that stays: the cut at the table needs a mesh that does not cross
         // itself, and the sharpening only moves vertices where that stays so.
         report(0.8, "sharpening edges");
-        detail::sharpen_edges(mesh, points, spacing);
+        if (detail::sharpen_edges(mesh, points, spacing).undone)
+            report(0.8, "sharpening undone: it made faces cross each other (the edges stay as Poisson rounded them)");
     } else {
         report(0.2, "advancing-front reconstruction");
         mesh = detail::advancing_front_mesh(points, spacing, options.advancing_front_max_radius);

@@ -582,9 +582,10 @@ std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::V
 // around them are cut out and the hole left is triangulated anew on the cylinder, between the
 // vertices around it (which stay): unrolled by the conformal map (angle about the axis, and
 // e^(along / radius) from it: a patch is a polygon, a band all round the hole a ring),
-// constrained Delaunay with points about `spacing` apart inside, mapped back. The patch is
-// left as Poisson made it when its rim does not unroll into simple loops or the result is
-// not a closed manifold. Returns the vertices made.
+// constrained Delaunay with points about `spacing` apart inside, mapped back.
+// The patch is left as Poisson made it when its rim does not unroll into simple loops, or the
+// result is not a closed manifold or has faces crossing that did not cross before. Returns the
+// vertices made.
 using CdtVertex = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;  // mesh index, -1 new
 using CdtFace = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Triangulation_face_base_with_info_2<int, Kernel>>;
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<CdtVertex, CdtFace>,
@@ -819,7 +820,7 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
             for (int k = 0; k < 3; ++k) ++directed[{face[k], face[(k + 1) % 3]}];
         bool closed = turned != 0;
         for (const auto& [edge, count] : directed) closed = closed && count == 1 && directed.count({edge.second, edge.first});
-        if (!closed) continue;
+        if (!closed || self_intersecting_faces(rebuilt).size() > self_intersecting_faces(mesh).size()) continue;
         made += rebuilt.vertices.size() - mesh.vertices.size();
         wall.rebuilt = true;
         mesh = std::move(rebuilt);
@@ -927,9 +928,11 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<HoleWall> walls = hole_walls(regions, positions);
     // A vertex with fewer than 3 points this near is filled in (as mesh_cloud marks it).
     const double filled_reach = std::max(2 * spacing_mm, 0.5);
-    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm);
     // A vertex further than this from where its planes put it is left alone (not an edge Poisson rounded).
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
+    const Mesh unsharpened = mesh;
+    const size_t crossing_before = self_intersecting_faces(mesh).size();
+    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
     const size_t vertex_count = mesh.vertices.size();
@@ -1064,13 +1067,20 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         int plane_a, plane_b;
     };
     std::unordered_map<long long, Crossing> crossings;
+    // A vertex of a rebuilt hole wall with no other surface's points near (the wall was not seen
+    // there, and the face it opens on rarely was right at the rim): an edge from it to a vertex
+    // of the face that knows the wall still crosses their edge, or the face spans the corner.
+    std::vector<uint8_t> rebuilt_surface(regions.planes.size(), 0);
+    for (const HoleWall& wall : walls) rebuilt_surface[wall.surface] = rebuilt_surface[wall.surface] || wall.rebuilt;
+    auto only_rebuilt_wall = [&](int v) { return model[v].count == 1 && rebuilt_surface[model[v].plane[0]]; };
     auto edge_key = [&](int a, int b) { return (long long)std::min(a, b) * (long long)vertex_count + std::max(a, b); };
     std::vector<std::vector<std::pair<int, int>>> snaps(vertex_count);  // planes pairs an end goes onto
     for (const cv::Vec3i& face : mesh.faces)
         for (int k = 0; k < 3; ++k) {
             const int a = face[k], b = face[(k + 1) % 3];
             const int pa = own_plane(a), pb = own_plane(b);
-            if (pa < 0 || pb < 0 || pa == pb || !model[a].has(pb) || !model[b].has(pa) ||
+            if (pa < 0 || pb < 0 || pa == pb || !(model[a].has(pb) || only_rebuilt_wall(a)) ||
+                !(model[b].has(pa) || only_rebuilt_wall(b)) ||
                 !sharp_pair(pa, pb, 0.5 * (cv::Vec3d(mesh.vertices[a]) + cv::Vec3d(mesh.vertices[b]))))
                 continue;
             const long long key = edge_key(a, b);
@@ -1464,6 +1474,13 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
             face[k] = index;
         }
     compact.faces = std::move(out.faces);
+    // Last self-check, on the whole stage (the rebuilt walls too): faces crossing that did not
+    // cross before undo the sharpening; the mesh goes on as it came in.
+    if (self_intersecting_faces(compact).size() > crossing_before) {
+        mesh = unsharpened;
+        report.undone = true;
+        return report;
+    }
     mesh = std::move(compact);
     return report;
 }

@@ -14,6 +14,7 @@ struct SharpenReport {
     size_t corners = 0;          // vertices put on the meeting point of three planes
     size_t hole_vertices = 0;    // vertices made on a hole's fitted wall where Poisson guessed it
     size_t reverted = 0;         // moves undone (all the way back) because they folded triangles
+    bool undone = false;         // the whole sharpening undone: its mesh had faces crossing that did not before
 };
 
 // The planar regions of the points are found (region growing); where the mesh runs near two

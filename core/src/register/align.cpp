@@ -128,7 +128,7 @@ bool same_pose(const cv::Matx44d& a, const cv::Matx44d& b, const ViewData& movin
 PairRegistration icp_candidate(const ViewData& fixed, const ViewData& moving, const detail::CoarseAlignment& start,
                                const RegistrationOptions& options, bool guided, const detail::EarlierFits& earlier = {},
                                int* joined = nullptr) {
-    const detail::IcpResult icp = detail::icp_point_to_plane(fixed.samples, moving.samples, start.transform, options, earlier);
+    const detail::IcpResult icp = detail::icp_point_to_plane(fixed.samples, moving.samples, start.transform, options, earlier, !guided);
     if (joined) *joined = icp.joined;
     PairRegistration candidate;
     candidate.transform = icp.transform;

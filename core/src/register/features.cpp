@@ -11,7 +11,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <unordered_map>
+#include <unordered_set>
 
 namespace picoscan::detail {
 
@@ -65,13 +65,10 @@ ViewFeatures geometric_features(const SurfaceSamples& samples, double spacing_mm
     // Thin to the keypoint spacing (one sample per cube).
     std::vector<cv::Vec3d> points, normals;
     {
-        std::unordered_map<long long, int> taken;
+        std::unordered_set<GridCell, GridCellHash> taken;
         for (size_t i = 0; i < samples.points.size(); ++i) {
             const cv::Vec3d& p = samples.points[i];
-            const long long key = (static_cast<long long>(std::floor(p[0] / spacing_mm)) * 73856093LL) ^
-                                  (static_cast<long long>(std::floor(p[1] / spacing_mm)) * 19349663LL) ^
-                                  (static_cast<long long>(std::floor(p[2] / spacing_mm)) * 83492791LL);
-            if (!taken.emplace(key, 0).second) continue;
+            if (!taken.insert(grid_cell(p, spacing_mm)).second) continue;
             points.push_back(p);
             normals.push_back(samples.normals[i]);
         }

@@ -61,49 +61,24 @@ double texture_correlation(const std::vector<Pairing>& pairings, size_t count, c
     return (sab / n - (sa / n) * (sb / n)) / std::sqrt(va * vb);
 }
 
-// What earlier iterations learned about one moving sample's neighbourhood in the fixed view.
-// Poses change little from one iteration to the next: a sample that had a partner keeps it
-// while it has moved less than the gap to the runner-up allows, and a sample that found
-// nothing within reach cannot find anything before it has moved closer than that reach.
-// Either way the nearest point found is the one a full search would return.
-struct SearchMemory {
-    int partner = -1;
-    double clear_mm = 0;  // no fixed point other than the partner lay this close to `at`
-    cv::Vec3d at{0, 0, 0};
-};
-
-// How much farther than its last partner a sample searches: a wider search costs little
-// (the grid's cells are 3 mm) and its runner-up lets later iterations skip the search.
-constexpr double kClearanceMarginMm = 0.3;
-
-// The nearest fixed point to p closer than limit_mm, or -1: what PointGrid::nearest(p, limit_mm) returns.
-int nearest_partner(const NearestGrid& grid, const std::vector<cv::Vec3d>& fixed, const cv::Vec3d& p, double limit_mm,
-                    SearchMemory& memory) {
-    constexpr double hair_mm = 1e-9;  // far above rounding: the bounds never leave out a point in reach
-    const double moved = cv::norm(p - memory.at);
-    if (memory.partner < 0 && memory.clear_mm - moved - hair_mm >= limit_mm) return -1;
-    double radius = limit_mm;
-    if (memory.partner >= 0) {
-        // Every other point is at least clear_mm - moved away from p.
-        const double to_partner = cv::norm(p - fixed[static_cast<size_t>(memory.partner)]);
-        if (to_partner + hair_mm < limit_mm && to_partner + moved + hair_mm < memory.clear_mm) return memory.partner;
-        radius = std::min(limit_mm, to_partner + kClearanceMarginMm);  // the nearest is no farther than the partner
-    }
-    const int found = grid.nearest_with_clearance(p, radius, memory.clear_mm);
-    memory.partner = found;
-    memory.at = p;
-    return found;
-}
+// Coarse to fine, for a start from features (often far off, or never settling): the first
+// iterations pair only every kCoarseStride-th moving sample, about an eighth of the work, until
+// they settle or kCoarseIterations have run; then every sample, from where they got to, with
+// the whole budget of full-density iterations (options.icp_iterations) still to spend: a start
+// that needs them all converges as it did without the coarse stage. Every start still runs,
+// and ends and is judged at full density.
+constexpr size_t kCoarseStride = 8;
+constexpr int kCoarseIterations = 30;
 
 }  // namespace
 
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
-                             const RegistrationOptions& options, const EarlierFits& earlier) {
-    return icp_point_to_plane({{&fixed, &moving}}, initial, options, earlier);
+                             const RegistrationOptions& options, const EarlierFits& earlier, bool coarse_first) {
+    return icp_point_to_plane({{&fixed, &moving}}, initial, options, earlier, coarse_first);
 }
 
 IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options,
-                             const EarlierFits& earlier) {
+                             const EarlierFits& earlier, bool coarse_first) {
     IcpResult result;
     result.transform = initial;
     std::vector<std::unique_ptr<NearestGrid>> grids;
@@ -123,16 +98,21 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
     std::vector<double> distances;
     std::vector<std::vector<SearchMemory>> memories(pairs.size());
     for (size_t k = 0; k < pairs.size(); ++k) memories[k].resize(pairs[k].moving->points.size());
-    for (int iteration = 0; iteration < options.icp_iterations; ++iteration) {
+    int coarse_left = coarse_first ? kCoarseIterations : 0, fine_left = options.icp_iterations;
+    for (int iteration = 0; fine_left > 0; ++iteration) {
+        const bool coarse = coarse_left > 0;
+        if (coarse) --coarse_left;
+        else --fine_left;
+        const size_t stride = coarse ? kCoarseStride : 1;
         const cv::Matx33d rotation = result.transform.get_minor<3, 3>(0, 0);
         const cv::Vec3d translation(result.transform(0, 3), result.transform(1, 3), result.transform(2, 3));
         pairings.clear();
         for (size_t k = 0; k < pairs.size(); ++k) {
             const SurfaceSamples& fixed = *pairs[k].fixed;
             const SurfaceSamples& moving = *pairs[k].moving;
-            for (size_t i = 0; i < moving.points.size(); ++i) {
+            for (size_t i = 0; i < moving.points.size(); i += stride) {
                 const cv::Vec3d p = rotation * moving.points[i] + translation;
-                const int j = nearest_partner(*grids[k], fixed.points, p, limit, memories[k][i]);
+                const int j = grids[k]->nearest_remembered(p, limit, memories[k][i]);
                 if (j < 0) continue;
                 const cv::Vec3d& n = fixed.normals[static_cast<size_t>(j)];
                 if ((rotation * moving.normals[i]).dot(n) < min_normal_cos) continue;
@@ -162,10 +142,15 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
             const Pairing& pair = pairings[k];
             const cv::Vec3d c = (pair.point - centre).cross(pair.normal) * (1.0 / scale);
             const cv::Vec6d row(c[0], c[1], c[2], pair.normal[0], pair.normal[1], pair.normal[2]);
-            normal_matrix += row * row.t();
-            right_side -= row * pair.residual;
+            // The upper triangle only (the products are those of row * row.t(), added in the same order).
+            for (int a = 0; a < 6; ++a) {
+                for (int b = a; b < 6; ++b) normal_matrix(a, b) += row[a] * row[b];
+                right_side[a] -= row[a] * pair.residual;
+            }
             squared += pair.residual * pair.residual;
         }
+        for (int a = 1; a < 6; ++a)
+            for (int b = 0; b < a; ++b) normal_matrix(a, b) = normal_matrix(b, a);
         result.rms_mm = std::sqrt(squared / static_cast<double>(kept));
         cv::Matx61d eigenvalues;
         cv::Matx66d eigenvectors;  // rows
@@ -188,12 +173,16 @@ IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Mat
         for (size_t k = 0; k < kept; ++k) distances.push_back(pairings[k].distance);
         std::nth_element(distances.begin(), distances.begin() + static_cast<long>(kept / 2), distances.end());
         limit = std::clamp(6.0 * distances[kept / 2], options.sample_spacing_mm, options.icp_max_distance_mm);
-        result.overlap = static_cast<double>(pairings.size()) / static_cast<double>(smaller_total);
+        result.overlap = static_cast<double>(pairings.size() * stride) / static_cast<double>(smaller_total);
         std::swap(pairings, finished);
         finished_kept = kept;
         // A start that shares almost nothing with the fixed view will not get better.
         if (iteration == 10 && result.overlap < options.min_overlap / 2) break;
         if (cv::norm(omega) < 1e-5 && cv::norm(delta) < 1e-3) {  // 0.0006 degrees, 1 um: far below what is measured
+            if (coarse) {  // settled on the few: on to all samples
+                coarse_left = 0;
+                continue;
+            }
             result.converged = true;
             break;
         }

@@ -8,7 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
+#include <unordered_set>
 
 namespace picoscan {
 
@@ -35,15 +35,12 @@ struct PlacementBody {
 
 detail::SurfaceSamples merged_cloud(const std::vector<ViewData>& data, const PlacementBody& body, double spacing_mm) {
     detail::SurfaceSamples cloud;
-    std::unordered_map<long long, bool> taken;
+    std::unordered_set<detail::GridCell, detail::GridCellHash> taken;
     for (size_t k = 0; k < body.views.size(); ++k) {
         const detail::SurfaceSamples moved = detail::transformed(data[body.views[k]].samples, body.poses[k]);
         for (size_t i = 0; i < moved.points.size(); ++i) {
             const cv::Vec3d& p = moved.points[i];
-            const long long x = static_cast<long long>(std::floor(p[0] / spacing_mm)),
-                            y = static_cast<long long>(std::floor(p[1] / spacing_mm)),
-                            z = static_cast<long long>(std::floor(p[2] / spacing_mm));
-            if (!taken.emplace((x * 73856093LL) ^ (y * 19349663LL) ^ (z * 83492791LL), true).second) continue;
+            if (!taken.insert(detail::grid_cell(p, spacing_mm)).second) continue;
             cloud.points.push_back(p);
             cloud.normals.push_back(moved.normals[i]);
             if (!moved.grey.empty()) cloud.grey.push_back(moved.grey[i]);

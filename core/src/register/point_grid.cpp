@@ -4,7 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <unordered_map>
+#include <tuple>
+#include <unordered_set>
 
 namespace picoscan::detail {
 
@@ -53,8 +54,7 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
         cv::GaussianBlur(measured, local_count, cv::Size(), sigma_px);
         paint = cv::Mat(grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0))(measured_area - area.tl());
     }
-    std::unordered_map<long long, int> taken;
-    auto cell = [&](double value) { return static_cast<long long>(std::floor(value / spacing_mm)); };
+    std::unordered_set<GridCell, GridCellHash> taken;
     for (int y = 0; y < view.points.rows; ++y) {
         const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
         for (int x = 0; x < view.points.cols; ++x) {
@@ -65,9 +65,7 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
                 if (!is_finite_point(n) || cv::norm(n) < 0.5) continue;
                 normal = cv::normalize(cv::Vec3d(n));
             }
-            const long long key = (cell(row[x][0]) * 73856093LL) ^ (cell(row[x][1]) * 19349663LL) ^
-                                  (cell(row[x][2]) * 83492791LL);
-            if (!taken.emplace(key, 0).second) continue;
+            if (!taken.insert(grid_cell(cv::Vec3d(row[x]), spacing_mm)).second) continue;
             samples.points.emplace_back(row[x]);
             samples.normals.push_back(normal);
             if (!paint.empty()) samples.grey.push_back(paint.at<float>(y - measured_area.y, x - measured_area.x));
@@ -90,26 +88,31 @@ SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& tra
     return out;
 }
 
-namespace {
-
-size_t table_slot(long long key, size_t mask) {
-    return static_cast<size_t>((static_cast<unsigned long long>(key) * 0x9E3779B97F4A7C15ULL) >> 20) & mask;
+GridCell grid_cell(const cv::Vec3d& p, double cell_mm) {
+    return {static_cast<long long>(std::floor(p[0] / cell_mm)), static_cast<long long>(std::floor(p[1] / cell_mm)),
+            static_cast<long long>(std::floor(p[2] / cell_mm))};
 }
 
-}  // namespace
-
-cv::Vec<long long, 3> PointGrid::cell_of(const cv::Vec3d& p) const {
-    return {static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
-            static_cast<long long>(std::floor(p[2] / cell_mm_))};
+size_t GridCellHash::operator()(const GridCell& cell) const {
+    // Each coordinate times its own odd constant, then mixed (the finaliser of MurmurHash3's
+    // 64-bit hash), so that neighbouring cells spread over the whole table.
+    unsigned long long h = static_cast<unsigned long long>(cell[0]) * 0x9E3779B97F4A7C15ULL ^
+                           static_cast<unsigned long long>(cell[1]) * 0xC2B2AE3D27D4EB4FULL ^
+                           static_cast<unsigned long long>(cell[2]) * 0x165667B19E3779F9ULL;
+    h ^= h >> 33;
+    h *= 0xFF51AFD7ED558CCDULL;
+    h ^= h >> 33;
+    return static_cast<size_t>(h);
 }
 
 PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cell_mm_(cell_mm) {
-    std::vector<std::pair<long long, int>> keyed(points.size());
-    for (size_t i = 0; i < points.size(); ++i) {
-        const cv::Vec<long long, 3> c = cell_of(points[i]);
-        keyed[i] = {key(c[0], c[1], c[2]), static_cast<int>(i)};
-    }
-    std::sort(keyed.begin(), keyed.end());  // by key, then index: each cell's points in input order
+    std::vector<std::pair<GridCell, int>> keyed(points.size());
+    for (size_t i = 0; i < points.size(); ++i) keyed[i] = {grid_cell(points[i], cell_mm_), static_cast<int>(i)};
+    // By cell, then index: each cell's points in input order.
+    std::sort(keyed.begin(), keyed.end(), [](const std::pair<GridCell, int>& a, const std::pair<GridCell, int>& b) {
+        const GridCell &p = a.first, &q = b.first;
+        return std::tie(p[0], p[1], p[2], a.second) < std::tie(q[0], q[1], q[2], b.second);
+    });
     sorted_.reserve(points.size());
     index_.reserve(points.size());
     size_t cells = 0;
@@ -125,18 +128,18 @@ PointGrid::PointGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cel
     for (size_t i = 0; i < keyed.size();) {
         size_t end = i;
         while (end < keyed.size() && keyed[end].first == keyed[i].first) ++end;
-        size_t slot = table_slot(keyed[i].first, mask_);
+        size_t slot = GridCellHash()(keyed[i].first) & mask_;
         while (table_[slot].begin >= 0) slot = (slot + 1) & mask_;
         table_[slot] = {keyed[i].first, static_cast<int>(i), static_cast<int>(end)};
         i = end;
     }
 }
 
-const PointGrid::Cell* PointGrid::find(long long key) const {
-    for (size_t slot = table_slot(key, mask_);; slot = (slot + 1) & mask_) {
+const PointGrid::Cell* PointGrid::find(const GridCell& at) const {
+    for (size_t slot = GridCellHash()(at) & mask_;; slot = (slot + 1) & mask_) {
         const Cell& cell = table_[slot];
         if (cell.begin < 0) return nullptr;
-        if (cell.key == key) return &cell;
+        if (cell.at == at) return &cell;
     }
 }
 
@@ -169,11 +172,6 @@ void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int
     });
 }
 
-cv::Vec<long long, 3> NearestGrid::cell_of(const cv::Vec3d& p) const {
-    return {static_cast<long long>(std::floor(p[0] / cell_mm_)), static_cast<long long>(std::floor(p[1] / cell_mm_)),
-            static_cast<long long>(std::floor(p[2] / cell_mm_))};
-}
-
 NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cell_mm_(cell_mm) {
     if (points.empty()) return;
     // A box stretched by stray points takes larger cells (the same points are found, by more
@@ -183,7 +181,7 @@ NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) :
     for (;;) {
         cv::Vec<long long, 3> last;
         for (size_t i = 0; i < points.size(); ++i) {
-            cells[i] = cell_of(points[i]);
+            cells[i] = grid_cell(points[i], cell_mm_);
             for (int a = 0; a < 3; ++a) {
                 first_[a] = i == 0 ? cells[i][a] : std::min(first_[a], cells[i][a]);
                 last[a] = i == 0 ? cells[i][a] : std::max(last[a], cells[i][a]);
@@ -210,16 +208,41 @@ NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) :
     }
 }
 
-int NearestGrid::nearest_with_clearance(const cv::Vec3d& query, double max_distance_mm, double& clearance_mm) const {
-    double best = max_distance_mm * max_distance_mm, second = best;
-    int best_index = -1;
-    clearance_mm = max_distance_mm;
+int NearestGrid::nearest_remembered(const cv::Vec3d& query, double max_distance_mm, SearchMemory& memory) const {
+    constexpr double hair_mm = 1e-9;  // far above rounding: the bounds never leave out a point in reach
+    const double moved = cv::norm(query - memory.at);
+    double radius = max_distance_mm;
+    if (memory.nearest < 0) {
+        // Nothing lay within clear_mm of `at`, so nothing lies within clear_mm - moved of the query.
+        if (memory.clear_mm - moved - hair_mm >= max_distance_mm) return -1;
+    } else {
+        // Every other point lies at least clear_mm - moved from the query.
+        const double to_nearest = cv::norm(query - sorted_[static_cast<size_t>(memory.nearest)]);
+        if (to_nearest + moved + hair_mm < memory.clear_mm) {
+            if (to_nearest + hair_mm < max_distance_mm) return index_[static_cast<size_t>(memory.nearest)];
+            if (to_nearest - hair_mm >= max_distance_mm) return -1;
+        }
+        radius = std::min(max_distance_mm, to_nearest);  // the nearest is no farther than the last one
+    }
+    double best_squared = 0;
+    const int slot = search(query, radius + kMarginMm, best_squared, memory.clear_mm);
+    memory.nearest = slot;
+    memory.at = query;
+    // The same test as PointGrid::nearest's: the squared distance below the squared bound.
+    return slot >= 0 && best_squared < max_distance_mm * max_distance_mm ? index_[static_cast<size_t>(slot)] : -1;
+}
+
+int NearestGrid::search(const cv::Vec3d& query, double radius_mm, double& best_squared, double& clearance_mm) const {
+    double best = radius_mm * radius_mm, second = best;
+    int best_slot = -1;
+    best_squared = best;
+    clearance_mm = radius_mm;
     if (sorted_.empty()) return -1;
-    // The cells the cube of half-side max_distance_mm around the query touches, and the same
-    // strict comparison, as PointGrid::nearest: the same point (ties included) is found. Every
-    // point in reach is visited, so the runner-up bounds the rest.
-    const double margin = max_distance_mm + 1e-9;
-    const cv::Vec<long long, 3> low_cell = cell_of(query - cv::Vec3d::all(margin)), high_cell = cell_of(query + cv::Vec3d::all(margin));
+    // The cells the cube of half-side radius_mm around the query touches, and the same strict
+    // comparison, as PointGrid::nearest: the same point (ties included) is found. Every point
+    // in reach is visited, so the runner-up bounds the rest.
+    const double margin = radius_mm + 1e-9;
+    const cv::Vec<long long, 3> low_cell = grid_cell(query - cv::Vec3d::all(margin), cell_mm_), high_cell = grid_cell(query + cv::Vec3d::all(margin), cell_mm_);
     long long low[3], high[3];
     for (int a = 0; a < 3; ++a) {
         low[a] = std::max(low_cell[a] - first_[a], 0LL);
@@ -236,14 +259,15 @@ int NearestGrid::nearest_with_clearance(const cv::Vec3d& query, double max_dista
                 if (distance < best) {
                     second = best;
                     best = distance;
-                    best_index = index_[static_cast<size_t>(k)];
+                    best_slot = k;
                 } else if (distance < second) {
                     second = distance;
                 }
             }
         }
+    best_squared = best;
     clearance_mm = std::sqrt(second);
-    return best_index;
+    return best_slot;
 }
 
 }  // namespace picoscan::detail

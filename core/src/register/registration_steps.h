@@ -59,15 +59,17 @@ struct EarlierFits {
     cv::Vec3d centroid{0, 0, 0};          // of the moving view, its own frame
 };
 constexpr double kJoinDeg = 0.5, kJoinMm = 0.5;
-// Point-to-plane ICP with trimmed correspondences, starting from `initial`.
+// Point-to-plane ICP with trimmed correspondences, starting from `initial`. coarse_first: a
+// start from features, far from its fit: the first iterations pair a subsample of the moving
+// samples (the result is still reached and judged with all of them).
 IcpResult icp_point_to_plane(const SurfaceSamples& fixed, const SurfaceSamples& moving, const cv::Matx44d& initial,
-                             const RegistrationOptions& options, const EarlierFits& earlier = {});
+                             const RegistrationOptions& options, const EarlierFits& earlier = {}, bool coarse_first = false);
 
 // The same, for several pairs of views related by one shared transform (the step of a
 // turntable takes every view k+1 into view k's frame, since the camera stays where it is).
 struct SamplePair { const SurfaceSamples* fixed; const SurfaceSamples* moving; };
 IcpResult icp_point_to_plane(const std::vector<SamplePair>& pairs, const cv::Matx44d& initial, const RegistrationOptions& options,
-                             const EarlierFits& earlier = {});
+                             const EarlierFits& earlier = {}, bool coarse_first = false);
 
 // Rotation and translation -> 4x4 transform, and the inverse of such a transform.
 cv::Matx44d rigid_transform(const cv::Matx33d& rotation, const cv::Vec3d& translation);
