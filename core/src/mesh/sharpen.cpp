@@ -584,8 +584,8 @@ std::vector<HoleWall> hole_walls(const Regions& regions, const std::vector<cv::V
 // e^(along / radius) from it: a patch is a polygon, a band all round the hole a ring),
 // constrained Delaunay with points about `spacing` apart inside, mapped back.
 // The patch is left as Poisson made it when its rim does not unroll into simple loops, or the
-// result is not a closed manifold or has faces crossing that did not cross before. Returns the
-// vertices made.
+// result is not a closed manifold or has more crossing faces than `crossing` (the count of the
+// mesh as it comes in, kept up to date here). Returns the vertices made.
 using CdtVertex = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;  // mesh index, -1 new
 using CdtFace = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Triangulation_face_base_with_info_2<int, Kernel>>;
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<CdtVertex, CdtFace>,
@@ -619,7 +619,7 @@ void mark_nesting(Cdt& cdt) {
 }
 
 size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWall>& walls, const PointGrid& grid,
-                          double reach, double filled_reach, double spacing) {
+                          double reach, double filled_reach, double spacing, size_t crossing) {
     size_t made = 0;
     for (HoleWall& wall : walls) {
         const size_t vertex_count = mesh.vertices.size();
@@ -820,7 +820,10 @@ size_t rebuild_hole_walls(Mesh& mesh, const Regions& regions, std::vector<HoleWa
             for (int k = 0; k < 3; ++k) ++directed[{face[k], face[(k + 1) % 3]}];
         bool closed = turned != 0;
         for (const auto& [edge, count] : directed) closed = closed && count == 1 && directed.count({edge.second, edge.first});
-        if (!closed || self_intersecting_faces(rebuilt).size() > self_intersecting_faces(mesh).size()) continue;
+        if (!closed) continue;
+        const size_t crossing_rebuilt = self_intersecting_faces(rebuilt).size();
+        if (crossing_rebuilt > crossing) continue;
+        crossing = crossing_rebuilt;
         made += rebuilt.vertices.size() - mesh.vertices.size();
         wall.rebuilt = true;
         mesh = std::move(rebuilt);
@@ -932,7 +935,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
     const Mesh unsharpened = mesh;
     const size_t crossing_before = self_intersecting_faces(mesh).size();
-    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm);
+    report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm, crossing_before);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
     const size_t vertex_count = mesh.vertices.size();
