@@ -1191,6 +1191,7 @@ TEST(SectionFit, AHoleOfLongChordsIsOneCircle) {
 // the arcs by half a chord's turn, so they stay lines; and real polygons whose corners lie on one
 // circle and turn alike, but by more than a curve's facets: RealPolygonsWithShortSidesStayLines.
 TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
+    int unknown_sigmas = 0;
     for (const double sigma : {0.0, 0.001}) {
         SCOPED_TRACE("sigma " + std::to_string(sigma));
         std::mt19937 random(23);
@@ -1207,14 +1208,22 @@ TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
         ASSERT_EQ(count(slot, SectionElementKind::Arc), 2);
         ASSERT_EQ(count(slot, SectionElementKind::Line), 2);
         for (const SectionElement& e : slot.elements) {
+            const std::string text = section_element_text(e);
             if (e.kind == SectionElementKind::Arc) {
                 EXPECT_NEAR(e.radius_mm, 10, 0.020);
+                EXPECT_TRUE(std::isfinite(e.radius_sigma_mm)) << text;
             } else {
                 EXPECT_NEAR(cv::norm(e.end - e.start), 2, 0.05);
                 EXPECT_TRUE(e.tangent_to_next);
+                // About 2 mm is too short for the jackknife's 3 runs of 1 mm: said so, not "sigma nan".
+                const bool unknown = !std::isfinite(e.angle_sigma_deg);
+                unknown_sigmas += unknown;
+                EXPECT_EQ(text.find("sigma unknown: under 3 mm of points") != std::string::npos, unknown) << text;
             }
+            EXPECT_EQ(text.find("nan"), std::string::npos) << text;
         }
     }
+    EXPECT_GT(unknown_sigmas, 0) << "no line short enough to have no standard error";
 }
 
 // Real polygons whose corners lie on one circle and turn alike, but by more than a curve's facets:

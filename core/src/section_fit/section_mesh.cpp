@@ -25,16 +25,25 @@ ProgressCallback part_of(const ProgressCallback& progress, double from, double s
 
 }  // namespace
 
+namespace {
+
+// The jackknife needs 3 runs of about 1 mm: shorter elements have no standard error to give.
+std::string sigma_text(double sigma) {
+    return std::isfinite(sigma) ? format("sigma %.4f", sigma) : std::string("sigma unknown: under 3 mm of points");
+}
+
+}  // namespace
+
 std::string section_element_text(const SectionElement& e) {
     std::string text;
     if (e.kind == SectionElementKind::Line) {
         const cv::Vec2d along = e.end - e.start;
-        text = format("line   length %9.4f mm, angle %9.4f deg (sigma %.4f), from %s to %s", cv::norm(along),
-                      std::atan2(along[1], along[0]) * 180 / kPi, e.angle_sigma_deg, point_text(e.start).c_str(),
-                      point_text(e.end).c_str());
+        text = format("line   length %9.4f mm, angle %9.4f deg (%s), from %s to %s", cv::norm(along),
+                      std::atan2(along[1], along[0]) * 180 / kPi, sigma_text(e.angle_sigma_deg).c_str(),
+                      point_text(e.start).c_str(), point_text(e.end).c_str());
     } else {
-        text = format("%-6s radius %9.4f mm (sigma %.4f), %7.2f deg around %s", to_string(e.kind).c_str(), e.radius_mm,
-                      e.radius_sigma_mm, swept_angle_deg(e), point_text(e.centre).c_str());
+        text = format("%-6s radius %9.4f mm (%s), %7.2f deg around %s", to_string(e.kind).c_str(), e.radius_mm,
+                      sigma_text(e.radius_sigma_mm).c_str(), swept_angle_deg(e), point_text(e.centre).c_str());
         if (e.kind == SectionElementKind::Arc)
             text += format(" %s from %s to %s", e.counter_clockwise ? "counter-clockwise" : "clockwise",
                            point_text(e.start).c_str(), point_text(e.end).c_str());
