@@ -6,6 +6,7 @@
 #include "picoscan/preview.h"
 #include "picoscan/simulate.h"
 #include "support/test_support.h"
+#include <opencv2/calib3d.hpp>
 
 #include <gtest/gtest.h>
 
@@ -175,4 +176,28 @@ TEST(Export, ContactSheetShowsSixSidesAndTheFilledBottom) {
     const std::string path = test_support::make_temp_dir("export-sheet") + "/sheet.png";
     write_contact_sheet_png(part, path, cv::Vec3d(0, 0, 1));
     EXPECT_TRUE(std::filesystem::is_regular_file(path));
+}
+
+// A machined part is shown square to its faces, not along its mass's axes (which the hole, the boss
+// and the chamfer tilt by 10-20 degrees): whichever way it is turned, the contact sheet looks down
+// its block's top and square onto its sides (the hint leans 17 degrees off its up).
+TEST(Export, ContactSheetLooksSquareOnTheFaces) {
+    const Mesh upright = mechanical_part();
+    for (const cv::Vec3d& rotation : {cv::Vec3d(0, 0, 0), cv::Vec3d(0.3, -0.5, 0.2), cv::Vec3d(1.2, 0.4, -0.9)}) {
+        SCOPED_TRACE("rotation " + std::to_string(rotation[0]) + " " + std::to_string(rotation[1]) + " " + std::to_string(rotation[2]));
+        cv::Matx33d turn;
+        cv::Rodrigues(rotation, turn);
+        Mesh part = upright;
+        for (cv::Vec3f& v : part.vertices) v = cv::Vec3f(turn * cv::Vec3d(v));
+        const ContactSheetAxes axes = contact_sheet_axes(part, turn * cv::Vec3d(0, 0.3, 1));
+        const double degrees = 180 / CV_PI;
+        const double up_error = std::acos(std::min(1.0, axes.up.dot(turn * cv::Vec3d(0, 0, 1)))) * degrees;
+        const cv::Vec3d front = turn.t() * axes.front;  // back in the part's frame
+        const double front_error = std::min(std::acos(std::min(1.0, std::abs(front[0]))), std::acos(std::min(1.0, std::abs(front[1])))) * degrees;
+        std::printf("up %.4f deg, front %.4f deg off the part's faces\n", up_error, front_error);
+        EXPECT_LT(up_error, 0.01);
+        EXPECT_LT(front_error, 0.01);
+        EXPECT_NEAR(cv::norm(axes.up), 1, 1e-9);
+        EXPECT_NEAR(axes.up.dot(axes.front), 0, 1e-9);
+    }
 }

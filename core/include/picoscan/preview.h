@@ -20,9 +20,17 @@ void write_preview_png(const ScanView& view, const std::string& path);
 // mesh with a margin, written as PNG through a temporary file and a rename.
 void write_mesh_preview_png(const Mesh& mesh, const Calibration& camera, const std::string& path);
 
+// The part's own axes, as the contact sheet shows it: "up" the axis of its mass nearest up_hint
+// (zero: the camera frame's up, -y, as in a turntable scan), then both squared to the part's
+// largest faces where it has them (its top and bottom set up, its sides front). Unit vectors;
+// centre is the mean of the vertices.
+struct ContactSheetAxes {
+    cv::Vec3d centre, up, front;
+};
+ContactSheetAxes contact_sheet_axes(const Mesh& mesh, const cv::Vec3d& up_hint = {0, 0, 0});
+
 // A contact sheet of a mesh: six labelled tiles (top, bottom, front, right, back, left) along
-// the part's own axes, "up" being the axis nearest up_hint (zero: the camera frame's up, -y,
-// as in a turntable scan); surface filled in rather than measured (Mesh::measured) in orange.
+// contact_sheet_axes; surface filled in rather than measured (Mesh::measured) in orange.
 cv::Mat render_contact_sheet(const Mesh& mesh, const cv::Vec3d& up_hint = {0, 0, 0}, int tile_size = 320);
 
 // render_contact_sheet() written as PNG through a temporary file and a rename.

@@ -144,21 +144,41 @@ cv::Mat render_tile(const Mesh& mesh, const cv::Vec3d& centre, double radius, co
                                                      cv::saturate_cast<uint8_t>(colour[1] * level),
                                                      cv::saturate_cast<uint8_t>(colour[2] * level));
         }
+    // Seen square to its faces, a part's steps and creases would vanish between faces of one shade:
+    // its outline, steps (a depth jump of 3 pixels) and creases (normals 40 degrees apart) are drawn,
+    // as in a drawing.
+    const double pixel_mm = 1.1 * radius * 2 / size;
+    // A pixel of the part on its edge: next to the background, to a surface farther behind it,
+    // or to a face turned away from its own.
+    const auto on_edge = [&](int row, int col) {
+        const cv::Vec3f p = points.at<cv::Vec3f>(row, col), m = normals.at<cv::Vec3f>(row, col);
+        for (const cv::Point step : {cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1), cv::Point(0, -1)}) {
+            const int r = row + step.y, c = col + step.x;
+            if (r < 0 || c < 0 || r >= size || c >= size) return true;
+            const cv::Vec3f q = points.at<cv::Vec3f>(r, c), n = normals.at<cv::Vec3f>(r, c);
+            if (!std::isfinite(q[2]) || q[2] - p[2] > 3 * pixel_mm) return true;
+            if (std::isfinite(m[0]) && std::isfinite(n[0]) && m.dot(n) < std::cos(40.0f * float(CV_PI) / 180)) return true;
+        }
+        return false;
+    };
+    cv::Mat edges(size, size, CV_8U, cv::Scalar(0));
+    for (int row = 0; row < size; ++row)
+        for (int col = 0; col < size; ++col)
+            if (std::isfinite(points.at<cv::Vec3f>(row, col)[2]) && on_edge(row, col)) edges.at<uint8_t>(row, col) = 1;
+    tile.setTo(cv::Scalar(70, 70, 70), edges);
     return tile;
 }
 
 }  // namespace
 
-cv::Mat render_contact_sheet(const Mesh& mesh, const cv::Vec3d& up_hint, int tile_size) {
+ContactSheetAxes contact_sheet_axes(const Mesh& mesh, const cv::Vec3d& up_hint) {
     if (mesh.vertices.empty() || mesh.faces.empty()) throw Error("mesh", "has no triangles to show");
     cv::Vec3d centre(0, 0, 0);
     for (const cv::Vec3f& v : mesh.vertices) centre += cv::Vec3d(v);
     centre *= 1.0 / static_cast<double>(mesh.vertices.size());
-    double radius = 0;
     cv::Matx33d scatter = cv::Matx33d::zeros();
     for (const cv::Vec3f& v : mesh.vertices) {
         const cv::Vec3d d = cv::Vec3d(v) - centre;
-        radius = std::max(radius, cv::norm(d));
         scatter += d * d.t();
     }
     // The part's own axes; "up" is the one nearest the hint (by default the camera's up, -y:
@@ -175,7 +195,51 @@ cv::Mat render_contact_sheet(const Mesh& mesh, const cv::Vec3d& up_hint, int til
     cv::Vec3d up(axes(up_row, 0), axes(up_row, 1), axes(up_row, 2));
     if (up.dot(hint) < 0) up = -up;
     const int front_row = up_row == 0 ? 1 : 0;  // the longest other axis
-    const cv::Vec3d front(axes(front_row, 0), axes(front_row, 1), axes(front_row, 2));
+    cv::Vec3d front(axes(front_row, 0), axes(front_row, 1), axes(front_row, 2));
+
+    // A machined part is best seen square to its faces, which its mass's axes are not (a hole, a
+    // boss or a chamfer tilts them). Faces within 30 degrees of up (the top and the bottom) set up,
+    // by their area-weighted mean normal; the faces square to it then set front, by the mean of
+    // their directions taken four times round (so that faces 90 degrees apart agree). A part with
+    // no dominant faces (a ball, a figure) keeps its mass's axes.
+    const auto face_normals = [&](const auto& use) {
+        for (const cv::Vec3i& f : mesh.faces) {
+            const cv::Vec3d a(mesh.vertices[size_t(f[0])]), b(mesh.vertices[size_t(f[1])]), c(mesh.vertices[size_t(f[2])]);
+            const cv::Vec3d doubled_area = (b - a).cross(c - a);
+            const double area = cv::norm(doubled_area) / 2;
+            if (area > 0) use(doubled_area * (0.5 / area), area);
+        }
+    };
+    double total_area = 0;
+    face_normals([&](const cv::Vec3d&, double area) { total_area += area; });
+    cv::Vec3d up_sum(0, 0, 0);
+    double up_area = 0;
+    face_normals([&](const cv::Vec3d& n, double area) {
+        if (std::abs(n.dot(up)) < std::sqrt(0.75) /* cos 30 deg */) return;
+        up_sum += (n.dot(up) > 0 ? area : -area) * n;
+        up_area += area;
+    });
+    if (up_area > 0.1 * total_area) up = cv::normalize(up_sum);
+    front = cv::normalize(front - front.dot(up) * up);
+    const cv::Vec3d across = up.cross(front);
+    double c4 = 0, s4 = 0, side_area = 0;
+    face_normals([&](const cv::Vec3d& n, double area) {
+        if (std::abs(n.dot(up)) > 0.5 /* sin 30 deg */) return;
+        const double angle = std::atan2(n.dot(across), n.dot(front));
+        c4 += area * std::cos(4 * angle), s4 += area * std::sin(4 * angle), side_area += area;
+    });
+    if (side_area > 0.1 * total_area && std::hypot(c4, s4) > 0.3 * side_area) {
+        const double turn = std::atan2(s4, c4) / 4;  // within 45 degrees of the mass's front
+        front = std::cos(turn) * front + std::sin(turn) * across;
+    }
+    return {centre, up, front};
+}
+
+cv::Mat render_contact_sheet(const Mesh& mesh, const cv::Vec3d& up_hint, int tile_size) {
+    const ContactSheetAxes axes = contact_sheet_axes(mesh, up_hint);
+    const cv::Vec3d centre = axes.centre, up = axes.up, front = axes.front;
+    double radius = 0;
+    for (const cv::Vec3f& v : mesh.vertices) radius = std::max(radius, cv::norm(cv::Vec3d(v) - centre));
     const cv::Vec3d side = up.cross(front);
     struct Tile { const char* name; cv::Vec3d look, image_up; };
     const Tile tiles[] = {{"top", -up, front},     {"bottom", up, -front}, {"front", -front, up},
