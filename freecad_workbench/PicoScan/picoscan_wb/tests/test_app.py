@@ -165,8 +165,20 @@ class PicoScanAppTest(unittest.TestCase):
         mesh = scan_mesh.create(self.doc, view, pixel_step=1)
         sketch = section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0)
         self.assertTrue(sketch.isValid())
-        FreeCAD.Console.PrintMessage("shaft section: noise %.4f mm, tolerance %.4f mm\n%s\n" % (
-            sketch.FitNoise.Value, sketch.FitTolerance.Value, "\n".join(sketch.FitReport)))
+        FreeCAD.Console.PrintMessage("shaft section: scan noise %.4f mm, tolerance %.4f mm (%s)\n%s\n" % (
+            sketch.FitNoise.Value, sketch.FitTolerance.Value, sketch.FitToleranceFrom, "\n".join(sketch.FitReport)))
+        # The mesh has its scan behind it: the default tolerance is 5 x the scan's noise, measured on
+        # the ScanView's points by the core, whatever the mesh's cut shows.
+        noise = picoscan.estimate_scan_noise(cloud_of(view))
+        self.assertGreater(noise, 0.001)
+        self.assertLess(noise, 0.05)
+        self.assertEqual(sketch.FitNoise.Value, noise)
+        self.assertAlmostEqual(sketch.FitTolerance.Value, max(0.005, 5 * noise), delta=1e-12)
+        self.assertEqual(sketch.FitToleranceFrom, "5 x the noise of the scan %s, %.4f mm (measured on its points)" % (
+            view.Label, noise))
+        given = section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0, tolerance_mm=0.05, name="Given")
+        self.assertEqual((given.FitNoise.Value, given.FitToleranceFrom), (0.0, "given: 0.0500 mm"))
+        self.doc.removeObject(given.Name)
         self.assertEqual(len(sketch.FitReport), sketch.GeometryCount)
         self.assertLess(sketch.GeometryCount, 20)  # fitted elements, not hundreds of segments
         self.assertLess(sketch.FitTolerance.Value, 0.2)
@@ -188,6 +200,25 @@ class PicoScanAppTest(unittest.TestCase):
         with self.assertRaisesRegex(picoscan.Error, "Tolerance: must be 0"):
             section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0, tolerance_mm=-1)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
+
+    def test_cross_section_of_a_smoothed_mesh_takes_its_tolerance_from_the_scan(self):
+        """Built to fool a default from the mesh: a Poisson surface of the shaft's view (1 mm samples)
+        is smoother than the scan it was made from, so its cut shows a fraction of the scan's noise.
+        The default tolerance is 5 x the scan's noise all the same (not the cut's), and says so."""
+        view = self.scan()
+        smooth = scan_mesh.create(self.doc, view, method="Poisson", sample_spacing_mm=1.0, fill="Open", name="Smooth")
+        scan_noise = picoscan.estimate_scan_noise(cloud_of(view))
+        _, cut, used = section.fitted_section(smooth.Mesh, smooth.Label, "Y", 0.0, band_mm=0.0,
+                                              scan=section.scan_behind(smooth)[0])
+        FreeCAD.Console.PrintMessage("Poisson mesh of the shaft view: noise of its cut %.4f mm, of the scan %.4f mm\n" % (
+            cut.fits.noise_mm, scan_noise))
+        self.assertEqual(used, scan_noise)
+        self.assertLess(cut.fits.noise_mm, scan_noise / 2)  # the mesh hides the scan's noise
+        sketch = section.cross_section(self.doc, smooth, axis="Y", offset_mm=0.0, band_mm=0.0)
+        self.assertTrue(sketch.isValid(), sketch.getStatusString())
+        self.assertEqual(sketch.FitNoise.Value, scan_noise)
+        self.assertAlmostEqual(sketch.FitTolerance.Value, 5 * scan_noise, delta=1e-12)
+        self.assertIn("5 x the noise of the scan %s" % view.Label, sketch.FitToleranceFrom)
 
     def test_deviation_map_of_the_shaft_follows_the_model(self):
         view = self.scan()
@@ -942,6 +973,15 @@ class PicoScanSectionFitTest(unittest.TestCase):
             FreeCAD.Console.PrintMessage("demo outline, vertex noise %.2f mm: noise %.4f mm, tolerance %.4f mm, "
                                          "%d constraints\n%s\n" % (sigma, sketch.FitNoise.Value, sketch.FitTolerance.Value,
                                                                    sketch.ConstraintCount, "\n".join(sketch.FitReport)))
+            # No scan behind this mesh: no noise is claimed (the true mesh's cut has none to speak of),
+            # and the sketch says where its tolerance came from and that it is the user's to set.
+            self.assertEqual(sketch.FitNoise.Value, 0.0)
+            self.assertTrue(sketch.FitToleranceFrom.startswith("no scan noise known (%s was not meshed from a scan" % (
+                mesh.Label)), sketch.FitToleranceFrom)
+            self.assertIn("tolerance set to %.4f mm" % sketch.FitTolerance.Value, sketch.FitToleranceFrom)
+            self.assertTrue(sketch.FitToleranceFrom.endswith("set it yourself"), sketch.FitToleranceFrom)
+            if sigma == 0.0:
+                self.assertEqual(sketch.FitTolerance.Value, 0.005)  # the core's floor
             lines = [g for g in sketch.Geometry if g.TypeId == "Part::GeomLineSegment"]
             circles = [g for g in sketch.Geometry if g.TypeId == "Part::GeomCircle"]
             self.assertEqual((len(lines), len(circles), sketch.GeometryCount), (5, 1, 6))
