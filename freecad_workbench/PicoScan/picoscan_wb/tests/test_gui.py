@@ -614,6 +614,50 @@ class PicoScanGuiTest(unittest.TestCase):
         result.Tolerance = 0.05
         self.doc.recompute()
 
+    def test_j3_legend_and_shaded_points_after_save_and_reopen(self):
+        """A saved document reopened: the Deviation map's legend is there again with its labels and
+        colours, and a Stitch's cloud is drawn Shaded (FreeCAD builds that mode when the view
+        provider is attached; the object must have its Normal property by then)."""
+        from picoscan_wb import property_content
+        from picoscan_wb.objects import deviation_map, stitch
+        from picoscan_wb.viewproviders import deviation_legend as legend
+        from picoscan_wb.viewproviders.view_provider import ShadedPointsViewProvider
+
+        # Half a cylinder of radius 12.5 mm, its points up to 0.3 mm off, against the true cylinder.
+        angle, height = numpy.meshgrid(numpy.linspace(0, math.pi, 120), numpy.linspace(1, 39, 60))
+        radius = 12.5 + numpy.linspace(-0.3, 0.3, angle.size).reshape(angle.shape)
+        points = numpy.stack([radius * numpy.cos(angle), radius * numpy.sin(angle), height], axis=-1).reshape(-1, 3)
+        normals = numpy.stack([numpy.cos(angle), numpy.sin(angle), 0 * angle], axis=-1).reshape(-1, 3)
+        cloud = self.doc.addObject("Points::Feature", "HalfShaft")
+        cloud.Points = scan_view.points_of(points)
+        model = self.doc.addObject("Part::Cylinder", "Model")
+        model.Radius, model.Height = 12.5, 40
+        self.doc.recompute()
+        result = deviation_map.create(self.doc, cloud, model)
+        shaded = self.doc.addObject("Points::FeaturePython", "StitchLike")
+        stitch.Stitch(shaded)  # its properties, Normal among them, before its view provider
+        ShadedPointsViewProvider(shaded.ViewObject, "picoscan_stitch")
+        shaded.Points = scan_view.points_of(points)
+        shaded.restorePropertyContent("Normal", property_content.normal_list_content(normals))
+        shaded.ViewObject.DisplayMode = "Shaded"
+        shaded.purgeTouched()
+        path = os.path.join(self.folder, "reopened.FCStd")
+        self.doc.saveAs(path)
+        names = (result.Name, shaded.Name)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        result, shaded = (self.doc.getObject(name) for name in names)
+        self.assertEqual(result.ViewObject.Proxy.legend.labels, ["+0.200", "+0.050", "0", "-0.050", "-0.200"])
+        image = self.grab_3d_view()
+        height, width = image.shape[:2]
+        for distance in (-0.19, 0.0, 0.19):
+            column, row = legend.viewport_pixel(0.5 * (legend.BAR_LEFT + legend.BAR_RIGHT), legend.bar_y(distance, 0.2),
+                                                width, height)
+            expected = numpy.array(picoscan.deviation_colour(distance, 0.05, 0.2))
+            self.assertLess(numpy.abs(image[row, column].astype(int) - expected).max(), 12, distance)
+        self.assertIn("Shaded", shaded.ViewObject.listDisplayModes())
+        self.assertEqual(shaded.ViewObject.DisplayMode, "Shaded")
+
     def test_j2_datum_alignment_command_moves_a_model_into_its_part_frame(self):
         """Three faces of a turned box picked in the 3D view (bottom, back, left): the box's corner goes
         to the origin with its edges along the axes, as one undo step; parallel faces give a message."""
