@@ -42,6 +42,14 @@ void bind_deviation(py::module_& m) {
         }, "N x 3 uint8 RGB colours of the map's scale")
         .def("histogram_image", &plot_deviation_histogram, py::arg("title"), "BGR picture of the histogram with the legend");
     m.def(
+        "deviation_colour",
+        [](double distance_mm, double tolerance_mm, double range_mm) {
+            const cv::Vec3b colour = deviation_colour(distance_mm, tolerance_mm, range_mm);
+            return py::make_tuple(int(colour[0]), int(colour[1]), int(colour[2]));
+        },
+        py::arg("distance_mm"), py::arg("tolerance_mm"), py::arg("range_mm"),
+        "(r, g, b) 0..255 of a signed distance on a map's colour scale (as DeviationMap.colours)");
+    m.def(
         "measure_deviation",
         [](const py::array& points, const Mesh& reference, const DeviationOptions& options, const py::object& progress) {
             const std::vector<cv::Vec3f> values = array_to_vector<cv::Vec3f>(points, "points");

@@ -73,6 +73,8 @@ void bind_region_fit(py::module_& m) {
         py::arg("progress") = py::none());
     m.def("estimate_noise", &estimate_noise, py::arg("cloud"), py::arg("centre"), py::arg("radius_mm"),
           py::call_guard<py::gil_scoped_release>());
+    m.def("estimate_scan_noise", &estimate_scan_noise, py::arg("cloud"), py::call_guard<py::gil_scoped_release>(),
+          "The scan's noise (sigma, mm) over the whole cloud");
     m.def("select_in_polygon", &select_in_polygon, py::arg("cloud"), py::arg("cloud_to_screen"), py::arg("polygon"),
           py::call_guard<py::gil_scoped_release>());
     m.def(

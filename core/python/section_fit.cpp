@@ -21,6 +21,7 @@ void bind_section_fit(py::module_& m) {
         .def(py::init<>())
         .def_readwrite("tolerance_mm", &SectionFitOptions::tolerance_mm)
         .def_readwrite("min_tolerance_mm", &SectionFitOptions::min_tolerance_mm)
+        .def_readwrite("scan_noise_mm", &SectionFitOptions::scan_noise_mm)
         .def_readwrite("noise_window_mm", &SectionFitOptions::noise_window_mm)
         .def_readwrite("min_line_points", &SectionFitOptions::min_line_points)
         .def_readwrite("min_arc_points", &SectionFitOptions::min_arc_points)

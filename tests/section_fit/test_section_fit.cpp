@@ -452,6 +452,28 @@ TEST(SectionFit, JoiningKeepsARealBendAndAWaveringFilletStaysOneArc) {
 // points must be kept as one circle within 20 um. Leaving out the outline itself is an error.
 // (What the rebuild from the simulated scan's Poisson mesh met at z = 12 mm: the hole's trace, 76
 // points scattering by 0.087 mm, fitted with its own tolerance of 0.44 mm as an arc and a line.)
+TEST(SectionFit, TheDefaultToleranceComesFromTheScansNoiseWhenGiven) {
+    // A flattened mesh's cut: the demo outline without noise. From the cut alone the tolerance is
+    // its 5 um floor; with the noise of the scan the mesh was made from, 5 x that.
+    Outline outline(0.0, 0.3);
+    for (size_t i = 0; i < kDemoCorners.size(); ++i) outline.line(kDemoCorners[i], kDemoCorners[(i + 1) % kDemoCorners.size()]);
+    const std::vector<SectionPolyline> polylines = {{outline.points, true}};
+    const SectionFits from_cut = fit_section_polylines(polylines);
+    EXPECT_LT(from_cut.noise_mm, 1e-4);
+    EXPECT_DOUBLE_EQ(from_cut.tolerance_mm, 0.005);
+    SectionFitOptions options;
+    options.scan_noise_mm = 0.02;
+    const SectionFits from_scan = fit_section_polylines(polylines, {}, options);
+    EXPECT_DOUBLE_EQ(from_scan.tolerance_mm, 0.1);
+    EXPECT_DOUBLE_EQ(from_scan.noise_mm, from_cut.noise_mm);  // the cut's own, still reported
+    ASSERT_EQ(from_scan.fits.size(), 1u);
+    EXPECT_EQ(count(from_scan.fits[0], SectionElementKind::Line), 5);
+    options.tolerance_mm = 0.04;  // a given tolerance wins
+    EXPECT_DOUBLE_EQ(fit_section_polylines(polylines, {}, options).tolerance_mm, 0.04);
+    options.scan_noise_mm = -0.01;
+    EXPECT_THROW(fit_section_polylines(polylines, {}, options), Error);
+}
+
 TEST(SectionFit, ASectionLeavesOutCrumbsAndKeepsASmallRealHole) {
     for (const double sigma : {0.0, 0.01, 0.02}) {
         for (const unsigned seed : {1u, 2u, 3u}) {

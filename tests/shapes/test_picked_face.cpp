@@ -209,6 +209,17 @@ TEST(PickedFace, NoiseIsEstimatedFromTheScanWhateverTheCurvature) {
     EXPECT_THROW(estimate_noise(PointCloud{}, {0, 0, 0}, 1), Error);
 }
 
+TEST(PickedFace, ScanNoiseIsEstimatedOverTheWholeScan) {
+    for (double sigma : {0.005, 0.02, 0.04}) {
+        const Part part = sampled_part(sigma, 11);
+        // Every face of the part, its edges and corners a small share of the neighbourhoods.
+        EXPECT_NEAR(estimate_scan_noise(part.cloud), sigma, 0.2 * sigma + 0.001) << sigma;
+    }
+    PointCloud few;
+    few.points.assign(23, cv::Vec3f(0, 0, 0));
+    EXPECT_THROW(estimate_scan_noise(few), Error);
+}
+
 TEST(PickedFace, ConstraintsToFittedFeaturesAndNominalSizesHoldOnPickedFaces) {
     const Part part = sampled_part(0.02, 9);
     const PickedFit top = fit_at_point(part.cloud, {-5, 10, 24});

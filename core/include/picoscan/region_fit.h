@@ -109,6 +109,11 @@ RegionFit fit_region(const PointCloud& cloud, const std::vector<int>& region, co
 // the few neighbourhoods across an edge do not move the median). Throws Error("cloud", ...)
 // when too few points lie there.
 double estimate_noise(const PointCloud& cloud, const cv::Vec3d& centre, double radius_mm);
+// The same over the whole scan: the median over up to 200 neighbourhoods spread evenly over its
+// points. A mesh made from the scan is no measure of it (a mesher that flattens a face leaves its
+// cut no noise): hosts take a default tolerance from this. Throws Error("cloud", ...) for fewer
+// than 24 finite points.
+double estimate_scan_noise(const PointCloud& cloud);
 
 // The face at `seed` (see GrownFace). `fit` gives the kinds allowed (automatic with its kind
 // flags and constraint, or its one kind), the noise (0: estimated) and reject_factor.

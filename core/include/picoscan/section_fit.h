@@ -27,6 +27,11 @@ struct SectionFitOptions {
     // lines, are taken as corners a mesh rounded and go to their neighbours.
     double tolerance_mm = 0;
     double min_tolerance_mm = 0.005;
+    // fit_section_polylines, tolerance 0: the noise (sigma) of the scan the mesh was made from, when
+    // the host knows it (estimate_scan_noise): the tolerance is then 5 x this, not 5 x the cut's
+    // noise. A mesher that flattens the faces (a sharpened Poisson surface) leaves a cut of them
+    // nanometres of noise, which says nothing of how well the scan knows the part. 0: unknown.
+    double scan_noise_mm = 0;
     // The noise is measured over runs this long (at least 9 points). A scan's cut also wavers by
     // bumps about 1 mm long, the same in every view (most likely phase errors at the paint's
     // speckles: a plain part's cuts have none). 2 mm runs read mostly the quiet stretches between
@@ -192,7 +197,7 @@ struct SectionFits {
     std::vector<SectionFit> fits;
     std::vector<int> fitted_index;     // the polyline each fit is of
     std::vector<LeftOutPolyline> left_out;
-    double noise_mm = 0, tolerance_mm = 0;
+    double noise_mm = 0, tolerance_mm = 0;  // noise_mm: the cut's (from its points), whatever the tolerance came from
 };
 SectionFits fit_section_polylines(const std::vector<SectionPolyline>& polylines,
                                   const std::vector<ParallelCut>& parallel_cuts = {},

@@ -988,6 +988,8 @@ private:
 void check_tolerance(const SectionFitOptions& options) {
     if (options.tolerance_mm < 0 || !std::isfinite(options.tolerance_mm))
         throw Error("tolerance_mm", "must be 0 (from the noise) or positive");
+    if (options.scan_noise_mm < 0 || !std::isfinite(options.scan_noise_mm))
+        throw Error("scan_noise_mm", "must be 0 (unknown) or positive");
     if (!(options.loop_noise_limit_mm >= 0) || !std::isfinite(options.loop_noise_limit_mm))
         throw Error("loop_noise_limit_mm", "must be 0 or positive");
     if (!(options.max_bridged_gap_mm >= 0) || !std::isfinite(options.max_bridged_gap_mm))
@@ -1526,7 +1528,7 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         if (big_enough(k))
             window_noises({without_chord_middles(polylines[k], input[k].closed), input[k].closed}, options.noise_window_mm, windows);
     result.noise_mm = median(windows);
-    result.tolerance_mm = tolerance_for(result.noise_mm, options);
+    result.tolerance_mm = tolerance_for(options.scan_noise_mm > 0 ? options.scan_noise_mm : result.noise_mm, options);
 
     const auto number = [](double value) {
         char text[32];

@@ -78,8 +78,10 @@ MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv:
                      "; the drawing's x along " + vector_text(u_axis) + ", y along " + vector_text(v_axis));
     report.push_back(format("cut: %zu polylines; band +- %.3f mm: %zu parallel cuts' polylines", section.polylines.size(),
                             band_mm, section.parallel_cuts.size()));
-    report.push_back(format("noise %.4f mm, tolerance %.4f mm (%s)", fits.noise_mm, fits.tolerance_mm,
-                            options.tolerance_mm > 0 ? "given" : "5 x the noise"));
+    report.push_back(format("noise of the cut %.4f mm, tolerance %.4f mm (", fits.noise_mm, fits.tolerance_mm) +
+                     (options.tolerance_mm > 0         ? std::string("given)")
+                      : options.scan_noise_mm > 0 ? format("5 x the scan's noise, %.4f mm)", options.scan_noise_mm)
+                                                  : std::string("5 x the cut's noise)")));
     for (size_t k = 0; k < fits.fits.size(); ++k) {
         const SectionFit& fit = fits.fits[k];
         const SectionPolyline& polyline = section.polylines[size_t(fits.fitted_index[k])];

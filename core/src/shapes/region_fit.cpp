@@ -507,7 +507,7 @@ double median_noise(const std::vector<cv::Vec3d>& points, const detail::PointGri
         const double value = quadric_rms(near);
         if (value >= 0) rms.push_back(value);
     }
-    if (rms.size() < 5) throw Error("cloud", "too few points around the picked point to estimate the scan's noise");
+    if (rms.size() < 5) throw Error("cloud", "too few neighbourhoods of 24 points within 4 mm to estimate the scan's noise");
     std::nth_element(rms.begin(), rms.begin() + long(rms.size() / 2), rms.end());
     return rms[rms.size() / 2];
 }
@@ -577,6 +577,15 @@ double estimate_noise(const PointCloud& cloud, const cv::Vec3d& centre, double r
         if (is_finite_point(p) && cv::norm(cv::Vec3d(p) - centre) <= radius_mm) points.emplace_back(p);
     if (points.size() < 24) throw Error("cloud", std::to_string(points.size()) + " points within " + std::to_string(radius_mm) +
                                                      " mm: too few to estimate the scan's noise");
+    return median_noise(points, detail::PointGrid(points, 1.0));
+}
+
+double estimate_scan_noise(const PointCloud& cloud) {
+    std::vector<cv::Vec3d> points;
+    points.reserve(cloud.points.size());
+    for (const cv::Vec3f& p : cloud.points)
+        if (is_finite_point(p)) points.emplace_back(p);
+    if (points.size() < 24) throw Error("cloud", std::to_string(points.size()) + " points: too few to estimate the scan's noise");
     return median_noise(points, detail::PointGrid(points, 1.0));
 }
 

@@ -15,6 +15,14 @@ from picoscan_wb.progress import cancel_point, run_in_background
 TYPE = "PicoScan::DeviationMap"
 
 
+def _add_colour_range(obj):
+    """The colour scale's half width (also added to maps of documents saved before it existed; their
+    legend shows from their next recompute)."""
+    if not hasattr(obj, "ColourRange"):
+        obj.addProperty("App::PropertyDistance", "ColourRange", "Result",
+                        "The colours span -this (blue) to +this (red); farther points take the end colours", 1)
+
+
 class DeviationMap(DocumentObjectProxy):
     TYPE = TYPE
 
@@ -35,10 +43,15 @@ class DeviationMap(DocumentObjectProxy):
                           ("P95Deviation", "95 % of the points are nearer than this"), ("MaxDeviation", "Largest |distance|")):
             obj.addProperty("App::PropertyDistance", name, group, tip, 1)
         obj.addProperty("App::PropertyPercent", "WithinTolerance", group, "Share of the points within tolerance", 1)
+        _add_colour_range(obj)
         obj.addProperty("App::PropertyInteger", "PointCount", group, "Points measured", 1)
         obj.addProperty("App::PropertyString", "Summary", group, "The figures in one line", 1)
         obj.Tolerance = 0.05
         obj.Deflection = 0.005
+
+    def onDocumentRestored(self, obj):
+        super().onDocumentRestored(obj)
+        _add_colour_range(obj)
 
     @brief_input_errors
     def execute(self, obj):
@@ -72,6 +85,7 @@ class DeviationMap(DocumentObjectProxy):
         obj.MaxDeviation = statistics.max_abs_mm
         obj.WithinTolerance = int(round(100 * statistics.within_tolerance))
         obj.PointCount = statistics.count
+        obj.ColourRange = result.range_mm
         obj.Summary = deviation.summary(statistics, obj.Tolerance.Value)
         self.last_map = result  # for the GUI's histogram; goes with the object
 
@@ -89,8 +103,8 @@ def create(doc, scan, reference, tolerance_mm=0.05, max_distance_mm=0.0, report_
         obj.MaxDistance = max_distance_mm
         obj.ReportFile = report_file
         if FreeCAD.GuiUp:
-            from picoscan_wb.viewproviders.view_provider import ViewProvider
-            ViewProvider(obj.ViewObject, "picoscan_deviation")
+            from picoscan_wb.viewproviders.view_provider import DeviationViewProvider
+            DeviationViewProvider(obj.ViewObject)
             obj.ViewObject.PointSize = 3
 
     obj = add_or_remove(doc, "Points::FeaturePython", name, setup)

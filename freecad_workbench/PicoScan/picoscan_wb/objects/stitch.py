@@ -10,6 +10,7 @@ import numpy
 import FreeCAD
 
 import picoscan
+from picoscan_wb import property_content
 from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors, is_scan_view, millimetres
 from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
 from picoscan_wb.progress import run_in_background
@@ -66,6 +67,9 @@ def _add_placement_properties(obj, restored=False):
     if not hasattr(obj, "PlacementReport"):
         obj.addProperty("App::PropertyStringList", "PlacementReport", "Result",
                         "Per placement: how it joined the model, or why it was left out", 1)
+    if not hasattr(obj, "Normal"):
+        obj.addProperty("Points::PropertyNormalList", "Normal", "Result",
+                        "The merged cloud's normals (the core's, one per point): the 3D view shades the points by them", 1)
     if not hasattr(obj, "AlignmentReport"):
         obj.addProperty("App::PropertyStringList", "AlignmentReport", "Result",
                         "Per placement, each way tried (features, turntable round, turntable axis): the views it "
@@ -225,6 +229,8 @@ class Stitch(DocumentObjectProxy):
         obj.AlignmentReport = attempts + ([_axis_line(stitched.axis)] if stitched.axis else [])
         obj.AlignedCount = alignment.aligned_count()
         obj.Points = points_of(cloud, obj.Placement)
+        # FreeCAD's own bytes of the normals: a Python object per normal would hold the GIL for seconds.
+        obj.restorePropertyContent("Normal", property_content.normal_list_content(cloud.normals))
         obj.PointCount = len(cloud)
 
     def merged_cloud(self, obj):
@@ -259,8 +265,8 @@ def create(doc, views, name="Stitch", part_frame=True, placement_of_view=(), mod
             obj.TurntableAxisDirection = FreeCAD.Vector(*axis_direction)
         obj.TurntableStep = step_deg
         if FreeCAD.GuiUp:
-            from picoscan_wb.viewproviders.view_provider import ViewProvider
-            ViewProvider(obj.ViewObject, "picoscan_stitch")
+            from picoscan_wb.viewproviders.view_provider import ShadedPointsViewProvider
+            ShadedPointsViewProvider(obj.ViewObject, "picoscan_stitch")
 
     obj = add_or_remove(doc, "Points::FeaturePython", name, setup)
     if part_frame:
@@ -271,6 +277,7 @@ def create(doc, views, name="Stitch", part_frame=True, placement_of_view=(), mod
         except picoscan.Error as error:  # the camera frame of the first view stays; say why
             FreeCAD.Console.PrintWarning("%s: left in the first camera's frame: %s\n" % (obj.Label, error))
     if FreeCAD.GuiUp:
+        obj.ViewObject.DisplayMode = "Shaded"
         for view in views:
             view.ViewObject.Visibility = False
     return obj

@@ -33,15 +33,32 @@ def _plane_axes(base, axis):
     return placement, placement.Rotation.multVec(Vector(1, 0, 0)), placement.Rotation.multVec(Vector(0, 1, 0))
 
 
-def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=picoscan.DEFAULT_SECTION_BAND_MM, progress=None):
+def scan_behind(mesh_object):
+    """(the scan's picoscan.PointCloud, its label) a mesh was made from (a ScanMesh's Source: a
+    ScanView or a Stitch), or (None, why none) for any other mesh. Read on the GUI thread."""
+    from picoscan_wb.objects import cloud_of, is_scan_mesh, is_scan_view, is_stitch
+
+    source = getattr(mesh_object, "Source", None) if is_scan_mesh(mesh_object) else None
+    if source is None or not (is_scan_view(source) or is_stitch(source)):
+        return None, "%s was not meshed from a scan in this document" % mesh_object.Label
+    return cloud_of(source), source.Label
+
+
+def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=picoscan.DEFAULT_SECTION_BAND_MM, progress=None,
+                   scan=None):
     """(placement of the cutting plane, picoscan.MeshSectionFit) of a FreeCAD mesh (not a document
     object: this runs on the worker thread). The core's one call for the whole section
     (picoscan.section_mesh): the cut and its Band (band_mm = 0: the one cut), the polylines judged
     together (one noise and tolerance for all; crumbs too small or too noisy to be a feature of the
-    part in `fits.left_out`, with the reason) and the report."""
+    part in `fits.left_out`, with the reason) and the report. With tolerance_mm 0 and the `scan` the
+    mesh was made from (a picoscan.PointCloud), the tolerance is 5 x the scan's noise (the core's
+    estimate_scan_noise): a mesher that flattens the faces leaves their cut nanometres of noise."""
     from picoscan_wb.objects.scan_mesh import core_mesh
 
     options = fit_options(tolerance_mm)
+    if scan is not None and tolerance_mm == 0:
+        cancel_point(progress, 0.0, "measuring the scan's noise")
+        options.scan_noise_mm = picoscan.estimate_scan_noise(scan)
     cancel_point(progress, 0.0, "cutting the mesh")
     core = core_mesh(mesh, progress)
     base, _ = section_plane(mesh, axis, offset_mm)
@@ -52,7 +69,17 @@ def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=
         if str(error).startswith("cancelled"):
             raise
         raise picoscan.Error("%s, %s plane at %.2f mm: %s" % (label, axis, getattr(base, axis.lower()), error))
-    return placement, section
+    return placement, section, options.scan_noise_mm
+
+
+def tolerance_origin(tolerance_mm, scan_noise_mm, scan_label, fits):
+    """Where the sketch's tolerance came from, in one line (its FitToleranceFrom)."""
+    if tolerance_mm > 0:
+        return "given: %.4f mm" % fits.tolerance_mm
+    if scan_noise_mm > 0:
+        return "5 x the noise of the scan %s, %.4f mm (measured on its points)" % (scan_label, scan_noise_mm)
+    return ("no scan noise known (%s): tolerance set to %.4f mm from the cut of the mesh, which may have been "
+            "flattened; set it yourself" % (scan_label, fits.tolerance_mm))
 
 
 def left_out_report(fits):
@@ -207,8 +234,9 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     line says why. Each element's report gives its standard error. Raises picoscan.Error (document unchanged) when the plane misses the mesh. The cut and the fit run off the GUI thread with the progress dialog (Cancel:
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
-    placement, section = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
-        mesh, label, axis, offset_mm, tolerance_mm, band_mm, progress))
+    scan, scan_label = scan_behind(mesh_object) if tolerance_mm == 0 else (None, "")
+    placement, section, scan_noise = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
+        mesh, label, axis, offset_mm, tolerance_mm, band_mm, progress, scan))
     fits = section.fits
     sketch = doc.addObject("Sketcher::SketchObject", name)
     try:
@@ -223,18 +251,21 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
         sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
         sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")
-        sketch.addProperty("App::PropertyLength", "FitNoise", "Section", "Noise of the section estimated from its points")
+        sketch.addProperty("App::PropertyLength", "FitNoise", "Section",
+                           "Noise (sigma) of the scan the mesh was made from, measured on its points; 0: none known")
+        sketch.addProperty("App::PropertyString", "FitToleranceFrom", "Section", "Where FitTolerance came from")
         sketch.addProperty("App::PropertyStringList", "FitReport", "Section", "Per element: kind, size, points, residuals")
         sketch.addProperty("App::PropertyLength", "FitBand", "Section", "Elements refitted with parallel cuts within +- this (0: one cut)")
         sketch.addProperty("App::PropertyStringList", "LeftOut", "Section",
                            "Polylines of the cut left out of the sketch (too small or too noisy to be a feature), and why")
         sketch.SourceMesh = mesh_object
         sketch.FitTolerance = fits.tolerance_mm
-        sketch.FitNoise = fits.noise_mm
+        sketch.FitNoise = scan_noise  # never the cut's: a flattened mesh's is nanometres, no measure of the scan
+        sketch.FitToleranceFrom = tolerance_origin(tolerance_mm, scan_noise, scan_label, fits)
         sketch.FitReport = report
         sketch.FitBand = band_mm
         sketch.LeftOut = left_out_report(fits)
-        for name in ("FitTolerance", "FitNoise", "FitReport", "FitBand", "LeftOut"):
+        for name in ("FitTolerance", "FitNoise", "FitToleranceFrom", "FitReport", "FitBand", "LeftOut"):
             sketch.setEditorMode(name, 1)  # shown, not edited: they describe the fit
         doc.recompute()
         if not sketch.isValid():
@@ -243,6 +274,8 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         doc.removeObject(sketch.Name)
         raise
     FreeCAD.Console.PrintLog("%s: the core's report of the section:\n    %s\n" % (sketch.Label, "\n    ".join(section.report)))
+    if scan_noise == 0 and tolerance_mm == 0:
+        FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, sketch.FitToleranceFrom))
     for line in list(sketch.LeftOut) + [line for line in sketch.FitReport if "not prismatic" in line]:
         FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, line))
     return sketch

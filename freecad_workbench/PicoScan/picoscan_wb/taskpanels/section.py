@@ -37,7 +37,10 @@ class CrossSectionTaskPanel:
         self.tolerance.setSuffix(" mm")
         self.tolerance.setSpecialValueText("from the scan's noise")
         self.tolerance.setToolTip("Largest distance of a section point to its fitted line or arc, the same for "
-                                  "every loop of the cut; 0: five times the noise measured on the whole section. "
+                                  "every loop of the cut; 0: five times the noise of the scan the mesh was made "
+                                  "from (measured on its points), or, for a mesh with no scan behind it, of the cut "
+                                  "itself (a flattened mesh's cut has almost none: set the tolerance yourself; the "
+                                  "sketch's FitToleranceFrom says which). "
                                   "Loops too small or too noisy for it are left out (the sketch's LeftOut says why)")
         layout.addRow("Tolerance", self.tolerance)
         self.band = QtGui.QDoubleSpinBox()

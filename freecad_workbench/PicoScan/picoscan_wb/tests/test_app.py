@@ -165,8 +165,35 @@ class PicoScanAppTest(unittest.TestCase):
         mesh = scan_mesh.create(self.doc, view, pixel_step=1)
         sketch = section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0)
         self.assertTrue(sketch.isValid())
-        FreeCAD.Console.PrintMessage("shaft section: noise %.4f mm, tolerance %.4f mm\n%s\n" % (
-            sketch.FitNoise.Value, sketch.FitTolerance.Value, "\n".join(sketch.FitReport)))
+        FreeCAD.Console.PrintMessage("shaft section: scan noise %.4f mm, tolerance %.4f mm (%s)\n%s\n" % (
+            sketch.FitNoise.Value, sketch.FitTolerance.Value, sketch.FitToleranceFrom, "\n".join(sketch.FitReport)))
+        # The mesh has its scan behind it: the default tolerance is 5 x the scan's noise, measured on
+        # the ScanView's points by the core, whatever the mesh's cut shows.
+        noise = picoscan.estimate_scan_noise(cloud_of(view))
+        self.assertGreater(noise, 0.001)
+        self.assertLess(noise, 0.05)
+        self.assertEqual(sketch.FitNoise.Value, noise)
+        self.assertAlmostEqual(sketch.FitTolerance.Value, max(0.005, 5 * noise), delta=1e-12)
+        self.assertEqual(sketch.FitToleranceFrom, "5 x the noise of the scan %s, %.4f mm (measured on its points)" % (
+            view.Label, noise))
+        given = section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0, tolerance_mm=0.05, name="Given")
+        self.assertEqual((given.FitNoise.Value, given.FitToleranceFrom), (0.0, "given: 0.0500 mm"))
+        self.doc.removeObject(given.Name)
+        # Built to fool a default from the mesh: a Poisson surface (2 mm samples) of the same view is
+        # smoother than its scan, so its cut shows a fraction of the scan's noise. The default
+        # tolerance is 5 x the scan's noise all the same, and says so.
+        smooth = scan_mesh.create(self.doc, view, method="Poisson", sample_spacing_mm=2.0, fill="Open", name="Smooth")
+        _, cut, used = section.fitted_section(smooth.Mesh, smooth.Label, "Y", 0.0, band_mm=0.0,
+                                              scan=section.scan_behind(smooth)[0])
+        FreeCAD.Console.PrintMessage("Poisson mesh of the shaft view: noise of its cut %.4f mm, of the scan %.4f mm\n" % (
+            cut.fits.noise_mm, noise))
+        self.assertEqual(used, noise)
+        self.assertLess(cut.fits.noise_mm, noise / 2)  # the mesh hides the scan's noise
+        smooth_sketch = section.cross_section(self.doc, smooth, axis="Y", offset_mm=0.0, band_mm=0.0, name="SmoothSection")
+        self.assertTrue(smooth_sketch.isValid(), smooth_sketch.getStatusString())
+        self.assertEqual(smooth_sketch.FitNoise.Value, noise)
+        self.assertAlmostEqual(smooth_sketch.FitTolerance.Value, 5 * noise, delta=1e-12)
+        self.assertIn("5 x the noise of the scan %s" % view.Label, smooth_sketch.FitToleranceFrom)
         self.assertEqual(len(sketch.FitReport), sketch.GeometryCount)
         self.assertLess(sketch.GeometryCount, 20)  # fitted elements, not hundreds of segments
         self.assertLess(sketch.FitTolerance.Value, 0.2)
@@ -942,6 +969,15 @@ class PicoScanSectionFitTest(unittest.TestCase):
             FreeCAD.Console.PrintMessage("demo outline, vertex noise %.2f mm: noise %.4f mm, tolerance %.4f mm, "
                                          "%d constraints\n%s\n" % (sigma, sketch.FitNoise.Value, sketch.FitTolerance.Value,
                                                                    sketch.ConstraintCount, "\n".join(sketch.FitReport)))
+            # No scan behind this mesh: no noise is claimed (the true mesh's cut has none to speak of),
+            # and the sketch says where its tolerance came from and that it is the user's to set.
+            self.assertEqual(sketch.FitNoise.Value, 0.0)
+            self.assertTrue(sketch.FitToleranceFrom.startswith("no scan noise known (%s was not meshed from a scan" % (
+                mesh.Label)), sketch.FitToleranceFrom)
+            self.assertIn("tolerance set to %.4f mm" % sketch.FitTolerance.Value, sketch.FitToleranceFrom)
+            self.assertTrue(sketch.FitToleranceFrom.endswith("set it yourself"), sketch.FitToleranceFrom)
+            if sigma == 0.0:
+                self.assertEqual(sketch.FitTolerance.Value, 0.005)  # the core's floor
             lines = [g for g in sketch.Geometry if g.TypeId == "Part::GeomLineSegment"]
             circles = [g for g in sketch.Geometry if g.TypeId == "Part::GeomCircle"]
             self.assertEqual((len(lines), len(circles), sketch.GeometryCount), (5, 1, 6))

@@ -447,9 +447,46 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertLess(error.rotation_deg, 0.1)
         self.assertLess(error.translation_mm, 0.1)
         self.assertFalse(FreeCADGui.Control.activeDialog())
+        self.check_shading(made)
         name = made.Name
         self.doc.undo()  # one step
         self.assertIsNone(self.doc.getObject(name))
+
+    def check_shading(self, stitched):
+        """The stitched cloud is drawn lit by its normals: on screen, the brightness of its points
+        spreads with the orientation of the faces they lie on, where the flat look (FreeCAD's plain
+        Points mode, all the workbench showed before) is one grey."""
+        from picoscan_wb.property_content import normals_from_content
+
+        normals = normals_from_content(stitched.dumpPropertyContent("Normal", Compression=0))
+        self.assertEqual(len(normals), stitched.PointCount)
+        self.assertLess(numpy.abs(numpy.linalg.norm(normals, axis=1) - 1).max(), 1e-3)
+        self.assertEqual(stitched.ViewObject.DisplayMode, "Shaded")
+        FreeCADGui.Selection.clearSelection()
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        # Seen as the first view's camera saw it (its x right, y down, looking along its z), so the
+        # faces in sight are those scanned, turned to the viewer: their brightness is their angle.
+        view3d.setCameraOrientation(stitched.Placement.Rotation.multiply(FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 180)))
+        view3d.fitAll()
+
+        def brightness(mode):
+            stitched.ViewObject.Visibility = False
+            background = self.grab_3d_view().astype(int)
+            stitched.ViewObject.Visibility = True
+            stitched.ViewObject.DisplayMode = mode
+            image = self.grab_3d_view().astype(int)
+            drawn = numpy.abs(image - background).max(axis=2) > 30
+            self.assertGreater(drawn.sum(), 2000, mode)
+            return image[drawn].mean(axis=1)
+
+        flat, shaded = brightness("Points"), brightness("Shaded")
+        spread = lambda values: numpy.percentile(values, 90) - numpy.percentile(values, 10)  # noqa: E731
+        FreeCAD.Console.PrintMessage("stitched cloud on screen: brightness p10-p90 spread %.1f grey levels shaded "
+                                     "(%d pixels), %.1f flat (%d pixels)\n" % (spread(shaded), len(shaded),
+                                                                                spread(flat), len(flat)))
+        self.assertLess(spread(flat), 5)
+        self.assertGreater(spread(shaded), 40)
+        self.screenshot(stitched, "freecad-stitch-shaded.png", orientation=view3d.getCameraOrientation())
 
     @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
     def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
@@ -508,6 +545,7 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertTrue(any("png" in w.windowTitle() or "vs" in w.windowTitle() for w in mdi.subWindowList()),
                         [w.windowTitle() for w in mdi.subWindowList()])
         self.screenshot(result, "freecad-deviation.png", report=result.ReportFile + ".png")
+        self.check_legend(result)
         # One undo step removes the map.
         name = result.Name
         self.doc.undo()
@@ -534,6 +572,89 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(self.messages), 1)
         self.assertIn("JustPoints: the reference has no faces or triangles", self.messages[0][2])
         self.assertEqual(self.object_names(), before)
+
+    def check_legend(self, result):
+        """The map's colour legend in the 3D view: labelled with the map's tolerance and range, its
+        bar's pixels (on screen, in any orientation) in the map's own colours at its ends and in the
+        tolerance band; gone when the map is hidden; following a recompute with a new tolerance."""
+        from picoscan_wb.viewproviders import deviation_legend as legend
+
+        def pixel(image, distance, range_mm):  # the bar's middle at that distance's height
+            height, width = image.shape[:2]
+            column, row = legend.viewport_pixel(0.5 * (legend.BAR_LEFT + legend.BAR_RIGHT),
+                                                legend.bar_y(distance, range_mm), width, height)
+            return image[row, column].astype(int)
+
+        def check_bar(image, tolerance, range_mm):
+            for fraction in (-0.95, -0.6, 0.0, 0.6, 0.95):  # both ends, the band, between
+                expected = numpy.array(picoscan.deviation_colour(fraction * range_mm, tolerance, range_mm))
+                seen = pixel(image, fraction * range_mm, range_mm)
+                self.assertLess(numpy.abs(seen - expected).max(), 12, (fraction, seen, expected))
+
+        self.assertAlmostEqual(result.ColourRange.Value, 4 * result.Tolerance.Value, places=9)  # the core's range
+        labels = result.ViewObject.Proxy.legend.labels
+        FreeCAD.Console.PrintMessage("deviation legend: %s\n" % labels)
+        self.assertEqual(labels, ["+0.200", "+0.050", "0", "-0.050", "-0.200"])
+        view3d = FreeCADGui.ActiveDocument.ActiveView
+        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        view3d.fitAll()
+        check_bar(self.grab_3d_view(), 0.05, 0.2)
+        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(0, 1, 0), 60))  # turned: the legend stays
+        check_bar(self.grab_3d_view(), 0.05, 0.2)
+        result.ViewObject.Visibility = False
+        hidden = self.grab_3d_view()
+        for fraction in (-0.95, 0.0, 0.95):
+            expected = numpy.array(picoscan.deviation_colour(fraction * 0.2, 0.05, 0.2))
+            self.assertGreater(numpy.abs(pixel(hidden, fraction * 0.2, 0.2) - expected).max(), 40, fraction)
+        result.ViewObject.Visibility = True
+        result.Tolerance = 0.1  # recompute: the range follows (0.4 mm)
+        self.doc.recompute()
+        self.assertEqual(result.ViewObject.Proxy.legend.labels, ["+0.400", "+0.100", "0", "-0.100", "-0.400"])
+        check_bar(self.grab_3d_view(), 0.1, 0.4)
+
+    def test_j3_legend_and_shaded_points_after_save_and_reopen(self):
+        """A saved document reopened: the Deviation map's legend is there again with its labels and
+        colours, and a Stitch's cloud is drawn Shaded (FreeCAD builds that mode when the view
+        provider is attached; the object must have its Normal property by then)."""
+        from picoscan_wb import property_content
+        from picoscan_wb.objects import deviation_map, stitch
+        from picoscan_wb.viewproviders import deviation_legend as legend
+        from picoscan_wb.viewproviders.view_provider import ShadedPointsViewProvider
+
+        # Half a cylinder of radius 12.5 mm, its points up to 0.3 mm off, against the true cylinder.
+        angle, height = numpy.meshgrid(numpy.linspace(0, math.pi, 120), numpy.linspace(1, 39, 60))
+        radius = 12.5 + numpy.linspace(-0.3, 0.3, angle.size).reshape(angle.shape)
+        points = numpy.stack([radius * numpy.cos(angle), radius * numpy.sin(angle), height], axis=-1).reshape(-1, 3)
+        normals = numpy.stack([numpy.cos(angle), numpy.sin(angle), 0 * angle], axis=-1).reshape(-1, 3)
+        cloud = self.doc.addObject("Points::Feature", "HalfShaft")
+        cloud.Points = scan_view.points_of(points)
+        model = self.doc.addObject("Part::Cylinder", "Model")
+        model.Radius, model.Height = 12.5, 40
+        self.doc.recompute()
+        result = deviation_map.create(self.doc, cloud, model)
+        shaded = self.doc.addObject("Points::FeaturePython", "StitchLike")
+        stitch.Stitch(shaded)  # its properties, Normal among them, before its view provider
+        ShadedPointsViewProvider(shaded.ViewObject, "picoscan_stitch")
+        shaded.Points = scan_view.points_of(points)
+        shaded.restorePropertyContent("Normal", property_content.normal_list_content(normals))
+        shaded.ViewObject.DisplayMode = "Shaded"
+        shaded.purgeTouched()
+        path = os.path.join(self.folder, "reopened.FCStd")
+        self.doc.saveAs(path)
+        names = (result.Name, shaded.Name)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        result, shaded = (self.doc.getObject(name) for name in names)
+        self.assertEqual(result.ViewObject.Proxy.legend.labels, ["+0.200", "+0.050", "0", "-0.050", "-0.200"])
+        image = self.grab_3d_view()
+        height, width = image.shape[:2]
+        for distance in (-0.19, 0.0, 0.19):
+            column, row = legend.viewport_pixel(0.5 * (legend.BAR_LEFT + legend.BAR_RIGHT), legend.bar_y(distance, 0.2),
+                                                width, height)
+            expected = numpy.array(picoscan.deviation_colour(distance, 0.05, 0.2))
+            self.assertLess(numpy.abs(image[row, column].astype(int) - expected).max(), 12, distance)
+        self.assertIn("Shaded", shaded.ViewObject.listDisplayModes())
+        self.assertEqual(shaded.ViewObject.DisplayMode, "Shaded")
 
     def test_j2_datum_alignment_command_moves_a_model_into_its_part_frame(self):
         """Three faces of a turned box picked in the 3D view (bottom, back, left): the box's corner goes
@@ -599,6 +720,25 @@ class PicoScanGuiTest(unittest.TestCase):
         os.replace(temporary, os.path.join(folder, name))
         if report:
             shutil.copyfile(report, os.path.join(folder, "deviation-histogram.png"))
+
+    def grab_3d_view(self, width=1000, height=700):
+        """The document's 3D view as FreeCAD draws it, through its own Save picture (saveImage, the
+        view's scene and camera, background as shown): H x W x 3 uint8 RGB. (A grab of the screen
+        under Xvfb shows the view cut: with no window manager FreeCAD's window is larger than the
+        screen, and Coin's viewport larger than the widget, so its pixels cannot be located.)"""
+        from PySide2 import QtGui
+
+        mdi = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea)
+        for window in mdi.subWindowList():
+            if window.windowTitle().startswith(self.doc.Label):
+                mdi.setActiveSubWindow(window)
+        process_events()
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "view.png")
+            FreeCADGui.ActiveDocument.ActiveView.saveImage(path, width, height, "Current")
+            image = QtGui.QImage(path).convertToFormat(QtGui.QImage.Format_RGB888)
+        rows = numpy.frombuffer(image.constBits(), dtype=numpy.uint8, count=image.bytesPerLine() * height)
+        return rows.reshape(height, image.bytesPerLine())[:, :3 * width].reshape(height, width, 3).copy()
 
     def cancel_after(self, seconds, record, fraction=0.05, stage=None):
         """Presses Cancel on the progress dialog (the user's click) once it shows and, given `stage`,
