@@ -47,10 +47,10 @@ ViewData view_data(const ScanView& view, const RegistrationOptions& options, boo
     const cv::Rect measured_area = detail::measured_bounds(view);
     data.samples = detail::sample_view(view, measured_area, options.sample_spacing_mm);
     data.textured = has_texture(data.samples.grey);
-    // ORB on the white frame only where there is paint: on a plain part it finds shading,
-    // whose matches add starts that the shape's features give as well (and cost a sixth of
-    // a pair's time); texture_starts needs both views' features, so a pair with a plain view
-    // starts from the shape alone.
+    // ORB on the white frame only where there is paint: on a plain part it finds shading, and
+    // its starts led to no decision that the shape's starts did not (the suite's 194 decisions,
+    // docs/benchmarks.md) while ORB and their ICP runs took much of a pair's time.
+    // texture_starts needs both views' features, so a pair with a plain view starts from the shape.
     if (with_features && data.textured) data.features = detail::view_features(view, measured_area, options.orb_features);
     data.camera = detail::view_camera(view, measured_area);
     for (const cv::Vec3d& p : data.samples.points) data.centroid += p;
