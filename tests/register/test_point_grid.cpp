@@ -67,7 +67,7 @@ TEST(PointGrid, ThinningKeepsOnePointInEveryCellEvenWhenHashesCollide) {
     view.points.at<cv::Vec3f>(0, 0) = {-0.35f, -0.35f, 70.35f};
     view.points.at<cv::Vec3f>(0, 1) = {1.05f, 1.05f, 70.35f};
     view.points.at<cv::Vec3f>(0, 2) = {-0.30f, -0.30f, 70.30f};
-    const detail::SurfaceSamples samples = detail::sample_view(view, 0.7);
+    const detail::SurfaceSamples samples = detail::sample_view(view, detail::measured_bounds(view), 0.7);
     ASSERT_EQ(samples.points.size(), 2u);
     EXPECT_NEAR(samples.points[0][0], -0.35, 1e-6);
     EXPECT_NEAR(samples.points[1][0], 1.05, 1e-6);
@@ -111,6 +111,7 @@ TEST(NearestGrid, RememberedSearchAgreesWithBruteForceAlongRandomWalks) {
                 const int expected = brute_force(query, reach);
                 ASSERT_EQ(grid.nearest_remembered(query, reach, memory), expected)
                     << "cell " << cell << " walk " << walk << " step " << step << " query " << query << " reach " << reach;
+                ASSERT_EQ(grid.nearest(query, reach), expected) << "without memory, cell " << cell << " walk " << walk << " step " << step;
                 found += expected >= 0;
                 ++compared;
             }

@@ -7,7 +7,10 @@
 
 #include <sys/mman.h>
 
+#include <limits>
+#include <mutex>
 #include <new>
+#include <vector>
 
 namespace picoscan::detail {
 
@@ -41,7 +44,62 @@ public:
     }
 };
 
+// Grids that are written whole (the NaN of every unmeasured point) need no fresh pages: the
+// last two freed ones are kept and handed out again, so reading view after view does not
+// fault in (a fault per 4 KB on this kind of virtual machine, huge pages or not) and clear
+// 23 MB for each view, only to overwrite it.
+class RecyclingAllocator : public cv::MatAllocator {
+public:
+    cv::UMatData* allocate(int dims, const int* sizes, int type, void* data, size_t* step, cv::AccessFlag flags,
+                           cv::UMatUsageFlags usage) const override {
+        CV_Assert(data == nullptr);  // only grids this allocator creates itself
+        size_t bytes = CV_ELEM_SIZE(type);
+        for (int i = dims - 1; i >= 0; --i) {
+            if (step) step[i] = bytes;
+            bytes *= static_cast<size_t>(sizes[i]);
+        }
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            for (auto kept = kept_.begin(); kept != kept_.end(); ++kept)
+                if ((*kept)->size == bytes) {
+                    cv::UMatData* u = *kept;
+                    kept_.erase(kept);
+                    return u;
+                }
+        }
+        cv::UMatData* u = fresh_.allocate(dims, sizes, type, nullptr, step, flags, usage);
+        u->currAllocator = u->prevAllocator = this;
+        return u;
+    }
+    bool allocate(cv::UMatData* u, cv::AccessFlag, cv::UMatUsageFlags) const override { return u != nullptr; }
+    void deallocate(cv::UMatData* u) const override {
+        if (!u) return;
+        std::lock_guard<std::mutex> lock(mutex_);
+        kept_.push_back(u);
+        if (kept_.size() <= kKept) return;
+        fresh_.deallocate(kept_.front());
+        kept_.erase(kept_.begin());
+    }
+
+private:
+    static constexpr size_t kKept = 2;
+    MappedAllocator fresh_;
+    mutable std::mutex mutex_;
+    mutable std::vector<cv::UMatData*> kept_;
+};
+
 }  // namespace
+
+cv::Mat nan_grid(int rows, int cols, int type) {
+    cv::Mat grid;
+    if (static_cast<size_t>(rows) * static_cast<size_t>(cols) * CV_ELEM_SIZE(type) >= kMappedFromBytes) {
+        static RecyclingAllocator allocator;  // outlives every grid: deallocation goes through it
+        grid.allocator = &allocator;
+    }
+    grid.create(rows, cols, type);
+    grid.setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    return grid;
+}
 
 cv::Mat zeroed_grid(int rows, int cols, int type) {
     if (static_cast<size_t>(rows) * static_cast<size_t>(cols) * CV_ELEM_SIZE(type) < kMappedFromBytes)

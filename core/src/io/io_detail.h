@@ -55,6 +55,9 @@ void check_mesh(const Mesh& mesh, const std::string& path);
 // A rows x cols grid of zeros. Large ones come from the operating system's fresh pages and
 // are not written here: only the pages a caller writes cost memory and time.
 cv::Mat zeroed_grid(int rows, int cols, int type);
+// A rows x cols grid of float NaNs (CV_32F, any channels). Large ones reuse the memory of
+// recently freed ones, since every byte is written here anyway.
+cv::Mat nan_grid(int rows, int cols, int type);
 
 // A reader's progress: the share of a file's records read, reported every 65 536 records and at
 // the last one (stage "reading the mesh"); throws Error("cancelled", ...) when the caller answers false.

@@ -210,6 +210,29 @@ public:
         return static_cast<uint64_t>(value);
     }
 
+    // One binary record of scalars only, each into values[property]: its room was checked
+    // for the whole element (check_count_fits), so no value needs a check of its own.
+    void fixed_record(const std::vector<Property>& properties, std::vector<double>& values) {
+        const bool swap = (format_ == Format::BinaryLittle) != detail::host_is_little_endian();
+        for (size_t p = 0; p < properties.size(); ++p) {
+            const Scalar type = properties[p].type;
+            if (swap) {
+                values[p] = binary_scalar(type);
+                continue;
+            }
+            switch (type) {
+                case Scalar::Int8: values[p] = unchecked<int8_t>(); break;
+                case Scalar::UInt8: values[p] = unchecked<uint8_t>(); break;
+                case Scalar::Int16: values[p] = unchecked<int16_t>(); break;
+                case Scalar::UInt16: values[p] = unchecked<uint16_t>(); break;
+                case Scalar::Int32: values[p] = unchecked<int32_t>(); break;
+                case Scalar::UInt32: values[p] = unchecked<uint32_t>(); break;
+                case Scalar::Float32: values[p] = unchecked<float>(); break;
+                case Scalar::Float64: values[p] = unchecked<double>(); break;
+            }
+        }
+    }
+
     void skip_bytes(size_t bytes) {
         if (bytes > remaining()) fail("file ends early");
         pos_ += bytes;
@@ -234,6 +257,15 @@ private:
             for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
         T value;
         std::memcpy(&value, bytes, sizeof(T));
+        return value;
+    }
+
+    // A value in the host's byte order, known to lie before the end.
+    template <class T>
+    T unchecked() {
+        T value;
+        std::memcpy(&value, pos_, sizeof(T));
+        pos_ += sizeof(T);
         return value;
     }
 
@@ -345,17 +377,22 @@ void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail:
     if (has_colours) mesh.colours.reserve(count);
 
     std::vector<double> values(element.properties.size(), 0.0);
+    const bool fixed_size = body.binary() && !element.has_lists();  // check_count_fits made room for every record
     for (size_t r = 0; r < count; ++r) {
         body.set_context(element, r);
         read.record_done();
-        for (size_t p = 0; p < element.properties.size(); ++p) {
-            const Property& property = element.properties[p];
-            if (!property.is_list) {
-                values[p] = body.scalar(property.type);
-                continue;
+        if (fixed_size) {
+            body.fixed_record(element.properties, values);
+        } else {
+            for (size_t p = 0; p < element.properties.size(); ++p) {
+                const Property& property = element.properties[p];
+                if (!property.is_list) {
+                    values[p] = body.scalar(property.type);
+                    continue;
+                }
+                const uint64_t items = body.list_count(property);
+                for (uint64_t i = 0; i < items; ++i) body.scalar(property.type);
             }
-            const uint64_t items = body.list_count(property);
-            for (uint64_t i = 0; i < items; ++i) body.scalar(property.type);
         }
         mesh.vertices.emplace_back(detail::to_float(values[x]), detail::to_float(values[y]),
                                    detail::to_float(values[z]));
@@ -533,8 +570,7 @@ ScanView read_view_ply(const std::string& path) {
     view.camera_distortion = distortion;
     // A view measures a few percent of its grid: the zero grids are left as the system's
     // fresh pages, written only where a point is.
-    view.points = detail::zeroed_grid(height, width, CV_32FC3);
-    view.points.setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    view.points = detail::nan_grid(height, width, CV_32FC3);
     if (!mesh.normals.empty()) view.normals = detail::zeroed_grid(height, width, CV_32FC3);
     if (!mesh.colours.empty()) view.colours = detail::zeroed_grid(height, width, CV_8UC3);
     if (!extras.quality.empty()) view.quality = detail::zeroed_grid(height, width, CV_32F);

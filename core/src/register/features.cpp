@@ -15,11 +15,10 @@
 
 namespace picoscan::detail {
 
-ViewFeatures view_features(const ScanView& view, int max_features) {
+ViewFeatures view_features(const ScanView& view, const cv::Rect& measured_area, int max_features) {
     ViewFeatures features;
     if (view.points.empty() || view.colours.empty()) return features;
     // Only the measured area and a margin are searched (the part is small in the frame).
-    const cv::Rect measured_area = measured_bounds(view);
     if (measured_area.empty()) return features;
     const int margin = 32;
     const cv::Rect area = (measured_area + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &

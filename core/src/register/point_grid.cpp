@@ -24,14 +24,13 @@ cv::Rect measured_bounds(const ScanView& view) {
     return right < 0 ? cv::Rect() : cv::Rect(left, top, right - left + 1, bottom - top + 1);
 }
 
-SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
+SurfaceSamples sample_view(const ScanView& view, const cv::Rect& measured_area, double spacing_mm) {
     SurfaceSamples samples;
     if (view.points.empty()) return samples;
     const bool has_normals = !view.normals.empty();
     // Paint only: the white frame divided by its local mean (over measured pixels), so that
     // shading, which any two faces share, does not count as texture.
     cv::Mat paint;  // over `measured_area` only
-    const cv::Rect measured_area = measured_bounds(view);
     if (!view.colours.empty() && !measured_area.empty()) {
         // The local mean spans about 1.3 mm of surface at the working distance whatever the
         // camera's resolution (8 pixels of the seed camera, fx 2500): wider, the shading near
@@ -55,9 +54,9 @@ SurfaceSamples sample_view(const ScanView& view, double spacing_mm) {
         paint = cv::Mat(grey / cv::max(local_sum / cv::max(local_count, 1e-3), 1.0))(measured_area - area.tl());
     }
     std::unordered_set<GridCell, GridCellHash> taken;
-    for (int y = 0; y < view.points.rows; ++y) {
+    for (int y = measured_area.y; y < measured_area.y + measured_area.height; ++y) {
         const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
-        for (int x = 0; x < view.points.cols; ++x) {
+        for (int x = measured_area.x; x < measured_area.x + measured_area.width; ++x) {
             if (!is_finite_point(row[x])) continue;
             cv::Vec3d normal(0, 0, -1);
             if (has_normals) {
@@ -157,12 +156,6 @@ int PointGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
     return best_index;
 }
 
-int PointGrid::nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const {
-    if (guess < 0) return nearest(query, max_distance_mm);
-    // A hair beyond the guess (far above rounding), so that it still counts as within reach.
-    return nearest(query, std::min(max_distance_mm, cv::norm(query - points[static_cast<size_t>(guess)]) + 1e-9));
-}
-
 void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const {
     found.clear();
     const double limit = radius_mm * radius_mm;
@@ -206,6 +199,12 @@ NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) :
         sorted_[static_cast<size_t>(at)] = points[i];
         index_[static_cast<size_t>(at)] = static_cast<int>(i);
     }
+}
+
+int NearestGrid::nearest(const cv::Vec3d& query, double max_distance_mm) const {
+    double best_squared = 0, clearance_mm = 0;
+    const int slot = search(query, max_distance_mm, best_squared, clearance_mm);
+    return slot >= 0 ? index_[static_cast<size_t>(slot)] : -1;
 }
 
 int NearestGrid::nearest_remembered(const cv::Vec3d& query, double max_distance_mm, SearchMemory& memory) const {

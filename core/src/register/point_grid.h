@@ -19,7 +19,9 @@ struct SurfaceSamples {
 cv::Rect measured_bounds(const ScanView& view);
 
 // One valid point (with a finite normal) per spacing_mm cube, in the view's own frame.
-SurfaceSamples sample_view(const ScanView& view, double spacing_mm);
+// measured_area: measured_bounds(view), which the caller shares between the steps that need it
+// (reading the whole frame costs more than the points in it).
+SurfaceSamples sample_view(const ScanView& view, const cv::Rect& measured_area, double spacing_mm);
 
 SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& transform);
 
@@ -43,11 +45,6 @@ public:
     // Indices of all points within radius_mm of the query.
     void within(const cv::Vec3d& query, double radius_mm, std::vector<int>& found) const;
 
-    // nearest(query, max_distance_mm) when points[guess] (guess -1: none) may lie near the
-    // query, as last iteration's partner does in ICP: the nearest point is no farther than the
-    // guess, so the search reaches only that far and visits fewer cells. `points`: the ones the
-    // grid was built on.
-    int nearest_from(const cv::Vec3d& query, double max_distance_mm, const std::vector<cv::Vec3d>& points, int guess) const;
 
 private:
     // The points of one cell: a run of sorted_, in index order. Cells live in an
@@ -96,6 +93,8 @@ struct SearchMemory {
 class NearestGrid {
 public:
     NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm);
+    // The index of the nearest point closer than max_distance_mm, or -1 (PointGrid::nearest's answer).
+    int nearest(const cv::Vec3d& query, double max_distance_mm) const;
     // The index of the nearest point closer than max_distance_mm, or -1. `memory` starts empty and belongs to one query point, which may
     // have moved since the last call.
     int nearest_remembered(const cv::Vec3d& query, double max_distance_mm, SearchMemory& memory) const;

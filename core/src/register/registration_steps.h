@@ -18,7 +18,8 @@ struct ViewFeatures {
     std::vector<cv::Vec3d> points;  // view frame
     cv::Mat descriptors;            // one row per point
 };
-ViewFeatures view_features(const ScanView& view, int max_features);
+// measured_area: measured_bounds(view).
+ViewFeatures view_features(const ScanView& view, const cv::Rect& measured_area, int max_features);
 
 // Fast point feature histograms (Rusu et al. 2009) of the samples thinned to spacing_mm,
 // over neighbourhoods of radius_mm: for views whose white frames share too few features

@@ -9,15 +9,17 @@
 
 namespace picoscan::detail {
 
-ViewCamera view_camera(const ScanView& view) {
+ViewCamera view_camera(const ScanView& view, const cv::Rect& measured_area) {
     ViewCamera camera;
     if (view.points.empty()) return camera;
-    // x = fx X/Z + cx and y = fy Y/Z + cy, least squares over a subset of the measured pixels.
+    // x = fx X/Z + cx and y = fy Y/Z + cy, least squares over a subset of the measured pixels:
+    // every third row and column of the frame (those within the measured area).
+    const auto first_third = [](int from) { return (from + 2) / 3 * 3; };
     cv::Matx22d ax = cv::Matx22d::zeros(), ay = cv::Matx22d::zeros();
     cv::Vec2d bx(0, 0), by(0, 0);
     size_t used = 0;
-    for (int y = 0; y < view.points.rows; y += 3)
-        for (int x = 0; x < view.points.cols; x += 3) {
+    for (int y = first_third(measured_area.y); y < measured_area.y + measured_area.height; y += 3)
+        for (int x = first_third(measured_area.x); x < measured_area.x + measured_area.width; x += 3) {
             const cv::Vec3f p = view.points.at<cv::Vec3f>(y, x);
             if (!is_finite_point(p) || p[2] <= 0) continue;
             const double u = p[0] / p[2], v = p[1] / p[2];
@@ -43,7 +45,7 @@ ViewCamera view_camera(const ScanView& view) {
     }
     // Only the measured area: the part is small in the frame, and a whole frame's maps cost
     // more to fill and erode than the rest of a view's preparation.
-    const cv::Rect area = measured_bounds(view);
+    const cv::Rect& area = measured_area;
     camera.origin = area.tl();
     cv::Mat depth(area.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
     double squared = 0;

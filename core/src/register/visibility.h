@@ -22,7 +22,8 @@ struct ViewCamera {
     cv::Mat nearest_depth;   // CV_32F: the smallest depth measured around each pixel
     bool valid() const { return !nearest_depth.empty(); }
 };
-ViewCamera view_camera(const ScanView& view);
+// measured_area: measured_bounds(view).
+ViewCamera view_camera(const ScanView& view, const cv::Rect& measured_area);
 
 struct FreeSpaceCheck {
     size_t checked = 0;     // points that project onto pixels the view measured
