@@ -403,7 +403,13 @@ int run_mesh(const Arguments& arguments) {
         cloud.points = points.vertices;
         cloud.normals = points.normals;
         cloud.colours = points.colours;
-        mesh = mesh_points(cloud, options, terminal_progress());
+        try {
+            mesh = mesh_points(cloud, options, terminal_progress());
+        } catch (const Error& error) {
+            // The core names the cloud "point cloud"; here it is a file.
+            if (error.subject() != "point cloud") throw;
+            throw Error(input, std::string(error.what()).substr(error.subject().size() + 2));
+        }
     }
     if (mesh.faces.empty()) throw Error(input, "meshing produced no triangles: nothing to write");
     report_mesh(mesh, out);

@@ -118,6 +118,28 @@ TEST(MeshCli, PoissonOfStitchedViewsIsWatertightAndBadCloudsAreRefused) {
     EXPECT_NE(missing.output.find("nothing.ply: no such file"), std::string::npos) << missing.output;
 }
 
+TEST(MeshCli, AFlatCloudFarFromTheOriginIsRefusedOnOneLineNamingTheFile) {
+    // A plane at 1e20 mm: CGAL lifts one point about 10 mm off a flat cloud to make its
+    // triangulation 3D, and at 1e20 rounding loses the lift. Before, CGAL printed a bare
+    // "not 3D" line and the command went on to "meshing produced no triangles".
+    const fs::path dir = make_temp_dir("mesh_far");
+    PointCloud cloud;
+    for (int y = 0; y < 60; ++y)
+        for (int x = 0; x < 60; ++x) {
+            cloud.points.emplace_back(1e20f + 1e13f * float(x), 1e20f + 1e13f * float(y), 1e20f);
+            cloud.normals.emplace_back(0.f, 0.f, 1.f);
+        }
+    const std::string far = (dir / "far.ply").string();
+    write_ply(cloud, far);
+    const Result refused = run_picoscan("mesh " + far + " --out " + (dir / "far.stl").string() + " --method advancing-front");
+    EXPECT_EQ(refused.exit_code, 1);
+    EXPECT_EQ(std::count(refused.output.begin(), refused.output.end(), '\n'), 1) << refused.output;
+    EXPECT_NE(refused.output.find(far + ": is flat and lies 1.73e+20 mm from the origin, too far to be triangulated in 3D"),
+              std::string::npos)
+        << refused.output;
+    EXPECT_FALSE(fs::exists(dir / "far.stl"));
+}
+
 TEST(CleanCli, FiltersReportTheirCountsAndTheInputStays) {
     const fs::path dir = make_temp_dir("clean_cli");
     const std::string calibration = (dir / "rig.yml").string();

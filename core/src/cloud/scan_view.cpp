@@ -13,15 +13,14 @@ namespace picoscan {
 
 namespace detail {
 
-ViewLayers check_view(const ScanView& view) {
-    const char* subject = "scan view";
+ViewLayers check_view(const ScanView& view, const std::string& name) {
     if (view.points.empty()) return {};
-    if (view.points.type() != CV_32FC3) throw Error(subject, "points must be CV_32FC3");
-    auto layer = [&](const cv::Mat& mat, int type, const char* name, const char* type_name) {
+    if (view.points.type() != CV_32FC3) throw Error(name, "points must be CV_32FC3");
+    auto layer = [&](const cv::Mat& mat, int type, const char* layer_name, const char* type_name) {
         if (mat.empty()) return false;
         if (mat.size() != view.points.size())
-            throw Error(subject, std::string(name) + " size does not match the points");
-        if (mat.type() != type) throw Error(subject, std::string(name) + " must be " + type_name);
+            throw Error(name, std::string(layer_name) + " size does not match the points");
+        if (mat.type() != type) throw Error(name, std::string(layer_name) + " must be " + type_name);
         return true;
     };
     ViewLayers layers;
@@ -29,6 +28,21 @@ ViewLayers check_view(const ScanView& view) {
     layers.colours = layer(view.colours, CV_8UC3, "colours", "CV_8UC3");
     layers.quality = layer(view.quality, CV_32F, "quality", "CV_32F");
     return layers;
+}
+
+void check_view_reach(const ScanView& view, const std::string& name) {
+    check_view(view, name);
+    for (int y = 0; y < view.points.rows; ++y) {
+        const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < view.points.cols; ++x) {
+            const cv::Vec3f& p = row[x];
+            if (!is_finite_point(p)) continue;
+            if (std::abs(p[0]) > kFarthestViewPointMm || std::abs(p[1]) > kFarthestViewPointMm ||
+                std::abs(p[2]) > kFarthestViewPointMm)
+                throw Error(name, "point at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                      ") lies beyond 1 km (1e6 mm) from the origin: not a scan view");
+        }
+    }
 }
 
 }  // namespace detail

@@ -3,6 +3,7 @@
 // The input is untrusted: every count is checked against the bytes that are left before
 // anything is allocated, and every failure is an Error naming the file.
 #include "common/memory_budget.h"
+#include "cloud/view_check.h"
 #include "io/io_detail.h"
 #include "picoscan/error.h"
 #include "picoscan/io.h"
@@ -497,10 +498,6 @@ namespace {
 constexpr int64_t kAnyGridPixels = int64_t(1) << 22;
 constexpr int64_t kGridPixelsPerPoint = 256;
 constexpr double kViewBytesPerPixel = 12 + 12 + 3 + 4;  // points, normals, colours, quality
-// A view measures a part within a few metres of the camera. Coordinates far beyond would
-// overflow the registration's integer cell keys (undefined behaviour, found by UBSan on a view
-// at 1e15 mm) and mean nothing at float precision anyway.
-constexpr double kFarthestViewPointMm = 1e6;
 
 }  // namespace
 
@@ -559,7 +556,7 @@ ScanView read_view_ply(const std::string& path) {
             throw Error(path, "vertex " + std::to_string(i) + " has a pixel outside the grid");
     for (size_t i = 0; i < mesh.vertices.size(); ++i)
         for (int axis = 0; axis < 3; ++axis)
-            if (std::abs(mesh.vertices[i][axis]) > kFarthestViewPointMm)  // NaN (not measured) passes
+            if (std::abs(mesh.vertices[i][axis]) > detail::kFarthestViewPointMm)  // NaN (not measured) passes
                 throw Error(path, "vertex " + std::to_string(i) + " lies beyond 1 km (1e6 mm) from the origin: not a scan view");
     detail::check_memory_budget(double(pixel_count) * kViewBytesPerPixel, path,
                                 "the " + std::to_string(width) + "x" + std::to_string(height) + " pixel grid");

@@ -1,9 +1,13 @@
 // Advancing-front surface reconstruction (Cohen-Steiner & Da, 2004) for open surfaces:
 // it interpolates the points and leaves holes where nothing was measured.
+#include "common/text_format.h"
 #include "mesh/cgal_types.h"
+#include "picoscan/error.h"
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
+#include <algorithm>
 #include <array>
+#include <cmath>
 
 namespace picoscan::detail {
 
@@ -26,15 +30,32 @@ struct SmallTriangles {
 }  // namespace
 
 Mesh advancing_front_mesh(const std::vector<PointWithNormal>& points, double spacing_mm, double max_radius) {
-    std::vector<Point3> cloud;
-    cloud.reserve(points.size());
-    for (const PointWithNormal& p : points) cloud.push_back(p.first);
-    std::vector<std::array<std::size_t, 3>> faces;
+    // CGAL's advancing_front_surface_reconstruction(), spelled out so that a triangulation
+    // that stays flat is refused here instead of CGAL printing "not 3D" and returning nothing.
+    using Vertex = CGAL::Advancing_front_surface_reconstruction_vertex_base_3<Kernel>;
+    using Cell = CGAL::Advancing_front_surface_reconstruction_cell_base_3<Kernel>;
+    using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, CGAL::Triangulation_data_structure_3<Vertex, Cell>>;
+    std::vector<std::pair<Point3, std::size_t>> indexed;
+    indexed.reserve(points.size());
+    for (const PointWithNormal& p : points) indexed.emplace_back(p.first, indexed.size());
+    Delaunay triangulation(indexed.begin(), indexed.end());
     const SmallTriangles priority{max_radius * spacing_mm};
-    CGAL::advancing_front_surface_reconstruction(cloud.begin(), cloud.end(), std::back_inserter(faces), priority);
+    // A flat cloud gets one point lifted about 10 mm off its plane; far from the origin the lift
+    // is lost to rounding and the triangulation stays flat (found at 1e20 mm).
+    CGAL::Advancing_front_surface_reconstruction<Delaunay, SmallTriangles> reconstruction(triangulation, priority);
+    if (triangulation.dimension() < 3) {
+        double farthest = 0;
+        for (const PointWithNormal& p : points)
+            farthest = std::max(farthest, std::sqrt(p.first.x() * p.first.x() + p.first.y() * p.first.y() + p.first.z() * p.first.z()));
+        throw Error("point cloud", "is flat and lies " + format("%.3g", farthest) +
+                                       " mm from the origin, too far to be triangulated in 3D: bring it near the origin");
+    }
+    reconstruction.run();
+    std::vector<std::array<std::size_t, 3>> faces;
+    CGAL::write_triple_indices(std::back_inserter(faces), reconstruction);
     Mesh mesh;
-    for (const Point3& p : cloud)
-        mesh.vertices.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    for (const PointWithNormal& p : points)
+        mesh.vertices.emplace_back(static_cast<float>(p.first.x()), static_cast<float>(p.first.y()), static_cast<float>(p.first.z()));
     // Turn each triangle to face the side its points were seen from.
     for (const auto& f : faces) {
         const cv::Vec3f &a = mesh.vertices[f[0]], &b = mesh.vertices[f[1]], &c = mesh.vertices[f[2]];

@@ -4,6 +4,7 @@
 
 #include "common/lens.h"
 #include "common/parallel.h"
+#include "common/pixel.h"
 
 #include <opencv2/calib3d.hpp>
 
@@ -29,8 +30,8 @@ cv::Mat index_by_projector_code(const CorrespondenceMap& map, cv::Size projector
         for (int x = 0; x < map.projector_u.cols; ++x) {
             const float u = map.projector_u.at<float>(y, x), v = map.projector_v.at<float>(y, x);
             if (!std::isfinite(u) || !std::isfinite(v)) continue;
-            const int column = int(std::lround(u)), row = int(std::lround(v));
-            if (column < 0 || row < 0 || column >= table.cols || row >= table.rows) continue;
+            int column = 0, row = 0;
+            if (!detail::round_to_pixel(u, table.cols, column) || !detail::round_to_pixel(v, table.rows, row)) continue;
             table.at<cv::Vec2i>(row, column) = cv::Vec2i(x, y);
         }
     return table;
@@ -107,14 +108,16 @@ ScanView triangulate_camera_pair(const CorrespondenceMap& map_a, const Calibrati
             for (int x = 0; x < map_a.projector_u.cols; ++x) {
                 const double u = map_a.projector_u.at<float>(y, x), v = map_a.projector_v.at<float>(y, x);
                 if (!std::isfinite(u) || !std::isfinite(v)) continue;
-                const int column = int(std::lround(u)), row = int(std::lround(v));
-                if (column < 0 || row < 0 || column >= table.cols || row >= table.rows) continue;
+                int column = 0, row = 0;
+                if (!detail::round_to_pixel(u, table.cols, column) || !detail::round_to_pixel(v, table.rows, row)) continue;
                 const cv::Vec2i start = table.at<cv::Vec2i>(row, column);
                 cv::Point2d in_b;
                 if (start[0] < 0 || !locate_code(map_b, start, u, v, in_b)) continue;
                 // Confirm: B's code at the found point agrees with A's.
-                const int bx = int(std::lround(in_b.x)), by = int(std::lround(in_b.y));
-                if (bx < 0 || by < 0 || bx >= map_b.projector_u.cols || by >= map_b.projector_u.rows) continue;
+                int bx = 0, by = 0;
+                if (!detail::round_to_pixel(in_b.x, map_b.projector_u.cols, bx) ||
+                    !detail::round_to_pixel(in_b.y, map_b.projector_u.rows, by))
+                    continue;
                 const float bu = map_b.projector_u.at<float>(by, bx), bv = map_b.projector_v.at<float>(by, bx);
                 if (!(std::abs(bu - u) < 1.0 + options.max_code_difference_px && std::abs(bv - v) < 1.0 + options.max_code_difference_px))
                     continue;
@@ -159,8 +162,9 @@ int reject_unconfirmed_points(ScanView& view, const Calibration& calibration_a, 
                     const cv::Vec2d expected = detail::normalised_to_pixel(
                         calibration_a.projector_matrix,
                         projector_lens.distort({in_projector[0] / in_projector[2], in_projector[1] / in_projector[2]}));
-                    const int bx = int(std::lround(pixel[0])), by = int(std::lround(pixel[1]));
-                    if (bx >= 0 && by >= 0 && bx < map_b.projector_u.cols && by < map_b.projector_u.rows) {
+                    int bx = 0, by = 0;
+                    if (detail::round_to_pixel(pixel[0], map_b.projector_u.cols, bx) &&
+                        detail::round_to_pixel(pixel[1], map_b.projector_u.rows, by)) {
                         // The nearest pixel is up to half a pixel away: allow B's local code gradient for that.
                         const float bu = map_b.projector_u.at<float>(by, bx), bv = map_b.projector_v.at<float>(by, bx);
                         const double slack = options.max_code_difference_px + 1.0;

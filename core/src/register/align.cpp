@@ -2,7 +2,9 @@
 // guesses, then ICP), a maximum spanning tree over the accepted edges for initial poses, and
 // a simultaneous multi-view point-to-plane refinement that spreads the error over all loops.
 #include "common/parallel.h"
+#include "cloud/view_check.h"
 #include "picoscan/error.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/register.h"
 #include "register/registration_steps.h"
 #include "register/visibility.h"
@@ -497,6 +499,10 @@ int Alignment::aligned_count() const {
 
 PairRegistration register_pair(const ScanView& fixed, const ScanView& moving, const RegistrationOptions& options,
                                const std::optional<cv::Matx44d>& initial_guess) {
+    validate(options);
+    if (initial_guess && !cv::checkRange(*initial_guess)) throw Error("initial guess", "is not finite");
+    detail::check_view_reach(fixed, "fixed view");
+    detail::check_view_reach(moving, "moving view");
     ViewData data[2];
     const ScanView* views[2] = {&fixed, &moving};
     detail::parallel_rows(2, [&](int begin, int end) {
@@ -576,6 +582,14 @@ Alignment align_views(const std::vector<ScanView>& views, const std::vector<std:
     if (names.size() != views.size()) throw Error("views", "one name per view is needed");
     if (!options.initial_poses.empty() && options.initial_poses.size() != views.size())
         throw Error("initial poses", std::to_string(options.initial_poses.size()) + " given for " + std::to_string(views.size()) + " views");
+    validate(options);
+    for (size_t i = 0; i < views.size(); ++i) detail::check_view_reach(views[i], names[i]);
+    for (size_t i = 0; i < options.initial_poses.size(); ++i)
+        if (!cv::checkRange(options.initial_poses[i]))
+            throw Error("initial poses", "the pose of " + names[i] + " is not finite");
+    if (turntable && !(cv::checkRange(turntable->point_mm) && cv::checkRange(turntable->direction) &&
+                       std::isfinite(turntable->step_deg) && cv::norm(turntable->direction) > 0))
+        throw Error("turntable", "the axis needs a finite point, a non-zero direction and a finite step");
     const bool guessed = turntable || !options.initial_poses.empty();
     const size_t n = views.size();
     Alignment alignment;

@@ -1,7 +1,9 @@
 // Several placements of one part: each placement aligned on its own (align_views), then the
 // placements to each other by shape alone, under the same right-or-refuse gate as a pair of
 // views, and finally every view refined together.
+#include "cloud/view_check.h"
 #include "picoscan/error.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/register.h"
 #include "register/registration_steps.h"
 #include "register/visibility.h"
@@ -254,6 +256,8 @@ Alignment align_placements(const std::vector<ScanView>& views, const std::vector
     }
     for (size_t v = 0; v < n; ++v)
         if (placement_of[v] < 0) throw Error(names[v], "is in no placement");
+    validate(options);
+    for (size_t v = 0; v < n; ++v) detail::check_view_reach(views[v], names[v]);
     auto report = [&](double fraction, const std::string& stage) {
         if (progress && !progress(fraction, stage)) throw Error("cancelled", "alignment cancelled");
     };

@@ -87,9 +87,23 @@ SurfaceSamples transformed(const SurfaceSamples& samples, const cv::Matx44d& tra
     return out;
 }
 
+namespace {
+
+// Cells beyond +-2^40 along an axis share the last one (NaN the upper one): converting a
+// larger value to long long is undefined (a pose or a cloud can put points anywhere), and
+// differences of clamped cells cannot overflow. Clamping keeps the order of cells, so the
+// cells a search visits still hold every point in reach, only with more of them.
+long long clamped_cell(double coordinate, double cell_mm) {
+    constexpr double kLastCell = 1099511627776.0;  // 2^40
+    const double cell = std::floor(coordinate / cell_mm);
+    if (!(cell < kLastCell)) return static_cast<long long>(kLastCell);  // NaN too
+    return static_cast<long long>(std::max(cell, -kLastCell));
+}
+
+}  // namespace
+
 GridCell grid_cell(const cv::Vec3d& p, double cell_mm) {
-    return {static_cast<long long>(std::floor(p[0] / cell_mm)), static_cast<long long>(std::floor(p[1] / cell_mm)),
-            static_cast<long long>(std::floor(p[2] / cell_mm))};
+    return {clamped_cell(p[0], cell_mm), clamped_cell(p[1], cell_mm), clamped_cell(p[2], cell_mm)};
 }
 
 size_t GridCellHash::operator()(const GridCell& cell) const {
@@ -165,7 +179,16 @@ void PointGrid::within(const cv::Vec3d& query, double radius_mm, std::vector<int
     });
 }
 
-NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) : cell_mm_(cell_mm) {
+NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& all_points, double cell_mm) : cell_mm_(cell_mm) {
+    // A point with an infinite or NaN coordinate is never within reach of a query, and no cell
+    // size would bring it into the box below: it is left out.
+    std::vector<cv::Vec3d> points;
+    std::vector<int> numbers;  // index in all_points of each of `points`
+    for (size_t i = 0; i < all_points.size(); ++i)
+        if (std::isfinite(all_points[i][0]) && std::isfinite(all_points[i][1]) && std::isfinite(all_points[i][2])) {
+            points.push_back(all_points[i]);
+            numbers.push_back(static_cast<int>(i));
+        }
     if (points.empty()) return;
     // A box stretched by stray points takes larger cells (the same points are found, by more
     // distance tests), so the table stays within a few entries per point.
@@ -197,7 +220,7 @@ NearestGrid::NearestGrid(const std::vector<cv::Vec3d>& points, double cell_mm) :
     for (size_t i = 0; i < points.size(); ++i) {
         const int at = next[number(cells[i])]++;
         sorted_[static_cast<size_t>(at)] = points[i];
-        index_[static_cast<size_t>(at)] = static_cast<int>(i);
+        index_[static_cast<size_t>(at)] = numbers[i];
     }
 }
 

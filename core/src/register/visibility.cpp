@@ -1,6 +1,7 @@
 #include "register/visibility.h"
 
 #include "cloud/view_check.h"
+#include "common/pixel.h"
 #include "register/point_grid.h"
 
 #include <opencv2/imgproc.hpp>
@@ -64,7 +65,10 @@ ViewCamera view_camera(const ScanView& view, const cv::Rect& measured_area) {
     // The nearest surface within a few pixels (more where the pinhole fits worse): a point
     // counts as seen through only if it is in front of all of them. Beyond the area's edge
     // nothing was measured, so erosion's border (the largest value) changes nothing.
-    const int radius = 2 + static_cast<int>(std::ceil(2 * camera.fit_rms_px));
+    // At most 8 pixels: a camera matrix that does not describe the view (given in memory) must
+    // not make the kernel huge, nor its size overflow an int (NaN counts as the most).
+    const double spread_px = camera.fit_rms_px < 8 ? camera.fit_rms_px : 8;
+    const int radius = 2 + static_cast<int>(std::ceil(2 * spread_px));
     cv::erode(depth, camera.nearest_depth, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * radius + 1, 2 * radius + 1)));
     camera.depth = depth;
     return camera;
@@ -76,9 +80,10 @@ FreeSpaceCheck free_space_violations(const ViewCamera& camera, const std::vector
     const int width = camera.nearest_depth.cols, height = camera.nearest_depth.rows;
     for (const cv::Vec3d& p : points) {
         if (p[2] <= 0) continue;
-        const int x = static_cast<int>(std::lround(camera.fx * p[0] / p[2] + camera.cx)) - camera.origin.x;
-        const int y = static_cast<int>(std::lround(camera.fy * p[1] / p[2] + camera.cy)) - camera.origin.y;
-        if (x < 0 || y < 0 || x >= width || y >= height) continue;
+        int x = 0, y = 0;
+        if (!round_to_pixel(std::round(camera.fx * p[0] / p[2] + camera.cx) - camera.origin.x, width, x) ||
+            !round_to_pixel(std::round(camera.fy * p[1] / p[2] + camera.cy) - camera.origin.y, height, y))
+            continue;
         // Only where the view measured: an unmeasured pixel may be a shadow, not empty space.
         if (!std::isfinite(camera.depth.at<float>(y, x))) continue;
         const float surface = camera.nearest_depth.at<float>(y, x);
