@@ -111,7 +111,7 @@ TEST(RegisterGrids, ACameraMatrixThatDoesNotFitTheViewLeavesAFreeSpaceMapOfBound
     // 2 + (int)2e30 (undefined; x86 gives INT_MIN), and OpenCV refused the negative kernel.
     ScanView view = plane_view();
     view.camera_matrix = cv::Matx33d(2500, 0, 1e30, 0, 2500, 1e30, 0, 0, 1);
-    const detail::ViewCamera camera = detail::view_camera(view);
+    const detail::ViewCamera camera = detail::view_camera(view, detail::measured_bounds(view));
     ASSERT_TRUE(camera.valid());
     EXPECT_EQ(camera.nearest_depth.size(), cv::Size(40, 40));
     // Points projecting far outside the map (at 1e30 px, just in front of the camera, NaN) are
