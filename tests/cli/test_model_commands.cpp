@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 namespace fs = std::filesystem;
 using namespace picoscan;
@@ -118,26 +119,33 @@ TEST(MeshCli, PoissonOfStitchedViewsIsWatertightAndBadCloudsAreRefused) {
     EXPECT_NE(missing.output.find("nothing.ply: no such file"), std::string::npos) << missing.output;
 }
 
-TEST(MeshCli, AFlatCloudFarFromTheOriginIsRefusedOnOneLineNamingTheFile) {
-    // A plane at 1e20 mm: CGAL lifts one point about 10 mm off a flat cloud to make its
-    // triangulation 3D, and at 1e20 rounding loses the lift. Before, CGAL printed a bare
-    // "not 3D" line and the command went on to "meshing produced no triangles".
+TEST(MeshCli, ACloudFarFromTheOriginIsRefusedOnOneLineNamingTheFile) {
+    // A plane at 1e20 mm: before, CGAL printed a bare "not 3D" line (its lift of one point off a
+    // flat cloud is lost to rounding there) and the command went on to "meshing produced no
+    // triangles". A ball at 1e7 mm (float steps of 1 mm) was meshed into 41 pieces, exit 0.
     const fs::path dir = make_temp_dir("mesh_far");
-    PointCloud cloud;
+    PointCloud plane, ball;
     for (int y = 0; y < 60; ++y)
         for (int x = 0; x < 60; ++x) {
-            cloud.points.emplace_back(1e20f + 1e13f * float(x), 1e20f + 1e13f * float(y), 1e20f);
-            cloud.normals.emplace_back(0.f, 0.f, 1.f);
+            plane.points.emplace_back(1e20f + 1e13f * float(x), 1e20f + 1e13f * float(y), 1e20f);
+            plane.normals.emplace_back(0.f, 0.f, 1.f);
+            const double theta = CV_PI * (y + 0.5) / 60, phi = 2 * CV_PI * x / 60;
+            const cv::Vec3f n(float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)), float(std::cos(theta)));
+            ball.points.push_back(cv::Vec3f(1e7f, 0.f, 0.f) + 20.f * n);
+            ball.normals.push_back(n);
         }
-    const std::string far = (dir / "far.ply").string();
-    write_ply(cloud, far);
-    const Result refused = run_picoscan("mesh " + far + " --out " + (dir / "far.stl").string() + " --method advancing-front");
-    EXPECT_EQ(refused.exit_code, 1);
-    EXPECT_EQ(std::count(refused.output.begin(), refused.output.end(), '\n'), 1) << refused.output;
-    EXPECT_NE(refused.output.find(far + ": is flat and lies 1.73e+20 mm from the origin, too far to be triangulated in 3D"),
-              std::string::npos)
-        << refused.output;
-    EXPECT_FALSE(fs::exists(dir / "far.stl"));
+    for (const auto& [cloud, method, distance] :
+         {std::tuple{plane, "advancing-front", "1.73e+20"}, std::tuple{ball, "poisson", "1e+07"}}) {
+        SCOPED_TRACE(method);
+        const std::string far = (dir / "far.ply").string();
+        write_ply(cloud, far);
+        const Result refused = run_picoscan("mesh " + far + " --out " + (dir / "far.stl").string() + " --method " + method);
+        EXPECT_EQ(refused.exit_code, 1);
+        EXPECT_EQ(std::count(refused.output.begin(), refused.output.end(), '\n'), 1) << refused.output;
+        EXPECT_NE(refused.output.find(far + ": point 0 lies " + distance + " mm from the origin, beyond 1 km"), std::string::npos)
+            << refused.output;
+        EXPECT_FALSE(fs::exists(dir / "far.stl"));
+    }
 }
 
 TEST(CleanCli, FiltersReportTheirCountsAndTheInputStays) {

@@ -1,4 +1,6 @@
 // mesh_cloud: prepare the points, reconstruct, fill small holes, simplify.
+#include "cloud/view_check.h"
+#include "common/text_format.h"
 #include "mesh/cgal_types.h"
 #include "mesh/sharpen.h"
 #include "picoscan/error.h"
@@ -296,6 +298,16 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     if (cloud.points.empty()) throw Error("point cloud", "is empty: nothing to mesh");
     if (cloud.normals.size() != cloud.points.size())
         throw Error("point cloud", "has no normals; mesh a cloud written by picoscan (reconstruct or stitch)");
+    // As for views (check_view_reach): beyond 1 km a float coordinate is coarser than 0.06 mm, so a
+    // far cloud would mesh into crumbs (a ball at 1e7 mm gave 41 pieces) and be reported as meshed.
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+        const cv::Vec3f& p = cloud.points[i];
+        if (!is_finite_point(p) || std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])}) <= detail::kFarthestViewPointMm)
+            continue;
+        throw Error("point cloud", "point " + std::to_string(i) + " lies " + format("%.3g", cv::norm(cv::Vec3d(p))) +
+                                       " mm from the origin, beyond 1 km: too far to mesh at the points' precision; bring the "
+                                       "cloud near the origin");
+    }
     report(0.0, "thinning the points");
     double spacing = 0;
     const std::vector<detail::PointWithNormal> points = detail::prepare_points(
