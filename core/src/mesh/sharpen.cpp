@@ -1216,7 +1216,12 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         else placed = true;
         if (placed && cv::norm(moved - x) <= longest_move) {
             target[v] = moved;
+            // Stopped on the line (or the corner) of a surface its own plane would have taken it
+            // past: on both surfaces, so its edges are not split again next to it (a cut landing
+            // beside it on the same line makes faces with no area there, which count as crossing
+            // and sent the whole rim back to Poisson's rounding).
             if (crossed.empty()) surface_of[v] = vp.plane[0];
+            else on_feature[v] = 1;
         }
     }
     // Walls whose rebuild was refused: Poisson's vertices relaxed onto the cylinder instead.
