@@ -1203,6 +1203,15 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 continue;
             }
         }
+        // On the bisector of two surfaces (a rounded edge's middle): onto their line, as a cut
+        // there would go; onto one of them, a sliver across the rounding turns over.
+        if (vp.count == 2 && sharp_pair(vp.plane[0], vp.plane[1], x) &&
+            std::abs(regions.planes[vp.plane[1]].distance(x)) <= 1.3 * std::abs(regions.planes[vp.plane[0]].distance(x)) &&
+            onto_line(regions.planes[vp.plane[0]], regions.planes[vp.plane[1]], x, moved) && cv::norm(moved - x) <= longest_move) {
+            on_feature[v] = 1;
+            target[v] = moved;
+            continue;
+        }
         // On its own plane, within the part of it its points are on (not past an edge).
         const Plane& own = regions.planes[vp.plane[0]];
         moved = onto_own_plane(regions, vp, x);
