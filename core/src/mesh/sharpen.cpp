@@ -1203,6 +1203,15 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 continue;
             }
         }
+        // On the bisector of two surfaces (a rounded edge's middle): onto their line, as a cut
+        // there would go; onto one of them, a sliver across the rounding turns over.
+        if (vp.count == 2 && sharp_pair(vp.plane[0], vp.plane[1], x) &&
+            std::abs(regions.planes[vp.plane[1]].distance(x)) <= 1.3 * std::abs(regions.planes[vp.plane[0]].distance(x)) &&
+            onto_line(regions.planes[vp.plane[0]], regions.planes[vp.plane[1]], x, moved) && cv::norm(moved - x) <= longest_move) {
+            on_feature[v] = 1;
+            target[v] = moved;
+            continue;
+        }
         // On its own plane, within the part of it its points are on (not past an edge).
         const Plane& own = regions.planes[vp.plane[0]];
         moved = onto_own_plane(regions, vp, x);
@@ -1216,7 +1225,12 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         else placed = true;
         if (placed && cv::norm(moved - x) <= longest_move) {
             target[v] = moved;
+            // Stopped on the line (or the corner) of a surface its own plane would have taken it
+            // past: on both surfaces, so its edges are not split again next to it (a cut landing
+            // beside it on the same line makes faces with no area there, which count as crossing
+            // and sent the whole rim back to Poisson's rounding).
             if (crossed.empty()) surface_of[v] = vp.plane[0];
+            else on_feature[v] = 1;
         }
     }
     // Walls whose rebuild was refused: Poisson's vertices relaxed onto the cylinder instead.
