@@ -372,7 +372,7 @@ std::vector<Case> hostile_cases() {
                                      std::vector<cv::Vec3f>(500, cv::Vec3f(0, 0, -1)));
                          return std::vector<std::string>{"mesh", "same.ply", "--out", "same.stl", "--spacing-mm", "0"};
                      },
-                     1, {"point cloud", "has only 1 usable points"}});
+                     1, {"same.ply: has only 1 usable points"}});
 
     // Memory bombs.
     cases.push_back({"view PLY whose picoscan_grid claims 30000x30000", [](const fs::path& dir) {
@@ -479,7 +479,7 @@ std::vector<Case> hostile_cases() {
                          write_text(dir / "part.stl", "old mesh");
                          return std::vector<std::string>{"mesh", "cloud.ply", "--out", "part.stl"};
                      },
-                     1, {"point cloud", "no valid normal"}});
+                     1, {"cloud.ply: 3000 of 3000 points have no valid normal"}});
     cases.push_back({"Poisson mesh of two separate spheres", [](const fs::path& dir) {
                          std::vector<cv::Vec3f> points, normals;
                          add_sphere(points, normals, {-60, 0, 400}, 20, 4000);
@@ -488,7 +488,7 @@ std::vector<Case> hostile_cases() {
                          write_text(dir / "two.stl", "old mesh");
                          return std::vector<std::string>{"mesh", "two.ply", "--out", "two.stl"};
                      },
-                     1, {"point cloud", "separate part"}, 60});
+                     1, {"two.ply: the Poisson surface covers only", "separate part"}, 60});
 
     cases.push_back({"capture folder holding a symlink loop", [](const fs::path& dir) {
                          write_capture_folder(dir / "caps", {160, 120});
