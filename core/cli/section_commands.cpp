@@ -6,6 +6,7 @@
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 #include "picoscan/io.h"
+#include "picoscan/region_fit.h"
 #include "picoscan/section_fit.h"
 
 #include <cctype>
@@ -43,8 +44,12 @@ The fit:
                      to about 0.04. An element whose cuts trend with their height (a drafted wall,
                      a cone, a sphere) keeps to its own cut, and the report says why.
                      Default 3; 0: the one cut.
-  --tolerance MM     largest distance of a point to its element (default: 5 x the noise the cut
-                     shows, at least 0.005 mm)
+  --tolerance MM     largest distance of a point to its element (default: 5 x the noise of the
+                     --scan, else 5 x the noise the cut shows; at least 0.005 mm)
+  --scan CLOUD.ply   the scan the mesh was made from (a view or a stitched cloud): its noise sets
+                     the default tolerance. Give it for a Poisson or sharpened mesh, whose flattened
+                     faces leave the cut almost no noise (micrometres), which says nothing of how
+                     well the scan knows the part
 
 Outputs (each optional; the report is always printed):
   --svg FILE.svg     lines and arcs as SVG paths, circles as circles, in millimetres
@@ -158,10 +163,24 @@ int run_section(const Arguments& arguments) {
         if (!std::isfinite(options.tolerance_mm) || options.tolerance_mm <= 0)
             throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the cut's noise)");
     }
+    const std::string scan = arguments.text("--scan");
+    check_extension(scan, {".ply"}, "scan");
+    if (!scan.empty() && arguments.has("--tolerance"))
+        throw Error("--scan", "sets the default tolerance: give either --scan or --tolerance, not both");
     const PlaneRequest request = plane_request(arguments);
     arguments.reject_unknown();
     const Mesh mesh = read_mesh(input);
     if (mesh.faces.empty()) throw Error(input, "holds no triangles (a point cloud? mesh it first with 'picoscan mesh')");
+    if (!scan.empty()) {
+        PointCloud cloud;
+        cloud.points = read_ply(scan).vertices;
+        try {
+            options.scan_noise_mm = estimate_scan_noise(cloud);
+        } catch (const Error& error) {
+            if (error.subject() != "cloud") throw;
+            throw Error(scan, std::string(error.what()).substr(error.subject().size() + 2));
+        }
+    }
     const Plane plane = section_plane(request, mesh);
 
     MeshSectionFit section;

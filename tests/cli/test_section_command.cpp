@@ -220,6 +220,60 @@ TEST(SectionCli, APlaneThatMissesThePartOrBadInputIsOneLineAndNothingIsWritten) 
 // A plane across a sphere: one circle of the radius at that height. 0.5 mm above the equator
 // the Band's cuts below it nearly match it, but they trend with their height (the sphere
 // narrows), so the circle keeps to its own cut and says why; at 2 mm no cut follows it.
+// A flattened mesh (here the exact part: its cut has no noise) takes its default tolerance from
+// the scan it was made from (--scan: points over the part's surface, 20 um of noise), not from its
+// cut; bad --scan input is one line naming it.
+TEST(SectionCli, TheScanBehindAFlattenedMeshSetsTheTolerance) {
+    const fs::path dir = make_temp_dir("section_cli_scan");
+    const std::string part = noisy_demo_part(dir, 0.0);
+    const Mesh mesh = read_mesh(part);
+    std::mt19937 random(5);
+    std::uniform_real_distribution<float> unit(0, 1);
+    std::normal_distribution<float> noise(0, 0.02f);
+    PointCloud scan;
+    double area = 0;
+    for (const cv::Vec3i& f : mesh.faces)
+        area += 0.5 * cv::norm((mesh.vertices[size_t(f[1])] - mesh.vertices[size_t(f[0])]).cross(mesh.vertices[size_t(f[2])] - mesh.vertices[size_t(f[0])]));
+    for (const cv::Vec3i& f : mesh.faces) {  // about 10 points per mm2, spread by area
+        const cv::Vec3f a = mesh.vertices[size_t(f[0])], b = mesh.vertices[size_t(f[1])], c = mesh.vertices[size_t(f[2])];
+        const double share = 0.5 * cv::norm((b - a).cross(c - a)) / area * 10 * area;
+        for (int k = 0; k < int(share + unit(random)); ++k) {
+            float u = unit(random), v = unit(random);
+            if (u + v > 1) u = 1 - u, v = 1 - v;
+            scan.points.push_back(a + u * (b - a) + v * (c - a) + cv::Vec3f(noise(random), noise(random), noise(random)));
+        }
+    }
+    const std::string cloud = (dir / "scan.ply").string();
+    write_ply(scan, cloud);
+
+    const Result cut_only = run_picoscan("section " + part + " --axis z --at 12");
+    ASSERT_EQ(cut_only.exit_code, 0) << cut_only.output;
+    EXPECT_NE(cut_only.output.find("tolerance 0.0050 mm (5 x the cut's noise)"), std::string::npos) << cut_only.output;
+    const Result with_scan = run_picoscan("section " + part + " --axis z --at 12 --scan " + cloud);
+    ASSERT_EQ(with_scan.exit_code, 0) << with_scan.output;
+    const size_t at = with_scan.output.find("5 x the scan's noise, ");
+    ASSERT_NE(at, std::string::npos) << with_scan.output;
+    const double scan_noise = std::stod(with_scan.output.substr(at + std::string("5 x the scan's noise, ").size()));
+    const size_t tolerance_at = with_scan.output.rfind("tolerance ", at);
+    const double tolerance = std::stod(with_scan.output.substr(tolerance_at + std::string("tolerance ").size()));
+    std::printf("scan noise %.4f mm (20 um put in), tolerance %.4f mm\n", scan_noise, tolerance);
+    EXPECT_NEAR(scan_noise, 0.02, 0.004);
+    EXPECT_NEAR(tolerance, 5 * scan_noise, 0.0002);
+
+    const auto refused = [&](const std::string& arguments, const std::string& message) {
+        const Result result = run_picoscan("section " + part + " --axis z --at 12 " + arguments);
+        EXPECT_EQ(result.exit_code, 1) << arguments;
+        EXPECT_NE(result.output.find(message), std::string::npos) << arguments << "\n" << result.output;
+        EXPECT_EQ(count_of(result.output, "\n"), 1u) << result.output;
+    };
+    refused("--scan " + cloud + " --tolerance 0.1", "--scan: sets the default tolerance: give either --scan or --tolerance");
+    refused("--scan " + (dir / "scan.txt").string(), "scan.txt: scan must end in .ply");
+    PointCloud few;
+    few.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    write_ply(few, (dir / "few.ply").string());
+    refused("--scan " + (dir / "few.ply").string(), (dir / "few.ply").string() + ": ");
+}
+
 TEST(SectionCli, APlaneThroughASphereGivesItsCircleAtThatHeight) {
     const fs::path dir = make_temp_dir("section_cli_sphere");
     const std::string sphere = sphere_wall(dir);
