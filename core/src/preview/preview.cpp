@@ -210,11 +210,10 @@ ContactSheetAxes contact_sheet_axes(const Mesh& mesh, const cv::Vec3d& up_hint) 
             if (area > 0) use(doubled_area * (0.5 / area), area);
         }
     };
-    double total_area = 0;
-    face_normals([&](const cv::Vec3d&, double area) { total_area += area; });
     cv::Vec3d up_sum(0, 0, 0);
-    double up_area = 0;
+    double up_area = 0, total_area = 0;
     face_normals([&](const cv::Vec3d& n, double area) {
+        total_area += area;
         if (std::abs(n.dot(up)) < std::sqrt(0.75) /* cos 30 deg */) return;
         up_sum += (n.dot(up) > 0 ? area : -area) * n;
         up_area += area;
