@@ -1283,3 +1283,64 @@ TEST(SectionFit, RealPolygonsWithShortSidesStayLines) {
     const SectionFit chamfered = fit_section(chorded(vertices, 1), true);
     EXPECT_EQ(count(chamfered, SectionElementKind::Arc), 0);
 }
+
+// A coarse mesh's chamfer, bowed by 35-50 um over its 11.3 mm, its corner with the side rounded
+// off 0.12 mm deep (FreeCAD's eight-view walkthrough, its Poisson mesh cut at z = 12 mm): the
+// corner and part of the chamfer were fitted as one arc of radius 419 +- 88 mm, whose unknown
+// radius then refused the whole outline (on the old code: 27 of 192 outlines of bows 0-50 um, corners
+// of 0-2 mm, 1-8 seeds, 10-20 um noise, in a study with the Python module). A curve whose
+// points cannot tell its radius shows no curve: a line that holds the same points within the
+// tolerance takes its place. Built to fool it: a real fillet of 8 mm radius in place of the
+// chamfer stays one arc of its radius.
+TEST(SectionFit, AChamferBowedFarBelowTheToleranceIsALine) {
+    SectionFitOptions options;
+    options.tolerance_mm = 0.1;
+    const cv::Vec2d b(17, 18), outward = cv::Vec2d(1, 1) / std::sqrt(2.0);
+    const auto angle_deg = [](cv::Vec2d p, cv::Vec2d centre) { return std::atan2(p[1] - centre[1], p[0] - centre[0]) * 180 / kPi; };
+    for (const double bow_mm : {0.035, 0.05}) {
+        for (const double round_mm : {0.0, 1.5, 2.0, -8.0}) {  // the corner's radius; -8: the fillet in place of the chamfer
+            for (const double sigma : {0.01, 0.02}) {
+                for (const unsigned seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
+                    SCOPED_TRACE("bow " + std::to_string(bow_mm) + " corner " + std::to_string(round_mm) + " sigma " +
+                                 std::to_string(sigma) + " seed " + std::to_string(seed));
+                    Outline outline(sigma, 0.3);
+                    outline.random.seed(seed);
+                    outline.line({-25, -18}, {25, -18});
+                    if (round_mm < 0) {
+                        outline.line({25, -18}, {25, 10});
+                        outline.arc({17, 10}, 8, 0, 90);
+                    } else {
+                        // The corner at (25, 10): an arc tangent to the side x = 25 and to the chamfer x + y = 35.
+                        const cv::Vec2d centre(25 - round_mm, 10 + round_mm - round_mm * std::sqrt(2.0));
+                        const cv::Vec2d a = centre + round_mm * outward;  // where the chamfer starts
+                        outline.line({25, -18}, {25, centre[1]});
+                        if (round_mm > 0) outline.arc(centre, round_mm, 0, 45);
+                        // The chamfer: an arc from a to b that bulges out by bow_mm.
+                        const double half_chord = cv::norm(b - a) / 2;
+                        const double radius = (half_chord * half_chord + bow_mm * bow_mm) / (2 * bow_mm);
+                        const cv::Vec2d bow_centre = (a + b) / 2 - (radius - bow_mm) * outward;
+                        outline.arc(bow_centre, radius, angle_deg(a, bow_centre), angle_deg(b, bow_centre));
+                    }
+                    outline.line(b, {-25, 18});
+                    outline.line({-25, 18}, {-25, -18});
+                    SectionFit fit;
+                    ASSERT_NO_THROW(fit = fit_section(outline.points, true, options));
+                    int chamfers = 0, fillets = 0;
+                    for (const auto& e : fit.elements) {
+                        EXPECT_LE(e.rms_mm, options.tolerance_mm);
+                        if (e.kind == SectionElementKind::Arc) {
+                            EXPECT_LT(e.radius_mm, 10.0);  // a corner or the fillet, never the chamfer's bow
+                            fillets += std::abs(e.radius_mm - 8.0) < 0.05;
+                        } else if (cv::norm(e.end - e.start) > 8) {
+                            chamfers += angle_error_deg(direction_deg(e.start, e.end), 135.0) < 0.3;
+                        }
+                    }
+                    std::string elements;
+                    for (const auto& e : fit.elements) elements += section_element_text(e) + "\n";
+                    EXPECT_EQ(chamfers, round_mm < 0 ? 0 : 1) << elements;
+                    EXPECT_EQ(fillets, round_mm < 0 ? 1 : 0);
+                }
+            }
+        }
+    }
+}

@@ -120,6 +120,12 @@ double max_distance(const Shape& shape, const Points& pts, long first, long coun
     return worst;
 }
 
+double rms_of(const Shape& shape, const Points& pts, long first, long count) {
+    double sum = 0;
+    for (long i = first; i < first + count; ++i) sum += std::pow(shape.distance(pts[i]), 2);
+    return std::sqrt(sum / double(std::max<long>(count, 1)));
+}
+
 // Signed angle swept going through the points around the centre (positive: counter-clockwise).
 double swept_angle(const Points& pts, long first, long count, const cv::Vec2d& centre) {
     double sweep = 0;
@@ -1022,8 +1028,12 @@ double tolerance_for(double noise_mm, const SectionFitOptions& options) {
 // standard error above the tolerance and above 1 % of the radius (a gently curved side may know
 // its large radius only to a few mm and still follow its points). A sliver of a hole's wall
 // (43 points of the demo scan's hole at z = 12 mm: 4.85 mm +- 1.77 mm) is no measured hole.
+bool radius_unknown(const Shape& shape, double sigma, double tolerance) {
+    return shape.circle && sigma > tolerance && sigma > 0.01 * shape.radius;
+}
+
 void check_radius_known(const Shape& shape, double sigma, double tolerance, long first, long number, long n) {
-    if (!shape.circle || !(sigma > tolerance && sigma > 0.01 * shape.radius)) return;
+    if (!radius_unknown(shape, sigma, tolerance)) return;
     char text[256];
     std::snprintf(text, sizeof text,
                   "the arc fitted to points %ld to %ld (radius %.3f mm) has a radius standard error of %.3f mm, above the "
@@ -1081,9 +1091,30 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
     fitter.refine(spans);
     fitter.merge(spans);
     fitter.refine(spans);
+    // An arc whose points cannot tell its radius shows no curve: where a line holds the same points
+    // within the tolerance (the terms every element is held to), it is that line, which may then
+    // join its neighbours (a coarse mesh's chamfer, bowed 35 um and its corner rounded, grown as
+    // one arc of radius 419 +- 88 mm). Not a fillet: its radius comes from its tangent lines too.
+    const auto lines_for_arcs_of_unknown_radius = [&](std::vector<Span>& spans) {
+        const size_t count = spans.size();
+        for (size_t j = 0; j < count; ++j) {
+            Span& span = spans[j];
+            if (!span.shape.circle) continue;
+            const bool tangent_before = (closed || j > 0) && count > 1 &&
+                                        can_be_tangent(spans[(j + count - 1) % count].shape, span.shape, result.tolerance_mm);
+            const bool tangent_after = (closed || j + 1 < count) && count > 1 &&
+                                       can_be_tangent(span.shape, spans[(j + 1) % count].shape, result.tolerance_mm);
+            if (tangent_before && tangent_after) continue;
+            if (!radius_unknown(span.shape, jackknife_sigma(span.shape, pts, span.first, span.count, Band{}), result.tolerance_mm))
+                continue;
+            const Shape line = fitter.fit(false, span.first, span.count);
+            if (line.ok && rms_of(line, pts, span.first, span.count) <= result.tolerance_mm) span.shape = line;
+        }
+    };
     for (size_t before = 0; before != spans.size();) {  // each pass can make more of the other's cases
         before = spans.size();
         fitter.drop_rounded_corners(spans);
+        lines_for_arcs_of_unknown_radius(spans);
         fitter.drop_unfounded_splits(spans);
         fitter.refine(spans);
     }
@@ -1091,9 +1122,7 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
     // beyond the tolerance (so the circle was not taken at once above), which the joining then
     // found unfounded. Held to the same terms as every element: its RMS within the tolerance.
     if (closed && spans.size() == 1 && spans[0].shape.circle) {
-        double sum = 0;
-        for (long i = 0; i < n; ++i) sum += std::pow(whole.distance(pts[i]), 2);
-        if (std::sqrt(sum / double(n)) <= result.tolerance_mm) return whole_circle(whole);
+        if (rms_of(whole, pts, 0, n) <= result.tolerance_mm) return whole_circle(whole);
     }
     std::vector<double> sigmas;  // of each final fit (jackknife_sigma)
     std::vector<Band> bands(spans.size());  // each element's points of the parallel cuts
@@ -1155,9 +1184,7 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
         // like a measured one).
         for (size_t j = 0; j < count; ++j) {
             const auto [first, number] = fitted[j];
-            double sum = 0;
-            for (long i = first; i < first + number; ++i) sum += std::pow(trimmed[j].shape.distance(pts[i]), 2);
-            const double rms = std::sqrt(sum / double(std::max<long>(number, 1)));
+            const double rms = rms_of(trimmed[j].shape, pts, first, number);
             if (rms > result.tolerance_mm)
                 throw Error("polyline", std::string("the ") + (trimmed[j].shape.circle ? "arc" : "line") +
                                             " fitted to points " + std::to_string(((first % n) + n) % n) + " to " +
@@ -1167,12 +1194,12 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
                                             " mm: the section cannot be split into lines and arcs there");
         }
         for (size_t j = 0; j < count; ++j) {
-            sigmas.push_back(jackknife_sigma(trimmed[j].shape, pts, fitted[j].first, fitted[j].second, bands[j]));
+            const auto [first, number] = fitted[j];
+            sigmas.push_back(jackknife_sigma(trimmed[j].shape, pts, first, number, bands[j]));
             // A fillet (tangent on both sides) has its radius from the lines too, which its jackknife
             // over its own short arc does not see.
             const bool fillet = smooth_after[j] && (closed || j > 0) && smooth_after[(j + count - 1) % count];
-            if (!fillet)
-                check_radius_known(trimmed[j].shape, sigmas[j], result.tolerance_mm, fitted[j].first, fitted[j].second, n);
+            if (!fillet) check_radius_known(trimmed[j].shape, sigmas[j], result.tolerance_mm, first, number, n);
         }
         spans = trimmed;
     }
