@@ -75,9 +75,10 @@ std::vector<int> self_intersecting_faces(const Mesh& mesh);
 Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm);
 // The closed mesh cut by the plane {x : up . x = height}, the part above kept and the cut
 // closed by a flat cap, re-triangulated at about cap_edge_mm (so that the cap has vertices
-// of its own, away from the measured rim). Throws Error when the mesh is not closed or
-// intersects itself.
-Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double cap_edge_mm);
+// of its own, away from the measured rim); closed pieces of less area than smallest_piece_mm2
+// that the cut leaves apart are dropped. Throws Error when the mesh is not closed or intersects
+// itself.
+Mesh clip_at_plane(const Mesh& mesh, const cv::Vec3d& up, double height, double cap_edge_mm, double smallest_piece_mm2);
 Mesh simplify(const Mesh& mesh, int target_faces);
 
 }  // namespace picoscan::detail

@@ -380,7 +380,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
                 });
                 onto_points(mesh, extended, spacing);
             }
-            mesh = detail::clip_at_plane(mesh, table.up, table.height, std::max(3 * spacing, 1.0));
+            mesh = detail::clip_at_plane(mesh, table.up, table.height, std::max(3 * spacing, 1.0), spacing * spacing);
         }
         // Last, on the surface that stays: the cut at the table needs a mesh that does not cross
         // itself, and the sharpening only moves vertices where that stays so.

@@ -1496,6 +1496,8 @@ class PicoScanGuiTest(unittest.TestCase):
                                      "of the part's); %s\n" % (surface.Mesh.CountFacets, surface.Mesh.Volume, 100 * (
                                          surface.Mesh.Volume / true_volume_mm3 - 1), surface.Check))
         self.assertIn("watertight", surface.Check)
+        # One piece: the cut at the table once left a crumb of 4 faces beside the hole.
+        self.assertIn(" 1 component(s)", surface.Check)
         self.assertAlmostEqual(surface.Mesh.Volume / true_volume_mm3, 1.0, delta=0.03)
         self.walkthrough_screenshot("multi-4-mesh", [surface])
         step("meshed")
