@@ -6,7 +6,6 @@
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 #include "picoscan/io.h"
-#include "picoscan/region_fit.h"
 #include "picoscan/section_fit.h"
 
 #include <cctype>
@@ -56,7 +55,8 @@ Outputs (each optional; the report is always printed):
   --dxf FILE.dxf     LINE, ARC and CIRCLE entities (DXF R12 ASCII, millimetres), for CAD tools
 Both are replaced together, and only when the fit succeeds.
 
-The report: the plane, the noise and tolerance, then per polyline its elements: kind, length and
+The report: the plane, the noise, the tolerance and where it came from (given, the --scan, or the
+cut: then set it yourself), then per polyline its elements: kind, length and
 direction (lines, degrees from the drawing's x axis) or radius and swept angle (arcs, circles),
 the standard error of the direction or radius, RMS and largest distance of its points, and how
 many band cuts refitted it (or why it kept to its own cut); then the polylines left out, and why.
@@ -161,7 +161,7 @@ int run_section(const Arguments& arguments) {
     if (arguments.has("--tolerance")) {
         options.tolerance_mm = arguments.number("--tolerance", 0);
         if (!std::isfinite(options.tolerance_mm) || options.tolerance_mm <= 0)
-            throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the cut's noise)");
+            throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the noise of the --scan, or of the cut)");
     }
     const std::string scan = arguments.text("--scan");
     check_extension(scan, {".ply"}, "scan");
@@ -171,22 +171,19 @@ int run_section(const Arguments& arguments) {
     arguments.reject_unknown();
     const Mesh mesh = read_mesh(input);
     if (mesh.faces.empty()) throw Error(input, "holds no triangles (a point cloud? mesh it first with 'picoscan mesh')");
+    std::optional<PointCloud> cloud;
     if (!scan.empty()) {
-        PointCloud cloud;
-        cloud.points = read_ply(scan).vertices;
-        try {
-            options.scan_noise_mm = estimate_scan_noise(cloud);
-        } catch (const Error& error) {
-            if (error.subject() != "cloud") throw;
-            throw Error(scan, std::string(error.what()).substr(error.subject().size() + 2));
-        }
+        cloud.emplace();
+        cloud->points = read_ply(scan).vertices;
     }
     const Plane plane = section_plane(request, mesh);
 
     MeshSectionFit section;
     try {
-        section = section_mesh(mesh, plane.origin, plane.u, plane.v, band, options, terminal_progress());
+        section = section_mesh(mesh, plane.origin, plane.u, plane.v, band, options, terminal_progress(),
+                               cloud ? &*cloud : nullptr);
     } catch (const Error& error) {
+        if (error.subject() == "scan") throw Error(scan, std::string(error.what()).substr(6));
         if (error.subject() != "plane") throw;
         throw Error(request.flag, "the plane through " + vector_text(plane.origin) + " with normal " +
                                     vector_text(plane.normal) + " " + std::string(error.what()).substr(7));

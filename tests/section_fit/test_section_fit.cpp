@@ -1081,6 +1081,63 @@ TEST(SectionFit, SectionMeshFitsAFacetedFilletAsOneArc) {
               std::string::npos);
 }
 
+// section_mesh given the scan behind a flattened mesh (an exact 40 x 20 x 10 mm box: its cut has no
+// noise; the scan: points over its surface with 20 um of noise): the tolerance is 5 x the noise
+// measured on the scan, and the report says so; without the scan it is the cut's 0.005 mm floor and
+// the report says to set it; given, it says given. A scan with a tolerance, or with too few points,
+// is refused naming the scan.
+TEST(SectionFit, SectionMeshTakesItsToleranceFromTheScanBehindTheMesh) {
+    Mesh box;  // its sides, in quads every 0.4 mm (as a CAD tool meshes them)
+    const std::vector<cv::Vec2d> corners = {{20, -10}, {20, 10}, {-20, 10}, {-20, -10}};
+    std::vector<cv::Vec2d> ring;
+    for (size_t k = 0; k < corners.size(); ++k)
+        for (int i = 0; i < int(cv::norm(corners[(k + 1) % 4] - corners[k]) / 0.4); ++i)
+            ring.push_back(corners[k] + (corners[(k + 1) % 4] - corners[k]) * (i * 0.4 / cv::norm(corners[(k + 1) % 4] - corners[k])));
+    const int n = int(ring.size());
+    for (const double z : {0.0, 10.0})
+        for (const cv::Vec2d& p : ring) box.vertices.push_back(cv::Vec3f(float(p[0]), float(p[1]), float(z)));
+    for (int i = 0; i < n; ++i) {
+        box.faces.push_back({i, (i + 1) % n, n + (i + 1) % n});
+        box.faces.push_back({i, n + (i + 1) % n, n + i});
+    }
+    PointCloud scan;
+    scan.points = test_support::noisy_surface_points(box.vertices, box.faces, 10, 0.02, 7);
+    const cv::Vec3d origin(0, 0, 5), u(1, 0, 0), v(0, 1, 0);
+    const auto report_has = [](const MeshSectionFit& section, const std::string& text) {
+        return std::any_of(section.report.begin(), section.report.end(),
+                           [&](const std::string& line) { return line.find(text) != std::string::npos; });
+    };
+
+    const MeshSectionFit with_scan = section_mesh(box, origin, u, v, 0, {}, nullptr, &scan);
+    std::printf("box with a 20 um scan: scan noise %.4f mm, tolerance %.4f mm; %s\n", with_scan.scan_noise_mm,
+                with_scan.fits.tolerance_mm, with_scan.tolerance_from.c_str());
+    EXPECT_EQ(with_scan.tolerance_source, SectionToleranceSource::ScanNoise);
+    EXPECT_NEAR(with_scan.scan_noise_mm, 0.02, 0.004);
+    EXPECT_DOUBLE_EQ(with_scan.fits.tolerance_mm, 5 * with_scan.scan_noise_mm);
+    EXPECT_LT(with_scan.fits.noise_mm, 1e-4);  // the flattened mesh's own cut shows none of it
+    EXPECT_TRUE(report_has(with_scan, with_scan.tolerance_from));
+    EXPECT_EQ(with_scan.tolerance_from.find("5 x the noise of the scan the mesh was made from"), 21u) << with_scan.tolerance_from;
+    ASSERT_EQ(with_scan.fits.fits.size(), 1u);
+    EXPECT_EQ(count(with_scan.fits.fits[0], SectionElementKind::Line), 4);
+
+    const MeshSectionFit from_cut = section_mesh(box, origin, u, v, 0);
+    EXPECT_EQ(from_cut.tolerance_source, SectionToleranceSource::CutNoise);
+    EXPECT_EQ(from_cut.scan_noise_mm, 0.0);
+    EXPECT_EQ(from_cut.fits.tolerance_mm, 0.005);
+    EXPECT_NE(from_cut.tolerance_from.find("set it yourself"), std::string::npos) << from_cut.tolerance_from;
+    SectionFitOptions given;
+    given.tolerance_mm = 0.05;
+    const MeshSectionFit set = section_mesh(box, origin, u, v, 0, given);
+    EXPECT_EQ(set.tolerance_source, SectionToleranceSource::Given);
+    EXPECT_EQ(set.tolerance_from, "tolerance 0.0500 mm: given");
+
+    EXPECT_EQ(test_support::error_of([&] { section_mesh(box, origin, u, v, 0, given, nullptr, &scan); }),
+              "scan: sets the default tolerance: give either the scan or a tolerance, not both");
+    PointCloud few;
+    few.points.assign(scan.points.begin(), scan.points.begin() + 10);
+    EXPECT_EQ(test_support::error_of([&] { section_mesh(box, origin, u, v, 0, {}, nullptr, &few); }).rfind("scan: 10 points", 0), 0u);
+}
+
 // A cut of a mesh with planar facets (a CAD export, an extruded outline): `vertices` are where the cut
 // crosses the mesh's edges along the outline (on the true curve, up to the noise given to them), joined
 // by straight chords, each with `inner` points between its ends (where the cut crosses facets'
