@@ -1279,11 +1279,13 @@ TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
         vertices.push_back({1, 10});
         add_faceted_arc(vertices, {-1, 0}, 10, 90, 270, 31, sigma, random);
         vertices.push_back({-1, -10});
-        // A side of one facet (3 points) is too few for a line (min_line_points): refused, not
-        // swallowed by the arcs.
-        const std::string refused = test_support::error_of([&] { fit_section(chorded(vertices, 1), true); });
-        EXPECT_EQ(refused.rfind("polyline", 0), 0u) << refused;
-        const SectionFit slot = fit_section(chorded(vertices, 3), true);
+        // A side of one facet (3 points: fewer than min_line_points) is still a line: its middle lies
+        // 0.05 mm outside the arc before it, where no chord of that arc can lie (short_side). Refused
+        // before; with 3 points per chord it always was a line.
+        for (const int inner : {1, 3}) {
+        SCOPED_TRACE(std::to_string(inner) + " inner points per chord");
+        SectionFit slot;
+        ASSERT_EQ(test_support::error_of([&] { slot = fit_section(chorded(vertices, inner), true); }), "");
         ASSERT_EQ(count(slot, SectionElementKind::Arc), 2);
         ASSERT_EQ(count(slot, SectionElementKind::Line), 2);
         for (const SectionElement& e : slot.elements) {
@@ -1301,8 +1303,33 @@ TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
             }
             EXPECT_EQ(text.find("nan"), std::string::npos) << text;
         }
+        }
     }
     EXPECT_GT(unknown_sigmas, 0) << "no line short enough to have no standard error";
+}
+
+// Built to fool short_side: a hole of 10 mm radius in 1.1 mm chords with one chord of 2.4 mm, too
+// long for its neighbours' facet run (more than 2 x), so its middle is fitted like the slot's 2 mm
+// side's: 3 points on one line after a faceted arc, the middle off the arc. It is a facet: its middle
+// lies 0.07 mm inside the circle, and it must not become a line (a rule that took any 3 points off
+// the arc by more than the tolerance made it one). The fit cannot place that middle on the circle
+// either: it refuses, as before short_side.
+TEST(SectionFit, ALongFacetOfAHoleIsNoShortSide) {
+    for (const double sigma : {0.0, 0.001}) {
+        SCOPED_TRACE("sigma " + std::to_string(sigma));
+        std::mt19937 random(31);
+        std::vector<cv::Vec2d> vertices;
+        const double long_chord_deg = 2 * std::asin(1.2 / 10) * 180 / kPi;  // 13.8 deg
+        add_faceted_arc(vertices, {0, 0}, 10, long_chord_deg, 360, 55, sigma, random);
+        vertices.push_back({10, 0});  // the long chord runs from here to the first vertex
+        SectionFit fit;
+        const std::string why = test_support::error_of([&] { fit = fit_section(chorded(vertices, 1), true); });
+        std::printf("hole with a 2.4 mm facet, sigma %.3f: %s%d lines, %d arcs, %d circles\n", sigma, why.c_str(),
+                    count(fit, SectionElementKind::Line), count(fit, SectionElementKind::Arc),
+                    count(fit, SectionElementKind::Circle));
+        EXPECT_EQ(count(fit, SectionElementKind::Line), 0);
+        EXPECT_EQ(why.rfind("polyline: ", 0), 0u) << why;
+    }
 }
 
 // Real polygons whose corners lie on one circle and turn alike, but by more than a curve's facets:
