@@ -981,15 +981,12 @@ void PicoScanFilterPlugin::section(MeshDocument& document, const RichParameterLi
     PointCloud scan;
     if (has_scan) scan.points = layer_points(*scan_layer, true, false);
 
-    // The drawing's frames of picoscan section: the right, front and top views.
     const int axis = parameters.getEnum(kSectionAxis);
     const double at = parameters.getFloat(kSectionAt);
-    const cv::Vec3d u_axes[3] = {{0, 1, 0}, {1, 0, 0}, {1, 0, 0}}, v_axes[3] = {{0, 0, 1}, {0, 0, 1}, {0, 1, 0}};
-    cv::Vec3d origin(0, 0, 0);
-    origin[axis] = at;
+    const SectionPlane plane = section_plane_across(axis, at);  // picoscan section's right, front and top views
     MeshSectionFit result;
     try {
-        result = section_mesh(mesh, origin, u_axes[axis], v_axes[axis], parameters.getFloat(kSectionBand), options,
+        result = section_mesh(mesh, plane.origin, plane.u, plane.v, parameters.getFloat(kSectionBand), options,
                               meshlab_progress(callback), has_scan ? &scan : nullptr);
     } catch (const Error& error) {
         const std::string why = std::string(error.what()).substr(error.subject().size() + 2);

@@ -72,20 +72,6 @@ std::string vector_text(const cv::Vec3d& v) {
     return text;
 }
 
-// The plane and the drawing's frame on it: x (u) square to `up` (Z, or Y for a plane nearly across
-// Z), y (v) completing a right-handed frame with the normal towards the viewer.
-struct Plane {
-    cv::Vec3d origin, normal, u, v;
-};
-
-Plane plane_with_normal(const cv::Vec3d& origin, cv::Vec3d normal) {
-    normal /= cv::norm(normal);
-    const cv::Vec3d up = std::abs(normal[2]) > 0.9 ? cv::Vec3d(0, 1, 0) : cv::Vec3d(0, 0, 1);
-    cv::Vec3d u = up.cross(normal);
-    u /= cv::norm(u);
-    return {origin, normal, u, normal.cross(u)};
-}
-
 cv::Vec3d box_centre(const Mesh& mesh) {
     cv::Vec3d low(HUGE_VAL, HUGE_VAL, HUGE_VAL), high(-HUGE_VAL, -HUGE_VAL, -HUGE_VAL);
     for (const cv::Vec3f& p : mesh.vertices)
@@ -138,14 +124,10 @@ PlaneRequest plane_request(const Arguments& arguments) {
     return request;
 }
 
-Plane section_plane(const PlaneRequest& request, const Mesh& mesh) {
+SectionPlane plane_of(const PlaneRequest& request, const Mesh& mesh) {
     const cv::Vec3d centre = box_centre(mesh);
-    if (request.axis < 0) return plane_with_normal(request.point.value_or(centre), request.normal);
-    // Normals towards the viewer of the right (x), front (y, looking along +y) and top (z) views.
-    const cv::Vec3d normals[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
-    cv::Vec3d origin(0, 0, 0);
-    origin[request.axis] = request.at.value_or(centre[request.axis]);
-    return plane_with_normal(origin, normals[request.axis]);
+    if (request.axis < 0) return section_plane(request.point.value_or(centre), request.normal);
+    return section_plane_across(request.axis, request.at.value_or(centre[request.axis]));
 }
 
 int run_section(const Arguments& arguments) {
@@ -176,7 +158,7 @@ int run_section(const Arguments& arguments) {
         cloud.emplace();
         cloud->points = read_ply(scan).vertices;
     }
-    const Plane plane = section_plane(request, mesh);
+    const SectionPlane plane = plane_of(request, mesh);
 
     MeshSectionFit section;
     try {

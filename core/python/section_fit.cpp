@@ -154,6 +154,16 @@ void bind_section_fit(py::module_& m) {
         py::arg("progress") = py::none(),
         "A section's polylines ([SectionPolyline], e.g. cut_mesh_section's) fitted with one noise and tolerance; too small or too noisy "
         "ones left out with the reason (left_out)");
+    py::class_<SectionPlane>(m, "SectionPlane")
+        .def_readonly("origin", &SectionPlane::origin)
+        .def_readonly("normal", &SectionPlane::normal, "Unit normal, towards the viewer")
+        .def_readonly("u", &SectionPlane::u, "The drawing's x")
+        .def_readonly("v", &SectionPlane::v, "The drawing's y");
+    m.def("section_plane", &section_plane, py::arg("origin"), py::arg("normal"),
+          "The plane through origin with this normal and its drawing's frame (x square to Z, or to Y for a plane "
+          "nearly across Z), as picoscan section draws it");
+    m.def("section_plane_across", &section_plane_across, py::arg("axis"), py::arg("at"),
+          "The plane across axis 0, 1, 2 (x, y, z) at `at` mm, as the right, front or top view");
     py::enum_<SectionToleranceSource>(m, "SectionToleranceSource")
         .value("Given", SectionToleranceSource::Given)
         .value("ScanNoise", SectionToleranceSource::ScanNoise)

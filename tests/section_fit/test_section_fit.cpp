@@ -1081,6 +1081,24 @@ TEST(SectionFit, SectionMeshFitsAFacetedFilletAsOneArc) {
               std::string::npos);
 }
 
+// The drawing's frames the CLI and MeshLab share: across x the right view (y, z), across y the front
+// view (x, z), across z the top view (x, y); any normal: x square to Z, the normal towards the viewer.
+TEST(SectionFit, SectionPlanesAreTheRightFrontAndTopViews) {
+    const cv::Vec3d expected_u[3] = {{0, 1, 0}, {1, 0, 0}, {1, 0, 0}}, expected_v[3] = {{0, 0, 1}, {0, 0, 1}, {0, 1, 0}};
+    for (int axis = 0; axis < 3; ++axis) {
+        const SectionPlane plane = section_plane_across(axis, 12);
+        EXPECT_EQ(plane.origin[axis], 12.0);
+        EXPECT_LT(cv::norm(plane.u - expected_u[axis]), 1e-12) << axis;
+        EXPECT_LT(cv::norm(plane.v - expected_v[axis]), 1e-12) << axis;
+        EXPECT_LT(cv::norm(plane.u.cross(plane.v) - plane.normal), 1e-12) << axis;
+    }
+    const SectionPlane oblique = section_plane({1, 2, 3}, {3, 0, 4});
+    EXPECT_LT(cv::norm(oblique.normal - cv::Vec3d(0.6, 0, 0.8)), 1e-12);
+    EXPECT_NEAR(oblique.u[2], 0.0, 1e-12);
+    EXPECT_EQ(test_support::error_of([] { section_plane_across(3, 0); }), "axis: must be 0, 1 or 2 (x, y, z), is 3");
+    EXPECT_EQ(test_support::error_of([] { section_plane({0, 0, 0}, {0, 0, 0}); }).rfind("normal: ", 0), 0u);
+}
+
 // section_mesh given the scan behind a flattened mesh (an exact 40 x 20 x 10 mm box: its cut has no
 // noise; the scan: points over its surface with 20 um of noise): the tolerance is 5 x the noise
 // measured on the scan, and the report says so; without the scan it is the cut's 0.005 mm floor and

@@ -221,6 +221,17 @@ struct MeshSection {
 MeshSection cut_mesh_section(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
                              double band_mm = kDefaultSectionBandMm, const ProgressCallback& progress = nullptr);
 
+// A section's plane and its drawing's frame, as picoscan section and MeshLab's Fit Cross-section draw
+// it: x (u) square to Z (to Y for a plane nearly across Z), y (v) completing a right-handed frame
+// with the unit normal towards the viewer. Throws Error("normal", ...) for a zero or non-finite normal.
+struct SectionPlane {
+    cv::Vec3d origin, normal, u, v;
+};
+SectionPlane section_plane(const cv::Vec3d& origin, const cv::Vec3d& normal);
+// The plane across axis 0, 1 or 2 (x, y, z) at `at` mm, seen as the right (y, z), front (x, z; looking
+// along +y) or top (x, y) view. Throws Error("axis", ...) for another axis.
+SectionPlane section_plane_across(int axis, double at);
+
 // The whole Cross-section, as every host runs it (FreeCAD's Cross-section, picoscan section, MeshLab's
 // Fit Cross-section): the default tolerance (5 x the noise of the scan the mesh was made from, when
 // the host has it; else 5 x the cut's), the mesh cut with its Band (cut_mesh_section), the polylines

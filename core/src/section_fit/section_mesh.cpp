@@ -96,6 +96,25 @@ std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions
 
 }  // namespace
 
+SectionPlane section_plane(const cv::Vec3d& origin, const cv::Vec3d& normal) {
+    const double length = cv::norm(normal);
+    if (!(length > 1e-9) || !std::isfinite(length)) throw Error("normal", "must be a non-zero direction, e.g. 0,0,1");
+    const cv::Vec3d n = normal / length;
+    const cv::Vec3d up = std::abs(n[2]) > 0.9 ? cv::Vec3d(0, 1, 0) : cv::Vec3d(0, 0, 1);
+    cv::Vec3d u = up.cross(n);
+    u /= cv::norm(u);
+    return {origin, n, u, n.cross(u)};
+}
+
+SectionPlane section_plane_across(int axis, double at) {
+    if (axis < 0 || axis > 2) throw Error("axis", "must be 0, 1 or 2 (x, y, z), is " + std::to_string(axis));
+    // Normals towards the viewer of the right (x), front (y, looking along +y) and top (z) views.
+    const cv::Vec3d normals[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
+    cv::Vec3d origin(0, 0, 0);
+    origin[axis] = at;
+    return section_plane(origin, normals[axis]);
+}
+
 MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
                             double band_mm, const SectionFitOptions& options, const ProgressCallback& progress,
                             const PointCloud* scan) {
