@@ -5,9 +5,11 @@
 #include "picoscan/calibration.h"
 #include "picoscan/capture_set.h"
 #include "picoscan/error.h"
+#include "picoscan/file_output.h"
 #include "picoscan/fit.h"
 #include "picoscan/io.h"
 #include "picoscan/pipeline.h"
+#include "picoscan/section_fit.h"
 #include "picoscan/simulate.h"
 
 #include <QDir>
@@ -16,6 +18,7 @@
 #include <QTemporaryDir>
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <map>
 
@@ -74,12 +77,19 @@ const char* const kShape = "shape";
 const char* const kSelectedOnly = "selectedOnly";
 const char* const kModelFrame = "modelFrame";
 const char* const kViewFolder = "viewFolder";
+const char* const kSectionAxis = "axis";
+const char* const kSectionAt = "at";
+const char* const kSectionBand = "band";
+const char* const kSectionTolerance = "tolerance";
+const char* const kScanLayer = "scanLayer";
+const char* const kSectionDxf = "dxfFile";
 
 // Values of the "sequence" enum: where the frame order of a capture set comes from.
 enum SequenceSource { OwnManifest, SlmasterCgc, SlstudioGray };
 enum OutputKind { PointCloudLayer, GridMeshLayer };
 enum FitShape { SphereShape, PlaneShape };
 enum MeshingMethod { PoissonMethod, AdvancingFrontMethod };
+enum SectionAxis { SectionX, SectionY, SectionZ };
 // Align Layers' mode: how each placement's layers are aligned (the core's stitch_views recipe).
 enum AlignMode { AutomaticAlign, FeaturesAlign, TurntableRoundAlign, TurntableAxisAlign };
 // Fuse and Mesh's fill, in the order of the FreeCAD workbench's ScanMesh Fill.
@@ -267,7 +277,7 @@ TurntableAxis known_turntable_axis(const RichParameterList& parameters, const st
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
-    typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure << SaveViews;
+    typeList << Reconstruct << Simulate << Clean << Align << Fuse << Measure << SaveViews << Section;
     for (FilterIDType type : types()) actionList << new QAction(filterName(type), this);
 }
 
@@ -282,6 +292,7 @@ QString PicoScanFilterPlugin::filterName(FilterIDType filter) const {
     case Fuse: return "PicoScan: Fuse and Mesh";
     case Measure: return "PicoScan: Measure Sphere or Plane";
     case SaveViews: return "PicoScan: Save Views for Project";
+    case Section: return "PicoScan: Fit Cross-section";
     }
     return {};
 }
@@ -337,6 +348,15 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
                "the layer's file: the core's format with the full camera, which picoscan and FreeCAD read. A saved "
                "project does not need it (MeshLab's PLY of a PicoScan layer keeps its pixels and camera), but a "
                "layer saved without them takes them from the view file beside it. Other layers are left as they are.";
+    case Section:
+        return "Cuts the current layer (a mesh, through its transform) with a plane across X, Y or Z and fits lines, "
+               "arcs and circles to the cut, as FreeCAD's Cross-section and <i>picoscan section</i> do: the log gives "
+               "each element (size, direction or radius with its standard error, residuals) and the pieces left out, "
+               "and why; the profile can be written as DXF. Each element lies within a tolerance of its points: by "
+               "default 5 x the noise of the <i>scan layer</i>, the point cloud the mesh was made from (measured on its "
+               "points). Choose it: a Poisson or flattened mesh's cut has almost no noise (nanometres), which says "
+               "nothing of the scan. Choosing the current layer itself means no scan: the tolerance then comes from the "
+               "cut, and the log says to set it yourself.";
     }
     return {};
 }
@@ -348,7 +368,8 @@ MeshFilterInterface::FilterClass PicoScanFilterPlugin::getClass(QAction* action)
     case Clean: return MeshFilterInterface::Cleaning;
     case Align: return MeshFilterInterface::RangeMap;
     case Fuse: return MeshFilterInterface::Remeshing;
-    case Measure: return MeshFilterInterface::Measure;
+    case Measure:
+    case Section: return MeshFilterInterface::Measure;
     case SaveViews: return MeshFilterInterface::Layer;
     }
     return MeshFilterInterface::MeshCreation;
@@ -379,6 +400,7 @@ int PicoScanFilterPlugin::postCondition(QAction* action) const {
     case Clean: return MeshModel::MM_VERTNUMBER | MeshModel::MM_FACENUMBER;
     case Align: return MeshModel::MM_TRANSFMATRIX;
     case Measure:
+    case Section:
     case SaveViews: return MeshModel::MM_NONE;
     default: return MeshModel::MM_ALL;
     }
@@ -538,6 +560,38 @@ void PicoScanFilterPlugin::initParameterSet(QAction* action, MeshDocument& docum
                                      "Measure in model coordinates (after the layer's transform) rather than the "
                                      "camera frame."));
         break;
+    case Section: {
+        MeshModel* mesh = document.mm();
+        const float middle = mesh != nullptr ? float((mesh->cm.Tr * mesh->cm.bbox.Center())[2]) : 0.0f;
+        // The scan behind the mesh, by default the first point cloud of the document; else the mesh itself (no scan).
+        MeshModel* scan = mesh;
+        for (MeshModel* layer : document.meshList)
+            if (layer != mesh && layer->cm.vn > 0 && layer->cm.fn == 0) {
+                scan = layer;
+                break;
+            }
+        parameters.addParam(RichEnum(kSectionAxis, SectionZ, QStringList{"X", "Y", "Z"}, "Across axis",
+                                     "The plane is square to this axis of the model's coordinates. The drawing's x and y "
+                                     "are those of the right (X: y, z), front (Y: x, z) or top (Z: x, y) view."));
+        parameters.addParam(RichFloat(kSectionAt, middle, "At (mm)",
+                                      "Where along the axis, in model coordinates (by default the middle of the layer for "
+                                      "Z)."));
+        parameters.addParam(RichMesh(kScanLayer, scan, document.meshList.empty() ? nullptr : &document,
+                                     "Scan layer (its noise sets the tolerance)",
+                                     "The point cloud the mesh was made from (a view or the aligned views): 5 x its noise "
+                                     "is the default tolerance. The current layer itself: no scan (the tolerance from "
+                                     "the cut; set it yourself)."));
+        parameters.addParam(RichFloat(kSectionTolerance, 0.0f, "Tolerance (mm)",
+                                      "Largest distance of a point to its element; 0: 5 x the noise of the scan layer "
+                                      "(or of the cut, without one)."));
+        parameters.addParam(RichFloat(kSectionBand, float(kDefaultSectionBandMm), "Band (mm)",
+                                      "Each element is fitted again with 16 more cuts within +- this of the plane where "
+                                      "they follow it (a pad's sides); 0: the one cut."));
+        parameters.addParam(RichString(kSectionDxf, "", "DXF file",
+                                       "Where to write the fitted profile (DXF R12, millimetres, in the drawing's x and "
+                                       "y); empty: none."));
+        break;
+    }
     case SaveViews:
         parameters.addParam(RichString(kViewFolder, "", "Folder for the views",
                                        "Where the view files go: beside the project (e.g. the project's folder; made "
@@ -558,6 +612,7 @@ bool PicoScanFilterPlugin::applyFilter(QAction* action, MeshDocument& document, 
         case Fuse: fuse(document, parameters, callback); break;
         case Measure: measure(document, parameters); break;
         case SaveViews: save_views(document, parameters); break;
+        case Section: section(document, parameters, callback); break;
         }
         return true;
     } catch (const Error& error) {
@@ -908,6 +963,55 @@ void PicoScanFilterPlugin::save_views(MeshDocument& document, const RichParamete
             qUtf8Printable(view.path));
     }
     Log("PicoScan saved %zu views in %s", planned.size(), qUtf8Printable(folder));
+}
+
+void PicoScanFilterPlugin::section(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    MeshModel& layer = *document.mm();
+    const Mesh mesh = layer_mesh(layer, true);
+    if (mesh.faces.empty())
+        throw Error(layer_name(layer), "has no triangles (a point cloud? mesh it first, e.g. with Fuse and Mesh)");
+    MeshModel* scan_layer = parameters.getMesh(kScanLayer);
+    const bool has_scan = scan_layer != nullptr && scan_layer != &layer;
+    SectionFitOptions options;
+    options.tolerance_mm = parameters.getFloat(kSectionTolerance);
+    if (!(options.tolerance_mm >= 0) || !std::isfinite(options.tolerance_mm))
+        throw Error(kSectionTolerance, "must be 0 (from the scan layer's noise) or a positive distance in mm");
+    if (has_scan && options.tolerance_mm > 0)
+        throw Error(kScanLayer, "sets the default tolerance: give a tolerance of 0, or choose the current layer (no scan)");
+    PointCloud scan;
+    if (has_scan) scan.points = layer_points(*scan_layer, true, false);
+
+    const int axis = parameters.getEnum(kSectionAxis);
+    const double at = parameters.getFloat(kSectionAt);
+    const SectionPlane plane = section_plane_across(axis, at);  // picoscan section's right, front and top views
+    MeshSectionFit result;
+    try {
+        result = section_mesh(mesh, plane.origin, plane.u, plane.v, parameters.getFloat(kSectionBand), options,
+                              meshlab_progress(callback), has_scan ? &scan : nullptr);
+    } catch (const Error& error) {
+        const std::string why = std::string(error.what()).substr(error.subject().size() + 2);
+        if (error.subject() == "scan") throw Error(kScanLayer, layer_name(*scan_layer) + ": " + why);
+        if (error.subject() == "plane") throw Error(kSectionAt, why);
+        if (error.subject() == "band_mm") throw Error(kSectionBand, why);
+        throw;
+    }
+    const std::string dxf = parameter_text(parameters.getString(kSectionDxf));
+    if (!dxf.empty()) write_file_atomically(dxf, section_dxf(result.fits));
+
+    const std::string name = layer_name(layer);
+    const char* const axes[3] = {"x", "y", "z"};
+    Log("PicoScan section of %s at %s = %.4f mm: %zu polylines fitted, %zu left out", name.c_str(), axes[axis], at,
+        result.fits.fits.size(), result.fits.left_out.size());
+    if (result.tolerance_source == SectionToleranceSource::ScanNoise)
+        Log("PicoScan section of %s: the scan layer %s: %s", name.c_str(), layer_name(*scan_layer).c_str(),
+            result.tolerance_from.c_str());
+    else if (result.tolerance_source == SectionToleranceSource::CutNoise)
+        Log(GLLogStream::WARNING, "PicoScan section of %s: no scan layer (the current layer was chosen): %s", name.c_str(),
+            result.tolerance_from.c_str());
+    else
+        Log("PicoScan section of %s: %s", name.c_str(), result.tolerance_from.c_str());
+    for (const std::string& line : result.report) Log("PicoScan section: %s", line.c_str());
+    if (!dxf.empty()) Log("PicoScan section of %s written to %s", name.c_str(), dxf.c_str());
 }
 
 MESHLAB_PLUGIN_NAME_EXPORTER(PicoScanFilterPlugin)

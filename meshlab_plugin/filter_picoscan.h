@@ -13,7 +13,7 @@ class PicoScanFilterPlugin : public QObject, public MeshFilterInterface {
     Q_INTERFACES(MeshFilterInterface)
 
 public:
-    enum FilterId { Reconstruct, Simulate, Clean, Align, Fuse, Measure, SaveViews };
+    enum FilterId { Reconstruct, Simulate, Clean, Align, Fuse, Measure, SaveViews, Section };
 
     PicoScanFilterPlugin();
 
@@ -40,6 +40,7 @@ private:
     void fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     void measure(MeshDocument& document, const RichParameterList& parameters);
     void save_views(MeshDocument& document, const RichParameterList& parameters);
+    void section(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback);
     // Clean, Align and Fuse need the pixel grid and camera: refused with the reason, or logged
     // when they were taken from a view file.
     void require_scan_grid(MeshModel& layer);

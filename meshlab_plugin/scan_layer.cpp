@@ -429,6 +429,25 @@ std::vector<cv::Vec3f> layer_points(MeshModel& layer, bool apply_transform, bool
     return points;
 }
 
+picoscan::Mesh layer_mesh(MeshModel& layer, bool apply_transform) {
+    picoscan::Mesh mesh;
+    std::vector<int> index(layer.cm.vert.size(), -1);  // the core's vertex of each of the layer's
+    for (size_t i = 0; i < layer.cm.vert.size(); ++i) {
+        const CVertexO& vertex = layer.cm.vert[i];
+        if (vertex.IsD()) continue;
+        const Point3m p = apply_transform ? layer.cm.Tr * vertex.cP() : vertex.cP();
+        index[i] = int(mesh.vertices.size());
+        mesh.vertices.emplace_back(p[0], p[1], p[2]);
+    }
+    for (const CFaceO& face : layer.cm.face) {
+        if (face.IsD()) continue;
+        cv::Vec3i corners;
+        for (int corner = 0; corner < 3; ++corner) corners[corner] = index[size_t(vcg::tri::Index(layer.cm, face.cV(corner)))];
+        mesh.faces.push_back(corners);
+    }
+    return mesh;
+}
+
 cv::Matx44d layer_pose(MeshModel& layer) {
     cv::Matx44d pose;
     for (int row = 0; row < 4; ++row)

@@ -51,6 +51,9 @@ picoscan::ScanView layer_view(MeshModel& layer);
 // Returns how many vertices were deleted.
 int remove_vertices_missing_from(MeshModel& layer, const picoscan::ScanView& view);
 
+// The layer's triangles (deleted ones left out), optionally through the layer's transform.
+picoscan::Mesh layer_mesh(MeshModel& layer, bool apply_transform);
+
 // The layer's vertices, optionally transformed by the layer's transform and/or limited to the selection.
 std::vector<cv::Vec3f> layer_points(MeshModel& layer, bool apply_transform, bool selected_only);
 

@@ -6,7 +6,6 @@
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 #include "picoscan/io.h"
-#include "picoscan/region_fit.h"
 #include "picoscan/section_fit.h"
 
 #include <cctype>
@@ -56,7 +55,8 @@ Outputs (each optional; the report is always printed):
   --dxf FILE.dxf     LINE, ARC and CIRCLE entities (DXF R12 ASCII, millimetres), for CAD tools
 Both are replaced together, and only when the fit succeeds.
 
-The report: the plane, the noise and tolerance, then per polyline its elements: kind, length and
+The report: the plane, the noise, the tolerance and where it came from (given, the --scan, or the
+cut: then set it yourself), then per polyline its elements: kind, length and
 direction (lines, degrees from the drawing's x axis) or radius and swept angle (arcs, circles),
 the standard error of the direction or radius, RMS and largest distance of its points, and how
 many band cuts refitted it (or why it kept to its own cut); then the polylines left out, and why.
@@ -70,20 +70,6 @@ std::string vector_text(const cv::Vec3d& v) {
     char text[96];
     std::snprintf(text, sizeof text, "(%.4f, %.4f, %.4f)", v[0], v[1], v[2]);
     return text;
-}
-
-// The plane and the drawing's frame on it: x (u) square to `up` (Z, or Y for a plane nearly across
-// Z), y (v) completing a right-handed frame with the normal towards the viewer.
-struct Plane {
-    cv::Vec3d origin, normal, u, v;
-};
-
-Plane plane_with_normal(const cv::Vec3d& origin, cv::Vec3d normal) {
-    normal /= cv::norm(normal);
-    const cv::Vec3d up = std::abs(normal[2]) > 0.9 ? cv::Vec3d(0, 1, 0) : cv::Vec3d(0, 0, 1);
-    cv::Vec3d u = up.cross(normal);
-    u /= cv::norm(u);
-    return {origin, normal, u, normal.cross(u)};
 }
 
 cv::Vec3d box_centre(const Mesh& mesh) {
@@ -138,14 +124,10 @@ PlaneRequest plane_request(const Arguments& arguments) {
     return request;
 }
 
-Plane section_plane(const PlaneRequest& request, const Mesh& mesh) {
+SectionPlane plane_of(const PlaneRequest& request, const Mesh& mesh) {
     const cv::Vec3d centre = box_centre(mesh);
-    if (request.axis < 0) return plane_with_normal(request.point.value_or(centre), request.normal);
-    // Normals towards the viewer of the right (x), front (y, looking along +y) and top (z) views.
-    const cv::Vec3d normals[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
-    cv::Vec3d origin(0, 0, 0);
-    origin[request.axis] = request.at.value_or(centre[request.axis]);
-    return plane_with_normal(origin, normals[request.axis]);
+    if (request.axis < 0) return section_plane(request.point.value_or(centre), request.normal);
+    return section_plane_across(request.axis, request.at.value_or(centre[request.axis]));
 }
 
 int run_section(const Arguments& arguments) {
@@ -161,7 +143,7 @@ int run_section(const Arguments& arguments) {
     if (arguments.has("--tolerance")) {
         options.tolerance_mm = arguments.number("--tolerance", 0);
         if (!std::isfinite(options.tolerance_mm) || options.tolerance_mm <= 0)
-            throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the cut's noise)");
+            throw Error("--tolerance", "must be a positive distance in mm (leave it out for 5 x the noise of the --scan, or of the cut)");
     }
     const std::string scan = arguments.text("--scan");
     check_extension(scan, {".ply"}, "scan");
@@ -171,22 +153,19 @@ int run_section(const Arguments& arguments) {
     arguments.reject_unknown();
     const Mesh mesh = read_mesh(input);
     if (mesh.faces.empty()) throw Error(input, "holds no triangles (a point cloud? mesh it first with 'picoscan mesh')");
+    std::optional<PointCloud> cloud;
     if (!scan.empty()) {
-        PointCloud cloud;
-        cloud.points = read_ply(scan).vertices;
-        try {
-            options.scan_noise_mm = estimate_scan_noise(cloud);
-        } catch (const Error& error) {
-            if (error.subject() != "cloud") throw;
-            throw Error(scan, std::string(error.what()).substr(error.subject().size() + 2));
-        }
+        cloud.emplace();
+        cloud->points = read_ply(scan).vertices;
     }
-    const Plane plane = section_plane(request, mesh);
+    const SectionPlane plane = plane_of(request, mesh);
 
     MeshSectionFit section;
     try {
-        section = section_mesh(mesh, plane.origin, plane.u, plane.v, band, options, terminal_progress());
+        section = section_mesh(mesh, plane.origin, plane.u, plane.v, band, options, terminal_progress(),
+                               cloud ? &*cloud : nullptr);
     } catch (const Error& error) {
+        if (error.subject() == "scan") throw Error(scan, std::string(error.what()).substr(6));
         if (error.subject() != "plane") throw;
         throw Error(request.flag, "the plane through " + vector_text(plane.origin) + " with normal " +
                                     vector_text(plane.normal) + " " + std::string(error.what()).substr(7));

@@ -154,23 +154,42 @@ void bind_section_fit(py::module_& m) {
         py::arg("progress") = py::none(),
         "A section's polylines ([SectionPolyline], e.g. cut_mesh_section's) fitted with one noise and tolerance; too small or too noisy "
         "ones left out with the reason (left_out)");
+    py::class_<SectionPlane>(m, "SectionPlane")
+        .def_readonly("origin", &SectionPlane::origin)
+        .def_readonly("normal", &SectionPlane::normal, "Unit normal, towards the viewer")
+        .def_readonly("u", &SectionPlane::u, "The drawing's x")
+        .def_readonly("v", &SectionPlane::v, "The drawing's y");
+    m.def("section_plane", &section_plane, py::arg("origin"), py::arg("normal"),
+          "The plane through origin with this normal and its drawing's frame (x square to Z, or to Y for a plane "
+          "nearly across Z), as picoscan section draws it");
+    m.def("section_plane_across", &section_plane_across, py::arg("axis"), py::arg("at"),
+          "The plane across axis 0, 1, 2 (x, y, z) at `at` mm, as the right, front or top view");
+    py::enum_<SectionToleranceSource>(m, "SectionToleranceSource")
+        .value("Given", SectionToleranceSource::Given)
+        .value("ScanNoise", SectionToleranceSource::ScanNoise)
+        .value("CutNoise", SectionToleranceSource::CutNoise);
     py::class_<MeshSectionFit>(m, "MeshSectionFit")
         .def_readonly("section", &MeshSectionFit::section, "The cut and its Band (MeshSection)")
         .def_readonly("fits", &MeshSectionFit::fits, "The polylines fitted together (SectionFits)")
+        .def_readonly("scan_noise_mm", &MeshSectionFit::scan_noise_mm, "The scan's noise (sigma) measured on its points; 0 without a scan")
+        .def_readonly("tolerance_source", &MeshSectionFit::tolerance_source, "Where the tolerance came from (SectionToleranceSource)")
+        .def_readonly("tolerance_from", &MeshSectionFit::tolerance_from, "The tolerance and where it came from, one line")
         .def_readonly("report", &MeshSectionFit::report, "The report, one string per line");
     m.def(
         "section_mesh",
         [](const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis, double band_mm,
-           const SectionFitOptions& options, const py::object& progress) {
+           const SectionFitOptions& options, const py::object& progress, const PointCloud* scan) {
             const ProgressCallback callback = progress_from(progress);
             py::gil_scoped_release release;
-            return section_mesh(mesh, origin, u_axis, v_axis, band_mm, options, callback);
+            return section_mesh(mesh, origin, u_axis, v_axis, band_mm, options, callback, scan);
         },
         py::arg("mesh"), py::arg("origin"), py::arg("u_axis"), py::arg("v_axis"),
         py::arg("band_mm") = kDefaultSectionBandMm, py::arg("options") = SectionFitOptions(), py::arg("progress") = py::none(),
-        "The Cross-section in one call: the mesh cut at the plane through origin spanned by u and v with its Band, "
-        "the polylines fitted together, and the report (MeshSectionFit); progress hears the cut and the fit, Cancel "
-        "raises Error('cancelled: ...')");
+        py::arg("scan") = py::none(),
+        "The Cross-section in one call: the default tolerance from the noise of the scan (a PointCloud) the mesh was "
+        "made from when given, else from the cut, the mesh cut at the plane through origin spanned by u and v with its "
+        "Band, the polylines fitted together, and the report (MeshSectionFit); progress hears the noise, the cut and the "
+        "fit, Cancel raises Error('cancelled: ...')");
     m.def("section_element_text", &section_element_text, py::arg("element"), "One element's line of the report");
     m.def("left_out_text", &left_out_text, py::arg("left"), "One left-out polyline's line of the report (loop or chain, why)");
 }

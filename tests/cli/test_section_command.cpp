@@ -227,33 +227,20 @@ TEST(SectionCli, TheScanBehindAFlattenedMeshSetsTheTolerance) {
     const fs::path dir = make_temp_dir("section_cli_scan");
     const std::string part = noisy_demo_part(dir, 0.0);
     const Mesh mesh = read_mesh(part);
-    std::mt19937 random(5);
-    std::uniform_real_distribution<float> unit(0, 1);
-    std::normal_distribution<float> noise(0, 0.02f);
-    PointCloud scan;
-    double area = 0;
-    for (const cv::Vec3i& f : mesh.faces)
-        area += 0.5 * cv::norm((mesh.vertices[size_t(f[1])] - mesh.vertices[size_t(f[0])]).cross(mesh.vertices[size_t(f[2])] - mesh.vertices[size_t(f[0])]));
-    for (const cv::Vec3i& f : mesh.faces) {  // about 10 points per mm2, spread by area
-        const cv::Vec3f a = mesh.vertices[size_t(f[0])], b = mesh.vertices[size_t(f[1])], c = mesh.vertices[size_t(f[2])];
-        const double share = 0.5 * cv::norm((b - a).cross(c - a)) / area * 10 * area;
-        for (int k = 0; k < int(share + unit(random)); ++k) {
-            float u = unit(random), v = unit(random);
-            if (u + v > 1) u = 1 - u, v = 1 - v;
-            scan.points.push_back(a + u * (b - a) + v * (c - a) + cv::Vec3f(noise(random), noise(random), noise(random)));
-        }
-    }
+    PointCloud scan;  // about 10 points per mm2, 20 um of noise
+    scan.points = test_support::noisy_surface_points(mesh.vertices, mesh.faces, 10, 0.02, 5);
     const std::string cloud = (dir / "scan.ply").string();
     write_ply(scan, cloud);
 
     const Result cut_only = run_picoscan("section " + part + " --axis z --at 12");
     ASSERT_EQ(cut_only.exit_code, 0) << cut_only.output;
-    EXPECT_NE(cut_only.output.find("tolerance 0.0050 mm (5 x the cut's noise)"), std::string::npos) << cut_only.output;
+    EXPECT_NE(cut_only.output.find("tolerance 0.0050 mm: from the cut of the mesh"), std::string::npos) << cut_only.output;
     const Result with_scan = run_picoscan("section " + part + " --axis z --at 12 --scan " + cloud);
     ASSERT_EQ(with_scan.exit_code, 0) << with_scan.output;
-    const size_t at = with_scan.output.find("5 x the scan's noise, ");
+    const std::string from_scan = "mm: 5 x the noise of the scan the mesh was made from, ";
+    const size_t at = with_scan.output.find(from_scan);
     ASSERT_NE(at, std::string::npos) << with_scan.output;
-    const double scan_noise = std::stod(with_scan.output.substr(at + std::string("5 x the scan's noise, ").size()));
+    const double scan_noise = std::stod(with_scan.output.substr(at + from_scan.size()));
     const size_t tolerance_at = with_scan.output.rfind("tolerance ", at);
     const double tolerance = std::stod(with_scan.output.substr(tolerance_at + std::string("tolerance ").size()));
     std::printf("scan noise %.4f mm (20 um put in), tolerance %.4f mm\n", scan_noise, tolerance);

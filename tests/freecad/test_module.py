@@ -152,6 +152,17 @@ class ModuleTest(unittest.TestCase):
             self.assertTrue(all(f >= 0.5 for f, s in told if s == "fitting lines and arcs"))
         with self.assertRaisesRegex(picoscan.Error, "plane: does not cut the mesh"):
             picoscan.section_mesh(mesh, (0, 0, 900), (1, 0, 0), (0, 1, 0))
+        # With the scan behind the mesh (here the cloud it was made from) the noise is measured on its
+        # points, the tolerance is 5 x it, and tolerance_from says so; too few points are refused.
+        with_scan = picoscan.section_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), 0.0, scan=cloud)
+        self.assertEqual(with_scan.tolerance_source, picoscan.SectionToleranceSource.ScanNoise)
+        self.assertEqual(with_scan.scan_noise_mm, picoscan.estimate_scan_noise(cloud))
+        self.assertAlmostEqual(with_scan.fits.tolerance_mm, max(0.005, 5 * with_scan.scan_noise_mm), delta=1e-12)
+        self.assertIn("5 x the noise of the scan the mesh was made from", with_scan.tolerance_from)
+        few = picoscan.PointCloud()
+        few.points = numpy.zeros((10, 3), dtype=numpy.float32)
+        with self.assertRaisesRegex(picoscan.Error, "^scan: "):
+            picoscan.section_mesh(mesh, (0, 0, 400), (1, 0, 0), (0, 0, 1), 0.0, scan=few)
 
         self.assertGreater(len(cloud.points), 65536)
         selecting = []

@@ -80,6 +80,7 @@ expected=(
   "PicoScan: Fuse and Mesh"
   "PicoScan: Measure Sphere or Plane"
   "PicoScan: Save Views for Project"
+  "PicoScan: Fit Cross-section"
 )
 listed=$(grep -c "/PicoScan: " filters.txt || true)
 for name in "${expected[@]}"; do

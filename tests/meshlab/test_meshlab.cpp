@@ -70,6 +70,9 @@ const Params kFuseDefaults{{"RichEnum", "method", "0"},             {"RichEnum",
                            {"RichFloat", "frontMaxRadius", "4"},     {"RichFloat", "maxHoleDiameter", "10"},
                            {"RichInt", "targetFaces", "0"}};
 const Params kSaveViewsDefaults{{"RichString", "viewFolder", ""}};
+// In the order the filter declares them (meshlabserver matches a RichMesh by position).
+const Params kSectionDefaults{{"RichEnum", "axis", "2"},       {"RichFloat", "at", "0"},   {"RichMesh", "scanLayer", "0"},
+                              {"RichFloat", "tolerance", "0"}, {"RichFloat", "band", "3"}, {"RichString", "dxfFile", ""}};
 const Params kMeasureDefaults{
     {"RichEnum", "shape", "0"}, {"RichBool", "selectedOnly", "false"}, {"RichBool", "modelFrame", "true"}};
 
@@ -122,6 +125,10 @@ std::string make_current(int layer) {
 }
 std::string measure(const std::string& shape) {
     return filter("PicoScan: Measure Sphere or Plane", kMeasureDefaults, {{"shape", shape == "sphere" ? "0" : "1"}});
+}
+
+std::string section(const std::map<std::string, std::string>& overrides) {
+    return filter("PicoScan: Fit Cross-section", kSectionDefaults, overrides);
 }
 
 struct ServerRun {
@@ -1375,3 +1382,50 @@ TEST(MeshlabPlugin, StereoReconstructRefusesWrongCombinations) {
     }
     EXPECT_FALSE(std::ifstream(root + "/never.ply").good());
 }
+
+// A flattened mesh (the exact demo part: its cut has no noise) and the scan it stands for (points
+// over its surface with 20 um of noise, a point cloud layer): with the scan layer chosen, the
+// section's tolerance is 5 x the noise read on the scan's points; with the mesh itself chosen (no
+// scan) it falls to the cut's 0.005 mm floor and the log says to set it. A scan layer with a
+// tolerance, or a plane off the mesh, is refused naming the parameter.
+TEST(MeshlabPlugin, SectionToleranceComesFromTheScanLayer) {
+    const std::string directory = make_temp_dir("meshlab_section");
+    const Mesh part = mechanical_part();
+    write_ply(part, directory + "/part.ply");
+    PointCloud scan;
+    scan.points = test_support::noisy_surface_points(part.vertices, part.faces, 10, 0.02, 5);
+    write_ply(scan, directory + "/scan.ply");
+    const std::string dxf = directory + "/outline.dxf";
+    const ServerRun run = run_meshlabserver(
+        directory,
+        make_current(0) + section({{"at", "12"}, {"scanLayer", "1"}}) + section({{"at", "12"}, {"dxfFile", dxf}}),
+        "-i part.ply -i scan.ply");
+    ASSERT_EQ(run.exit_code, 0) << run.log;
+    const std::string from_scan = "PicoScan section of part.ply: the scan layer scan.ply: tolerance ";
+    const size_t at = run.log.find(from_scan);
+    ASSERT_NE(at, std::string::npos) << run.log;
+    std::istringstream line(run.log.substr(at + from_scan.size()));
+    double tolerance = 0, noise = 0;
+    std::string words;
+    ASSERT_TRUE(line >> tolerance) << run.log;
+    std::getline(line, words, ',');  // " mm: 5 x the noise of the scan the mesh was made from"
+    EXPECT_EQ(words, " mm: 5 x the noise of the scan the mesh was made from");
+    ASSERT_TRUE(line >> noise) << run.log;
+    std::printf("scan layer noise %.4f mm (20 um put in), tolerance %.4f mm\n", noise, tolerance);
+    EXPECT_NEAR(noise, 0.02, 0.004);
+    EXPECT_NEAR(tolerance, 5 * noise, 0.0002);
+
+    const std::vector<double> from_cut = numbers_after(run.log, "no scan layer (the current layer was chosen): tolerance", 1);
+    ASSERT_EQ(from_cut.size(), 1u) << run.log;
+    EXPECT_EQ(from_cut[0], 0.005);  // the cut of a flattened mesh has no noise: the floor
+    EXPECT_NE(run.log.find("no scan given: set it yourself"), std::string::npos) << run.log;
+    EXPECT_NE(test_support::read_file_bytes(dxf).find("LINE"), std::string::npos);
+
+    const auto refused = [&](const std::map<std::string, std::string>& overrides, const std::string& message) {
+        const ServerRun bad = run_meshlabserver(directory, make_current(0) + section(overrides), "-i part.ply -i scan.ply");
+        EXPECT_NE(bad.log.find("PicoScan: Fit Cross-section error: " + message), std::string::npos) << bad.log;
+    };
+    refused({{"at", "12"}, {"scanLayer", "1"}, {"tolerance", "0.05"}}, "scanLayer: sets the default tolerance");
+    refused({{"at", "500"}}, "at: ");
+}
+

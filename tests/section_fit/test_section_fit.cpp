@@ -1081,6 +1081,81 @@ TEST(SectionFit, SectionMeshFitsAFacetedFilletAsOneArc) {
               std::string::npos);
 }
 
+// The drawing's frames the CLI and MeshLab share: across x the right view (y, z), across y the front
+// view (x, z), across z the top view (x, y); any normal: x square to Z, the normal towards the viewer.
+TEST(SectionFit, SectionPlanesAreTheRightFrontAndTopViews) {
+    const cv::Vec3d expected_u[3] = {{0, 1, 0}, {1, 0, 0}, {1, 0, 0}}, expected_v[3] = {{0, 0, 1}, {0, 0, 1}, {0, 1, 0}};
+    for (int axis = 0; axis < 3; ++axis) {
+        const SectionPlane plane = section_plane_across(axis, 12);
+        EXPECT_EQ(plane.origin[axis], 12.0);
+        EXPECT_LT(cv::norm(plane.u - expected_u[axis]), 1e-12) << axis;
+        EXPECT_LT(cv::norm(plane.v - expected_v[axis]), 1e-12) << axis;
+        EXPECT_LT(cv::norm(plane.u.cross(plane.v) - plane.normal), 1e-12) << axis;
+    }
+    const SectionPlane oblique = section_plane({1, 2, 3}, {3, 0, 4});
+    EXPECT_LT(cv::norm(oblique.normal - cv::Vec3d(0.6, 0, 0.8)), 1e-12);
+    EXPECT_NEAR(oblique.u[2], 0.0, 1e-12);
+    EXPECT_EQ(test_support::error_of([] { section_plane_across(3, 0); }), "axis: must be 0, 1 or 2 (x, y, z), is 3");
+    EXPECT_EQ(test_support::error_of([] { section_plane({0, 0, 0}, {0, 0, 0}); }).rfind("normal: ", 0), 0u);
+}
+
+// section_mesh given the scan behind a flattened mesh (an exact 40 x 20 x 10 mm box: its cut has no
+// noise; the scan: points over its surface with 20 um of noise): the tolerance is 5 x the noise
+// measured on the scan, and the report says so; without the scan it is the cut's 0.005 mm floor and
+// the report says to set it; given, it says given. A scan with a tolerance, or with too few points,
+// is refused naming the scan.
+TEST(SectionFit, SectionMeshTakesItsToleranceFromTheScanBehindTheMesh) {
+    Mesh box;  // its sides, in quads every 0.4 mm (as a CAD tool meshes them)
+    const std::vector<cv::Vec2d> corners = {{20, -10}, {20, 10}, {-20, 10}, {-20, -10}};
+    std::vector<cv::Vec2d> ring;
+    for (size_t k = 0; k < corners.size(); ++k)
+        for (int i = 0; i < int(cv::norm(corners[(k + 1) % 4] - corners[k]) / 0.4); ++i)
+            ring.push_back(corners[k] + (corners[(k + 1) % 4] - corners[k]) * (i * 0.4 / cv::norm(corners[(k + 1) % 4] - corners[k])));
+    const int n = int(ring.size());
+    for (const double z : {0.0, 10.0})
+        for (const cv::Vec2d& p : ring) box.vertices.push_back(cv::Vec3f(float(p[0]), float(p[1]), float(z)));
+    for (int i = 0; i < n; ++i) {
+        box.faces.push_back({i, (i + 1) % n, n + (i + 1) % n});
+        box.faces.push_back({i, n + (i + 1) % n, n + i});
+    }
+    PointCloud scan;
+    scan.points = test_support::noisy_surface_points(box.vertices, box.faces, 10, 0.02, 7);
+    const cv::Vec3d origin(0, 0, 5), u(1, 0, 0), v(0, 1, 0);
+    const auto report_has = [](const MeshSectionFit& section, const std::string& text) {
+        return std::any_of(section.report.begin(), section.report.end(),
+                           [&](const std::string& line) { return line.find(text) != std::string::npos; });
+    };
+
+    const MeshSectionFit with_scan = section_mesh(box, origin, u, v, 0, {}, nullptr, &scan);
+    std::printf("box with a 20 um scan: scan noise %.4f mm, tolerance %.4f mm; %s\n", with_scan.scan_noise_mm,
+                with_scan.fits.tolerance_mm, with_scan.tolerance_from.c_str());
+    EXPECT_EQ(with_scan.tolerance_source, SectionToleranceSource::ScanNoise);
+    EXPECT_NEAR(with_scan.scan_noise_mm, 0.02, 0.004);
+    EXPECT_DOUBLE_EQ(with_scan.fits.tolerance_mm, 5 * with_scan.scan_noise_mm);
+    EXPECT_LT(with_scan.fits.noise_mm, 1e-4);  // the flattened mesh's own cut shows none of it
+    EXPECT_TRUE(report_has(with_scan, with_scan.tolerance_from));
+    EXPECT_EQ(with_scan.tolerance_from.find("5 x the noise of the scan the mesh was made from"), 21u) << with_scan.tolerance_from;
+    ASSERT_EQ(with_scan.fits.fits.size(), 1u);
+    EXPECT_EQ(count(with_scan.fits.fits[0], SectionElementKind::Line), 4);
+
+    const MeshSectionFit from_cut = section_mesh(box, origin, u, v, 0);
+    EXPECT_EQ(from_cut.tolerance_source, SectionToleranceSource::CutNoise);
+    EXPECT_EQ(from_cut.scan_noise_mm, 0.0);
+    EXPECT_EQ(from_cut.fits.tolerance_mm, 0.005);
+    EXPECT_NE(from_cut.tolerance_from.find("set it yourself"), std::string::npos) << from_cut.tolerance_from;
+    SectionFitOptions given;
+    given.tolerance_mm = 0.05;
+    const MeshSectionFit set = section_mesh(box, origin, u, v, 0, given);
+    EXPECT_EQ(set.tolerance_source, SectionToleranceSource::Given);
+    EXPECT_EQ(set.tolerance_from, "tolerance 0.0500 mm: given");
+
+    EXPECT_EQ(test_support::error_of([&] { section_mesh(box, origin, u, v, 0, given, nullptr, &scan); }),
+              "scan: sets the default tolerance: give either the scan or a tolerance, not both");
+    PointCloud few;
+    few.points.assign(scan.points.begin(), scan.points.begin() + 10);
+    EXPECT_EQ(test_support::error_of([&] { section_mesh(box, origin, u, v, 0, {}, nullptr, &few); }).rfind("scan: 10 points", 0), 0u);
+}
+
 // A cut of a mesh with planar facets (a CAD export, an extruded outline): `vertices` are where the cut
 // crosses the mesh's edges along the outline (on the true curve, up to the noise given to them), joined
 // by straight chords, each with `inner` points between its ends (where the cut crosses facets'
@@ -1222,11 +1297,13 @@ TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
         vertices.push_back({1, 10});
         add_faceted_arc(vertices, {-1, 0}, 10, 90, 270, 31, sigma, random);
         vertices.push_back({-1, -10});
-        // A side of one facet (3 points) is too few for a line (min_line_points): refused, not
-        // swallowed by the arcs.
-        const std::string refused = test_support::error_of([&] { fit_section(chorded(vertices, 1), true); });
-        EXPECT_EQ(refused.rfind("polyline", 0), 0u) << refused;
-        const SectionFit slot = fit_section(chorded(vertices, 3), true);
+        // A side of one facet (3 points: fewer than min_line_points) is still a line: its middle lies
+        // 0.05 mm outside the arc before it, where no chord of that arc can lie (short_side). Refused
+        // before; with 3 points per chord it always was a line.
+        for (const int inner : {1, 3}) {
+        SCOPED_TRACE(std::to_string(inner) + " inner points per chord");
+        SectionFit slot;
+        ASSERT_EQ(test_support::error_of([&] { slot = fit_section(chorded(vertices, inner), true); }), "");
         ASSERT_EQ(count(slot, SectionElementKind::Arc), 2);
         ASSERT_EQ(count(slot, SectionElementKind::Line), 2);
         for (const SectionElement& e : slot.elements) {
@@ -1244,8 +1321,33 @@ TEST(SectionFit, ShortRealSidesBetweenFacetedArcsStayLines) {
             }
             EXPECT_EQ(text.find("nan"), std::string::npos) << text;
         }
+        }
     }
     EXPECT_GT(unknown_sigmas, 0) << "no line short enough to have no standard error";
+}
+
+// Built to fool short_side: a hole of 10 mm radius in 1.1 mm chords with one chord of 2.4 mm, too
+// long for its neighbours' facet run (more than 2 x), so its middle is fitted like the slot's 2 mm
+// side's: 3 points on one line after a faceted arc, the middle off the arc. It is a facet: its middle
+// lies 0.07 mm inside the circle, and it must not become a line (a rule that took any 3 points off
+// the arc by more than the tolerance made it one). The fit cannot place that middle on the circle
+// either: it refuses, as before short_side.
+TEST(SectionFit, ALongFacetOfAHoleIsNoShortSide) {
+    for (const double sigma : {0.0, 0.001}) {
+        SCOPED_TRACE("sigma " + std::to_string(sigma));
+        std::mt19937 random(31);
+        std::vector<cv::Vec2d> vertices;
+        const double long_chord_deg = 2 * std::asin(1.2 / 10) * 180 / kPi;  // 13.8 deg
+        add_faceted_arc(vertices, {0, 0}, 10, long_chord_deg, 360, 55, sigma, random);
+        vertices.push_back({10, 0});  // the long chord runs from here to the first vertex
+        SectionFit fit;
+        const std::string why = test_support::error_of([&] { fit = fit_section(chorded(vertices, 1), true); });
+        std::printf("hole with a 2.4 mm facet, sigma %.3f: %s%d lines, %d arcs, %d circles\n", sigma, why.c_str(),
+                    count(fit, SectionElementKind::Line), count(fit, SectionElementKind::Arc),
+                    count(fit, SectionElementKind::Circle));
+        EXPECT_EQ(count(fit, SectionElementKind::Line), 0);
+        EXPECT_EQ(why.rfind("polyline: ", 0), 0u) << why;
+    }
 }
 
 // Real polygons whose corners lie on one circle and turn alike, but by more than a curve's facets:

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <sstream>
 #include <fstream>
+#include <random>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -126,6 +127,24 @@ std::vector<std::vector<char>> stir_heap() {
     for (int i = 0; i < 2000; ++i) blocks.emplace_back(size_t(64 + (i * 7919) % 4096));
     for (size_t i = 0; i < blocks.size(); i += 2) blocks[i].clear(), blocks[i].shrink_to_fit();
     return blocks;
+}
+
+std::vector<cv::Vec3f> noisy_surface_points(const std::vector<cv::Vec3f>& vertices, const std::vector<cv::Vec3i>& faces,
+                                            double per_mm2, double sigma_mm, unsigned seed) {
+    std::mt19937 random(seed);
+    std::uniform_real_distribution<float> unit(0, 1);
+    std::normal_distribution<float> noise(0, float(sigma_mm));
+    std::vector<cv::Vec3f> points;
+    for (const cv::Vec3i& f : faces) {
+        const cv::Vec3f a = vertices[size_t(f[0])], b = vertices[size_t(f[1])], c = vertices[size_t(f[2])];
+        const double expected = 0.5 * cv::norm((b - a).cross(c - a)) * per_mm2;
+        for (int k = 0; k < int(expected + unit(random)); ++k) {
+            float u = unit(random), v = unit(random);
+            if (u + v > 1) u = 1 - u, v = 1 - v;
+            points.push_back(a + u * (b - a) + v * (c - a) + cv::Vec3f(noise(random), noise(random), noise(random)));
+        }
+    }
+    return points;
 }
 
 }  // namespace picoscan::test_support

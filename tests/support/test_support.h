@@ -42,6 +42,11 @@ double circle_diameter(const std::vector<cv::Vec2d>& points);
 // blocks until that run is done.
 std::vector<std::vector<char>> stir_heap();
 
+// A simulated scan of a mesh's surface: about `per_mm2` points per mm2 spread by area, each moved
+// by Gaussian noise of `sigma_mm` along x, y and z (a scan of known noise behind a flattened mesh).
+std::vector<cv::Vec3f> noisy_surface_points(const std::vector<cv::Vec3f>& vertices, const std::vector<cv::Vec3i>& faces,
+                                            double per_mm2, double sigma_mm, unsigned seed);
+
 }  // namespace picoscan::test_support
 
 // Skips the current test with a clear message when ../shared/datasets is absent.

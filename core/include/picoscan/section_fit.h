@@ -27,8 +27,8 @@ struct SectionFitOptions {
     // lines, are taken as corners a mesh rounded and go to their neighbours.
     double tolerance_mm = 0;
     double min_tolerance_mm = 0.005;
-    // fit_section_polylines, tolerance 0: the noise (sigma) of the scan the mesh was made from, when
-    // the host knows it (estimate_scan_noise): the tolerance is then 5 x this, not 5 x the cut's
+    // fit_section_polylines, tolerance 0: the noise (sigma) of the scan the mesh was made from
+    // (section_mesh measures it when given the scan): the tolerance is then 5 x this, not 5 x the cut's
     // noise. A mesher that flattens the faces (a sharpened Poisson surface) leaves a cut of them
     // nanometres of noise, which says nothing of how well the scan knows the part. 0: unknown.
     double scan_noise_mm = 0;
@@ -221,21 +221,44 @@ struct MeshSection {
 MeshSection cut_mesh_section(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
                              double band_mm = kDefaultSectionBandMm, const ProgressCallback& progress = nullptr);
 
-// The whole Cross-section, as every host runs it (FreeCAD's Cross-section, picoscan section): the mesh
-// cut with its Band (cut_mesh_section), the polylines fitted together (fit_section_polylines), and
-// the report. The hosts only translate: the plane in, the sketch or drawing and the report out.
+// A section's plane and its drawing's frame, as picoscan section and MeshLab's Fit Cross-section draw
+// it: x (u) square to Z (to Y for a plane nearly across Z), y (v) completing a right-handed frame
+// with the unit normal towards the viewer. Throws Error("normal", ...) for a zero or non-finite normal.
+struct SectionPlane {
+    cv::Vec3d origin, normal, u, v;
+};
+SectionPlane section_plane(const cv::Vec3d& origin, const cv::Vec3d& normal);
+// The plane across axis 0, 1 or 2 (x, y, z) at `at` mm, seen as the right (y, z), front (x, z; looking
+// along +y) or top (x, y) view. Throws Error("axis", ...) for another axis.
+SectionPlane section_plane_across(int axis, double at);
+
+// The whole Cross-section, as every host runs it (FreeCAD's Cross-section, picoscan section, MeshLab's
+// Fit Cross-section): the default tolerance (5 x the noise of the scan the mesh was made from, when
+// the host has it; else 5 x the cut's), the mesh cut with its Band (cut_mesh_section), the polylines
+// fitted together (fit_section_polylines), and the report. The hosts only translate: the plane and
+// the scan in, the sketch or drawing and the report out.
+enum class SectionToleranceSource { Given, ScanNoise, CutNoise };
 struct MeshSectionFit {
     MeshSection section;
     SectionFits fits;
-    // The plane, the cuts, the noise and tolerance, each fitted polyline with one line per element
-    // (section_element_text) and each polyline left out (left_out_text).
+    // The noise (sigma) of the scan, measured on its points (estimate_scan_noise); 0 without a scan.
+    double scan_noise_mm = 0;
+    SectionToleranceSource tolerance_source = SectionToleranceSource::CutNoise;
+    // One line: the tolerance and where it came from; from the cut, it says to set it (a mesher that
+    // flattens the faces leaves their cut nanometres of noise, no measure of the scan).
+    std::string tolerance_from;
+    // The plane, the cuts, the noise and tolerance (tolerance_from), each fitted polyline with one line
+    // per element (section_element_text) and each polyline left out (left_out_text).
     std::vector<std::string> report;
 };
-// Throws cut_mesh_section's and fit_section_polylines' errors. `progress` hears the cut (0 to 0.5)
-// and the fit (0.5 to 1); answering false cancels: Error("cancelled", ...).
+// `scan`: the points the mesh was made from (a view or a stitched cloud, in any frame: only their
+// noise is used), or null. Throws Error("scan", ...) for a scan given with options.tolerance_mm or
+// options.scan_noise_mm set (one source of the tolerance) or with too few points to measure its
+// noise, and cut_mesh_section's and fit_section_polylines' errors. `progress` hears the noise and
+// the cut (0 to 0.5) and the fit (0.5 to 1); answering false cancels: Error("cancelled", ...).
 MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
                             double band_mm = kDefaultSectionBandMm, const SectionFitOptions& options = {},
-                            const ProgressCallback& progress = nullptr);
+                            const ProgressCallback& progress = nullptr, const PointCloud* scan = nullptr);
 // One element as the report gives it: kind, size (with its standard error), where, its points and
 // residuals, its chords' sag on a faceted cut, tangency, and the Band's part (or why none).
 std::string section_element_text(const SectionElement& element);

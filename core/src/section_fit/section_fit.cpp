@@ -193,6 +193,29 @@ public:
         return best;
     }
 
+    // A real side too short for min_line_points after an arc (a slot's 2 mm side between two faceted
+    // arcs: one chord of the mesh and its middle): the arc's last point, the point no element starts
+    // at, and the next ones, on one line within the tolerance. It is a side, not a facet of the arc,
+    // only when its inner points lie outside the arc's circle by more than the tolerance: a chord of
+    // a circle lies inside it (by its sag), a line tangent to it outside. Count 0: none. A closed
+    // polyline's side may take the point at start + total (the first element's first).
+    Span short_side(const Span& arc, long position, long limit) const {
+        constexpr long kFewestSidePoints = 3;  // a line through 2 points says nothing of its fit
+        const Span none{position, 0, {}};
+        if (!arc.shape.circle || arc.count - 1 < options_.min_arc_points) return none;
+        const long most = std::min<long>(options_.min_line_points - 1, limit + (pts_.closed ? 2 : 1));
+        for (long count = most; count >= kFewestSidePoints; --count) {
+            const long first = position - 1;
+            const Shape line = fit(false, first, count);
+            if (!fits(line, first, count)) continue;
+            bool outside = true;
+            for (long i = first + 1; i + 1 < first + count; ++i)
+                outside = outside && cv::norm(pts_[i] - arc.shape.centre) - arc.shape.radius > tolerance_;
+            if (outside) return {first, count, line};
+        }
+        return none;
+    }
+
     // Greedy cover of the points from `start`.
     std::vector<Span> cover(long start) const {
         std::vector<Span> spans;
@@ -216,6 +239,20 @@ public:
                 chosen.first = start;
             }
             if (chosen.count == 0) {
+                const Span side = short_side(spans.back(), position, limit);
+                if (side.count > 0) {
+                    spans.back().count -= 1;  // its last point is the side's first
+                    spans.push_back(side);
+                    // Closed, the side may end at the first element's first point: it is the side's.
+                    const long past = side.first + side.count - (start + total);
+                    if (past > 0) {
+                        spans.front().first += past;
+                        spans.front().count -= past;
+                        break;
+                    }
+                    position = side.first + side.count;
+                    continue;
+                }
                 const long fewest = std::min(options_.min_line_points, options_.min_arc_points);
                 if (limit < fewest) {  // too few points left for an element of their own
                     spans.back().count += limit;
@@ -246,6 +283,8 @@ public:
                 Span& a = spans[j];
                 Span& b = spans[(j + 1) % n];
                 const long begin = a.first, end = a.first + a.count + b.count;  // both, in a's numbering
+                // A short side (short_side) keeps its points: moving the split would hand it the arc's.
+                if (std::min(a.count, b.count) < options_.min_line_points) continue;
                 const long lowest = a.first + std::max<long>(options_.min_line_points, a.count / 2);
                 const long highest = end - std::max<long>(options_.min_line_points, b.count / 2);
                 if (lowest >= highest) continue;
@@ -1087,7 +1126,11 @@ SectionFit fit_points(const std::vector<cv::Vec2d>& polyline, bool closed, const
     if (closed && fitter.fits(whole, 0, n)) return whole_circle(whole);
 
     std::vector<Span> spans = fitter.cover(0);
-    if (closed && spans.size() > 1) spans = fitter.cover(spans[1].first);  // start at a real joint
+    if (closed && spans.size() > 1) {  // start again at a real joint, at an element long enough to grow there
+        size_t j = 1;  // not a short side (short_side): no element grows from its first point
+        while (j < spans.size() && spans[j].count < options.min_line_points) ++j;
+        if (j < spans.size()) spans = fitter.cover(spans[j].first);
+    }
     fitter.refine(spans);
     fitter.merge(spans);
     fitter.refine(spans);

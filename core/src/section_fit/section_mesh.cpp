@@ -1,6 +1,7 @@
 // The Cross-section in one call: the cut with its Band, the fit, the report.
 #include "common/text_format.h"
 #include "picoscan/error.h"
+#include "picoscan/region_fit.h"
 #include "picoscan/section_fit.h"
 
 #include <cmath>
@@ -63,13 +64,75 @@ std::string left_out_text(const LeftOutPolyline& left) {
            left.reason;
 }
 
+namespace {
+
+// The scan's noise (estimate_scan_noise), its errors naming the scan.
+double scan_noise(const PointCloud& scan, const SectionFitOptions& options) {
+    if (options.tolerance_mm > 0)
+        throw Error("scan", "sets the default tolerance: give either the scan or a tolerance, not both");
+    if (options.scan_noise_mm > 0)
+        throw Error("scan", "its noise is measured here: give either the scan or scan_noise_mm, not both");
+    try {
+        return estimate_scan_noise(scan);
+    } catch (const Error& error) {
+        if (error.subject() != "cloud") throw;
+        throw Error("scan", std::string(error.what()).substr(error.subject().size() + 2));
+    }
+}
+
+std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions& options) {
+    const double tolerance = result.fits.tolerance_mm;
+    switch (result.tolerance_source) {
+    case SectionToleranceSource::Given: return format("tolerance %.4f mm: given", tolerance);
+    case SectionToleranceSource::ScanNoise:
+        return format("tolerance %.4f mm: 5 x the noise of the scan the mesh was made from, %.4f mm (measured on its points)",
+                      tolerance, result.scan_noise_mm);
+    case SectionToleranceSource::CutNoise: break;
+    }
+    return format("tolerance %.4f mm: from the cut of the mesh (5 x its noise, %.4f mm, at least %.4f mm), which says "
+                  "nothing of the scan when the mesher flattened the faces; no scan given: set it yourself",
+                  tolerance, result.fits.noise_mm, options.min_tolerance_mm);
+}
+
+}  // namespace
+
+SectionPlane section_plane(const cv::Vec3d& origin, const cv::Vec3d& normal) {
+    const double length = cv::norm(normal);
+    if (!(length > 1e-9) || !std::isfinite(length)) throw Error("normal", "must be a non-zero direction, e.g. 0,0,1");
+    const cv::Vec3d n = normal / length;
+    const cv::Vec3d up = std::abs(n[2]) > 0.9 ? cv::Vec3d(0, 1, 0) : cv::Vec3d(0, 0, 1);
+    cv::Vec3d u = up.cross(n);
+    u /= cv::norm(u);
+    return {origin, n, u, n.cross(u)};
+}
+
+SectionPlane section_plane_across(int axis, double at) {
+    if (axis < 0 || axis > 2) throw Error("axis", "must be 0, 1 or 2 (x, y, z), is " + std::to_string(axis));
+    // Normals towards the viewer of the right (x), front (y, looking along +y) and top (z) views.
+    const cv::Vec3d normals[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
+    cv::Vec3d origin(0, 0, 0);
+    origin[axis] = at;
+    return section_plane(origin, normals[axis]);
+}
+
 MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
-                            double band_mm, const SectionFitOptions& options, const ProgressCallback& progress) {
+                            double band_mm, const SectionFitOptions& options, const ProgressCallback& progress,
+                            const PointCloud* scan) {
     MeshSectionFit result;
+    SectionFitOptions fit_options = options;
+    if (scan != nullptr) {
+        if (progress && !progress(0.0, "measuring the scan's noise")) throw Error("cancelled", "the section fit was cancelled");
+        result.scan_noise_mm = fit_options.scan_noise_mm = scan_noise(*scan, options);
+    }
+    result.tolerance_source = options.tolerance_mm > 0       ? SectionToleranceSource::Given
+                              : fit_options.scan_noise_mm > 0 ? SectionToleranceSource::ScanNoise
+                                                              : SectionToleranceSource::CutNoise;
+    if (scan == nullptr) result.scan_noise_mm = options.scan_noise_mm;
     result.section = cut_mesh_section(mesh, origin, u_axis, v_axis, band_mm, part_of(progress, 0, 0.5));
-    result.fits = fit_section_polylines(result.section.polylines, result.section.parallel_cuts, options,
+    result.fits = fit_section_polylines(result.section.polylines, result.section.parallel_cuts, fit_options,
                                         part_of(progress, 0.5, 0.5));
     if (progress && !progress(1.0, "fitting lines and arcs")) throw Error("cancelled", "the section fit was cancelled");
+    result.tolerance_from = tolerance_text(result, options);
 
     const MeshSection& section = result.section;
     const SectionFits& fits = result.fits;
@@ -78,10 +141,7 @@ MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv:
                      "; the drawing's x along " + vector_text(u_axis) + ", y along " + vector_text(v_axis));
     report.push_back(format("cut: %zu polylines; band +- %.3f mm: %zu parallel cuts' polylines", section.polylines.size(),
                             band_mm, section.parallel_cuts.size()));
-    report.push_back(format("noise of the cut %.4f mm, tolerance %.4f mm (", fits.noise_mm, fits.tolerance_mm) +
-                     (options.tolerance_mm > 0         ? std::string("given)")
-                      : options.scan_noise_mm > 0 ? format("5 x the scan's noise, %.4f mm)", options.scan_noise_mm)
-                                                  : std::string("5 x the cut's noise)")));
+    report.push_back(format("noise of the cut %.4f mm; ", fits.noise_mm) + result.tolerance_from);
     for (size_t k = 0; k < fits.fits.size(); ++k) {
         const SectionFit& fit = fits.fits[k];
         const SectionPolyline& polyline = section.polylines[size_t(fits.fitted_index[k])];

@@ -48,38 +48,36 @@ def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=
                    scan=None):
     """(placement of the cutting plane, picoscan.MeshSectionFit) of a FreeCAD mesh (not a document
     object: this runs on the worker thread). The core's one call for the whole section
-    (picoscan.section_mesh): the cut and its Band (band_mm = 0: the one cut), the polylines judged
+    (picoscan.section_mesh): the default tolerance (5 x the noise of `scan`, the picoscan.PointCloud
+    the mesh was made from, when given: a mesher that flattens the faces leaves their cut nanometres
+    of noise; else from the cut), the cut and its Band (band_mm = 0: the one cut), the polylines judged
     together (one noise and tolerance for all; crumbs too small or too noisy to be a feature of the
-    part in `fits.left_out`, with the reason) and the report. With tolerance_mm 0 and the `scan` the
-    mesh was made from (a picoscan.PointCloud), the tolerance is 5 x the scan's noise (the core's
-    estimate_scan_noise): a mesher that flattens the faces leaves their cut nanometres of noise."""
+    part in `fits.left_out`, with the reason) and the report, with the line saying where the
+    tolerance came from (tolerance_from)."""
     from picoscan_wb.objects.scan_mesh import core_mesh
 
     options = fit_options(tolerance_mm)
-    if scan is not None and tolerance_mm == 0:
-        cancel_point(progress, 0.0, "measuring the scan's noise")
-        options.scan_noise_mm = picoscan.estimate_scan_noise(scan)
     cancel_point(progress, 0.0, "cutting the mesh")
     core = core_mesh(mesh, progress)
     base, _ = section_plane(mesh, axis, offset_mm)
     placement, u_axis, v_axis = _plane_axes(base, axis)
     try:
-        section = picoscan.section_mesh(core, tuple(base), tuple(u_axis), tuple(v_axis), band_mm, options, progress)
+        section = picoscan.section_mesh(core, tuple(base), tuple(u_axis), tuple(v_axis), band_mm, options, progress, scan)
     except picoscan.Error as error:
         if str(error).startswith("cancelled"):
             raise
         raise picoscan.Error("%s, %s plane at %.2f mm: %s" % (label, axis, getattr(base, axis.lower()), error))
-    return placement, section, options.scan_noise_mm
+    return placement, section
 
 
-def tolerance_origin(tolerance_mm, scan_noise_mm, scan_label, fits):
-    """Where the sketch's tolerance came from, in one line (its FitToleranceFrom)."""
-    if tolerance_mm > 0:
-        return "given: %.4f mm" % fits.tolerance_mm
-    if scan_noise_mm > 0:
-        return "5 x the noise of the scan %s, %.4f mm (measured on its points)" % (scan_label, scan_noise_mm)
-    return ("no scan noise known (%s): tolerance set to %.4f mm from the cut of the mesh, which may have been "
-            "flattened; set it yourself" % (scan_label, fits.tolerance_mm))
+def tolerance_origin(section, scan_label):
+    """Where the sketch's tolerance came from, in one line (its FitToleranceFrom): the core's line, with the
+    scan named, or why there was none."""
+    if section.tolerance_source == picoscan.SectionToleranceSource.ScanNoise:
+        return "the scan %s: %s" % (scan_label, section.tolerance_from)
+    if section.tolerance_source == picoscan.SectionToleranceSource.CutNoise:
+        return "no scan noise known (%s): %s" % (scan_label, section.tolerance_from)
+    return section.tolerance_from
 
 
 def left_out_report(fits):
@@ -235,7 +233,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
     picoscan.Error "cancelled", document unchanged)."""
     mesh, label = mesh_object.Mesh.copy(), mesh_object.Label  # the worker reads no document object
     scan, scan_label = scan_behind(mesh_object) if tolerance_mm == 0 else (None, "")
-    placement, section, scan_noise = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
+    placement, section = run_in_background("Cross-section of " + label, lambda progress: fitted_section(
         mesh, label, axis, offset_mm, tolerance_mm, band_mm, progress, scan))
     fits = section.fits
     sketch = doc.addObject("Sketcher::SketchObject", name)
@@ -260,8 +258,8 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
                            "Polylines of the cut left out of the sketch (too small or too noisy to be a feature), and why")
         sketch.SourceMesh = mesh_object
         sketch.FitTolerance = fits.tolerance_mm
-        sketch.FitNoise = scan_noise  # never the cut's: a flattened mesh's is nanometres, no measure of the scan
-        sketch.FitToleranceFrom = tolerance_origin(tolerance_mm, scan_noise, scan_label, fits)
+        sketch.FitNoise = section.scan_noise_mm  # never the cut's: a flattened mesh's is nanometres, no measure of the scan
+        sketch.FitToleranceFrom = tolerance_origin(section, scan_label)
         sketch.FitReport = report
         sketch.FitBand = band_mm
         sketch.LeftOut = left_out_report(fits)
@@ -274,7 +272,7 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
         doc.removeObject(sketch.Name)
         raise
     FreeCAD.Console.PrintLog("%s: the core's report of the section:\n    %s\n" % (sketch.Label, "\n    ".join(section.report)))
-    if scan_noise == 0 and tolerance_mm == 0:
+    if section.tolerance_source == picoscan.SectionToleranceSource.CutNoise:
         FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, sketch.FitToleranceFrom))
     for line in list(sketch.LeftOut) + [line for line in sketch.FitReport if "not prismatic" in line]:
         FreeCAD.Console.PrintWarning("%s: %s\n" % (sketch.Label, line))

@@ -174,17 +174,18 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertLess(noise, 0.05)
         self.assertEqual(sketch.FitNoise.Value, noise)
         self.assertAlmostEqual(sketch.FitTolerance.Value, max(0.005, 5 * noise), delta=1e-12)
-        self.assertEqual(sketch.FitToleranceFrom, "5 x the noise of the scan %s, %.4f mm (measured on its points)" % (
-            view.Label, noise))
+        self.assertEqual(sketch.FitToleranceFrom, "the scan %s: tolerance %.4f mm: 5 x the noise of the scan the mesh was "
+                         "made from, %.4f mm (measured on its points)" % (view.Label, sketch.FitTolerance.Value, noise))
         given = section.cross_section(self.doc, mesh, axis="Y", offset_mm=0.0, tolerance_mm=0.05, name="Given")
-        self.assertEqual((given.FitNoise.Value, given.FitToleranceFrom), (0.0, "given: 0.0500 mm"))
+        self.assertEqual((given.FitNoise.Value, given.FitToleranceFrom), (0.0, "tolerance 0.0500 mm: given"))
         self.doc.removeObject(given.Name)
         # Built to fool a default from the mesh: a Poisson surface (2 mm samples) of the same view is
         # smoother than its scan, so its cut shows a fraction of the scan's noise. The default
         # tolerance is 5 x the scan's noise all the same, and says so.
         smooth = scan_mesh.create(self.doc, view, method="Poisson", sample_spacing_mm=2.0, fill="Open", name="Smooth")
-        _, cut, used = section.fitted_section(smooth.Mesh, smooth.Label, "Y", 0.0, band_mm=0.0,
-                                              scan=section.scan_behind(smooth)[0])
+        _, cut = section.fitted_section(smooth.Mesh, smooth.Label, "Y", 0.0, band_mm=0.0,
+                                       scan=section.scan_behind(smooth)[0])
+        used = cut.scan_noise_mm
         FreeCAD.Console.PrintMessage("Poisson mesh of the shaft view: noise of its cut %.4f mm, of the scan %.4f mm\n" % (
             cut.fits.noise_mm, noise))
         self.assertEqual(used, noise)
@@ -193,7 +194,8 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertTrue(smooth_sketch.isValid(), smooth_sketch.getStatusString())
         self.assertEqual(smooth_sketch.FitNoise.Value, noise)
         self.assertAlmostEqual(smooth_sketch.FitTolerance.Value, 5 * noise, delta=1e-12)
-        self.assertIn("5 x the noise of the scan %s" % view.Label, smooth_sketch.FitToleranceFrom)
+        self.assertTrue(smooth_sketch.FitToleranceFrom.startswith("the scan %s: tolerance %.4f mm: 5 x the noise of the scan" % (
+            view.Label, smooth_sketch.FitTolerance.Value)), smooth_sketch.FitToleranceFrom)
         self.assertEqual(len(sketch.FitReport), sketch.GeometryCount)
         self.assertLess(sketch.GeometryCount, 20)  # fitted elements, not hundreds of segments
         self.assertLess(sketch.FitTolerance.Value, 0.2)
@@ -974,7 +976,7 @@ class PicoScanSectionFitTest(unittest.TestCase):
             self.assertEqual(sketch.FitNoise.Value, 0.0)
             self.assertTrue(sketch.FitToleranceFrom.startswith("no scan noise known (%s was not meshed from a scan" % (
                 mesh.Label)), sketch.FitToleranceFrom)
-            self.assertIn("tolerance set to %.4f mm" % sketch.FitTolerance.Value, sketch.FitToleranceFrom)
+            self.assertIn("tolerance %.4f mm: from the cut of the mesh" % sketch.FitTolerance.Value, sketch.FitToleranceFrom)
             self.assertTrue(sketch.FitToleranceFrom.endswith("set it yourself"), sketch.FitToleranceFrom)
             if sigma == 0.0:
                 self.assertEqual(sketch.FitTolerance.Value, 0.005)  # the core's floor
