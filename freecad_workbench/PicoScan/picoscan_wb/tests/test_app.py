@@ -55,12 +55,35 @@ class PicoScanAppTest(unittest.TestCase):
         box = view.Points.BoundBox
         self.assertAlmostEqual(box.ZMax, BACKGROUND_Z_MM, delta=1.0)
         self.assertAlmostEqual(box.ZMin, 400.0 - SHAFT_RADIUS_MM, delta=0.5)
+        self.check_normals(view)
         all_points = view.PointCount
         view.MinContrast = 120  # most of the wall is darker than this: fewer points after recompute
         self.doc.recompute()
         self.assertTrue(view.isValid())
         self.assertLess(view.PointCount, all_points)
         self.assertEqual(view.Points.CountPoints, view.PointCount)
+        self.check_normals(view)
+
+    def check_normals(self, view):
+        """The ScanView's Normal (what the 3D view lights its points by): one per point, in the points'
+        order, the core's from the pixel grid: on the shaft (axis along y through z = 400 mm) radial,
+        turned towards the camera."""
+        from picoscan_wb.property_content import normals_from_content, points_from_content
+
+        normals = normals_from_content(view.dumpPropertyContent("Normal", Compression=0))
+        points = points_from_content(view.dumpPropertyContent("Points", Compression=0), moved=False)
+        self.assertEqual(len(normals), view.PointCount)
+        self.assertLess(numpy.abs(numpy.linalg.norm(normals, axis=1) - 1).max(), 1e-3)  # no NaN left
+        radial = points[:, [0, 2]] - [0.0, 400.0]
+        distance = numpy.linalg.norm(radial, axis=1)
+        on_shaft = (numpy.abs(distance - SHAFT_RADIUS_MM) < 0.3) & (numpy.abs(points[:, 1]) < 30)
+        self.assertGreater(on_shaft.sum(), 10000)
+        cosine = (normals[on_shaft][:, [0, 2]] * radial[on_shaft]).sum(axis=1) / distance[on_shaft]
+        angle = numpy.degrees(numpy.arccos(numpy.clip(cosine, -1, 1)))
+        FreeCAD.Console.PrintMessage("ScanView normals on the shaft: median %.2f, p95 %.2f degrees from radial\n" % (
+            numpy.median(angle), numpy.percentile(angle, 95)))
+        self.assertLess(numpy.median(angle), 4.0)
+        self.assertLess(numpy.percentile(angle, 95), 15.0)
 
     def test_clean_removes_points_and_reports(self):
         view = self.scan()
@@ -303,6 +326,7 @@ class PicoScanAppTest(unittest.TestCase):
         self.doc = FreeCAD.openDocument(path)
         view, mesh = self.doc.getObject(view_name), self.doc.getObject(mesh_name)
         self.assertEqual(view.Points.CountPoints, points)  # stored in the file
+        self.assertEqual(len(view.Normal), points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
         self.assertEqual(view.Proxy.Type, "PicoScan::ScanView")
         view.touch()
