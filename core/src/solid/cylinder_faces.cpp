@@ -424,15 +424,15 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     if (!is_cone) {
                         char cone_text[200] = "";
                         if (cone.mean_radius() > 0)
-                            std::snprintf(cone_text, sizeof cone_text, "; nor a cone (half-angle %.2f degrees, %g to %g made; RMS %.4f mm, "
-                                          "sides of its facets up to %.4f mm from it, at most %.4f)", cone.half_angle_deg(),
-                                          kMinConeDeg, kMaxConeDeg, cone.surface_rms(), side_off, distance_limit);
+                            std::snprintf(cone_text, sizeof cone_text, "(half-angle %.2f degrees, %g to %g made; RMS %.4f mm, sides of its "
+                                          "facets up to %.4f mm from it, at most %.4f)", cone.half_angle_deg(), kMinConeDeg,
+                                          kMaxConeDeg, cone.surface_rms(), side_off, distance_limit);
                         if (steep || !(circle.radius > 0))  // no facets of its wall square to the axis: no cylinder to fit
-                            std::snprintf(text, sizeof text, "not a cylinder or cone square to its planes%s", cone_text);
+                            std::snprintf(text, sizeof text, "not a cone square to its planes %s", cone_text);
                         else
                             std::snprintf(text, sizeof text,
                                           "not a cylinder square to its planes (RMS %.4f mm from the best one, radius %.4f mm; at most "
-                                          "%.4f mm: %.2g x the noise or %.2g %% of the radius)%s", circle.rms, circle.radius, rms_limit,
+                                          "%.4f mm: %.2g x the noise or %.2g %% of the radius); nor a cone %s", circle.rms, circle.radius, rms_limit,
                                           options.max_rms_factor, 100 * options.max_rms_factor * kRoundness, cone_text);
                         refuse(text);
                         continue;
