@@ -350,9 +350,14 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 for (size_t f : members) facets += model.faces[f].triangles.size();
                 std::vector<size_t> ends;
                 size_t other_faces = 0;  // faces next to it neither an end nor its own
+                // Its own: not in_wall, which also holds the walls (and their rings) tried before on this
+                // axis; one of those beside it would be left between it and its planes, joined to nothing.
+                std::vector<size_t> own(members);
+                std::sort(own.begin(), own.end());
                 for (size_t f : members)
                     for (size_t g : neighbours(f)) {
-                        if (in_wall[g] || std::find(ends.begin(), ends.end(), g) != ends.end()) continue;
+                        if (std::binary_search(own.begin(), own.end(), g) || std::find(ends.begin(), ends.end(), g) != ends.end())
+                            continue;
                         if (model.faces[g].merged && along(g) > 0.9) ends.push_back(g);
                         else ++other_faces;
                     }
