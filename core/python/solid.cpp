@@ -37,7 +37,8 @@ void bind_solid(py::module_& m) {
         .def_readonly("triangles", &BrepFace::triangles)
         .def_readonly("radius_mm", &BrepFace::radius_mm)
         .def_readonly("x_axis", &BrepFace::x_axis)
-        .def_readonly("reversed", &BrepFace::reversed);
+        .def_readonly("reversed", &BrepFace::reversed)
+        .def_readonly("semi_angle_rad", &BrepFace::semi_angle_rad);
     py::class_<PlanarFaceModel>(m, "PlanarFaceModel")
         .def_readonly("vertices", &PlanarFaceModel::vertices)
         .def_readonly("vertex_tolerance_mm", &PlanarFaceModel::vertex_tolerance_mm)
@@ -51,6 +52,8 @@ void bind_solid(py::module_& m) {
         .def_readonly("refused_merges", &PlanarFaceModel::refused_merges)
         .def_readonly("cylinder_faces", &PlanarFaceModel::cylinder_faces)
         .def_readonly("cylinder_facets", &PlanarFaceModel::cylinder_facets)
+        .def_readonly("cone_faces", &PlanarFaceModel::cone_faces)
+        .def_readonly("cone_facets", &PlanarFaceModel::cone_facets)
         .def_readonly("cylinder_notes", &PlanarFaceModel::cylinder_notes)
         .def_readonly("cylinder_end_facets", &PlanarFaceModel::cylinder_end_facets)
         .def_readonly("cylinder_end_mm", &PlanarFaceModel::cylinder_end_mm)

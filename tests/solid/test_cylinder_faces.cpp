@@ -419,3 +419,100 @@ TEST(CylinderFaces, SmoothMeshDecoysStayFacetedWithTheReason) {
         }
     }
 }
+
+namespace {
+
+// A solid of revolution about the z axis through `kCentre`: a frustum of radius r0 at z = 0 and
+// r1 at z = height, `segments` round (few: a pyramid frustum, its faces flat), each face divided
+// in rows and rings of at most about 0.5 mm, every vertex moved by Gaussian noise. Its corners
+// lie on the cone whatever the segments; its facets do only when they are many.
+Mesh frustum(double r0, double r1, double height, int segments, double sigma, unsigned seed) {
+    const int rows = int(std::ceil(std::hypot(r1 - r0, height) / 0.5)), rings = int(std::ceil(std::max(r0, r1) / 0.5));
+    Mesh mesh;
+    std::mt19937 random(seed);
+    std::normal_distribution<double> unit_noise;
+    auto add = [&](double rho, double a, double z) {
+        const cv::Vec3d p = kCentre + cv::Vec3d(rho * std::cos(a), rho * std::sin(a), z) +
+                            sigma * cv::Vec3d(unit_noise(random), unit_noise(random), unit_noise(random));
+        mesh.vertices.emplace_back(p);
+        return int(mesh.vertices.size()) - 1;
+    };
+    // Rings from the bottom's centre out, up the side, and in to the top's centre: one grid of
+    // (ring, segment) whose first and last rings are single points.
+    std::vector<std::vector<int>> grid;
+    grid.push_back({add(0, 0, 0)});
+    for (int i = 1; i <= rings; ++i) {
+        grid.emplace_back();
+        for (int k = 0; k < segments; ++k) grid.back().push_back(add(r0 * i / rings, 2 * kPi * k / segments, 0));
+    }
+    for (int j = 1; j <= rows; ++j) {
+        grid.emplace_back();
+        for (int k = 0; k < segments; ++k) grid.back().push_back(add(r0 + (r1 - r0) * j / rows, 2 * kPi * k / segments, height * j / rows));
+    }
+    for (int i = rings - 1; i >= 1; --i) {
+        grid.emplace_back();
+        for (int k = 0; k < segments; ++k) grid.back().push_back(add(r1 * i / rings, 2 * kPi * k / segments, height));
+    }
+    grid.push_back({add(0, 0, height)});
+    // Straight rows of a pyramid's faces are its edges: the points between corners along a row lie
+    // on the flat face, not the cone (a segment's chord, sampled like the rest).
+    for (size_t r = 0; r + 1 < grid.size(); ++r) {
+        const auto &low = grid[r], &high = grid[r + 1];
+        for (int k = 0; k < segments; ++k) {
+            const int k1 = (k + 1) % segments;
+            if (low.size() == 1) mesh.faces.emplace_back(low[0], high[size_t(k1)], high[size_t(k)]);
+            else if (high.size() == 1) mesh.faces.emplace_back(low[size_t(k)], low[size_t(k1)], high[0]);
+            else {
+                mesh.faces.emplace_back(low[size_t(k)], low[size_t(k1)], high[size_t(k1)]);
+                mesh.faces.emplace_back(low[size_t(k)], high[size_t(k1)], high[size_t(k)]);
+            }
+        }
+    }
+    return mesh;
+}
+
+const BrepFace* cone_of(const PlanarFaceModel& model) {
+    for (const BrepFace& face : model.faces)
+        if (face.semi_angle_rad != 0) return &face;
+    return nullptr;
+}
+
+}  // namespace
+
+TEST(ConeFaces, AFrustumBetweenTwoPlanesBecomesOneConeOfTheTrueAngle) {
+    // Widening (a boss seen upside down, a countersink's wall) and narrowing upwards, 20 and 45 degrees.
+    const struct {
+        double r0, r1, height;
+    } cases[] = {{10, 6, 4 / std::tan(20 * kPi / 180)}, {6, 10, 4}};
+    for (const auto& c : cases) {
+        const double half_angle = std::atan(std::abs(c.r1 - c.r0) / c.height) * 180 / kPi;
+        SCOPED_TRACE("half-angle " + std::to_string(half_angle));
+        const PlanarFaceModel model = planar_face_model(frustum(c.r0, c.r1, c.height, 96, 0.005, 3));
+        std::printf("frustum %.1f to %.1f mm, %.2f degrees: %s\n", c.r0, c.r1, half_angle, model.summary().c_str());
+        ASSERT_EQ(model.cone_faces, 1u) << notes_of(model);
+        EXPECT_EQ(model.cylinder_faces, 0u);
+        EXPECT_EQ(model.faces.size(), 3u);
+        const BrepFace* cone = cone_of(model);
+        ASSERT_NE(cone, nullptr);
+        EXPECT_NEAR(std::abs(cone->semi_angle_rad) * 180 / kPi, half_angle, 0.1);
+        EXPECT_GT(std::abs(cv::normalize(cone->normal)[2]), 1 - 1e-6);
+        const cv::Vec3d off_axis = cone->origin - kCentre;
+        EXPECT_NEAR(std::hypot(off_axis[0], off_axis[1]), 0, 0.02);
+        // Its radius at its origin: the frustum's at that end.
+        const double level = cone->origin[2] - kCentre[2];
+        EXPECT_NEAR(cone->radius_mm, level < c.height / 2 ? c.r0 : c.r1, 0.02) << level;
+        if (!freecad_installed() || half_angle < 30) continue;  // OpenCASCADE's check once (2 to 3 s)
+        const OccAnswer occ = occ_check(model, "frustum");
+        std::printf("  OpenCASCADE: %s", occ.text.c_str());
+        EXPECT_TRUE(occ.valid) << occ.text;
+        EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+    }
+}
+
+TEST(ConeFaces, APyramidFrustumWhoseCornersLieOnAConeStaysFlat) {
+    // 16 flat sides: every vertex on the cone's generatrices, the rows between them on the chords.
+    const PlanarFaceModel model = planar_face_model(frustum(10, 6, 11, 16, 0.002, 5));
+    std::printf("16-sided pyramid frustum: %s\n", model.summary().c_str());
+    EXPECT_EQ(model.cone_faces, 0u) << notes_of(model);
+    EXPECT_EQ(model.cylinder_faces, 0u) << notes_of(model);
+}

@@ -34,7 +34,9 @@ struct PlanarFaceOptions {
     bool cylinders = true;           // a region of facets left between two planar faces, bounded by one
                                      // whole loop of each, becomes one cylindrical face when its vertices
                                      // lie within max_rms_factor x the noise (RMS) of a cylinder square to
-                                     // both planes (a drilled hole, a boss, a shaft); its loops become circles
+                                     // both planes (a drilled hole, a boss, a shaft); its loops become circles.
+                                     // Such a region on a cone about that axis (half-angle 2 to 64 degrees:
+                                     // a countersink, a chamfered boss, a tapered hole) becomes one conical face
 };
 
 struct BrepEdge {
@@ -64,6 +66,9 @@ struct BrepFace {
     double radius_mm = 0;
     cv::Vec3d x_axis{};
     bool reversed = false;
+    // A cone instead of a cylinder (non-zero): radius_mm at `origin`, growing by tan(semi_angle_rad)
+    // per mm along `normal` (OpenCASCADE's cone: v runs along its slant line from `origin`'s circle).
+    double semi_angle_rad = 0;
 };
 
 struct PlanarFaceModel {
@@ -77,6 +82,7 @@ struct PlanarFaceModel {
     size_t merged_faces = 0, merged_facets = 0;  // planar regions and the facets they hold
     std::vector<std::string> refused_merges;     // planar regions left as triangles, and why
     size_t cylinder_faces = 0, cylinder_facets = 0;  // cylindrical faces (the last faces) and the facets they replace
+    size_t cone_faces = 0, cone_facets = 0;      // conical faces (among the last faces, counted apart from the cylinders)
     std::vector<std::string> cylinder_notes;     // regions between two planar faces left as triangles, and why
     // Facets where a cylinder's wall meets its ends (a smooth mesh's rounded edges) that the
     // cylinder and its planes are continued over: how many, the farthest from them, and the volume
@@ -112,7 +118,7 @@ PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& opt
 std::vector<std::string> merged_face_defects(const PlanarFaceModel& model, const PlanarFaceOptions& options = {});
 
 // Writes the model as an OpenCASCADE BREP solid (vertices, straight and circular edges, planar
-// and cylindrical faces, one shell), with each face's triangles as its triangulation and each edge's chain as its polygon on
+// cylindrical and conical faces, one shell), with each face's triangles as its triangulation and each edge's chain as its polygon on
 // the triangulations of its faces (what a viewer meshing the solid would make, so OpenCASCADE's
 // mesher keeps them instead). Written to a temporary file and renamed. `progress` is told every 4096 vertices, edges and
 // faces; answering false stops it (Error("cancelled", ...), nothing written).

@@ -12,10 +12,18 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// A circle seen along an axis, or a cone's (slope != 0): its radius at height h along the axis
+// (from the plane it was seen from) is radius + slope x h.
 struct Circle2 {
     cv::Vec2d center;
     double radius = 0, rms = 0;
     cv::Vec3d origin = cv::Vec3d(0, 0, 0);  // circle_along: the centre in 3-D, in the plane it was seen from
+    double slope = 0, mean_height = 0;     // a cone: its radius' growth per mm along the axis; the points' mean height
+    double radius_at(double height) const { return radius + slope * height; }
+    double mean_radius() const { return radius_at(mean_height); }
+    double half_angle_deg() const { return std::atan(std::abs(slope)) * 180 / kPi; }
+    // The RMS distance from the surface (the fit's radial residuals, square to a cone's slant line).
+    double surface_rms() const { return rms / std::sqrt(1 + slope * slope); }
 };
 
 // A cylinder is taken as round when its vertices' RMS distance from it is at most max_rms_factor
@@ -27,6 +35,9 @@ constexpr double kSameAxis = 0.996;     // cos(5 degrees)
 // The facets where a wall meets its ends (rounded by a smooth mesh) may change the volume by at
 // most this share of the mesh's when the cylinder and the planes are continued over them.
 constexpr double kRingVolumeShare = 1e-4;
+// Cones made, by half-angle: narrower is a cylinder with noise (as shapes.h's min_cone_half_angle_deg);
+// wider than the steep walls reach (normals within 25 degrees of the axis are the planes').
+constexpr double kMinConeDeg = 2, kMaxConeDeg = 64;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -66,6 +77,46 @@ Circle2 fit_circle(const std::vector<cv::Vec2d>& points) {
     return circle;
 }
 
+// Least-squares cone about an axis through 2-D points seen along it, at their heights along it: the
+// circle as the start (its centre is the cone's axis for rings about one axis), the radius a line in
+// the height, then Gauss-Newton on the points' radial distances from the cone.
+Circle2 fit_cone(const std::vector<cv::Vec2d>& points, const std::vector<double>& heights) {
+    Circle2 cone = fit_circle(points);
+    if (!(cone.radius > 0) || points.size() < 4) return cone;
+    double sum_h = 0, sum_hh = 0, sum_d = 0, sum_hd = 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+        const double d = cv::norm(points[i] - cone.center), h = heights[i];
+        sum_h += h, sum_hh += h * h, sum_d += d, sum_hd += h * d;
+    }
+    const double n = double(points.size()), spread = n * sum_hh - sum_h * sum_h;
+    if (!(spread > 0)) return cone;  // all at one height: a circle
+    cone.slope = (n * sum_hd - sum_h * sum_d) / spread;
+    cone.radius = (sum_d - cone.slope * sum_h) / n;
+    cone.mean_height = sum_h / n;
+    for (int iteration = 0; iteration < 30; ++iteration) {
+        cv::Matx44d jtj = cv::Matx44d::zeros();
+        cv::Vec4d jtr(0, 0, 0, 0);
+        for (size_t i = 0; i < points.size(); ++i) {
+            const cv::Vec2d offset = points[i] - cone.center;
+            const double distance = cv::norm(offset);
+            if (distance == 0) continue;
+            const cv::Vec4d gradient(-offset[0] / distance, -offset[1] / distance, -1, -heights[i]);
+            jtj += gradient * gradient.t();
+            jtr += gradient * (distance - cone.radius_at(heights[i]));
+        }
+        cv::Vec4d step;
+        if (!cv::solve(jtj, -jtr, step, cv::DECOMP_CHOLESKY)) break;
+        cone.center += cv::Vec2d(step[0], step[1]);
+        cone.radius += step[2];
+        cone.slope += step[3];
+        if (cv::norm(step) < 1e-12 * (1 + std::abs(cone.radius))) break;
+    }
+    double sum = 0;
+    for (size_t i = 0; i < points.size(); ++i) sum += std::pow(cv::norm(points[i] - cone.center) - cone.radius_at(heights[i]), 2);
+    cone.rms = std::sqrt(sum / n);
+    return cone;
+}
+
 std::string point_text(const cv::Vec3d& p) {
     char text[96];
     std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f)", p[0], p[1], p[2]);
@@ -100,6 +151,28 @@ Circle2 circle_along(const PlanarFaceModel& model, const std::vector<int>& verti
     Circle2 circle = fit_circle(seen);
     circle.origin = from + circle.center[0] * x_axis + circle.center[1] * y_axis;
     return circle;
+}
+
+// The cone about an axis parallel to `axis` (unit) the vertices lie nearest, its heights from `from`.
+Circle2 cone_along(const PlanarFaceModel& model, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
+    const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
+    std::vector<cv::Vec2d> seen;
+    std::vector<double> heights;
+    for (int v : vertices) {
+        const cv::Vec3d p = model.vertices[size_t(v)] - from;
+        seen.emplace_back(p.dot(x_axis), p.dot(y_axis));
+        heights.push_back(p.dot(axis));
+    }
+    Circle2 cone = fit_cone(seen, heights);
+    cone.origin = from + cone.center[0] * x_axis + cone.center[1] * y_axis;
+    return cone;
+}
+
+// How far a point is from a circle's cylinder or cone about `axis` (unit), square to its surface.
+double off_cone(const Circle2& cone, const cv::Vec3d& axis, const cv::Vec3d& p) {
+    const cv::Vec3d offset = p - cone.origin;
+    const double height = offset.dot(axis);
+    return std::abs(cv::norm(offset - height * axis) - cone.radius_at(height)) / std::sqrt(1 + cone.slope * cone.slope);
 }
 
 // Whether the vertices go all round the circle's axis: no gap between them wider than 45 degrees.
@@ -199,226 +272,279 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
         // Its wall: one-facet faces and planar strips (a finely divided wall is flat within the
         // noise in strips) whose normals are within 60 degrees of square to the axis. The rounded
         // or sharpened edges where a smooth (Poisson) mesh's wall meets its ends tilt further and
-        // keep the walls of one mesh apart.
-        auto wall = [&](size_t f) { return !taken[f] && allowed(f) && (one_facet(f) || model.faces[f].merged) && along(f) < 0.5; };
+        // keep the walls of one mesh apart. Steeper walls (steep: within 25 degrees of the planes'
+        // tilt) can only be cones.
+        bool steep = false;
+        auto wall = [&](size_t f) {
+            const bool tilt = steep ? along(f) >= 0.5 && along(f) < 0.9 : along(f) < 0.5;
+            return !taken[f] && allowed(f) && (one_facet(f) || model.faces[f].merged) && tilt;
+        };
         std::vector<char> in_wall(face_count, 0);
         std::vector<size_t> square_planes;
         for (size_t f = 0; f < face_count; ++f)
             if (model.faces[f].merged && along(f) > 0.9) square_planes.push_back(f);
-        for (size_t start = 0; start < face_count; ++start) {
-            if (in_wall[start] || !one_facet(start) || !wall(start)) continue;
-            std::vector<size_t> members{start};
-            in_wall[start] = 1;
-            for (size_t next = 0; next < members.size(); ++next)
-                for (size_t g : neighbours(members[next]))
-                    if (!in_wall[g] && wall(g)) {
+        // First the walls within 60 degrees of square to the axis (cylinders, cones up to 30 degrees), then
+        // those steeper (cones up to 64 degrees: a countersink, a chamfer), which no cylinder's wall holds.
+        for (const bool steep_walls : {false, true}) {
+            steep = steep_walls;
+            for (size_t start = 0; start < face_count; ++start) {
+                if (in_wall[start] || !one_facet(start) || !wall(start)) continue;
+                std::vector<size_t> members{start};
+                in_wall[start] = 1;
+                for (size_t next = 0; next < members.size(); ++next)
+                    for (size_t g : neighbours(members[next]))
+                        if (!in_wall[g] && wall(g)) {
+                            in_wall[g] = 1;
+                            members.push_back(g);
+                        }
+                size_t wall_facets = 0;
+                for (size_t f : members) wall_facets += model.faces[f].triangles.size();
+                if (int(wall_facets) < options.min_facets) continue;
+                const std::vector<int> wall_vertices = vertices_of(model, members);
+                const cv::Vec3d& from = model.faces[axis_face].origin;
+                auto near = [](const Circle2& c) { return c.mean_radius() > 0 && c.rms < 0.05 * c.mean_radius(); };
+                // Far from any circle (or, failing that, cone) or not around it (the walls of a box with a
+                // rounded edge, a flat strip): not a candidate, not reported.
+                Circle2 seen = steep ? Circle2{} : circle_along(model, wall_vertices, from, axis);
+                if (!near(seen)) seen = cone_along(model, wall_vertices, from, axis);
+                if (!near(seen) || !all_round(model, wall_vertices, seen, axis)) continue;
+                const Tolerances limits = tolerances(model, options, seen.mean_radius());
+                // Where a smooth (Poisson) mesh rounds or bevels the wall's ends: the facets next to it
+                // that lie within `ring` of its cylinder (two of the wall's mean edges, or the distance
+                // limit) go with it, and the planes at its ends are continued to the circles instead.
+                const double ring = std::max(limits.distance, 2 * mean_edge(model, members));
+                const size_t wall_count = members.size();
+                // How far a point is from the ideal surface there: the cylinder (cone) or a plane square to it.
+                auto off_surface = [&](const cv::Vec3d& p) {
+                    double off = off_cone(seen, axis, p);
+                    for (size_t h : square_planes)
+                        off = std::min(off, std::abs((p - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+                    return off;
+                };
+                // What the facets next to the wall that go with it (within `ring` of the cylinder or of a
+                // plane square to it: the cylinder and the plane are continued over them) change the
+                // volume by.
+                double ring_volume = 0, ring_farthest = 0;
+                for (size_t next = 0; next < members.size(); ++next)
+                    for (size_t g : neighbours(members[next])) {
+                        if (in_wall[g] || taken[g] || !one_facet(g)) continue;
+                        const cv::Vec3i& facet = model.faces[g].triangles[0];
+                        const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])],
+                                        &r = model.vertices[size_t(facet[2])];
+                        // Its corners, the middles of its sides and its centre (a chamfer's facets have
+                        // their corners on the cylinder and the plane, and cut the corner between).
+                        double off = 0;
+                        for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
+                        const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
+                        for (double side : sides) off = std::max(off, side);
+                        if (!(off <= ring)) continue;
+                        // The volume between the facet and that surface: its area times the mean distance
+                        // at the middles of its sides (the rule exact for quadratics).
+                        ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+                        ring_farthest = std::max(ring_farthest, off);
                         in_wall[g] = 1;
                         members.push_back(g);
                     }
-            size_t wall_facets = 0;
-            for (size_t f : members) wall_facets += model.faces[f].triangles.size();
-            if (int(wall_facets) < options.min_facets) continue;
-            const Circle2 seen = circle_along(model, vertices_of(model, members), model.faces[axis_face].origin, axis);
-            // Far from any circle or not around it (the walls of a box with a rounded edge, a flat
-            // strip): not a candidate, not reported.
-            if (!(seen.radius > 0) || !(seen.rms < 0.05 * seen.radius) || !all_round(model, vertices_of(model, members), seen, axis))
-                continue;
-            const Tolerances limits = tolerances(model, options, seen.radius);
-            // Where a smooth (Poisson) mesh rounds or bevels the wall's ends: the facets next to it
-            // that lie within `ring` of its cylinder (two of the wall's mean edges, or the distance
-            // limit) go with it, and the planes at its ends are continued to the circles instead.
-            const double ring = std::max(limits.distance, 2 * mean_edge(model, members));
-            const size_t wall_count = members.size();
-            // How far a point is from the ideal surface there: the cylinder or a plane square to it.
-            auto off_surface = [&](const cv::Vec3d& p) {
-                const cv::Vec3d offset = p - seen.origin;
-                double off = std::abs(cv::norm(offset - offset.dot(axis) * axis) - seen.radius);
-                for (size_t h : square_planes)
-                    off = std::min(off, std::abs((p - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
-                return off;
-            };
-            // What the facets next to the wall that go with it (within `ring` of the cylinder or of a
-            // plane square to it: the cylinder and the plane are continued over them) change the
-            // volume by.
-            double ring_volume = 0, ring_farthest = 0;
-            for (size_t next = 0; next < members.size(); ++next)
-                for (size_t g : neighbours(members[next])) {
-                    if (in_wall[g] || taken[g] || !one_facet(g)) continue;
-                    const cv::Vec3i& facet = model.faces[g].triangles[0];
-                    const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])],
-                                    &r = model.vertices[size_t(facet[2])];
-                    // Its corners, the middles of its sides and its centre (a chamfer's facets have
-                    // their corners on the cylinder and the plane, and cut the corner between).
-                    double off = 0;
-                    for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
-                    const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
-                    for (double side : sides) off = std::max(off, side);
-                    if (!(off <= ring)) continue;
-                    // The volume between the facet and that surface: its area times the mean distance
-                    // at the middles of its sides (the rule exact for quadratics).
-                    ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
-                    ring_farthest = std::max(ring_farthest, off);
-                    in_wall[g] = 1;
-                    members.push_back(g);
-                }
-            const std::vector<size_t> wall_faces(members.begin(), members.begin() + std::ptrdiff_t(wall_count));
-            size_t facets = 0;
-            for (size_t f : members) facets += model.faces[f].triangles.size();
-            std::vector<size_t> ends;
-            size_t other_faces = 0;  // faces next to it neither an end nor its own
-            for (size_t f : members)
-                for (size_t g : neighbours(f)) {
-                    if (in_wall[g] || std::find(ends.begin(), ends.end(), g) != ends.end()) continue;
-                    if (model.faces[g].merged && along(g) > 0.9) ends.push_back(g);
-                    else ++other_faces;
-                }
-            for (size_t f : members) taken[f] = 1;
-
-            CylinderRegion region;
-            region.faces = members;
-            std::sort(region.faces.begin(), region.faces.end());
-            char text[240];
-            std::snprintf(text, sizeof text, "%zu facets near a cylinder of radius %.3f mm about the axis through %s along %s", facets,
-                          seen.radius, point_text(seen.origin).c_str(), point_text(axis).c_str());
-            std::string name = text;
-            auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
-            if (ends.size() != 2 || other_faces > 0) {
-                std::snprintf(text, sizeof text,
-                              "its wall does not end in two planar faces square to it (it meets %zu such planes and %zu other "
-                              "faces: a cone or chamfer, a plane cut obliquely, a flat on it, or triangles beyond it)",
-                              ends.size(), other_faces);
-                refuse(text);
-                continue;
-            }
-            if (ring_volume > kRingVolumeShare * model.mesh_volume_mm3) {
-                std::snprintf(text, sizeof text,
-                              "the %zu facets where its wall meets its ends are too far from the cylinder and the planes continued "
-                              "to it: the volume would change by up to %.3g mm3 (at most %.2g %% of the mesh's, %.3g mm3)",
-                              members.size() - wall_count, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
-                refuse(text);
-                continue;
-            }
-            region.planes[0] = ends[0];
-            region.planes[1] = ends[1];
-            region.end_facets = members.size() - wall_count;
-            region.end_mm = ring_farthest;
-            region.end_volume_mm3 = ring_volume;
-            name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) + " and " +
-                   point_text(model.faces[ends[1]].origin);
-            auto in_region = [&](size_t f) { return std::binary_search(region.faces.begin(), region.faces.end(), f); };
-
-            // The cylinder square to the first plane: a circle through the wall's vertices seen along its normal.
-            const BrepFace& first = model.faces[region.planes[0]];
-            region.axis = cv::normalize(first.normal);
-            region.x_axis = square_to(region.axis);
-            // Fitted to the facets within 15 degrees of square to the axis: a smooth mesh's wall
-            // bends into the rounded edges at its ends.
-            std::vector<size_t> square_facets;
-            for (size_t f : wall_faces)
-                if (along(f) < kSquareToAxis) square_facets.push_back(f);
-            const Circle2 circle = circle_along(model, vertices_of(model, square_facets), first.origin, region.axis);
-            region.radius_mm = circle.radius;
-            region.rms_mm = circle.rms;
-            region.origin = circle.origin;
-            const double distance_limit = limits.distance, rms_limit = limits.rms;
-            if (!(circle.rms <= rms_limit)) {
-                std::snprintf(text, sizeof text,
-                              "not a cylinder square to its planes (RMS %.4f mm from the best one, radius %.4f mm; at most %.4f mm: "
-                              "%.2g x the noise or %.2g %% of the radius)", circle.rms, circle.radius, rms_limit,
-                              options.max_rms_factor, 100 * options.max_rms_factor * kRoundness);
-                refuse(text);
-                continue;
-            }
-
-            // Each plane must meet the region along one whole loop of its own.
-            bool whole_loops = true;
-            for (int i = 0; i < 2 && whole_loops; ++i) {
-                const BrepFace& plane = model.faces[region.planes[i]];
-                size_t loops_met = 0;
-                for (size_t w = 0; w < plane.wires.size(); ++w) {
-                    size_t shared = 0;
-                    for (int e : plane.wires[w]) {
-                        const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
-                        shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+                const std::vector<size_t> wall_faces(members.begin(), members.begin() + std::ptrdiff_t(wall_count));
+                size_t facets = 0;
+                for (size_t f : members) facets += model.faces[f].triangles.size();
+                std::vector<size_t> ends;
+                size_t other_faces = 0;  // faces next to it neither an end nor its own
+                // Its own: not in_wall, which also holds the walls (and their rings) tried before on this
+                // axis; one of those beside it would be left between it and its planes, joined to nothing.
+                std::vector<size_t> own(members);
+                std::sort(own.begin(), own.end());
+                for (size_t f : members)
+                    for (size_t g : neighbours(f)) {
+                        if (std::binary_search(own.begin(), own.end(), g) || std::find(ends.begin(), ends.end(), g) != ends.end())
+                            continue;
+                        if (model.faces[g].merged && along(g) > 0.9) ends.push_back(g);
+                        else ++other_faces;
                     }
-                    if (shared == 0) continue;
-                    ++loops_met;
-                    if (shared != plane.wires[w].size()) whole_loops = false;
-                    region.wires[i] = w;
+                for (size_t f : members) taken[f] = 1;
+
+                CylinderRegion region;
+                region.faces = members;
+                std::sort(region.faces.begin(), region.faces.end());
+                char text[480];
+                if (seen.slope == 0)
+                    std::snprintf(text, sizeof text, "%zu facets near a cylinder of radius %.3f mm about the axis through %s along %s",
+                                  facets, seen.radius, point_text(seen.origin).c_str(), point_text(axis).c_str());
+                else
+                    std::snprintf(text, sizeof text, "%zu facets near a cone of half-angle %.2f degrees, mean radius %.3f mm, about "
+                                  "the axis through %s along %s", facets, seen.half_angle_deg(), seen.mean_radius(),
+                                  point_text(seen.origin).c_str(), point_text(axis).c_str());
+                std::string name = text;
+                auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
+                if (ends.size() != 2 || other_faces > 0) {
+                    std::snprintf(text, sizeof text,
+                                  "its wall does not end in two planar faces square to it (it meets %zu such planes and %zu other "
+                                  "faces: a cone or chamfer, a plane cut obliquely, a flat on it, or triangles beyond it)",
+                                  ends.size(), other_faces);
+                    refuse(text);
+                    continue;
                 }
-                if (loops_met != 1) whole_loops = false;
-            }
-            if (!whole_loops) {
-                refuse("they do not meet each plane along one whole loop of it");
-                continue;
-            }
-            // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
-            // (their vertices not within twice the merge distance of it), or the face would cross itself.
-            std::string crossing;
-            for (int i = 0; i < 2 && crossing.empty(); ++i) {
-                const BrepFace& plane = model.faces[region.planes[i]];
-                for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
-                    if (w == region.wires[i]) continue;
-                    for (int e : plane.wires[w]) {
-                        const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
-                        for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
-                            const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
-                            const double from_axis = cv::norm(offset - offset.dot(region.axis) * region.axis);
-                            if (std::abs(from_axis - region.radius_mm) <= 2 * distance_limit)
-                                crossing = point_text(model.vertices[size_t(v)]);
+                if (ring_volume > kRingVolumeShare * model.mesh_volume_mm3) {
+                    std::snprintf(text, sizeof text,
+                                  "the %zu facets where its wall meets its ends are too far from the cylinder and the planes continued "
+                                  "to it: the volume would change by up to %.3g mm3 (at most %.2g %% of the mesh's, %.3g mm3)",
+                                  members.size() - wall_count, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
+                    refuse(text);
+                    continue;
+                }
+                region.planes[0] = ends[0];
+                region.planes[1] = ends[1];
+                region.end_facets = members.size() - wall_count;
+                region.end_mm = ring_farthest;
+                region.end_volume_mm3 = ring_volume;
+                name = std::to_string(facets) + " facets between the planes at " + point_text(model.faces[ends[0]].origin) + " and " +
+                       point_text(model.faces[ends[1]].origin);
+                auto in_region = [&](size_t f) { return std::binary_search(region.faces.begin(), region.faces.end(), f); };
+
+                // The cylinder square to the first plane: a circle through the wall's vertices seen along its normal.
+                const BrepFace& first = model.faces[region.planes[0]];
+                region.axis = cv::normalize(first.normal);
+                region.x_axis = square_to(region.axis);
+                // Fitted to the facets within 15 degrees of square to the axis: a smooth mesh's wall
+                // bends into the rounded edges at its ends.
+                std::vector<size_t> square_facets;
+                for (size_t f : wall_faces)
+                    if (along(f) < kSquareToAxis) square_facets.push_back(f);
+                const double distance_limit = limits.distance, rms_limit = limits.rms;
+                Circle2 circle = steep ? Circle2{} : circle_along(model, vertices_of(model, square_facets), first.origin, region.axis);
+                if (steep || !(circle.rms <= rms_limit)) {
+                    // Not a cylinder: a cone coaxial with it, fitted to the whole wall, when its half-angle is
+                    // one (as Fit primitives, a narrower cone is a cylinder with noise), its vertices as near it
+                    // as a cylinder's must be, and its facets not flat across it (the middles of their sides
+                    // as near as their corners: a pyramid's faces have their corners on a cone).
+                    const Circle2 cone = cone_along(model, vertices_of(model, wall_faces), first.origin, region.axis);
+                    double side_off = 0;
+                    for (size_t f : wall_faces)
+                        for (const cv::Vec3i& t : model.faces[f].triangles)
+                            for (int k = 0; k < 3; ++k)
+                                side_off = std::max(side_off, off_cone(cone, region.axis, 0.5 * (model.vertices[size_t(t[k])] +
+                                                                                               model.vertices[size_t(t[(k + 1) % 3])])));
+                    const bool is_cone = cone.half_angle_deg() >= kMinConeDeg && cone.half_angle_deg() <= kMaxConeDeg &&
+                                         cone.surface_rms() <= rms_limit && side_off <= distance_limit;
+                    if (!is_cone) {
+                        char cone_text[200] = "";
+                        if (cone.mean_radius() > 0)
+                            std::snprintf(cone_text, sizeof cone_text, "(half-angle %.2f degrees, %g to %g made; RMS %.4f mm, sides of its "
+                                          "facets up to %.4f mm from it, at most %.4f)", cone.half_angle_deg(), kMinConeDeg,
+                                          kMaxConeDeg, cone.surface_rms(), side_off, distance_limit);
+                        if (steep || !(circle.radius > 0))  // no facets of its wall square to the axis: no cylinder to fit
+                            std::snprintf(text, sizeof text, "not a cone square to its planes %s", cone_text);
+                        else
+                            std::snprintf(text, sizeof text,
+                                          "not a cylinder square to its planes (RMS %.4f mm from the best one, radius %.4f mm; at most "
+                                          "%.4f mm: %.2g x the noise or %.2g %% of the radius); nor a cone %s", circle.rms, circle.radius, rms_limit,
+                                          options.max_rms_factor, 100 * options.max_rms_factor * kRoundness, cone_text);
+                        refuse(text);
+                        continue;
+                    }
+                    circle = cone;
+                }
+                region.radius_mm = circle.radius;
+                region.slope = circle.slope;
+                region.rms_mm = circle.surface_rms();
+                region.origin = circle.origin;
+
+                // Each plane must meet the region along one whole loop of its own.
+                bool whole_loops = true;
+                for (int i = 0; i < 2 && whole_loops; ++i) {
+                    const BrepFace& plane = model.faces[region.planes[i]];
+                    size_t loops_met = 0;
+                    for (size_t w = 0; w < plane.wires.size(); ++w) {
+                        size_t shared = 0;
+                        for (int e : plane.wires[w]) {
+                            const auto& along = faces_of_edge[size_t(std::abs(e) - 1)];
+                            shared += std::any_of(along.begin(), along.end(), in_region) ? 1 : 0;
+                        }
+                        if (shared == 0) continue;
+                        ++loops_met;
+                        if (shared != plane.wires[w].size()) whole_loops = false;
+                        region.wires[i] = w;
+                    }
+                    if (loops_met != 1) whole_loops = false;
+                }
+                if (!whole_loops) {
+                    refuse("they do not meet each plane along one whole loop of it");
+                    continue;
+                }
+                // The circle replaces a loop of a plane: it must keep clear of the plane's other loops
+                // (their vertices not within twice the merge distance of it), or the face would cross itself.
+                std::string crossing;
+                for (int i = 0; i < 2 && crossing.empty(); ++i) {
+                    const BrepFace& plane = model.faces[region.planes[i]];
+                    for (size_t w = 0; w < plane.wires.size() && crossing.empty(); ++w) {
+                        if (w == region.wires[i]) continue;
+                        for (int e : plane.wires[w]) {
+                            const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                            for (int v : edge.chain.empty() ? std::vector<int>{edge.start, edge.end} : edge.chain) {
+                                const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
+                                const double height = offset.dot(region.axis), from_axis = cv::norm(offset - height * region.axis);
+                                if (std::abs(from_axis - region.radius_at(height)) <= 2 * distance_limit)
+                                    crossing = point_text(model.vertices[size_t(v)]);
+                            }
                         }
                     }
                 }
-            }
-            if (!crossing.empty()) {
-                refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
-                continue;
-            }
-            const BrepFace& second = model.faces[region.planes[1]];
-            const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
-            if (region.radius_mm * tilt > distance_limit) {
-                std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
-                              "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi, region.radius_mm * tilt, distance_limit);
-                refuse(text);
-                continue;
-            }
+                if (!crossing.empty()) {
+                    refuse("its circle would touch another boundary of its plane near " + crossing + " mm");
+                    continue;
+                }
+                const BrepFace& second = model.faces[region.planes[1]];
+                const double tilt = cv::norm(region.axis.cross(cv::normalize(second.normal)));
+                const double second_radius = region.radius_at(level_of(second, region.origin, region.axis));
+                if (std::max(region.radius_mm, second_radius) * tilt > distance_limit) {
+                    std::snprintf(text, sizeof text, "its planes are %.3f degrees from parallel: a circle on one is %.4f mm off the other "
+                                  "(at most %.4f mm)", std::asin(std::min(1.0, tilt)) * 180 / kPi,
+                                  std::max(region.radius_mm, second_radius) * tilt, distance_limit);
+                    refuse(text);
+                    continue;
+                }
 
-            // A hole when the facets face the axis.
-            double outwards = 0;
-            for (size_t f : members)
-                for (const cv::Vec3i& t : model.faces[f].triangles) {
-                    const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
-                    const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
-                    outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+                // A hole when the facets face the axis.
+                double outwards = 0;
+                for (size_t f : members)
+                    for (const cv::Vec3i& t : model.faces[f].triangles) {
+                        const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+                        const cv::Vec3d area = (b - a).cross(c - a), centre = (a + b + c) / 3.0 - region.origin;
+                        outwards += area.dot(centre - centre.dot(region.axis) * region.axis);
+                    }
+                region.hole = outwards < 0;
+                const Loops loops = loops_of(model, region);
+                if (!(loops.length > distance_limit)) {
+                    refuse("its planes are not apart along the axis");
+                    continue;
                 }
-            region.hole = outwards < 0;
-            const Loops loops = loops_of(model, region);
-            if (!(loops.length > distance_limit)) {
-                refuse("its planes are not apart along the axis");
-                continue;
-            }
-            // Each plane's loop must run the way its circle will: around its face's outside counter-
-            // clockwise (seen from outside), around a hole clockwise.
-            bool consistent = true;
-            for (int i = 0; i < 2; ++i) {
-                const BrepFace& plane = model.faces[region.planes[i]];
-                cv::Vec3d area(0, 0, 0);
-                for (int e : plane.wires[region.wires[i]]) {
-                    const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
-                    const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
-                                    &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
-                    area += a.cross(b);
+                if (!(std::min(region.radius_at(loops.low_level), region.radius_at(loops.low_level + loops.length)) > distance_limit)) {
+                    refuse("its cone reaches its apex between its planes");
+                    continue;
                 }
-                const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
-                const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
-                const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
-                consistent = consistent && sign == loops.plane_sign[i];
+                // Each plane's loop must run the way its circle will: around its face's outside counter-
+                // clockwise (seen from outside), around a hole clockwise.
+                bool consistent = true;
+                for (int i = 0; i < 2; ++i) {
+                    const BrepFace& plane = model.faces[region.planes[i]];
+                    cv::Vec3d area(0, 0, 0);
+                    for (int e : plane.wires[region.wires[i]]) {
+                        const BrepEdge& edge = model.edges[size_t(std::abs(e) - 1)];
+                        const cv::Vec3d &a = model.vertices[size_t(e > 0 ? edge.start : edge.end)],
+                                        &b = model.vertices[size_t(e > 0 ? edge.end : edge.start)];
+                        area += a.cross(b);
+                    }
+                    const bool loop_counter_clockwise = area.dot(plane.normal) > 0;
+                    const bool circle_counter_clockwise = region.axis.dot(plane.normal) > 0;
+                    const int sign = loop_counter_clockwise == circle_counter_clockwise ? 1 : -1;
+                    consistent = consistent && sign == loops.plane_sign[i];
+                }
+                if (!consistent) {
+                    refuse("its loops on the planes run the wrong way for a cylinder between them");
+                    continue;
+                }
+                regions.push_back(region);
             }
-            if (!consistent) {
-                refuse("its loops on the planes run the wrong way for a cylinder between them");
-                continue;
-            }
-            regions.push_back(region);
         }
     }
     return regions;
@@ -431,10 +557,11 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
         const Loops loops = loops_of(model, region);
         const cv::Vec3d low_centre = region.origin + loops.low_level * region.axis;
         const cv::Vec3d high_centre = low_centre + loops.length * region.axis;
-        const cv::Vec3d seam_offset = region.radius_mm * region.x_axis;
+        // A cone's circles differ in radius; its surface starts at the low circle.
+        const double low_radius = region.radius_at(loops.low_level), high_radius = region.radius_at(loops.low_level + loops.length);
         const int low_vertex = int(model.vertices.size()), high_vertex = low_vertex + 1;
-        model.vertices.push_back(low_centre + seam_offset);
-        model.vertices.push_back(high_centre + seam_offset);
+        model.vertices.push_back(low_centre + low_radius * region.x_axis);
+        model.vertices.push_back(high_centre + high_radius * region.x_axis);
         // Each circle lies in the plane square to the axis; its tolerance covers the plane it is
         // in (tilted from that by at most the limit cylinder_regions allows).
         int circle_edges[2];
@@ -442,12 +569,13 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
             const bool low = size_t(i) == loops.low;
             const BrepFace& plane = model.faces[region.planes[i]];
             const cv::Vec3d centre = low ? low_centre : high_centre;
+            const double radius = low ? low_radius : high_radius;
             const double off_plane = std::abs((centre - plane.origin).dot(plane.normal)) +
-                                     region.radius_mm * cv::norm(region.axis.cross(cv::normalize(plane.normal)));
+                                     radius * cv::norm(region.axis.cross(cv::normalize(plane.normal)));
             BrepEdge circle;
             circle.start = circle.end = low ? low_vertex : high_vertex;
             circle.tolerance_mm = off_plane * 1.01 + 1e-7;
-            circle.radius_mm = region.radius_mm;
+            circle.radius_mm = radius;
             circle.center = centre;
             circle.axis = region.axis;
             circle.x_axis = region.x_axis;
@@ -475,12 +603,19 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
             replaced[f] = 1;
         }
         face.rms_mm = region.rms_mm;
-        face.radius_mm = region.radius_mm;
+        face.radius_mm = low_radius;
+        face.semi_angle_rad = std::atan(region.slope);
         face.x_axis = region.x_axis;
         face.reversed = region.hole;
         face.wires = {{circle_edges[loops.low], seam, -circle_edges[1 - loops.low], -seam}};
         cylinders.push_back(face);
-        model.cylinder_facets += size_t(face.facet_count);
+        if (region.slope != 0) {
+            ++model.cone_faces;
+            model.cone_facets += size_t(face.facet_count);
+        } else {
+            ++model.cylinder_faces;
+            model.cylinder_facets += size_t(face.facet_count);
+        }
         model.cylinder_end_facets += region.end_facets;
         model.cylinder_end_mm = std::max(model.cylinder_end_mm, region.end_mm);
         model.cylinder_end_volume_mm3 += region.end_volume_mm3;
@@ -490,7 +625,6 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
         if (!replaced[f]) faces.push_back(std::move(model.faces[f]));
     faces.insert(faces.end(), cylinders.begin(), cylinders.end());
     model.faces = std::move(faces);
-    model.cylinder_faces += cylinders.size();
 
     // Only the edges some face still runs along stay.
     std::vector<int> renumbered(model.edges.size(), 0);

@@ -15,7 +15,9 @@ struct CylinderRegion {
     size_t planes[2] = {0, 0};        // the planar faces at its ends
     size_t wires[2] = {0, 0};         // the wire of each that it bounds
     cv::Vec3d origin, axis, x_axis;   // origin: on the axis, in the plane of planes[0]
-    double radius_mm = 0, rms_mm = 0;
+    double radius_mm = 0, rms_mm = 0;  // radius_mm: at origin
+    double slope = 0;                 // a cone: the radius grows by this per mm along the axis (0: a cylinder)
+    double radius_at(double height) const { return radius_mm + slope * height; }  // height along the axis from origin
     bool hole = false;                // the solid is outside the cylinder
     size_t end_facets = 0;            // facets at its ends the cylinder and planes are continued over
     double end_mm = 0, end_volume_mm3 = 0;  // the farthest of them, and the volume between them and those surfaces

@@ -224,7 +224,8 @@ std::string PlanarFaceModel::summary() const {
                  << " mm from them, " << cylinder_end_volume_mm3 << " mm3 between)";
         text << ", ";
     }
-    text << faces.size() - merged_faces - cylinder_faces << " triangles; noise " << noise_mm << " mm";
+    if (cone_faces > 0) text << cone_faces << " cones replacing " << cone_facets << " facets, ";
+    text << faces.size() - merged_faces - cylinder_faces - cone_faces << " triangles; noise " << noise_mm << " mm";
     for (const std::string& note : cylinder_notes) text << "; " << note;
     if (!refused_merges.empty())
         text << "; " << refused_merges.size() << " merge(s) undone where a face would be invalid, first: " << refused_merges.front();

@@ -1,5 +1,5 @@
 // OpenCASCADE's BREP text format (the "CASCADE Topology V1" layout that BRepTools::Read and
-// FreeCAD's Part.Shape.read accept): lines and circles, planes and cylinders, then the topology
+// FreeCAD's Part.Shape.read accept): lines and circles, planes, cylinders and cones, then the topology
 // from vertices up to the solid; each face's triangles as its triangulation, each edge's chain of mesh vertices as its
 // polygon on those triangulations, and each edge's line on each face's plane as a 2D line (its
 // pcurve: without it, the mesher FreeCAD's view provider runs on every shape it draws projects
@@ -26,11 +26,13 @@ void append(std::string& out, const char* format, Values... values) {
     out.append(buffer, size_t(length));
 }
 
-// A face's surface as written: origin, normal (a cylinder's axis) and the directions x and y; a
-// plane's (u, v) are along x and y, a cylinder's u the angle from x towards y, v along the axis.
+// A face's surface as written: origin, normal (a cylinder's or cone's axis) and the directions x and
+// y; a plane's (u, v) are along x and y, a cylinder's u the angle from x towards y, v along the axis,
+// a cone's v along its slant line (its height over the cosine of its half-angle).
 struct SurfaceFrame {
     cv::Vec3d origin, normal, x, y;
-    double radius = 0;  // > 0: a cylinder
+    double radius = 0;      // > 0: a cylinder, or a cone's radius at origin
+    double semi_angle = 0;  // != 0: a cone
     cv::Vec2d uv(const cv::Vec3d& p) const { return {(p - origin).dot(x), (p - origin).dot(y)}; }
     cv::Vec3d at(const cv::Vec2d& uv) const { return origin + uv[0] * x + uv[1] * y; }
 };
@@ -39,7 +41,7 @@ SurfaceFrame frame_of(const BrepFace& face) {
     const cv::Vec3d n = cv::normalize(face.normal);
     if (face.radius_mm > 0) {
         const cv::Vec3d x = cv::normalize(face.x_axis);
-        return {face.origin, n, x, n.cross(x), face.radius_mm};
+        return {face.origin, n, x, n.cross(x), face.radius_mm, face.semi_angle_rad};
     }
     const cv::Vec3d helper = std::abs(n[0]) < 0.9 ? cv::Vec3d(1, 0, 0) : cv::Vec3d(0, 1, 0);
     const cv::Vec3d x = cv::normalize(helper - helper.dot(n) * n);
@@ -84,9 +86,10 @@ std::string circle_on_plane(const SurfaceFrame& plane, const BrepEdge& circle) {
     return text;
 }
 
-// An edge's pcurves on a cylinder (u: angle, v: along the axis): a circle about its axis, at the
-// same seam angle, is the line v = its height; the seam (met twice) is the line u = 2 pi as run
-// forwards and u = 0 backwards.
+// An edge's pcurves on a cylinder or cone (u: angle, v: along the axis, a cone's along its slant
+// line): a circle about its axis, at the same seam angle, is the line v = its level; the seam (met
+// twice) is the line u = 2 pi as run forwards and u = 0 backwards (a cone's seam is its slant line,
+// whose length is v's, so both run at unit speed).
 std::vector<std::string> curves_on_cylinder(const PlanarFaceModel& model, const SurfaceFrame& cylinder, const BrepEdge& edge,
                                             bool seam, const std::string& path) {
     std::string first, second;
@@ -94,12 +97,13 @@ std::vector<std::string> curves_on_cylinder(const PlanarFaceModel& model, const 
         if (std::abs(cv::normalize(edge.axis).dot(cylinder.normal) - 1) > 1e-9 ||
             std::abs(cv::normalize(edge.x_axis).dot(cylinder.x) - 1) > 1e-9 || seam)
             throw Error(path, "a circle on a cylindrical face does not share its axis and seam");
-        append(first, "1 0 %.17g 1 0\n", (edge.center - cylinder.origin).dot(cylinder.normal));
+        append(first, "1 0 %.17g 1 0\n", (edge.center - cylinder.origin).dot(cylinder.normal) / std::cos(cylinder.semi_angle));
         return {first};
     }
     if (!seam) throw Error(path, "a straight edge on a cylindrical face is not its seam");
     const cv::Vec3d a = model.vertices[size_t(edge.start)], b = model.vertices[size_t(edge.end)];
-    const double up = (b - a).dot(cylinder.normal) >= 0 ? 1 : -1, v = (a - cylinder.origin).dot(cylinder.normal);
+    const double up = (b - a).dot(cylinder.normal) >= 0 ? 1 : -1,
+                 v = (a - cylinder.origin).dot(cylinder.normal) / std::cos(cylinder.semi_angle);
     append(first, "1 %.17g %.17g 0 %g\n", kTwoPi, v, up);
     append(second, "1 0 %.17g 0 %g\n", v, up);
     return {first, second};
@@ -238,12 +242,14 @@ void write_brep(const PlanarFaceModel& model, const std::string& path, const Pro
         }
     }
     append(out, "Surfaces %zu\n", face_count);
-    for (const SurfaceFrame& surface : surfaces) {  // a plane (1) or a cylinder (2, with its radius)
+    for (const SurfaceFrame& surface : surfaces) {  // a plane (1), a cylinder (2, its radius), a cone (3, its radius, half-angle)
         wrote();
         const cv::Vec3d &o = surface.origin, &n = surface.normal, &x = surface.x, &y = surface.y;
-        append(out, "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g", surface.radius > 0 ? 2 : 1,
+        const int type = surface.radius > 0 ? (surface.semi_angle != 0 ? 3 : 2) : 1;
+        append(out, "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g", type,
                o[0], o[1], o[2], n[0], n[1], n[2], x[0], x[1], x[2], y[0], y[1], y[2]);
         if (surface.radius > 0) append(out, " %.17g", surface.radius);
+        if (type == 3) append(out, " %.17g", surface.semi_angle);
         out += "\n";
     }
     // Each face's triangles with their nodes' (u, v) on its plane; its deflection: the farthest node

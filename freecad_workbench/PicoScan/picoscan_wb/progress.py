@@ -163,7 +163,8 @@ def run_freecad_process(script, arguments, progress, shown, what):
     python = os.path.join(sys.base_prefix, "bin", "python%d.%d" % sys.version_info[:2])  # FreeCAD's own Python
     if not os.path.isfile(python):
         raise picoscan.Error("%s: FreeCAD's Python interpreter %s is missing" % (what, python))
-    command = [python, script, os.path.dirname(Part.__file__)] + [str(a) for a in arguments]
+    # -S: no site module (its .pth files and imports, 0.04 s): the scripts need only FreeCAD's folder.
+    command = [python, "-S", script, os.path.dirname(Part.__file__)] + [str(a) for a in arguments]
     child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
 

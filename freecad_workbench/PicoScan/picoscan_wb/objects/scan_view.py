@@ -3,9 +3,11 @@ import os
 import tempfile
 
 import FreeCAD
+import numpy
 import Points
 
 import picoscan
+from picoscan_wb import property_content
 from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors
 from picoscan_wb.operations.reconstruct import check_second_folder, read_any_calibration, reconstruct, stereo_summary
 from picoscan_wb.progress import run_in_background
@@ -85,6 +87,41 @@ def points_of(cloud, placement=None):
     return result
 
 
+def add_normal_property(obj, what):
+    """The Normal property (a Points::PropertyNormalList) that FreeCAD's Shaded mode of Points lights
+    the points by; `what`: whose normals they are."""
+    if not hasattr(obj, "Normal"):
+        obj.addProperty("Points::PropertyNormalList", "Normal", "Result",
+                        "%s (the core's, one per point): the 3D view shades the points by them" % what, 1)
+
+
+def show_cloud(obj, cloud):
+    """A Points object's Points (moved by its Placement), Normal and PointCount from a picoscan.PointCloud
+    with a normal per point. The normals go in as FreeCAD's own bytes: a Python object per normal
+    would hold the GIL for seconds."""
+    if len(cloud.normals) != len(cloud):
+        raise picoscan.Error("%s: %d normals for %d points" % (obj.Label, len(cloud.normals), len(cloud)))
+    obj.Points = points_of(cloud, obj.Placement)
+    obj.restorePropertyContent("Normal", property_content.normal_list_content(cloud.normals))
+    obj.PointCount = len(cloud)
+
+
+def _cloud_with_normals(view):
+    """The view's points with their normals: the view's own, or the core's from its pixel grid when it
+    has none (a view PLY written without them). A point with no measured neighbour has no normal
+    from the grid (NaN): it is drawn as if facing its camera (lit fully), not left unlit."""
+    if view.normals is None or view.normals.size == 0:
+        picoscan.estimate_normals(view)
+    cloud = picoscan.to_point_cloud(view)
+    normals = numpy.array(cloud.normals)
+    missing = ~numpy.isfinite(normals).all(axis=1)
+    if missing.any():
+        towards_camera = numpy.asarray(view.pose)[:3, 3] - cloud.points[missing]
+        normals[missing] = towards_camera / numpy.linalg.norm(towards_camera, axis=1, keepdims=True)
+        cloud.normals = normals
+    return cloud
+
+
 class ScanView(DocumentObjectProxy):
     TYPE = TYPE
 
@@ -106,6 +143,7 @@ class ScanView(DocumentObjectProxy):
         obj.addProperty("App::PropertyString", "CleanReport", group, "What cleaning removed", 1)
         _add_stereo_properties(obj)
         _add_storage(obj)
+        add_normal_property(obj, "The view's normals, from its pixel grid")
         obj.MinContrast = 15.0
         obj.MinModulation = 4.0
         obj.MaxGrazingAngle = 80.0
@@ -113,6 +151,8 @@ class ScanView(DocumentObjectProxy):
     def onDocumentRestored(self, obj):
         super().onDocumentRestored(obj)
         _add_stereo_properties(obj)
+        # A view saved before it had normals stays drawn flat: FreeCAD has built its display modes by now.
+        add_normal_property(obj, "The view's normals, from its pixel grid")
         if not hasattr(obj, "StoredView"):  # a document saved before views were kept in it
             _add_storage(obj)
 
@@ -140,9 +180,7 @@ class ScanView(DocumentObjectProxy):
         self.cached = (_parameters(obj), view, calibration)
         if stored is None and hasattr(obj, "StoredView"):
             _store(obj, view)
-        cloud = picoscan.to_point_cloud(view)
-        obj.Points = points_of(cloud, obj.Placement)
-        obj.PointCount = len(cloud)
+        show_cloud(obj, _cloud_with_normals(view))
         if stored is not None:
             return  # the clean and stereo reports of the stored view are in the document already
         obj.StereoReport = stereo_summary(statistics)
@@ -178,8 +216,8 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
     obj.BinaryOnly = binary_only
     obj.Proxy.fresh = (_parameters(obj),) + result  # a reconstruction made before the object existed
     if FreeCAD.GuiUp:
-        from picoscan_wb.viewproviders.view_provider import ViewProvider
-        ViewProvider(obj.ViewObject, "picoscan_scan")
+        from picoscan_wb.viewproviders.view_provider import ShadedPointsViewProvider
+        ShadedPointsViewProvider(obj.ViewObject, "picoscan_scan")
     obj.recompute()
     if part_frame:
         from picoscan_wb.operations import datum
@@ -188,4 +226,6 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
             datum.place_in_part_frame(obj)
         except picoscan.Error as error:
             FreeCAD.Console.PrintWarning("%s: left in the camera's frame: %s\n" % (obj.Label, error))
+    if FreeCAD.GuiUp:
+        obj.ViewObject.DisplayMode = "Shaded"
     return obj

@@ -10,9 +10,8 @@ import numpy
 import FreeCAD
 
 import picoscan
-from picoscan_wb import property_content
 from picoscan_wb.objects import DocumentObjectProxy, add_or_remove, brief_input_errors, is_scan_view, millimetres
-from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, points_of
+from picoscan_wb.objects.scan_view import _parameters as scan_view_parameters, add_normal_property, points_of, show_cloud
 from picoscan_wb.progress import run_in_background
 
 TYPE = "PicoScan::Stitch"
@@ -67,9 +66,7 @@ def _add_placement_properties(obj, restored=False):
     if not hasattr(obj, "PlacementReport"):
         obj.addProperty("App::PropertyStringList", "PlacementReport", "Result",
                         "Per placement: how it joined the model, or why it was left out", 1)
-    if not hasattr(obj, "Normal"):
-        obj.addProperty("Points::PropertyNormalList", "Normal", "Result",
-                        "The merged cloud's normals (the core's, one per point): the 3D view shades the points by them", 1)
+    add_normal_property(obj, "The merged cloud's normals")
     if not hasattr(obj, "AlignmentReport"):
         obj.addProperty("App::PropertyStringList", "AlignmentReport", "Result",
                         "Per placement, each way tried (features, turntable round, turntable axis): the views it "
@@ -228,10 +225,7 @@ class Stitch(DocumentObjectProxy):
         obj.PlacementReport = placement_report
         obj.AlignmentReport = attempts + ([_axis_line(stitched.axis)] if stitched.axis else [])
         obj.AlignedCount = alignment.aligned_count()
-        obj.Points = points_of(cloud, obj.Placement)
-        # FreeCAD's own bytes of the normals: a Python object per normal would hold the GIL for seconds.
-        obj.restorePropertyContent("Normal", property_content.normal_list_content(cloud.normals))
-        obj.PointCount = len(cloud)
+        show_cloud(obj, cloud)
 
     def merged_cloud(self, obj):
         """The merged picoscan.PointCloud (with normals), recomputed if not in memory or stale."""

@@ -1,6 +1,6 @@
 """What Make solid asks OpenCASCADE about the B-rep it wrote (its shape type, volume and, when
 asked, validity), run as a separate process:
-`python3 brep_check.py FREECAD_LIB BREP CHECK_VALID`.
+`python3 -S brep_check.py FREECAD_LIB BREP CHECK_VALID`.
 FreeCAD's Part calls hold Python's GIL while they run (seconds each for tens of thousands of
 faces), so in the GUI's own process they would stop the GUI from answering, whichever thread runs
 them; a process of its own leaves the GUI answering and is stopped at once by Cancel.

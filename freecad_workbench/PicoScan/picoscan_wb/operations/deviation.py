@@ -36,7 +36,7 @@ def reference_reader(obj, deflection_mm=0.01):
     shape = obj.Shape  # carries the placement
     if all(isinstance(face.Surface, Part.Plane) for face in shape.Faces):
         # Planes only: a few triangles whatever the deflection (a box: 12, in 0.03 s at load 10),
-        # against 4 to 5 s at load 10 for starting a FreeCAD process.
+        # against 2 to 3 s at load 10 for a FreeCAD process (benchmarks/freecad_process_startup.py).
         vertices, facets = shape.copy().tessellate(deflection_mm)
         mesh = _core_mesh([tuple(v) for v in vertices], facets, label)
         return lambda progress: mesh
@@ -46,11 +46,10 @@ def reference_reader(obj, deflection_mm=0.01):
 
     def read(progress):
         try:
-            triangles = os.path.join(folder, "triangles.npz")
+            triangles = os.path.join(folder, "triangles.bin")
             run_freecad_process(tessellate_shape.__file__, [brep, repr(float(deflection_mm)), triangles], progress,
                                 "tessellating the reference: {}", "%s: tessellating" % label)
-            with numpy.load(triangles) as arrays:
-                vertices, facets = arrays["vertices"], arrays["facets"]
+            vertices, facets = tessellate_shape.read_triangles(triangles)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
         return _core_mesh(vertices, facets, label)

@@ -3,7 +3,8 @@ merges the facets that lie on one plane (within the scan's noise) into one plana
 the rest as triangles (and turns back into triangles the facets where a merged face's boundary
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
 makes a hole or boss between two planar faces one cylindrical face bounded by circles when its
-facets lie on a cylinder square to both (`model.cylinder_notes` says which were near one and why
+facets lie on a cylinder square to both, or one conical face when they lie on a cone about such an
+axis (a countersink, a chamfered boss; `model.cylinder_notes` says which were near one and why
 they were not made), simplifies the other curved regions into fewer, larger triangles (every mesh vertex within
 `simplify_mm`, by default 4 x the noise, of them; the volume kept within 0.05 %; the summary in
 SolidReport says how many and how far: FreeCAD draws a solid in a time that grows with its faces),
@@ -45,7 +46,8 @@ def solid_with_model(mesh, label="mesh", merge_planes=True, noise_mm=0.0, progre
     When the merged planar faces move the volume beyond the tolerance (regions of a coarse, curved
     mesh taken for planes) or make a solid OpenCASCADE finds invalid, the solid is made of the
     mesh's own triangles instead, and the note says so. Cylindrical faces (holes, bosses) are
-    given up first: when the solid with them is refused, it is made again without them."""
+    given up first (and conical ones with them): when the solid with them is refused, it is made again
+    without them."""
     notes, merge, cylinders = [], merge_planes, merge_planes
     while True:
         try:
@@ -68,6 +70,10 @@ class _MergedFacesRefused(Exception):
     def __init__(self, message, had_cylinders):
         super().__init__(message)
         self.had_cylinders = had_cylinders
+
+
+def _has_curved_faces(model):
+    return model.cylinder_faces + model.cone_faces > 0
 
 
 def _solid_with_model(mesh, label, merge_planes, cylinders, noise_mm, progress, check_valid):
@@ -95,11 +101,11 @@ def _solid_with_model(mesh, label, merge_planes, cylinders, noise_mm, progress, 
     volume = model.mesh_volume_mm3
     if checked["type"] != "Solid" or abs(checked["volume"] - volume) > VOLUME_TOLERANCE * volume:
         raise _MergedFacesRefused("%s: the solid built from the mesh has volume %.6g mm3, the mesh %.6g mm3" % (
-            label, checked["volume"], volume), model.cylinder_faces > 0)
+            label, checked["volume"], volume), _has_curved_faces(model))
     if check_valid and not checked["valid"]:
         if merge_planes:
             raise _MergedFacesRefused("%s: OpenCASCADE finds the solid of its merged faces invalid" % label,
-                                      model.cylinder_faces > 0)
+                                      _has_curved_faces(model))
         raise picoscan.Error("%s: OpenCASCADE finds the solid built from this mesh invalid" % label)
     return shape, model
 

@@ -55,12 +55,35 @@ class PicoScanAppTest(unittest.TestCase):
         box = view.Points.BoundBox
         self.assertAlmostEqual(box.ZMax, BACKGROUND_Z_MM, delta=1.0)
         self.assertAlmostEqual(box.ZMin, 400.0 - SHAFT_RADIUS_MM, delta=0.5)
+        self.check_normals(view)
         all_points = view.PointCount
         view.MinContrast = 120  # most of the wall is darker than this: fewer points after recompute
         self.doc.recompute()
         self.assertTrue(view.isValid())
         self.assertLess(view.PointCount, all_points)
         self.assertEqual(view.Points.CountPoints, view.PointCount)
+        self.check_normals(view)
+
+    def check_normals(self, view):
+        """The ScanView's Normal (what the 3D view lights its points by): one per point, in the points'
+        order, the core's from the pixel grid: on the shaft (axis along y through z = 400 mm) radial,
+        turned towards the camera."""
+        from picoscan_wb.property_content import normals_from_content, points_from_content
+
+        normals = normals_from_content(view.dumpPropertyContent("Normal", Compression=0))
+        points = points_from_content(view.dumpPropertyContent("Points", Compression=0), moved=False)
+        self.assertEqual(len(normals), view.PointCount)
+        self.assertLess(numpy.abs(numpy.linalg.norm(normals, axis=1) - 1).max(), 1e-3)  # no NaN left
+        radial = points[:, [0, 2]] - [0.0, 400.0]
+        distance = numpy.linalg.norm(radial, axis=1)
+        on_shaft = (numpy.abs(distance - SHAFT_RADIUS_MM) < 0.3) & (numpy.abs(points[:, 1]) < 30)
+        self.assertGreater(on_shaft.sum(), 10000)
+        cosine = (normals[on_shaft][:, [0, 2]] * radial[on_shaft]).sum(axis=1) / distance[on_shaft]
+        angle = numpy.degrees(numpy.arccos(numpy.clip(cosine, -1, 1)))
+        FreeCAD.Console.PrintMessage("ScanView normals on the shaft: median %.2f, p95 %.2f degrees from radial\n" % (
+            numpy.median(angle), numpy.percentile(angle, 95)))
+        self.assertLess(numpy.median(angle), 4.0)
+        self.assertLess(numpy.percentile(angle, 95), 15.0)
 
     def test_clean_removes_points_and_reports(self):
         view = self.scan()
@@ -305,6 +328,7 @@ class PicoScanAppTest(unittest.TestCase):
         self.doc = FreeCAD.openDocument(path)
         view, mesh = self.doc.getObject(view_name), self.doc.getObject(mesh_name)
         self.assertEqual(view.Points.CountPoints, points)  # stored in the file
+        self.assertEqual(len(view.Normal), points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
         self.assertEqual(view.Proxy.Type, "PicoScan::ScanView")
         view.touch()
@@ -1863,6 +1887,58 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
             feature = solid.make_solid(self.doc, obj)
             self.assertIn("not a cylinder square to its planes", feature.SolidReport)
             self.doc.removeObject(feature.Name)
+
+    def test_countersink_and_chamfered_boss_become_cones(self):
+        """A plate with a tapered (countersink-like) hole through it and a 45-degree chamfered boss on
+        it, meshed finely as a scan is, 5 um of noise on every vertex: each becomes one conical face
+        bounded by two circles, with the truth's half-angle. Built to fool it, on the same plate: a
+        drilled hole (a cylinder, which a cone fit also fits with a half-angle near 0) must stay a
+        cylinder, and a 12-sided pyramid frustum (its corners on a cone, its faces flat) must stay planes."""
+        import collections
+        import MeshPart
+
+        v = FreeCAD.Vector
+        tapered = Part.makeCone(4, 8, 10, v(15, 20, 0))  # radius 4 at the bottom, 8 at the top: 21.80 degrees
+        chamfered = Part.makeCone(7, 4, 3, v(45, 20, 10))  # 45 degrees
+        drilled = Part.makeCylinder(3, 10, v(30, 8, 0))
+        bottom, top = ([v(30 + r * math.cos(math.radians(30 * k)), 31 + r * math.sin(math.radians(30 * k)), z) for k in range(12)]
+                       for r, z in ((5, 10), (3, 14)))
+        sides = [Part.Face(Part.makePolygon([bottom[k], bottom[k - 1], top[k - 1], top[k], bottom[k]])) for k in range(12)]
+        pyramid = Part.makeSolid(Part.makeShell(sides + [Part.Face(Part.makePolygon(ring + ring[:1])) for ring in (bottom, top)]))
+        truth = Part.makeBox(60, 40, 10).cut(tapered).cut(drilled).fuse(chamfered).fuse(pyramid).removeSplitter()
+        kinds = lambda shape: collections.Counter(type(f.Surface).__name__ for f in shape.Faces)  # noqa: E731
+        self.assertEqual(kinds(truth), {"Plane": 7 + 12 + 1, "Cone": 2, "Cylinder": 1})
+        # Triangles of about 1 mm all over, as a scan's mesh has (a mesh within a deflection has planes
+        # of a few long triangles, which no plane fit can tell from noise).
+        points, facets = MeshPart.meshFromShape(Shape=truth, MaxLength=0.8).Topology
+        scanned = picoscan.Mesh()
+        scanned.vertices = numpy.array([tuple(p) for p in points], dtype=numpy.float32) + \
+            numpy.random.default_rng(3).normal(0, 0.005, (len(points), 3)).astype(numpy.float32)
+        scanned.faces = numpy.array(facets, dtype=numpy.int32)
+        obj = self.doc.addObject("Mesh::Feature", "ConePlate")
+        obj.Mesh = scan_mesh.freecad_mesh(scanned)
+        started = time.perf_counter()
+        shape, model, note = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+        FreeCAD.Console.PrintMessage("cone plate (%d facets, %.1f s): %s\n" % (
+            obj.Mesh.CountFacets, time.perf_counter() - started, model.summary()))
+        self.assertEqual(note, "")
+        self.assertEqual(shape.ShapeType, "Solid")
+        self.assertTrue(shape.isValid())
+        self.assertAlmostEqual(shape.Volume, obj.Mesh.Volume, delta=1e-3 * obj.Mesh.Volume)
+        self.assertEqual(kinds(shape), kinds(truth))
+        self.assertEqual((model.cone_faces, model.cylinder_faces), (2, 1))
+        cones = sorted((f for f in shape.Faces if isinstance(f.Surface, Part.Cone)), key=lambda f: f.Surface.Apex.x)
+        for face, (x, y), half_angle, radii in ((cones[0], (15, 20), 21.801, (4, 8)), (cones[1], (45, 20), 45.0, (4, 7))):
+            self.assertLess(abs(math.degrees(abs(face.Surface.SemiAngle)) - half_angle), 0.1)
+            self.assertGreater(abs(face.Surface.Axis.z), 1 - 1e-6)
+            self.assertLess(math.hypot(face.Surface.Center.x - x, face.Surface.Center.y - y), 0.02)
+            circles = sorted(e.Curve.Radius for e in face.Edges if isinstance(e.Curve, Part.Circle))
+            self.assertEqual(len(circles), 2)
+            for radius, expected in zip(circles, radii):
+                self.assertLess(abs(radius - expected), 0.02, (half_angle, circles))
+        drilled_face = next(f for f in shape.Faces if isinstance(f.Surface, Part.Cylinder))
+        self.assertLess(abs(drilled_face.Surface.Radius - 3), 0.02)
+        self.assertIn("2 cones replacing", model.summary())  # what SolidReport says
 
 
 class PicoScanRegionFitTest(unittest.TestCase):

@@ -447,33 +447,36 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertLess(error.rotation_deg, 0.1)
         self.assertLess(error.translation_mm, 0.1)
         self.assertFalse(FreeCADGui.Control.activeDialog())
-        self.check_shading(made)
+        self.check_shading(made, "freecad-stitch-shaded.png")
         name = made.Name
         self.doc.undo()  # one step
         self.assertIsNone(self.doc.getObject(name))
 
-    def check_shading(self, stitched):
-        """The stitched cloud is drawn lit by its normals: on screen, the brightness of its points
-        spreads with the orientation of the faces they lie on, where the flat look (FreeCAD's plain
-        Points mode, all the workbench showed before) is one grey."""
+    def check_shading(self, cloud, screenshot, tilt_deg=0.0, min_spread=40):
+        """A cloud with normals (a Stitch, a ScanView) is drawn lit by them: on screen, the brightness of
+        its points spreads with the orientation of the faces they lie on, where the flat look
+        (FreeCAD's plain Points mode, all the workbench showed before) is one grey. Seen as the first
+        camera saw it, turned by tilt_deg about its x axis; the figures go to the Report view and the
+        view to `screenshot`."""
         from picoscan_wb.property_content import normals_from_content
 
-        normals = normals_from_content(stitched.dumpPropertyContent("Normal", Compression=0))
-        self.assertEqual(len(normals), stitched.PointCount)
-        self.assertLess(numpy.abs(numpy.linalg.norm(normals, axis=1) - 1).max(), 1e-3)
-        self.assertEqual(stitched.ViewObject.DisplayMode, "Shaded")
+        normals = normals_from_content(cloud.dumpPropertyContent("Normal", Compression=0))
+        self.assertEqual(len(normals), cloud.PointCount)
+        unit = numpy.abs(numpy.linalg.norm(normals, axis=1) - 1) < 1e-3  # False for NaN
+        self.assertGreater(unit.mean(), 0.999, "normals not of unit length")
+        self.assertEqual(cloud.ViewObject.DisplayMode, "Shaded")
         FreeCADGui.Selection.clearSelection()
         view3d = FreeCADGui.ActiveDocument.ActiveView
-        # Seen as the first view's camera saw it (its x right, y down, looking along its z), so the
-        # faces in sight are those scanned, turned to the viewer: their brightness is their angle.
-        view3d.setCameraOrientation(stitched.Placement.Rotation.multiply(FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 180)))
+        # Seen as the (first) camera saw it (its x right, y down, looking along its z), so the faces
+        # in sight are those scanned, turned to the viewer: their brightness is their angle.
+        view3d.setCameraOrientation(cloud.Placement.Rotation.multiply(FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 180 + tilt_deg)))
         view3d.fitAll()
 
         def brightness(mode):
-            stitched.ViewObject.Visibility = False
+            cloud.ViewObject.Visibility = False
             background = self.grab_3d_view().astype(int)
-            stitched.ViewObject.Visibility = True
-            stitched.ViewObject.DisplayMode = mode
+            cloud.ViewObject.Visibility = True
+            cloud.ViewObject.DisplayMode = mode
             image = self.grab_3d_view().astype(int)
             drawn = numpy.abs(image - background).max(axis=2) > 30
             self.assertGreater(drawn.sum(), 2000, mode)
@@ -481,12 +484,12 @@ class PicoScanGuiTest(unittest.TestCase):
 
         flat, shaded = brightness("Points"), brightness("Shaded")
         spread = lambda values: numpy.percentile(values, 90) - numpy.percentile(values, 10)  # noqa: E731
-        FreeCAD.Console.PrintMessage("stitched cloud on screen: brightness p10-p90 spread %.1f grey levels shaded "
-                                     "(%d pixels), %.1f flat (%d pixels)\n" % (spread(shaded), len(shaded),
-                                                                                spread(flat), len(flat)))
+        FreeCAD.Console.PrintMessage("%s on screen: brightness p10-p90 spread %.1f grey levels shaded (%d pixels), "
+                                     "%.1f flat (%d pixels)\n" % (cloud.Label, spread(shaded), len(shaded),
+                                                                   spread(flat), len(flat)))
         self.assertLess(spread(flat), 5)
-        self.assertGreater(spread(shaded), 40)
-        self.screenshot(stitched, "freecad-stitch-shaded.png", orientation=view3d.getCameraOrientation())
+        self.assertGreater(spread(shaded), min_spread)
+        self.screenshot(cloud, screenshot, orientation=view3d.getCameraOrientation())
 
     @unittest.skipUnless(os.environ.get("PICOSCAN_CLI"), "PICOSCAN_CLI (the built picoscan command) not set")
     def test_i_scan_through_picoscan_capture_with_the_virtual_camera(self):
@@ -1180,6 +1183,10 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertTrue(panel.accept(), self.messages)
         view = panel.created
         self.assertGreater(view.PointCount, 100000)
+        # Seen from its camera, a single view's faces all face FreeCAD's headlight, most of them (the
+        # table) square to it: turned 30 degrees, their angles to it differ (21 grey levels p10-p90
+        # where the flat look has 0, in a probe; seen from behind, every point is unlit alike).
+        self.check_shading(view, "freecad-scanview-shaded.png", tilt_deg=30, min_spread=12)
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(view)
         FreeCADGui.runCommand("PicoScan_Mesh")
