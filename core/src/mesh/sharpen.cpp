@@ -95,6 +95,13 @@ constexpr double kLeastAgreement = 0.9;
 // faces meet, 0.1-0.4 mm off each face). A fillet's middle lies 0.41 of its radius from that
 // line: fillets of 1.2 mm radius and more stay round.
 constexpr double kEdgeBlurMm = 0.5;
+// The blur's tail: from kEdgeBlurMm to twice as far from the line, a pixel's footprint still
+// takes a little of the other face, and the points there lie off their own face by up to this
+// many times the agreement (the speckled two-placement model's block edges: 0.050-0.077 mm off
+// at 0.50-0.66 mm from the line, 3-4 of the ~30 points near a vertex, which left the edge's
+// vertices with no model and the edge as Poisson rounded it). A fillet of 1.2 mm radius lies
+// off its faces by more than that for most of its width within the tail.
+constexpr double kBlurTailOff = 2;
 // A filled-in vertex goes onto a hole's wall only when its surface faces the hole's axis
 // (cosine of 75 degrees: a bulge Poisson made tilts its surface by tens of degrees).
 constexpr double kHoleWallFacing = 0.25;
@@ -1032,13 +1039,15 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 nearest = std::min(nearest, off[c]);
             }
             // Right at the line two surfaces meet on, a camera pixel spans both: its points are
-            // rounded off by a fraction of a millimetre, which is the edge, not a fillet.
-            bool at_line = false;
+            // rounded off by a fraction of a millimetre, which is the edge, not a fillet; and
+            // in the blur's tail, up to twice as far from the line, a little off a face.
+            double line = std::numeric_limits<double>::infinity();
             for (int c = 0; c < vp.count; ++c)
                 for (int e = c + 1; e < vp.count; ++e)
-                    at_line = at_line || from_line(regions.planes[vp.plane[c]], regions.planes[vp.plane[e]], positions[k]) < kEdgeBlurMm;
+                    line = std::min(line, from_line(regions.planes[vp.plane[c]], regions.planes[vp.plane[e]], positions[k]));
+            const bool blurred = line < kEdgeBlurMm || (line < 2 * kEdgeBlurMm && nearest < kBlurTailOff * agree);
             const bool on_glimpsed = std::find(glimpsed.begin(), glimpsed.end(), regions.label[k]) != glimpsed.end();
-            if (nearest < agree || at_line || on_glimpsed) ++on_planes;
+            if (nearest < agree || blurred || on_glimpsed) ++on_planes;
             if (regions.label[k] == vp.plane[0])
                 for (int c = 1; c < vp.count; ++c) {
                     const double d = regions.planes[vp.plane[c]].distance(positions[k]);
