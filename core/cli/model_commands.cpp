@@ -406,7 +406,9 @@ int run_mesh(const Arguments& arguments) {
         try {
             mesh = mesh_points(cloud, options, terminal_progress());
         } catch (const Error& error) {
-            // The core names the cloud "point cloud"; here it is a file.
+            // The core names the cloud "point cloud"; here it is a file. A stage's refusal of the
+            // cloud ("Poisson reconstruction: ...") is said of the file too.
+            if (error.subject() == "Poisson reconstruction") throw Error(input, error.what());
             if (error.subject() != "point cloud") throw;
             throw Error(input, std::string(error.what()).substr(error.subject().size() + 2));
         }

@@ -165,7 +165,8 @@ int run_section(const Arguments& arguments) {
         section = section_mesh(mesh, plane.origin, plane.u, plane.v, band, options, terminal_progress(),
                                cloud ? &*cloud : nullptr);
     } catch (const Error& error) {
-        if (error.subject() == "scan") throw Error(scan, std::string(error.what()).substr(6));
+        if (error.subject() == "scan") throw Error(scan, std::string(error.what()).substr(error.subject().size() + 2));
+        if (error.subject() == "mesh") throw Error(input, std::string(error.what()).substr(error.subject().size() + 2));
         if (error.subject() != "plane") throw;
         throw Error(request.flag, "the plane through " + vector_text(plane.origin) + " with normal " +
                                     vector_text(plane.normal) + " " + std::string(error.what()).substr(7));

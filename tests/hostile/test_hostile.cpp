@@ -224,6 +224,21 @@ void write_cloud(const fs::path& path, const std::vector<cv::Vec3f>& points, con
     write_ply(cloud, path.string());
 }
 
+// A binary STL of triangles given by their corners, three by three (normals left zero).
+std::string binary_stl(const std::vector<cv::Vec3f>& corners) {
+    std::string bytes(80, ' ');
+    const auto append = [&](const void* data, size_t size) { bytes.append(static_cast<const char*>(data), size); };
+    const uint32_t count = static_cast<uint32_t>(corners.size() / 3);
+    append(&count, 4);
+    for (size_t i = 0; i + 2 < corners.size(); i += 3) {
+        const float normal[3] = {0, 0, 0};
+        append(normal, sizeof normal);
+        for (size_t k = i; k < i + 3; ++k) append(corners[k].val, 12);
+        bytes.append(2, '\0');
+    }
+    return bytes;
+}
+
 // Points on a sphere of `radius` around `centre`, with outward normals.
 void add_sphere(std::vector<cv::Vec3f>& points, std::vector<cv::Vec3f>& normals, cv::Vec3f centre, float radius,
                 int count) {
@@ -646,6 +661,26 @@ std::vector<Case> hostile_cases() {
                          return std::vector<std::string>{"simulate", "--scene", "scene.yml", "--out", "sim"};
                      },
                      1, {"part.stl", "truncated or corrupt binary STL", "16 triangles"}});
+
+    // Meshes and clouds a user may feed mesh and section (hostile inputs of the fourth sanitizer run).
+    cases.push_back({"section of a binary STL with a NaN vertex (the plane was named, through NaN)", [](const fs::path& dir) {
+                         write_text(dir / "part.stl", binary_stl({{0, 0, 0}, {10, 0, 0}, {0, 10, 10},
+                                                                  {std::nanf(""), 0, 0}, {10, 0, 0}, {0, 10, 0}}));
+                         return std::vector<std::string>{"section", "part.stl", "--axis", "z"};
+                     },
+                     1, {"part.stl", "vertex 3 is not a finite point"}, 10});
+    cases.push_back({"section of a binary STL 1e20 mm away (it 'only grazed' the plane)", [](const fs::path& dir) {
+                         write_text(dir / "part.stl", binary_stl({{1e20f, 0, 0}, {1e20f, 10, 0}, {1e20f, 0, 10}}));
+                         return std::vector<std::string>{"section", "part.stl", "--axis", "z"};
+                     },
+                     1, {"part.stl", "vertex 0 lies 1e+20 mm from the origin, beyond 1 km"}, 10});
+    cases.push_back({"Poisson mesh of 500 points on a 30 mm ball (crashed in CGAL's export)", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 30, 500);
+                         write_cloud(dir / "ball.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "ball.ply", "--out", "ball.stl"};
+                     },
+                     1, {"ball.ply: Poisson reconstruction: the surface mesher kept no facet"}, 60});
 
     // A manifest made for another projector than the calibration's.
     cases.push_back({"manifest projector 64x32, calibration projector 854x480", [](const fs::path& dir) {

@@ -5,12 +5,14 @@
 #include "../../core/src/register/point_grid.h"
 #include "../../core/src/register/visibility.h"
 #include "picoscan/error.h"
+#include "picoscan/pipeline.h"
 #include "picoscan/register.h"
 
 #include <gtest/gtest.h>
 
 #include <limits>
 #include <string>
+#include <vector>
 
 using namespace picoscan;
 
@@ -119,4 +121,18 @@ TEST(RegisterGrids, ACameraMatrixThatDoesNotFitTheViewLeavesAFreeSpaceMapOfBound
     const detail::FreeSpaceCheck check = detail::free_space_violations(
         camera, {{20, 20, 300}, {1, 1, 1e-30}, {std::numeric_limits<double>::quiet_NaN(), 0, 1}}, 0.5);
     EXPECT_EQ(check.checked, 0u);
+}
+
+// A first view without a measured point is the model's frame: the views left out against it
+// and an empty merged cloud were written, with "1 of 2 views merged, 0 points" and exit 3. Now
+// refused, naming it; an empty later view is still left out with its reason.
+TEST(RegisterRefusals, AStitchWhoseFirstViewIsEmptyIsRefusedNamingIt) {
+    ScanView empty = plane_view();
+    empty.points.setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    const std::string refusal = error_of([&] { stitch_views({empty, plane_view()}, {"empty.ply", "b.ply"}); });
+    EXPECT_NE(refusal.find("empty.ply: holds no measured point"), std::string::npos) << refusal;
+    const StitchResult later = stitch_views({plane_view(), empty}, {"a.ply", "empty.ply"});
+    EXPECT_EQ(later.merged_views, std::vector<size_t>{0});
+    EXPECT_FALSE(later.alignment.views[1].aligned);
+    EXPECT_GT(later.merged.points.size(), 1000u);
 }

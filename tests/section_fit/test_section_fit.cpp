@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <tuple>
 #include <cstdio>
 #include <map>
@@ -860,6 +861,27 @@ TEST(SectionFit, CutMeshSectionIsTheCutAndItsBandInOneCall) {
         cut_mesh_section(part, origin, u, v, 2.0, [](double, const std::string& stage) { return stage != "parallel cuts"; });
     });
     EXPECT_EQ(cancelled.rfind("cancelled", 0), 0u) << cancelled;
+}
+
+// A NaN or infinite vertex made the plane "not cut" the mesh (or, in the CLI's default plane, a
+// plane through NaN), and a vertex at 1e20 mm made it "only graze" it: the mesh is refused, naming
+// the vertex.
+TEST(SectionFit, AMeshWithANonFiniteOrFarVertexIsRefusedNamingIt) {
+    const cv::Vec3d origin(1, 2, 12), u(1, 0, 0), v(0, 1, 0);
+    for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+        Mesh part = mechanical_part();
+        part.vertices[5][1] = bad;
+        EXPECT_NE(test_support::error_of([&] { cut_mesh_section(part, origin, u, v, 2.0); })
+                      .find("mesh: vertex 5 is not a finite point (NaN or infinite)"),
+                  std::string::npos);
+    }
+    Mesh far = mechanical_part();
+    far.vertices[7][0] = 1e20f;
+    const std::string refusal = test_support::error_of([&] { cut_mesh(far, origin, u, v); });
+    EXPECT_NE(refusal.find("mesh: vertex 7 lies 1e+20 mm from the origin, beyond 1 km"), std::string::npos) << refusal;
+    Mesh near = mechanical_part();
+    near.vertices[7][0] = 9e5f;  // within 1 km: cut as before
+    EXPECT_NO_THROW(cut_mesh(near, origin, u, v));
 }
 
 // A cut's loops run counter-clockwise around the material seen from the plane's normal (the

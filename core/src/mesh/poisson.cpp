@@ -368,8 +368,12 @@ public:
 
 private:
     static long long key(const Point3& p, double cell, int dx, int dy, int dz) {
-        // 21 bits per axis around the origin: +-1 million cells.
-        const auto axis = [&](double v, int d) { return (static_cast<long long>(std::floor(v / cell)) + d + (1 << 20)) & 0x1FFFFF; };
+        // 21 bits per axis around the origin: +-1 million cells. Clamped before the conversion, which
+        // is undefined beyond long long's range (a cluster 1e-14 mm apart with --spacing-mm 0 and
+        // a point 1 km away); cells that far share keys either way.
+        const auto axis = [&](double v, int d) {
+            return (static_cast<long long>(std::clamp(std::floor(v / cell), -1e15, 1e15)) + d + (1 << 20)) & 0x1FFFFF;
+        };
         return (axis(p.x(), dx) << 42) | (axis(p.y(), dy) << 21) | axis(p.z(), dz);
     }
     static bool near(const std::unordered_set<long long>& cells, const Point3& p, double cell) {
@@ -626,6 +630,16 @@ Mesh poisson_mesh(const std::vector<PointWithNormal>& points, const PoissonSetti
         }
         if (triangulation.number_of_vertices() == 0)
             throw Error("Poisson reconstruction", "the implicit function has no surface (are the normals consistent?)");
+        // The mesher can insert its starting points and keep no facet (500 points on a 30 mm ball):
+        // CGAL's export then reads the first of no facets (a crash).
+        if (complex.number_of_facets() == 0) {
+            if (seed == kSeeds)
+                throw Error("Poisson reconstruction", "the surface mesher kept no facet from " + std::to_string(kSeeds) +
+                                                          " random starts (too few points for the surface they sample?)");
+            ++seed;
+            --attempt;  // the same triangle size from other rays
+            continue;
+        }
         SurfaceMesh out;
         CGAL::facets_in_complex_2_to_triangle_mesh(complex, out);
         close_invented_surface(out, proximity);

@@ -277,6 +277,11 @@ StitchResult stitch_views(const std::vector<ScanView>& views, const std::vector<
         result.merged_views.push_back(i);
     }
     result.merged = merge_views(aligned);
+    // The first view is the model's frame even when it holds no point: an empty first view
+    // "merged" into an empty model, written with the other views left out against it.
+    if (result.merged.points.empty())
+        throw Error(names[result.merged_views.empty() ? 0 : result.merged_views.front()],
+                    "holds no measured point, and no view aligned to it does: nothing to merge");
     if (result.merged_views.size() == views.size() && !options.turntable && views.size() >= 3 &&
         options.placement_of_view.empty()) {
         // Views of a turntable sequence calibrate its axis, for the next scan.

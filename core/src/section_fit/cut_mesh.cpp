@@ -1,5 +1,7 @@
 // Plane cuts of a triangle mesh: every triangle whose vertices lie on both sides gives a segment
 // between two of its edges; segments meeting on the same mesh edge are chained into polylines.
+#include "cloud/view_check.h"
+#include "common/text_format.h"
 #include "picoscan/error.h"
 #include "picoscan/section_fit.h"
 
@@ -52,6 +54,15 @@ WeldedMesh weld(const Mesh& mesh, CutProgress& progress) {
     std::vector<int> welded_index(mesh.vertices.size());
     for (size_t i = 0; i < mesh.vertices.size(); ++i) {
         progress.step("cutting the mesh");
+        // A NaN or infinite vertex cuts nowhere (its mesh was reported as "not cut by the plane");
+        // beyond 1 km a float vertex is coarser than 0.06 mm, and the fit's run counts overflow.
+        const cv::Vec3f& p = mesh.vertices[i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+            throw Error("mesh", "vertex " + std::to_string(i) + " is not a finite point (NaN or infinite): not a mesh of a part");
+        if (std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])}) > detail::kFarthestViewPointMm)
+            throw Error("mesh", "vertex " + std::to_string(i) + " lies " + format("%.3g", cv::norm(cv::Vec3d(p))) +
+                                    " mm from the origin, beyond 1 km: too far to cut at the vertices' precision; bring the "
+                                    "mesh near the origin");
         const auto inserted = index_of.emplace(mesh.vertices[i], int(welded.vertices.size()));
         if (inserted.second) welded.vertices.emplace_back(mesh.vertices[i]);
         welded_index[i] = inserted.first->second;
