@@ -1525,12 +1525,11 @@ class PicoScanGuiTest(unittest.TestCase):
         panel = run("PicoScan_CrossSection", surface).panel
         panel.axis.setCurrentText("Z")
         panel.position.setValue(12.0)  # half the block's height, in the part frame
-        # The default tolerance (5 x the cut's noise) falls to its 0.005 mm floor on this mesh: the
-        # mesher's edge sharpening leaves its flat sides without noise. At z = 12 mm the mesh's
-        # vertical edge at (-25, 18) is cut off 0.58 mm deep (facets across it; 0.40 mm at z = 18,
-        # sharp at z = 6, 10, 14), which no line or arc fits within 0.005 mm: the default is refused
-        # with the reason and the advice to set a tolerance; 0.1 mm is about the stitched scan's
-        # own spread about the solid (p95 |d| 0.096 mm in the map below).
+        # The panel's default tolerance is 5 x the noise of the Stitch behind the mesh (0.029 mm:
+        # 0.146 mm), which also fits the mesh's rounded corner at (-25, -18) as a 1.2 mm arc; 0.1 mm
+        # keeps it a corner. At z = 12 mm the mesh's vertical edge at (-25, 18) is cut off 0.58 mm
+        # deep (facets across it; 0.40 mm at z = 18, sharp at z = 6, 10, 14): the fit draws that cut
+        # as a short line of its own, so the sides of 42 and 36 mm end short of the corner.
         panel.tolerance.setValue(0.1)
         self.assertTrue(panel.accept(), self.messages)
         sketch = panel.created
@@ -1538,11 +1537,23 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertEqual(len(sketch.FitReport), sketch.GeometryCount)
         # The sketch's origin and axes are the part frame's (its coordinates are the part's).
         self.assertLess((sketch.Placement.Base - FreeCAD.Vector(0, 0, 12)).Length, 1e-9, sketch.Placement)
-        lines = [float(row.split("length ")[1].split()[0]) for row in sketch.FitReport if row.split(": ", 1)[1].startswith("line ")]
-        # The block's outline at z = 12: the sides of 50 and 36 mm, those of 42 and 28 mm that the
-        # chamfer shortens (the longer of them ends at the cut-off edge) and the chamfer (8 mm legs).
-        for length, tolerance in ((50.0, 0.1), (42.0, 0.15), (36.0, 0.15), (28.0, 0.15), (8 * math.sqrt(2), 0.1)):
-            self.assertTrue(any(abs(line - length) < tolerance for line in lines), (length, lines))
+        number = r"(-?[0-9.]+)"
+        lines = []  # (length, start, end) of each line
+        for row in sketch.FitReport:
+            found = re.search(r": line +length +%s mm.* from \(%s, %s\) to \(%s, %s\)" % ((number,) * 5), row)
+            if found:
+                values = [float(v) for v in found.groups()]
+                lines.append((values[0], numpy.array(values[1:3]), numpy.array(values[3:5])))
+        lengths = [line[0] for line in lines]
+        # The block's outline at z = 12: the sides of 50 and 28 mm and the chamfer (8 mm legs) whole.
+        for length, tolerance in ((50.0, 0.1), (28.0, 0.15), (8 * math.sqrt(2), 0.1)):
+            self.assertTrue(any(abs(line - length) < tolerance for line in lengths), (length, lengths))
+        # The sides of 42 mm (y = 18) and 36 mm (x = -25): on their true lines (the frame's origin is
+        # 0.04 mm off), at most 3 mm short of the corner the mesh cut off (2.3 and 0.7 mm measured).
+        for side_length, axis, at in ((42.0, 1, 18.0), (36.0, 0, -25.0)):
+            along = [line for line in lines if abs(line[1][axis] - at) < 0.1 and abs(line[2][axis] - at) < 0.1]
+            self.assertEqual(len(along), 1, (side_length, lengths))
+            self.assertTrue(side_length - 3.0 < along[0][0] <= side_length + 0.15, (side_length, lengths))
         self.walkthrough_screenshot("multi-6-cross-section", [sketch])
         step("section")
 
