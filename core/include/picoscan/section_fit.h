@@ -79,7 +79,10 @@ struct SectionElement {
     // The element's points start at first_point and run to the next element's first_point (indices
     // wrap on closed polylines); point_count counts those it was fitted to (fewer on a faceted cut).
     int first_point = 0, point_count = 0;
-    double rms_mm = 0, max_mm = 0;     // distances of the points fitted to the element
+    // Distances of the element's points to it: all of them (point_count), the ends its final fit left
+    // out included. An element whose rms_mm is above the tolerance is refused (Error("polyline", ...)),
+    // never returned: this is the one acceptance test.
+    double rms_mm = 0, max_mm = 0;
     // A faceted cut (a mesh's curved face cut along its facets' chords): where at least 4 chords in a
     // row turn alike (by at most 20 deg each, the turn per length within 25 %) and their ends lie on
     // one circle within the tolerance, whatever their length, the points strictly inside those chords
@@ -134,7 +137,10 @@ std::vector<SectionPolyline> cut_mesh(const Mesh& mesh, const cv::Vec3d& origin,
 
 // Fits one polyline (closed: the last point joins the first; do not repeat the first point).
 // Throws Error("polyline", ...) for fewer than 4 distinct points or non-finite coordinates,
-// Error("tolerance_mm", ...) for a negative tolerance.
+// Error("tolerance_mm", ...) for a negative tolerance. Also Error("polyline", ...) when it cannot be
+// split into elements within the tolerance, e.g. a closed polyline that runs round as one curve but is
+// no circle within it (a faceted hole cut through one facet's middle point): one arc round it would
+// leave the closing gap out of the sketch.
 SectionFit fit_section(const std::vector<cv::Vec2d>& polyline, bool closed, const SectionFitOptions& options = {});
 
 // A parallel cut of the Band: the section's profile offset_mm from its plane (along the plane's
