@@ -259,6 +259,12 @@ TEST(SectionCli, TheScanBehindAFlattenedMeshSetsTheTolerance) {
     few.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
     write_ply(few, (dir / "few.ply").string());
     refused("--scan " + (dir / "few.ply").string(), (dir / "few.ply").string() + ": ");
+    // The same scan 10 mm off (another frame, or another part's scan): its noise says nothing of this mesh.
+    PointCloud shifted = scan;
+    for (cv::Vec3f& p : shifted.points) p[0] += 10;
+    write_ply(shifted, (dir / "shifted.ply").string());
+    refused("--scan " + (dir / "shifted.ply").string(),
+            (dir / "shifted.ply").string() + ": is not the scan this mesh was made from: half of its points");
 }
 
 TEST(SectionCli, APlaneThroughASphereGivesItsCircleAtThatHeight) {

@@ -257,14 +257,24 @@ struct MeshSectionFit {
     // per element (section_element_text) and each polyline left out (left_out_text).
     std::vector<std::string> report;
 };
-// `scan`: the points the mesh was made from (a view or a stitched cloud, in any frame: only their
-// noise is used), or null. Throws Error("scan", ...) for a scan given with options.tolerance_mm or
-// options.scan_noise_mm set (one source of the tolerance) or with too few points to measure its
-// noise, and cut_mesh_section's and fit_section_polylines' errors. `progress` hears the noise and
+// `scan`: the points the mesh was made from (a view or a stitched cloud, in the mesh's frame: their
+// noise sets the tolerance), or null. Throws Error("scan", ...) for a scan given with options.tolerance_mm or
+// options.scan_noise_mm set (one source of the tolerance), with too few points to measure its
+// noise, or that is not the mesh's scan (check_scan_of_mesh), and cut_mesh_section's and fit_section_polylines' errors. `progress` hears the noise and
 // the cut (0 to 0.5) and the fit (0.5 to 1); answering false cancels: Error("cancelled", ...).
 MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv::Vec3d& u_axis, const cv::Vec3d& v_axis,
                             double band_mm = kDefaultSectionBandMm, const SectionFitOptions& options = {},
                             const ProgressCallback& progress = nullptr, const PointCloud* scan = nullptr);
+// Whether `scan` (with its measured noise) is the scan `mesh` was made from, before its noise sets a
+// section's tolerance: a host lets the user pick any point cloud. The median distance of its points
+// (an even subset of at most 4000) to the mesh must be within kScanOfMeshNoiseWidths x its noise, or
+// kScanOfMeshDiagonalFraction of the mesh's bounding-box diagonal when that is more (a mesh deviates
+// from a noise-free scan by its own spacing). A scan of another part, or this one's in another frame,
+// lies millimetres off. Throws Error("scan", ...) with the distance and the limit.
+constexpr double kScanOfMeshNoiseWidths = 3.0;
+constexpr double kScanOfMeshDiagonalFraction = 0.001;
+void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_noise_mm);
+
 // One element as the report gives it: kind, size (with its standard error), where, its points and
 // residuals, its chords' sag on a faceted cut, tangency, and the Band's part (or why none).
 std::string section_element_text(const SectionElement& element);

@@ -1,9 +1,11 @@
 // The Cross-section in one call: the cut with its Band, the fit, the report.
 #include "common/text_format.h"
+#include "picoscan/deviation.h"
 #include "picoscan/error.h"
 #include "picoscan/region_fit.h"
 #include "picoscan/section_fit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -42,6 +44,42 @@ double scan_noise(const PointCloud& scan, const SectionFitOptions& options) {
         throw Error("scan", std::string(error.what()).substr(error.subject().size() + 2));
     }
 }
+
+}  // namespace
+
+void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_noise_mm) {
+    // An evenly spread subset is plenty for a median and keeps the check to a fraction of a second.
+    constexpr size_t kMostPoints = 4000;
+    std::vector<cv::Vec3f> sample;
+    const size_t stride = std::max<size_t>(1, scan.points.size() / kMostPoints);
+    for (size_t i = 0; i < scan.points.size(); i += stride)
+        if (std::isfinite(scan.points[i][0]) && std::isfinite(scan.points[i][1]) && std::isfinite(scan.points[i][2]))
+            sample.push_back(scan.points[i]);
+    if (sample.empty()) throw Error("scan", "has no finite points");
+    const DeviationMap map = measure_deviation(sample, mesh);
+    std::vector<double> distances;
+    for (const float d : map.distances_mm)
+        if (std::isfinite(d)) distances.push_back(std::abs(double(d)));
+    std::nth_element(distances.begin(), distances.begin() + long(distances.size() / 2), distances.end());
+    const double median = distances[distances.size() / 2];
+    cv::Vec3f low(HUGE_VALF, HUGE_VALF, HUGE_VALF), high(-HUGE_VALF, -HUGE_VALF, -HUGE_VALF);
+    for (const cv::Vec3f& v : mesh.vertices)
+        for (int axis = 0; axis < 3; ++axis) {
+            low[axis] = std::min(low[axis], v[axis]);
+            high[axis] = std::max(high[axis], v[axis]);
+        }
+    const double diagonal = cv::norm(cv::Vec3d(high - low));
+    const double limit = std::max(kScanOfMeshNoiseWidths * scan_noise_mm, kScanOfMeshDiagonalFraction * diagonal);
+    if (median > limit)
+        throw Error("scan", format("is not the scan this mesh was made from: half of its points (%zu of %zu checked) lie more "
+                                   "than %.4f mm from the mesh, above the %.4f mm a scan of it holds (%.0f x its noise of "
+                                   "%.4f mm, at least %g of the mesh's %.1f mm diagonal); another part's scan, or one in "
+                                   "another frame? choose the scan the mesh was made from",
+                                   distances.size() / 2, distances.size(), median, limit, kScanOfMeshNoiseWidths,
+                                   scan_noise_mm, kScanOfMeshDiagonalFraction, diagonal));
+}
+
+namespace {
 
 std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions& options) {
     const double tolerance = result.fits.tolerance_mm;
@@ -122,6 +160,7 @@ MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv:
                                                               : SectionToleranceSource::CutNoise;
     if (scan == nullptr) result.scan_noise_mm = options.scan_noise_mm;
     result.section = cut_mesh_section(mesh, origin, u_axis, v_axis, band_mm, part_of(progress, 0, 0.5));
+    if (scan != nullptr) check_scan_of_mesh(*scan, mesh, result.scan_noise_mm);  // the cut has checked the mesh
     result.fits = fit_section_polylines(result.section.polylines, result.section.parallel_cuts, fit_options,
                                         part_of(progress, 0.5, 0.5));
     if (progress && !progress(1.0, "fitting lines and arcs")) throw Error("cancelled", "the section fit was cancelled");
