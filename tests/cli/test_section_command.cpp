@@ -264,7 +264,7 @@ TEST(SectionCli, TheScanBehindAFlattenedMeshSetsTheTolerance) {
     for (cv::Vec3f& p : shifted.points) p[0] += 10;
     write_ply(shifted, (dir / "shifted.ply").string());
     refused("--scan " + (dir / "shifted.ply").string(),
-            (dir / "shifted.ply").string() + ": is not the scan this mesh was made from: half of its points");
+            (dir / "shifted.ply").string() + ": is not the scan this mesh was made from: ");
 }
 
 TEST(SectionCli, APlaneThroughASphereGivesItsCircleAtThatHeight) {

@@ -1429,3 +1429,44 @@ TEST(MeshlabPlugin, SectionToleranceComesFromTheScanLayer) {
     refused({{"at", "500"}}, "at: ");
 }
 
+// The scan layer is the user's pick among all point layers: one that is not the mesh's scan (the
+// right scan moved 10 mm, or another part's scan) is refused with one line naming the layer, before its
+// noise could set the tolerance; the right one (layer 1) still sets it.
+TEST(MeshlabPlugin, SectionRefusesAScanLayerThatIsNotTheMeshs) {
+    const std::string directory = make_temp_dir("meshlab_section_scan");
+    const Mesh part = mechanical_part();
+    write_ply(part, directory + "/part.ply");
+    PointCloud scan;
+    scan.points = test_support::noisy_surface_points(part.vertices, part.faces, 10, 0.02, 5);
+    write_ply(scan, directory + "/scan.ply");
+    PointCloud shifted = scan;  // along the block's length: its top, bottom, front and back still touch the mesh
+    for (cv::Vec3f& p : shifted.points) p[0] += 10;
+    write_ply(shifted, directory + "/shifted.ply");
+    MechanicalPartShape narrow;  // another part: a narrower, taller block with a smaller hole and boss
+    narrow.length_mm = 30, narrow.width_mm = 20, narrow.height_mm = 40, narrow.chamfer_mm = 4;
+    narrow.hole_centre_mm = {-6, 0}, narrow.hole_diameter_mm = 5, narrow.boss_centre_mm = {7, -1}, narrow.boss_diameter_mm = 6;
+    const Mesh other_part = mechanical_part(narrow);
+    PointCloud other;
+    other.points = test_support::noisy_surface_points(other_part.vertices, other_part.faces, 10, 0.02, 6);
+    write_ply(other, directory + "/other_part_scan.ply");
+    const std::string inputs = "-i part.ply -i scan.ply -i shifted.ply -i other_part_scan.ply";
+    for (const auto& [layer, name] : {std::pair{"2", "shifted.ply"}, std::pair{"3", "other_part_scan.ply"}}) {
+        const ServerRun run = run_meshlabserver(directory, make_current(0) + section({{"at", "12"}, {"scanLayer", layer}}), inputs);
+        const std::string message = std::string("PicoScan: Fit Cross-section error: scanLayer: ") + name +
+                                    ": is not the scan this mesh was made from: ";
+        const size_t at = run.log.find(message);
+        ASSERT_NE(at, std::string::npos) << run.log;
+        std::istringstream line(run.log.substr(at + message.size()));
+        double share = 0;
+        ASSERT_TRUE(line >> share) << run.log;
+        const std::vector<double> off = numbers_after(run.log.substr(at), "half lie more than", 1);
+        ASSERT_EQ(off.size(), 1u) << run.log;
+        std::printf("%s: %.0f %% of its points near the mesh, median distance %.4f mm\n", name, share, off[0]);
+        EXPECT_LT(share, 80);
+        EXPECT_EQ(run.log.find("PicoScan section of part.ply"), std::string::npos) << run.log;
+    }
+    const ServerRun right = run_meshlabserver(directory, make_current(0) + section({{"at", "12"}, {"scanLayer", "1"}}), inputs);
+    ASSERT_EQ(right.exit_code, 0) << right.log;
+    EXPECT_NE(right.log.find("PicoScan section of part.ply: the scan layer scan.ply: tolerance "), std::string::npos) << right.log;
+}
+

@@ -266,13 +266,15 @@ MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv:
                             double band_mm = kDefaultSectionBandMm, const SectionFitOptions& options = {},
                             const ProgressCallback& progress = nullptr, const PointCloud* scan = nullptr);
 // Whether `scan` (with its measured noise) is the scan `mesh` was made from, before its noise sets a
-// section's tolerance: a host lets the user pick any point cloud. The median distance of its points
-// (an even subset of at most 4000) to the mesh must be within kScanOfMeshNoiseWidths x its noise, or
-// kScanOfMeshDiagonalFraction of the mesh's bounding-box diagonal when that is more (a mesh deviates
-// from a noise-free scan by its own spacing). A scan of another part, or this one's in another frame,
-// lies millimetres off. Throws Error("scan", ...) with the distance and the limit.
+// section's tolerance: a host lets the user pick any point cloud. At least kScanOfMeshShare of its
+// points (an even subset of at most 4000) must lie within kScanOfMeshNoiseWidths x its noise of the
+// mesh, or within kScanOfMeshDiagonalFraction of the mesh's bounding-box diagonal when that is more (a
+// mesh deviates from a noise-free scan by its own spacing). A scan of another part, or this one's in
+// another frame (even moved along a block's faces, which most of its points still touch), has far
+// fewer. Throws Error("scan", ...) with the share, the limit and the median distance.
 constexpr double kScanOfMeshNoiseWidths = 3.0;
 constexpr double kScanOfMeshDiagonalFraction = 0.001;
+constexpr double kScanOfMeshShare = 0.8;
 void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_noise_mm);
 
 // One element as the report gives it: kind, size (with its standard error), where, its points and

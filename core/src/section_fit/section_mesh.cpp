@@ -60,8 +60,6 @@ void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_no
     std::vector<double> distances;
     for (const float d : map.distances_mm)
         if (std::isfinite(d)) distances.push_back(std::abs(double(d)));
-    std::nth_element(distances.begin(), distances.begin() + long(distances.size() / 2), distances.end());
-    const double median = distances[distances.size() / 2];
     cv::Vec3f low(HUGE_VALF, HUGE_VALF, HUGE_VALF), high(-HUGE_VALF, -HUGE_VALF, -HUGE_VALF);
     for (const cv::Vec3f& v : mesh.vertices)
         for (int axis = 0; axis < 3; ++axis) {
@@ -70,13 +68,16 @@ void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_no
         }
     const double diagonal = cv::norm(cv::Vec3d(high - low));
     const double limit = std::max(kScanOfMeshNoiseWidths * scan_noise_mm, kScanOfMeshDiagonalFraction * diagonal);
-    if (median > limit)
-        throw Error("scan", format("is not the scan this mesh was made from: half of its points (%zu of %zu checked) lie more "
-                                   "than %.4f mm from the mesh, above the %.4f mm a scan of it holds (%.0f x its noise of "
-                                   "%.4f mm, at least %g of the mesh's %.1f mm diagonal); another part's scan, or one in "
-                                   "another frame? choose the scan the mesh was made from",
-                                   distances.size() / 2, distances.size(), median, limit, kScanOfMeshNoiseWidths,
-                                   scan_noise_mm, kScanOfMeshDiagonalFraction, diagonal));
+    const double share = double(std::count_if(distances.begin(), distances.end(), [&](double d) { return d <= limit; })) /
+                         double(distances.size());
+    if (share >= kScanOfMeshShare) return;
+    std::nth_element(distances.begin(), distances.begin() + long(distances.size() / 2), distances.end());
+    throw Error("scan", format("is not the scan this mesh was made from: %.0f %% of its points (%zu checked) lie within %.4f mm "
+                               "of the mesh (%.0f x its noise of %.4f mm, at least %g of the mesh's %.1f mm diagonal), "
+                               "where a scan of it has %.0f %% or more; half lie more than %.4f mm off. Another part's "
+                               "scan, or one in another frame? Choose the scan the mesh was made from",
+                               100 * share, distances.size(), limit, kScanOfMeshNoiseWidths, scan_noise_mm,
+                               kScanOfMeshDiagonalFraction, diagonal, 100 * kScanOfMeshShare, distances[distances.size() / 2]));
 }
 
 namespace {

@@ -41,7 +41,21 @@ def scan_behind(mesh_object):
     source = getattr(mesh_object, "Source", None) if is_scan_mesh(mesh_object) else None
     if source is None or not (is_scan_view(source) or is_stitch(source)):
         return None, "%s was not meshed from a scan in this document" % mesh_object.Label
-    return cloud_of(source), source.Label
+    return placed_cloud(cloud_of(source), source.Placement), source.Label
+
+
+def placed_cloud(cloud, placement):
+    """The cloud moved by `placement`, into the frame of the mesh made from it (a ScanMesh takes its
+    Source's Placement): the core checks that the scan lies on the mesh before its noise sets the
+    tolerance (check_scan_of_mesh)."""
+    matrix = numpy.array(placement.toMatrix().A, dtype=float).reshape(4, 4)
+    if numpy.array_equal(matrix, numpy.eye(4)):
+        return cloud
+    moved = picoscan.PointCloud()
+    moved.points = (numpy.asarray(cloud.points, dtype=float) @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
+    if len(cloud.normals):
+        moved.normals = (numpy.asarray(cloud.normals, dtype=float) @ matrix[:3, :3].T).astype(numpy.float32)
+    return moved
 
 
 def fitted_section(mesh, label, axis, offset_mm=None, tolerance_mm=0.0, band_mm=picoscan.DEFAULT_SECTION_BAND_MM, progress=None,
