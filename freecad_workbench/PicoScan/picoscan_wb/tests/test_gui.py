@@ -1229,7 +1229,9 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.runCommand("PicoScan_ShowRig")
         process_events()
         self.assertEqual(self.messages, [])
-        # The scanned mesh seen obliquely from the scanner's side (the camera looks along +z, y down).
+        # The scanned mesh seen isometric, from above: the scan lands in the part frame (Z up), where the
+        # old view (turned 215 degrees about (1, 0.35, 0), "the scanner's side" of the camera frame) showed
+        # its unlit underside, a black shape.
         self.doc.getObject("Rig").ViewObject.Visibility = False
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.getMainWindow().showMaximized()
@@ -1241,8 +1243,11 @@ class PicoScanGuiTest(unittest.TestCase):
         process_events()
         view3d = FreeCADGui.ActiveDocument.ActiveView
         self.assertTrue(hasattr(view3d, "setCameraOrientation"), "the 3D view is not active")
-        view3d.setCameraOrientation(FreeCAD.Rotation(FreeCAD.Vector(1, 0.35, 0), 215))
+        view3d.viewIsometric()
         view3d.fitAll()
+        for _ in range(5):
+            process_events()
+        self.assertGreater(self.lit_brightness(meshes[0]), 70)
         for _ in range(5):
             process_events()
         path = os.environ.get("PICOSCAN_SCREENSHOT")
@@ -1252,6 +1257,20 @@ class PicoScanGuiTest(unittest.TestCase):
             subprocess.run(["import", "-window", "root", temporary], check=True)
             os.replace(temporary, path)
             self.assertGreater(os.path.getsize(path), 50000)
+
+    def lit_brightness(self, shown):
+        """The mean grey level (0-255) of the pixels `shown` draws in the 3D view as it is turned (those that
+        differ from the view without it): a face lit by FreeCAD's headlight is light, one seen from behind
+        or below nearly black. Logged to the Report view."""
+        shown.ViewObject.Visibility = False
+        background = self.grab_3d_view().astype(int)
+        shown.ViewObject.Visibility = True
+        image = self.grab_3d_view().astype(int)
+        drawn = numpy.abs(image - background).max(axis=2) > 30
+        self.assertGreater(drawn.sum(), 20000, "%s hardly drawn" % shown.Label)
+        brightness = float(image[drawn].mean())
+        FreeCAD.Console.PrintMessage("%s on screen: %d pixels, mean grey level %.1f\n" % (shown.Label, drawn.sum(), brightness))
+        return brightness
 
     def walkthrough_screenshot(self, name, select=(), isometric=True):
         """A screenshot of the whole window for docs/freecad.md's walkthrough, 800 pixels wide and
