@@ -355,7 +355,8 @@ QString PicoScanFilterPlugin::filterInfo(FilterIDType filter) const {
                "and why; the profile can be written as DXF. Each element lies within a tolerance of its points: by "
                "default 5 x the noise of the <i>scan layer</i>, the point cloud the mesh was made from (measured on its "
                "points). Choose it: a Poisson or flattened mesh's cut has almost no noise (nanometres), which says "
-               "nothing of the scan. Choosing the current layer itself means no scan: the tolerance then comes from the "
+               "nothing of the scan. A scan layer whose points do not lie on the mesh (another part's scan, or one moved) "
+               "is refused. Choosing the current layer itself means no scan: the tolerance then comes from the "
                "cut, and the log says to set it yourself.";
     }
     return {};

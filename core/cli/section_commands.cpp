@@ -48,7 +48,8 @@ The fit:
   --scan CLOUD.ply   the scan the mesh was made from (a view or a stitched cloud): its noise sets
                      the default tolerance. Give it for a Poisson or sharpened mesh, whose flattened
                      faces leave the cut almost no noise (micrometres), which says nothing of how
-                     well the scan knows the part
+                     well the scan knows the part. In the mesh's frame: a cloud of which under 80 %
+                     of the points lie within 3 x its noise of the mesh is refused (not its scan)
 
 Outputs (each optional; the report is always printed):
   --svg FILE.svg     lines and arcs as SVG paths, circles as circles, in millimetres
