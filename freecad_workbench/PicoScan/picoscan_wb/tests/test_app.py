@@ -213,6 +213,11 @@ class PicoScanAppTest(unittest.TestCase):
             cut.fits.noise_mm, noise))
         self.assertEqual(used, noise)
         self.assertLess(cut.fits.noise_mm, noise / 2)  # the mesh hides the scan's noise
+        # The scan in another frame (moved 10 mm along each axis) is not the mesh's: refused before its
+        # noise sets the tolerance.
+        moved = section.placed_cloud(section.scan_behind(smooth)[0], FreeCAD.Placement(FreeCAD.Vector(10, 10, 10), FreeCAD.Rotation()))
+        with self.assertRaisesRegex(picoscan.Error, "is not the scan this mesh was made from"):
+            section.fitted_section(smooth.Mesh, smooth.Label, "Y", 0.0, band_mm=0.0, scan=moved)
         smooth_sketch = section.cross_section(self.doc, smooth, axis="Y", offset_mm=0.0, band_mm=0.0, name="SmoothSection")
         self.assertTrue(smooth_sketch.isValid(), smooth_sketch.getStatusString())
         self.assertEqual(smooth_sketch.FitNoise.Value, noise)
