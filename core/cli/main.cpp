@@ -5,11 +5,13 @@
 #include "picoscan/error.h"
 
 #include <dlfcn.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -119,9 +121,21 @@ std::string flag_for_field(const std::string& field) {
     return found == flags.end() ? field : found->second;
 }
 
+// A command allocates and frees buffers of megabytes stage after stage (a view's file bytes,
+// its points, the samples and search grids of registration, the merged cloud). glibc maps
+// each one afresh and gives it back when freed; every 4 KB page of fresh memory then costs a
+// page fault, which on the virtual machines PicoScan is benchmarked on costs as much as the
+// work in it. Kept in the process (up to 32 MB each, glibc's ceiling), freed memory is used
+// again; larger blocks are still mapped and given back.
+void keep_freed_memory_for_reuse() {
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+    keep_freed_memory_for_reuse();
     std::vector<Command> commands = builtin_commands();
     const std::string name = argc > 1 ? argv[1] : "";
     const bool listing = name.empty() || name == "--help" || name == "-h" || name == "help";

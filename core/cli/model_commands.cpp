@@ -9,6 +9,7 @@
 #include "picoscan/preview.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -276,10 +277,18 @@ int stitch_and_write(const std::vector<std::string>& paths, const std::string& o
 }
 
 // The same view given twice (the same file, or two files with the same bytes) would be
-// merged onto itself: worth a warning, not an error (a copy may be intended).
+// merged onto itself: worth a warning, not an error (a copy may be intended). Only files of
+// one size can hold the same bytes: the others are not read for this.
 void warn_about_duplicate_views(const std::vector<std::string>& inputs) {
+    auto size_of = [](const std::string& path) {
+        std::error_code unknown;  // all files of unknown size are compared with each other
+        return fs::file_size(path, unknown);
+    };
+    std::map<std::uintmax_t, int> files_of_size;
+    for (const std::string& input : inputs) ++files_of_size[size_of(input)];
     std::map<std::string, std::string> first_with_content;
     for (const std::string& input : inputs) {
+        if (files_of_size[size_of(input)] < 2) continue;
         std::ifstream file(input, std::ios::binary);
         std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
         const auto [found, fresh] = first_with_content.emplace(std::move(bytes), input);

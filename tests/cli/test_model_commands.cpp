@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <tuple>
 
@@ -53,6 +54,20 @@ std::vector<cv::Matx44d> read_pose_file(const std::string& path) {
     return poses;
 }
 
+// A small flat view: `rows` x 20 pixels of a 40 x 40 camera grid, at `depth_mm`.
+ScanView flat_view(int rows, float depth_mm) {
+    ScanView view;
+    view.points = cv::Mat(40, 40, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    view.normals = cv::Mat::zeros(40, 40, CV_32FC3);
+    for (int y = 0; y < rows; ++y)
+        for (int x = 0; x < 20; ++x) {
+            view.points.at<cv::Vec3f>(y, x) = cv::Vec3f(0.5f * x, 0.5f * y, depth_mm);
+            view.normals.at<cv::Vec3f>(y, x) = cv::Vec3f(0, 0, -1);
+        }
+    view.camera_matrix = cv::Matx33d(2500, 0, 20, 0, 2500, 20, 0, 0, 1);
+    return view;
+}
+
 }  // namespace
 
 TEST(StitchCli, NeighbouringViewsMergeWithTheTruePoses) {
@@ -86,6 +101,25 @@ TEST(StitchCli, ViewsThatDoNotOverlapAreNamedAndWrittenUnmerged) {
     EXPECT_TRUE(fs::exists(dir / "merged.unmerged-view_4.ply"));
     EXPECT_EQ(read_ply(out).vertices.size(), static_cast<size_t>(test_support::disturbed_turntable_scan().views[0].valid_count()));
     EXPECT_EQ(file_bytes(view_file(4)), before);  // inputs untouched
+}
+
+TEST(StitchCli, TheSameViewTwiceIsWarnedAboutAndAnotherOfTheSameSizeIsNot) {
+    const fs::path dir = make_temp_dir("stitch_cli_same");
+    const std::string a = (dir / "a.ply").string(), copy = (dir / "copy_of_a.ply").string();
+    const std::string same_size = (dir / "b.ply").string(), smaller = (dir / "c.ply").string();
+    write_view_ply(flat_view(20, 100), a);
+    fs::copy_file(a, copy);
+    write_view_ply(flat_view(20, 101), same_size);  // as many points: as many bytes, other bytes
+    write_view_ply(flat_view(10, 100), smaller);
+    ASSERT_EQ(fs::file_size(a), fs::file_size(same_size));
+    ASSERT_NE(test_support::read_file_bytes(a), test_support::read_file_bytes(same_size));
+    const Result result = run_picoscan("stitch " + a + " " + same_size + " " + smaller + " " + copy + " --out " +
+                                       (dir / "merged.ply").string());
+    const std::string warning = "picoscan stitch: warning: ";
+    EXPECT_NE(result.output.find(warning + copy + " is the same view as " + a), std::string::npos) << result.output;
+    size_t warnings = 0;
+    for (size_t at = result.output.find(warning); at != std::string::npos; at = result.output.find(warning, at + 1)) ++warnings;
+    EXPECT_EQ(warnings, 1u) << result.output;
 }
 
 TEST(MeshCli, PoissonOfStitchedViewsIsWatertightAndBadCloudsAreRefused) {

@@ -6,8 +6,9 @@
 #include "picoscan/error.h"
 #include "picoscan/file_output.h"
 
+#include "io/image_codecs.h"
+
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
@@ -65,7 +66,7 @@ std::string base64(const std::vector<uint8_t>& bytes) {
 
 std::string png_data_uri(const cv::Mat& image) {
     std::vector<uint8_t> png;
-    if (!cv::imencode(".png", image, png)) throw Error("calibration report", "cannot encode a picture");
+    if (!detail::imencode(".png", image, png)) throw Error("calibration report", "cannot encode a picture");
     return "data:image/png;base64," + base64(png);
 }
 

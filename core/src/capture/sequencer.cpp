@@ -6,6 +6,7 @@
 #include "picoscan/error.h"
 
 #include "capture_set/image_header.h"
+#include "io/image_codecs.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -217,7 +218,7 @@ CaptureReport capture_sequence(const PatternSequence& sequence, PatternDisplay& 
     for (size_t camera = 0; camera < cameras.size(); ++camera)
         for (size_t index = 0; index < frame_count && frame_sizes[camera].empty(); ++index)
             if (present[camera][index])
-                frame_sizes[camera] = cv::imread((fs::path(directories[camera]) / sequence.frames[index].file).string(),
+                frame_sizes[camera] = detail::imread((fs::path(directories[camera]) / sequence.frames[index].file).string(),
                                                  cv::IMREAD_UNCHANGED)
                                           .size();
     for (size_t index = 0; index < frame_count; ++index) {

@@ -33,9 +33,11 @@ std::atomic<unsigned long long> temp_counter{0};
 // threads) are still written; only those are not removed by a signal.
 constexpr int kSlots = 256;
 enum SlotState : int { Free = 0, Writing = 1, Live = 2 };
+// Every member has its initial value (all zero), so the registry is initialised at compile
+// time: no code at start-up writes to each of its 256 pages.
 struct Slot {
     std::atomic<int> state{Free};
-    char path[PATH_MAX];
+    char path[PATH_MAX]{};
 };
 Slot slots[kSlots];
 static_assert(std::atomic<int>::is_always_lock_free, "the signal handler reads the slots' state");

@@ -3,8 +3,7 @@
 #include "picoscan/file_output.h"
 
 #include "common/third_party_output.h"
-
-#include <opencv2/imgcodecs.hpp>
+#include "io/image_codecs.h"
 
 #include <filesystem>
 #include <vector>
@@ -16,7 +15,7 @@ cv::Mat read_image_file(const std::string& path, int flags) {
     std::string problem;
     detail::ThirdPartyOutput decoder;
     try {
-        image = cv::imread(path, flags);
+        image = detail::imread(path, flags);
     } catch (const cv::Exception& error) {
         image.release();
         problem = error.msg;
@@ -34,7 +33,7 @@ void write_image_file(const cv::Mat& image, const std::string& path) {
     std::vector<uint8_t> bytes;
     bool encoded = false;
     try {
-        encoded = !image.empty() && cv::imencode(std::filesystem::path(path).extension().string(), image, bytes);
+        encoded = !image.empty() && detail::imencode(std::filesystem::path(path).extension().string(), image, bytes);
     } catch (const cv::Exception& error) {
         throw Error(path, "cannot encode the image: " + error.msg);
     }

@@ -23,15 +23,25 @@ inline bool host_is_little_endian() {
     return first == 1;
 }
 
-// Appends the raw bytes of `value` in little-endian order.
+// Stores the raw bytes of `value` in little-endian order at `at`, and moves `at` past them.
 template <class T>
-void append_le(std::string& out, T value) {
+void put_le(char*& at, T value) {
     unsigned char bytes[sizeof(T)];
     std::memcpy(bytes, &value, sizeof(T));
     if (!host_is_little_endian()) {
         for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
     }
-    out.append(reinterpret_cast<const char*>(bytes), sizeof(T));
+    std::memcpy(at, bytes, sizeof(T));
+    at += sizeof(T);
+}
+
+// Appends the raw bytes of `value` in little-endian order.
+template <class T>
+void append_le(std::string& out, T value) {
+    char bytes[sizeof(T)];
+    char* at = bytes;
+    put_le(at, value);
+    out.append(bytes, sizeof(T));
 }
 
 // Shortest text that reads back to exactly the same float (no locale).

@@ -376,6 +376,8 @@ void read_vertices(const Element& element, BodyReader& body, Mesh& mesh, detail:
     mesh.vertices.reserve(count);
     if (has_normals) mesh.normals.reserve(count);
     if (has_colours) mesh.colours.reserve(count);
+    if (quality >= 0) extras->quality.reserve(count);
+    if (pixel >= 0) extras->pixels.reserve(count);
 
     std::vector<double> values(element.properties.size(), 0.0);
     const bool fixed_size = body.binary() && !element.has_lists();  // check_count_fits made room for every record
