@@ -494,6 +494,8 @@ cv::Vec3d onto_own_plane(const Regions& regions, const VertexPlanes& vp, const c
 }
 
 constexpr double kOnPlaneMm = 1e-4;
+// A vertex pulled back to unfold a face goes this far past where the face lies flat.
+constexpr double kUnfoldMarginMm = 0.01;
 
 // The plane a face's three corners all go onto (one of them put on the plane alone, the others
 // on it or on its lines and corners), or -1.
@@ -1418,11 +1420,12 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     std::vector<double> share(position.size(), 1.0);  // of the way from safe to target
     auto movable = [&](int v) { return share[v] > 0 && target[v] != safe[v]; };
     auto pulled_share = [&](int v) { return share[v] > 0.3 ? 0.5 * share[v] : 0.0; };
-    auto pull_back = [&](int v) {
-        share[v] = pulled_share(v);
+    auto pull_back_to = [&](int v, double to) {
+        share[v] = to;
         position[v] = safe[v] + share[v] * (target[v] - safe[v]);
         if (share[v] == 0) ++report.reverted;
     };
+    auto pull_back = [&](int v) { pull_back_to(v, pulled_share(v)); };
     auto send_back = [&](const cv::Vec3i& face) {
         bool pulled = false;
         for (int k = 0; k < 3; ++k)
@@ -1437,6 +1440,22 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
     auto facing = [&](const cv::Vec3i& face, size_t f) {
         const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
         return normal.dot(reference_normal(f));
+    };
+    // How far back a vertex goes to unfold a face: to where the face lies flat (its normal is
+    // linear in one corner's place) and kUnfoldMarginMm more, but no more than half way. A sliver
+    // turned over by micrometres (its corners put nearly in a line: on the circle where a hole's
+    // wall meets a face, or across the wall) then costs micrometres; half way back, its vertex
+    // stood 150-161 um off the two-placement models' hole rim.
+    auto unfolding_share = [&](const cv::Vec3i& face, size_t f, int v) {
+        const double folded = facing(face, f);
+        const cv::Vec3d kept = position[v];
+        position[v] = safe[v];
+        const double unmoved = facing(face, f);
+        position[v] = kept;
+        const double half_way = pulled_share(v);
+        if (!(unmoved > 0) || !(folded < 0)) return half_way;
+        const double flat = share[v] * unmoved / (unmoved - folded);
+        return std::max(half_way, flat - kUnfoldMarginMm / cv::norm(target[v] - safe[v]));
     };
     for (int round = 0; round < 60; ++round) {
         bool changed = false;
@@ -1455,7 +1474,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 if (after > best_facing) best_facing = after, best = v;
             }
             if (best >= 0) {
-                pull_back(best);
+                pull_back_to(best, unfolding_share(face, f, best));
                 changed = true;
             } else {
                 changed = send_back(face) || changed;
