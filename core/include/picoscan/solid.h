@@ -73,6 +73,9 @@ struct BrepFace {
 
 struct PlanarFaceModel {
     std::vector<cv::Vec3d> vertices;
+    // The mesh's own vertices (the first ones of `vertices`, before any was moved onto a plane):
+    // what tells a cylinder's wall from a prism's flat sides once both are merged into planes.
+    std::vector<cv::Vec3d> mesh_vertices;
     std::vector<double> vertex_tolerance_mm;
     std::vector<BrepEdge> edges;
     std::vector<BrepFace> faces;
