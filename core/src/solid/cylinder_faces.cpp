@@ -243,11 +243,15 @@ double bunched_normals(const PlanarFaceModel& model, const std::vector<size_t>& 
     const double width = std::max(1.5 * mean_edge / radius_mm, 2 * normal_noise[normal_noise.size() / 2]);
     const size_t bins = size_t(std::max(8.0, std::floor(2 * kPi / width)));
     auto bin = [&](double angle) { return std::min(bins - 1, size_t((angle + kPi) / (2 * kPi) * double(bins))); };
+    // A hole's facets face the axis: their normals turned round, as a boss's.
+    double facing = 0;
+    for (size_t k = 0; k < area.size(); ++k) facing += area[k] * std::cos(normal_angle[k] - centre_angle[k]);
+    const double turn = facing < 0 ? kPi : 0;
     std::vector<double> by_centre(bins, 0), by_normal(bins, 0);
     double total = 0;
     for (size_t k = 0; k < area.size(); ++k) {
         by_centre[bin(centre_angle[k])] += area[k];
-        by_normal[bin(normal_angle[k])] += area[k];
+        by_normal[bin(std::remainder(normal_angle[k] + turn, 2 * kPi))] += area[k];
         total += area[k];
     }
     double distance = 0;
