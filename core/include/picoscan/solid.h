@@ -35,6 +35,8 @@ struct PlanarFaceOptions {
                                      // whole loop of each, becomes one cylindrical face when its vertices
                                      // lie within max_rms_factor x the noise (RMS) of a cylinder square to
                                      // both planes (a drilled hole, a boss, a shaft); its loops become circles.
+                                     // A wall whose facets' normals bunch into a few directions round the
+                                     // axis (a prism's flat sides, its corners on the circle) is not one.
                                      // Such a region on a cone about that axis (half-angle 2 to 64 degrees:
                                      // a countersink, a chamfered boss, a tapered hole) becomes one conical face
 };
@@ -73,6 +75,9 @@ struct BrepFace {
 
 struct PlanarFaceModel {
     std::vector<cv::Vec3d> vertices;
+    // The mesh's own vertices (the first ones of `vertices`, before any was moved onto a plane):
+    // what tells a cylinder's wall from a prism's flat sides once both are merged into planes.
+    std::vector<cv::Vec3d> mesh_vertices;
     std::vector<double> vertex_tolerance_mm;
     std::vector<BrepEdge> edges;
     std::vector<BrepFace> faces;

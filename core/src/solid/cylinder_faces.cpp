@@ -38,6 +38,10 @@ constexpr double kRingVolumeShare = 1e-4;
 // Cones made, by half-angle: narrower is a cylinder with noise (as shapes.h's min_cone_half_angle_deg);
 // wider than the steep walls reach (normals within 25 degrees of the axis are the planes').
 constexpr double kMinConeDeg = 2, kMaxConeDeg = 64;
+// At most this share of a wall's area may have its normals elsewhere round the axis than a
+// cylinder's (bunched_normals: a scanned cylinder's up to about 0.1, a prism's of 12 to 24 sides
+// 0.2 to 0.8 once each side spans a few facets).
+constexpr double kMaxBunchedNormals = 0.2;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -197,6 +201,62 @@ double mean_edge(const PlanarFaceModel& model, const std::vector<size_t>& faces)
         for (const cv::Vec3i& t : model.faces[f].triangles)
             for (int k = 0; k < 3; ++k, ++count) sum += cv::norm(model.vertices[size_t(t[k])] - model.vertices[size_t(t[(k + 1) % 3])]);
     return count ? sum / double(count) : 0;
+}
+
+// How much of a wall's facet area has its normal pointing about the axis elsewhere than where the
+// facet lies: the total variation distance between the histograms of the facets' area over the
+// azimuth of their centres and over the azimuth of their normals. A cylinder's or cone's facets
+// face away from the axis wherever they are: both histograms even, the distance near 0 (each facet
+// a little off by the noise and the width of its mesh column, which the bins are wider than). A
+// prism's flat sides each keep one normal: its normals bunch into one bin per side while its
+// facets spread over the side's bins, the distance 1 - 1 / (bins per side). (The corners of a
+// regular n-gon prism lie on a circle and its sides within R (1 - cos(180 / n)) of it: 0.9 % of
+// the radius for 24 sides, within what the roundness test allows.)
+double bunched_normals(const PlanarFaceModel& model, const std::vector<size_t>& faces, const cv::Vec3d& centre,
+                       const cv::Vec3d& axis, double radius_mm) {
+    const std::vector<cv::Vec3d>& positions = model.mesh_vertices.empty() ? model.vertices : model.mesh_vertices;
+    const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
+    std::vector<double> normal_angle, centre_angle, area, normal_noise;
+    double edge_sum = 0;
+    for (size_t f : faces)
+        for (const cv::Vec3i& t : model.faces[f].triangles) {
+            const cv::Vec3d corner[3] = {positions[size_t(t[0])], positions[size_t(t[1])], positions[size_t(t[2])]};
+            const cv::Vec3d normal = (corner[1] - corner[0]).cross(corner[2] - corner[0]), middle = (corner[0] + corner[1] + corner[2]) / 3.0 - centre;
+            const double twice_area = cv::norm(normal);
+            if (!(twice_area > 0)) continue;
+            // The tilt of its normal from noise of sigma on its corners: sigma^2 / 2 x the sum of 1 / altitude^2 about the axis.
+            double inverse_altitudes = 0;
+            for (int k = 0; k < 3; ++k) {
+                const double side = cv::norm(corner[(k + 1) % 3] - corner[(k + 2) % 3]);
+                edge_sum += side;
+                inverse_altitudes += std::pow(side / twice_area, 2);
+            }
+            normal_noise.push_back(model.noise_mm * std::sqrt(inverse_altitudes / 2));
+            normal_angle.push_back(std::atan2(normal.dot(y_axis), normal.dot(x_axis)));
+            centre_angle.push_back(std::atan2(middle.dot(y_axis), middle.dot(x_axis)));
+            area.push_back(twice_area / 2);
+        }
+    if (area.empty() || !(radius_mm > 0)) return 0;
+    const double mean_edge = edge_sum / double(3 * area.size());
+    std::nth_element(normal_noise.begin(), normal_noise.begin() + std::ptrdiff_t(normal_noise.size() / 2), normal_noise.end());
+    // Bins wider than a facet seen from the axis and than twice its normal's noise.
+    const double width = std::max(1.5 * mean_edge / radius_mm, 2 * normal_noise[normal_noise.size() / 2]);
+    const size_t bins = size_t(std::max(8.0, std::floor(2 * kPi / width)));
+    auto bin = [&](double angle) { return std::min(bins - 1, size_t((angle + kPi) / (2 * kPi) * double(bins))); };
+    // A hole's facets face the axis: their normals turned round, as a boss's.
+    double facing = 0;
+    for (size_t k = 0; k < area.size(); ++k) facing += area[k] * std::cos(normal_angle[k] - centre_angle[k]);
+    const double turn = facing < 0 ? kPi : 0;
+    std::vector<double> by_centre(bins, 0), by_normal(bins, 0);
+    double total = 0;
+    for (size_t k = 0; k < area.size(); ++k) {
+        by_centre[bin(centre_angle[k])] += area[k];
+        by_normal[bin(std::remainder(normal_angle[k] + turn, 2 * kPi))] += area[k];
+        total += area[k];
+    }
+    double distance = 0;
+    for (size_t b = 0; b < bins; ++b) distance += std::abs(by_centre[b] - by_normal[b]);
+    return 0.5 * distance / total;
 }
 
 struct Tolerances {
@@ -443,6 +503,20 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                         continue;
                     }
                     circle = cone;
+                }
+                // A prism of many flat sides (its corners on the circle) fits a cylinder within the
+                // roundness allowed; its facets' normals bunch into one direction per side. Tested on
+                // the scan's own vertices; the second search (eligible: among the facets found before,
+                // their vertices since moved onto planes) only finds those again.
+                const double bunched = !eligible.empty() ? 0.0 : bunched_normals(model, circle.slope == 0 ? square_facets : wall_faces,
+                                                                                 circle.origin, region.axis, circle.mean_radius());
+                if (bunched > kMaxBunchedNormals) {
+                    std::snprintf(text, sizeof text,
+                                  "its facets' normals bunch into a few directions round the axis (%.0f %% of its area faces elsewhere "
+                                  "than a %s's would, at most %.0f %%): flat sides with creases between them, a prism or pyramid",
+                                  100 * bunched, circle.slope == 0 ? "cylinder" : "cone", 100 * kMaxBunchedNormals);
+                    refuse(text);
+                    continue;
                 }
                 region.radius_mm = circle.radius;
                 region.slope = circle.slope;

@@ -28,7 +28,9 @@ struct CylinderRegion {
 // all round a circle, with the facets next to them within two edge lengths of the cylinder or of a
 // plane square to it (a smooth mesh's rounded ends: the cylinder and the planes are continued over
 // them while that changes the volume by at most 0.01 %), bounded by two planar faces square to the
-// axis and nothing else; only faces marked in `eligible` (all when it is empty). Each wall near a
+// axis and nothing else, whose facets' normals face away from the axis wherever they are (a prism's
+// flat sides bunch them into one direction each); only faces marked in `eligible` (all when it is
+// empty: the normals are then read on the mesh's own vertices, not checked again). Each wall near a
 // cylinder but refused is said in `notes` with the reason.
 std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
                                              const std::vector<char>& eligible, std::vector<std::string>& notes);

@@ -512,6 +512,7 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
     // The B-rep from the regions that are merged (region_of[f] >= 0, into `planes`): vertices
     // moved onto the planes, faces, straight edges, wires and tolerances.
     const std::vector<cv::Vec3d> joined = model.vertices;  // before any vertex moves onto a plane
+    model.mesh_vertices = joined;
     auto build_faces = [&](const std::vector<int>& region_of, const std::vector<Plane>& planes, const std::vector<double>& rms) {
         model.vertices = joined;
         model.edges.clear();

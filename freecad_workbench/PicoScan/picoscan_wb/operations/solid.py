@@ -3,7 +3,8 @@ merges the facets that lie on one plane (within the scan's noise) into one plana
 the rest as triangles (and turns back into triangles the facets where a merged face's boundary
 would touch or cross itself, leave its plane or nest wrongly: `model.refused_merges` says where),
 makes a hole or boss between two planar faces one cylindrical face bounded by circles when its
-facets lie on a cylinder square to both, or one conical face when they lie on a cone about such an
+facets lie on a cylinder square to both and their normals face away from its axis all round (a
+prism's flat sides, its corners on the circle, keep one normal each and stay planar faces), or one conical face when they lie on a cone about such an
 axis (a countersink, a chamfered boss; `model.cylinder_notes` says which were near one and why
 they were not made), simplifies the other curved regions into fewer, larger triangles (every mesh vertex within
 `simplify_mm`, by default 4 x the noise, of them; the volume kept within 0.05 %; the summary in
