@@ -41,6 +41,7 @@ void bind_solid(py::module_& m) {
         .def_readonly("semi_angle_rad", &BrepFace::semi_angle_rad);
     py::class_<PlanarFaceModel>(m, "PlanarFaceModel")
         .def_readonly("vertices", &PlanarFaceModel::vertices)
+        .def_readonly("mesh_vertices", &PlanarFaceModel::mesh_vertices)
         .def_readonly("vertex_tolerance_mm", &PlanarFaceModel::vertex_tolerance_mm)
         .def_readonly("edges", &PlanarFaceModel::edges)
         .def_readonly("faces", &PlanarFaceModel::faces)
