@@ -921,8 +921,10 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     return moved;
 }
 
-// One pass of sharpen_edges; merge_cuts: two cuts of a face on one line close together become one vertex.
-SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm, bool merge_cuts) {
+// One pass of sharpen_edges. Two cuts of a face on one line close together become one vertex,
+// unless one of them is in `kept_apart` (a cut vertex's index, as the pass numbers them).
+SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm,
+                                 const std::set<int>& kept_apart) {
     SharpenReport report;
     if (mesh.vertices.empty() || points.size() < kLeastRegionPoints || !(spacing_mm > 0)) return report;
     std::vector<cv::Vec3d> positions, normals;
@@ -1290,7 +1292,6 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
     };
     const double coincident = 0.25 * spacing_mm;
     for (const cv::Vec3i& face : mesh.faces) {
-        if (!merge_cuts) break;
         std::array<int, 3> cut{-1, -1, -1};
         for (int k = 0; k < 3; ++k) {
             const auto found = split_vertex.find(edge_key(face[k], face[(k + 1) % 3]));
@@ -1299,7 +1300,7 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
         for (int k = 0; k < 3; ++k) {
             const int a = cut[k], b = cut[(k + 1) % 3];
             if (a < 0 || b < 0 || split_line[a - vertex_count] != split_line[b - vertex_count] ||
-                cv::norm(target[a] - target[b]) > coincident)
+                cv::norm(target[a] - target[b]) > coincident || kept_apart.count(a) || kept_apart.count(b))
                 continue;
             const int ra = merged_into(a), rb = merged_into(b);
             if (ra != rb) {
@@ -1513,6 +1514,18 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
     // Last self-check, on the whole stage (the rebuilt walls too): faces crossing that did not
     // cross before undo the sharpening; the mesh goes on as it came in.
     if (self_intersecting_faces(compact).size() > crossing_before) {
+        // The merged cuts among the crossing faces' vertices, and the cuts merged into them.
+        std::vector<int> original(compact.vertices.size());
+        for (size_t v = 0; v < renumber.size(); ++v)
+            if (renumber[v] >= 0) original[renumber[v]] = static_cast<int>(v);
+        std::set<int> merged;
+        for (int f : self_intersecting_faces(compact))
+            for (int k = 0; k < 3; ++k)
+                if (original[compact.faces[f][k]] >= static_cast<int>(vertex_count)) merged.insert(original[compact.faces[f][k]]);
+        std::set<int> apart;
+        for (int v = static_cast<int>(vertex_count); v < static_cast<int>(same_as.size()); ++v)
+            if (merged_into(v) != v && merged.count(merged_into(v))) apart.insert({v, merged_into(v)});
+        report.crossing_merged_cuts.assign(apart.begin(), apart.end());
         mesh = unsharpened;
         report.undone = true;
         return report;
@@ -1524,11 +1537,21 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
 }  // namespace
 
 SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
-    const SharpenReport report = sharpen_edges_pass(mesh, points, spacing_mm, true);
+    SharpenReport report = sharpen_edges_pass(mesh, points, spacing_mm, {});
+    std::set<int> kept_apart;
+    for (int pass = 1; pass < 5 && report.undone && !report.crossing_merged_cuts.empty(); ++pass) {
+        kept_apart.insert(report.crossing_merged_cuts.begin(), report.crossing_merged_cuts.end());
+        report = sharpen_edges_pass(mesh, points, spacing_mm, kept_apart);
+    }
+    return report;
     // Merged cuts can make faces cross where no vertex moved (the faces around the vertex kept are
     // no longer flat on the faces they came from: 3 pairs beside the boss of FreeCAD's eight-view
-    // walkthrough, which undid every edge): once more, each cut a vertex of its own.
-    if (report.undone && report.merged_cuts > 0) return sharpen_edges_pass(mesh, points, spacing_mm, false);
+    // walkthrough, which undid every edge): once more, those cuts kept apart (the others still
+    // merged: apart, close cuts leave faces of no area).
+    if (report.undone && !report.crossing_merged_cuts.empty()) {
+        const std::set<int> kept_apart(report.crossing_merged_cuts.begin(), report.crossing_merged_cuts.end());
+        return sharpen_edges_pass(mesh, points, spacing_mm, kept_apart);
+    }
     return report;
 }
 

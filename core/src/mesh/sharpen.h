@@ -16,6 +16,7 @@ struct SharpenReport {
     size_t merged_cuts = 0;      // cuts of a face on one line close together, made one vertex
     size_t reverted = 0;         // moves undone (all the way back) because they folded triangles
     bool undone = false;         // the whole sharpening undone: its mesh had faces crossing that did not before
+    std::vector<int> crossing_merged_cuts;  // when undone: merged cuts among the crossing faces' vertices
 };
 
 // The planar regions of the points are found (region growing); where the mesh runs near two
