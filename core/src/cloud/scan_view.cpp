@@ -36,9 +36,7 @@ void check_view_reach(const ScanView& view, const std::string& name) {
         const cv::Vec3f* row = view.points.ptr<cv::Vec3f>(y);
         for (int x = 0; x < view.points.cols; ++x) {
             const cv::Vec3f& p = row[x];
-            if (!is_finite_point(p)) continue;
-            if (std::abs(p[0]) > kFarthestViewPointMm || std::abs(p[1]) > kFarthestViewPointMm ||
-                std::abs(p[2]) > kFarthestViewPointMm)
+            if (is_finite_point(p) && beyond_reach(p))
                 throw Error(name, "point at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
                                       ") lies beyond 1 km (1e6 mm) from the origin: not a scan view");
         }

@@ -23,6 +23,12 @@ ViewLayers check_view(const ScanView& view, const std::string& name = "scan view
 // stays below 2^63 for the smallest sample spacing (0.1 mm).
 constexpr double kFarthestViewPointMm = 1e6;
 
+// Whether a point has a coordinate beyond kFarthestViewPointMm (an infinite one too; NaN: no).
+inline bool beyond_reach(const cv::Vec3f& p) {
+    return std::abs(p[0]) > kFarthestViewPointMm || std::abs(p[1]) > kFarthestViewPointMm ||
+           std::abs(p[2]) > kFarthestViewPointMm;
+}
+
 // check_view, then throws Error(name, "point at pixel (x, y) lies beyond 1 km ...") for the first measured
 // point with a coordinate beyond kFarthestViewPointMm. Unmeasured points (NaN, inf) are
 // skipped, as every stage skips them. read_view_ply checks the same reach per vertex.

@@ -555,9 +555,8 @@ ScanView read_view_ply(const std::string& path) {
         if (extras.pixels[i] < 0 || extras.pixels[i] >= pixel_count)
             throw Error(path, "vertex " + std::to_string(i) + " has a pixel outside the grid");
     for (size_t i = 0; i < mesh.vertices.size(); ++i)
-        for (int axis = 0; axis < 3; ++axis)
-            if (std::abs(mesh.vertices[i][axis]) > detail::kFarthestViewPointMm)  // NaN (not measured) passes
-                throw Error(path, "vertex " + std::to_string(i) + " lies beyond 1 km (1e6 mm) from the origin: not a scan view");
+        if (detail::beyond_reach(mesh.vertices[i]))  // NaN (not measured) passes
+            throw Error(path, "vertex " + std::to_string(i) + " lies beyond 1 km (1e6 mm) from the origin: not a scan view");
     detail::check_memory_budget(double(pixel_count) * kViewBytesPerPixel, path,
                                 "the " + std::to_string(width) + "x" + std::to_string(height) + " pixel grid");
 

@@ -302,8 +302,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
     // far cloud would mesh into crumbs (a ball at 1e7 mm gave 41 pieces) and be reported as meshed.
     for (size_t i = 0; i < cloud.points.size(); ++i) {
         const cv::Vec3f& p = cloud.points[i];
-        if (!is_finite_point(p) || std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])}) <= detail::kFarthestViewPointMm)
-            continue;
+        if (!is_finite_point(p) || !detail::beyond_reach(p)) continue;
         throw Error("point cloud", "point " + std::to_string(i) + " lies " + format("%.3g", cv::norm(cv::Vec3d(p))) +
                                        " mm from the origin, beyond 1 km: too far to mesh at the points' precision; bring the "
                                        "cloud near the origin");

@@ -59,7 +59,7 @@ WeldedMesh weld(const Mesh& mesh, CutProgress& progress) {
         const cv::Vec3f& p = mesh.vertices[i];
         if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
             throw Error("mesh", "vertex " + std::to_string(i) + " is not a finite point (NaN or infinite): not a mesh of a part");
-        if (std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])}) > detail::kFarthestViewPointMm)
+        if (detail::beyond_reach(p))
             throw Error("mesh", "vertex " + std::to_string(i) + " lies " + format("%.3g", cv::norm(cv::Vec3d(p))) +
                                     " mm from the origin, beyond 1 km: too far to cut at the vertices' precision; bring the "
                                     "mesh near the origin");

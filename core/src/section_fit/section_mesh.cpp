@@ -24,14 +24,39 @@ ProgressCallback part_of(const ProgressCallback& progress, double from, double s
     };
 }
 
-}  // namespace
-
-namespace {
-
 // The jackknife needs 3 runs of about 1 mm: shorter elements have no standard error to give.
 std::string sigma_text(double sigma) {
     return std::isfinite(sigma) ? format("sigma %.4f", sigma) : std::string("sigma unknown: under 3 mm of points");
 }
+
+// The scan's noise (estimate_scan_noise), its errors naming the scan.
+double scan_noise(const PointCloud& scan, const SectionFitOptions& options) {
+    if (options.tolerance_mm > 0)
+        throw Error("scan", "sets the default tolerance: give either the scan or a tolerance, not both");
+    if (options.scan_noise_mm > 0)
+        throw Error("scan", "its noise is measured here: give either the scan or scan_noise_mm, not both");
+    try {
+        return estimate_scan_noise(scan);
+    } catch (const Error& error) {
+        if (error.subject() != "cloud") throw;
+        throw Error("scan", std::string(error.what()).substr(error.subject().size() + 2));
+    }
+}
+
+std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions& options) {
+    const double tolerance = result.fits.tolerance_mm;
+    switch (result.tolerance_source) {
+    case SectionToleranceSource::Given: return format("tolerance %.4f mm: given", tolerance);
+    case SectionToleranceSource::ScanNoise:
+        return format("tolerance %.4f mm: 5 x the noise of the scan the mesh was made from, %.4f mm (measured on its points)",
+                      tolerance, result.scan_noise_mm);
+    case SectionToleranceSource::CutNoise: break;
+    }
+    return format("tolerance %.4f mm: from the cut of the mesh (5 x its noise, %.4f mm, at least %.4f mm), which says "
+                  "nothing of the scan when the mesher flattened the faces; no scan given: set it yourself",
+                  tolerance, result.fits.noise_mm, options.min_tolerance_mm);
+}
+
 
 }  // namespace
 
@@ -63,38 +88,6 @@ std::string left_out_text(const LeftOutPolyline& left) {
                   left.point_count, left.across_mm, point_text(left.centre).c_str()) +
            left.reason;
 }
-
-namespace {
-
-// The scan's noise (estimate_scan_noise), its errors naming the scan.
-double scan_noise(const PointCloud& scan, const SectionFitOptions& options) {
-    if (options.tolerance_mm > 0)
-        throw Error("scan", "sets the default tolerance: give either the scan or a tolerance, not both");
-    if (options.scan_noise_mm > 0)
-        throw Error("scan", "its noise is measured here: give either the scan or scan_noise_mm, not both");
-    try {
-        return estimate_scan_noise(scan);
-    } catch (const Error& error) {
-        if (error.subject() != "cloud") throw;
-        throw Error("scan", std::string(error.what()).substr(error.subject().size() + 2));
-    }
-}
-
-std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions& options) {
-    const double tolerance = result.fits.tolerance_mm;
-    switch (result.tolerance_source) {
-    case SectionToleranceSource::Given: return format("tolerance %.4f mm: given", tolerance);
-    case SectionToleranceSource::ScanNoise:
-        return format("tolerance %.4f mm: 5 x the noise of the scan the mesh was made from, %.4f mm (measured on its points)",
-                      tolerance, result.scan_noise_mm);
-    case SectionToleranceSource::CutNoise: break;
-    }
-    return format("tolerance %.4f mm: from the cut of the mesh (5 x its noise, %.4f mm, at least %.4f mm), which says "
-                  "nothing of the scan when the mesher flattened the faces; no scan given: set it yourself",
-                  tolerance, result.fits.noise_mm, options.min_tolerance_mm);
-}
-
-}  // namespace
 
 SectionPlane section_plane(const cv::Vec3d& origin, const cv::Vec3d& normal) {
     const double length = cv::norm(normal);
