@@ -921,6 +921,12 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     return moved;
 }
 
+size_t sliver_count(const Mesh& mesh) {
+    return size_t(std::count_if(mesh.faces.begin(), mesh.faces.end(), [&](const cv::Vec3i& f) {
+        return is_sliver(cv::Vec3d(mesh.vertices[f[0]]), cv::Vec3d(mesh.vertices[f[1]]), cv::Vec3d(mesh.vertices[f[2]]));
+    }));
+}
+
 // One pass of sharpen_edges. Two cuts of a face on one line close together become one vertex,
 // unless one of them is in `kept_apart` (a cut vertex's index, as the pass numbers them).
 SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm,
@@ -950,6 +956,7 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
     const Mesh unsharpened = mesh;
     const size_t crossing_before = self_intersecting_faces(mesh).size();
+    const size_t slivers_before = sliver_count(mesh);
     report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm, crossing_before);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
@@ -1437,16 +1444,26 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
         return pulled;
     };
     // A folded face first pulls back only the one vertex whose pulling back unfolds it most (the
-    // others keep their edge); the whole face goes back when that is not enough.
+    // others keep their edge); the whole face goes back when that is not enough. So does a face
+    // left of no area (its corners put on one line: cuts kept apart, or a cut between two vertices
+    // put on its line), which touches the faces along that line: pulled back, the vertex that
+    // widens it most.
     auto facing = [&](const cv::Vec3i& face, size_t f) {
         const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
         return normal.dot(reference_normal(f));
+    };
+    auto sliver = [&](const cv::Vec3i& face) { return is_sliver(position[face[0]], position[face[1]], position[face[2]]); };
+    auto width = [&](const cv::Vec3i& face) {  // height over longest edge
+        const cv::Vec3d a = position[face[0]], b = position[face[1]], c = position[face[2]];
+        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+        return longest > 0 ? cv::norm((b - a).cross(c - a)) / (longest * longest) : 0.0;
     };
     for (int round = 0; round < 60; ++round) {
         bool changed = false;
         for (size_t f = 0; f < faces.size(); ++f) {
             const cv::Vec3i& face = faces[f];
-            if (facing(face, f) >= 0) continue;
+            const bool folded = facing(face, f) < 0;
+            if (!folded && !sliver(face)) continue;
             int best = -1;
             double best_facing = -1e300;
             for (int k = 0; round < 30 && k < 3; ++k) {
@@ -1454,7 +1471,7 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
                 if (!movable(v)) continue;
                 const cv::Vec3d kept = position[v];
                 position[v] = safe[v] + pulled_share(v) * (target[v] - safe[v]);
-                const double after = facing(face, f);
+                const double after = folded ? facing(face, f) : width(face);
                 position[v] = kept;
                 if (after > best_facing) best_facing = after, best = v;
             }
@@ -1512,8 +1529,9 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
         }
     compact.faces = std::move(out.faces);
     // Last self-check, on the whole stage (the rebuilt walls too): faces crossing that did not
-    // cross before undo the sharpening; the mesh goes on as it came in.
-    if (self_intersecting_faces(compact).size() > crossing_before) {
+    // cross before, or faces of no area it could not widen, undo the sharpening; the mesh goes
+    // on as it came in.
+    if (self_intersecting_faces(compact).size() > crossing_before || sliver_count(compact) > slivers_before) {
         // The merged cuts among the crossing faces' vertices, and the cuts merged into them.
         std::vector<int> original(compact.vertices.size());
         for (size_t v = 0; v < renumber.size(); ++v)
@@ -1536,21 +1554,16 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
 
 }  // namespace
 
+// Merged cuts can make faces cross where no vertex moved (the faces around the vertex kept are
+// no longer flat on the faces they came from: 3 pairs beside the boss of FreeCAD's eight-view
+// walkthrough, which undid every edge): the pass is run again with those cuts kept apart (the
+// others still merged: apart, close cuts leave faces of no area, which the pass widens).
 SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
     SharpenReport report = sharpen_edges_pass(mesh, points, spacing_mm, {});
     std::set<int> kept_apart;
     for (int pass = 1; pass < 5 && report.undone && !report.crossing_merged_cuts.empty(); ++pass) {
         kept_apart.insert(report.crossing_merged_cuts.begin(), report.crossing_merged_cuts.end());
         report = sharpen_edges_pass(mesh, points, spacing_mm, kept_apart);
-    }
-    return report;
-    // Merged cuts can make faces cross where no vertex moved (the faces around the vertex kept are
-    // no longer flat on the faces they came from: 3 pairs beside the boss of FreeCAD's eight-view
-    // walkthrough, which undid every edge): once more, those cuts kept apart (the others still
-    // merged: apart, close cuts leave faces of no area).
-    if (report.undone && !report.crossing_merged_cuts.empty()) {
-        const std::set<int> kept_apart(report.crossing_merged_cuts.begin(), report.crossing_merged_cuts.end());
-        return sharpen_edges_pass(mesh, points, spacing_mm, kept_apart);
     }
     return report;
 }
