@@ -44,7 +44,8 @@ bool is_sliver(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
 namespace {
 
 // Pairs of a sliver and a face it shares no corner with that come within float noise of each
-// other (some 10 units in the last place of the float coordinates, or the sliver's own height limit). A
+// other (8 to 16 units in the last place of the float coordinates; FreeCAD's check found a
+// sliver 1e-7 mm off another face's edge at 1 mm from the origin, not 1e-6 mm). A
 // sliver is about its longest edge: the nearest points of that segment and a triangle are an
 // end of the segment and the triangle, or the segment and an edge of the triangle, or the
 // segment passes through the triangle.
@@ -61,8 +62,7 @@ void add_touching_slivers(const Mesh& mesh, std::vector<int>& faces) {
         all.emplace_back(box, face);
         if (!is_sliver(a, b, c)) continue;
         const double largest = std::max({cv::norm(a, cv::NORM_INF), cv::norm(b, cv::NORM_INF), cv::norm(c, cv::NORM_INF)});
-        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
-        reach[f] = std::max(std::ldexp(largest, -20), 1e-4 * longest);
+        reach[f] = std::ldexp(largest, -20);
         box.dilate(1);  // ulps, then the reach
         slivers.emplace_back(CGAL::Bbox_3(box.xmin() - reach[f], box.ymin() - reach[f], box.zmin() - reach[f],
                                           box.xmax() + reach[f], box.ymax() + reach[f], box.zmax() + reach[f]),
