@@ -385,7 +385,7 @@ Mesh mesh_cloud(const PointCloud& cloud, const MeshOptions& options, const Progr
         // itself, and the sharpening only moves vertices where that stays so.
         report(0.8, "sharpening edges");
         if (detail::sharpen_edges(mesh, points, spacing).undone)
-            report(0.8, "sharpening undone: it made faces cross each other or left faces of no area (the edges stay as Poisson rounded them)");
+            report(0.8, "sharpening undone: it made faces cross each other (the edges stay as Poisson rounded them)");
     } else {
         report(0.2, "advancing-front reconstruction");
         mesh = detail::advancing_front_mesh(points, spacing, options.advancing_front_max_radius);

@@ -921,12 +921,6 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     return moved;
 }
 
-size_t sliver_count(const Mesh& mesh) {
-    return size_t(std::count_if(mesh.faces.begin(), mesh.faces.end(), [&](const cv::Vec3i& f) {
-        return is_sliver(cv::Vec3d(mesh.vertices[f[0]]), cv::Vec3d(mesh.vertices[f[1]]), cv::Vec3d(mesh.vertices[f[2]]));
-    }));
-}
-
 // One pass of sharpen_edges. Two cuts of a face on one line close together become one vertex,
 // unless one of them is in `kept_apart` (a cut vertex's index, as the pass numbers them).
 SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm,
@@ -956,7 +950,6 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
     const double longest_move = std::max(1.5 * spacing_mm, 0.6);
     const Mesh unsharpened = mesh;
     const size_t crossing_before = self_intersecting_faces(mesh).size();
-    const size_t slivers_before = sliver_count(mesh);
     report.hole_vertices = rebuild_hole_walls(mesh, regions, walls, grid, reach, filled_reach, spacing_mm, crossing_before);
 
     // 1. Each vertex's planes, and whether the points around it lie on them.
@@ -1529,9 +1522,10 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
         }
     compact.faces = std::move(out.faces);
     // Last self-check, on the whole stage (the rebuilt walls too): faces crossing that did not
-    // cross before, or faces of no area it could not widen, undo the sharpening; the mesh goes
-    // on as it came in.
-    if (self_intersecting_faces(compact).size() > crossing_before || sliver_count(compact) > slivers_before) {
+    // cross before (a face of no area touching another counts) undo the sharpening; the mesh
+    // goes on as it came in. Faces of no area it could not widen that touch nothing else stay
+    // (undoing for them undid the whole sharpening of the one-placement model at 0.4 mm).
+    if (self_intersecting_faces(compact).size() > crossing_before) {
         // The merged cuts among the crossing faces' vertices, and the cuts merged into them.
         std::vector<int> original(compact.vertices.size());
         for (size_t v = 0; v < renumber.size(); ++v)
