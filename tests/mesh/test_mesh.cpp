@@ -338,3 +338,37 @@ TEST(Mesh, CheckFindsHolesAndNonManifoldEdges) {
     EXPECT_EQ(check_mesh(fin).non_manifold_edges, 1u);
     EXPECT_FALSE(check_mesh(fin).watertight());
 }
+
+// Built as sharpen_edges left it on FreeCAD's eight-view walkthrough at 1 mm spacing: cuts kept
+// apart on one line, so a fan of faces of no area lies along another face's edge, each corner a
+// hair off the line (stored as float, a vertex put on a line is not exactly on it). CGAL's exact
+// test finds no crossing; FreeCAD's hasSelfIntersections() does (checked on this mesh: with the
+// corners 1e-7 mm off the line it finds a pair, 1e-6 mm off none), and so must check_mesh, or
+// the workbench's Make solid refuses a mesh the core passed. The same fan 0.01 mm off the line is
+// thin but sound.
+TEST(Mesh, CheckFindsAFaceOfNoAreaAlongAnotherFacesEdge) {
+    auto tent = [](double off_line_mm) {
+        // A tetrahedron A B C E whose face A B E is split: M1 M2 M3 on the edge A B (at x = 1,
+        // 2, 3), the slivers (A B M3), (A M3 M1), (M1 M3 M2), and a fan from E over A M1 M2 M3 B.
+        // (M1 M3 M2) shares no corner with the bottom face (A C B) and lies along its edge.
+        const cv::Vec3d towards_e = cv::normalize(cv::Vec3d(0, 1, 3));
+        Mesh mesh;
+        mesh.vertices = {{0, 0, 0}, {4, 0, 0}, {2, 3, 0}, {2, 1, 3}};
+        for (const auto& [x, share] : {std::pair{1.0, 1.0}, {2.0, 3.0}, {3.0, 1.5}})
+            mesh.vertices.emplace_back(cv::Vec3d(x, 0, 0) + share * off_line_mm * towards_e);
+        enum { A, B, C, E, M1, M2, M3 };
+        mesh.faces = {{A, C, B},  {B, C, E},  {C, A, E},  {A, B, M3}, {A, M3, M1},
+                      {M1, M3, M2}, {A, M1, E}, {M1, M2, E}, {M2, M3, E}, {M3, B, E}};
+        return mesh;
+    };
+    const MeshCheck along = check_mesh(tent(1e-7));
+    std::printf("fan 1e-7 mm off the line: %s\n", along.summary().c_str());
+    ASSERT_TRUE(along.watertight());
+    EXPECT_TRUE(along.self_intersecting);
+    EXPECT_FALSE(along.closed_volume);
+    const MeshCheck apart = check_mesh(tent(0.01));
+    std::printf("fan 0.01 mm off the line: %s\n", apart.summary().c_str());
+    ASSERT_TRUE(apart.watertight());
+    EXPECT_FALSE(apart.self_intersecting);
+    EXPECT_TRUE(apart.closed_volume);
+}

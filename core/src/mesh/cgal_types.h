@@ -70,7 +70,11 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
 void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
 // The fraction of the points within reach_mm of a mesh vertex (what the surface covers).
 double fraction_of_points_near(const Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
-// Indices of the faces that intersect another face.
+// A face of (almost) no area: its height under 1e-4 of its longest edge (its corners on one line).
+bool is_sliver(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c);
+// Indices of the faces that intersect another face, and of the slivers that touch a face they
+// share no corner with (FreeCAD's hasSelfIntersections reports those: a vertex put on a line
+// through two others is stored as float, up to ~1e-5 mm off it, and the exact test passes it).
 std::vector<int> self_intersecting_faces(const Mesh& mesh);
 Mesh fill_small_holes(const Mesh& mesh, double max_hole_diameter_mm);
 // The closed mesh cut by the plane {x : up . x = height}, the part above kept and the cut

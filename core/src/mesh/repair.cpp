@@ -6,6 +6,7 @@
 #include "picoscan/error.h"
 #include "picoscan/mesh.h"
 
+#include <CGAL/Box_intersection_d/Box_with_info_d.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/clip.h>
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
@@ -18,6 +19,9 @@
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
 #include <CGAL/Surface_mesh_simplification/Edge_collapse_visitor_base.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+#include <CGAL/box_intersection_d.h>
+#include <CGAL/intersections.h>
+#include <CGAL/squared_distance_3.h>
 
 #include <algorithm>
 #include <cmath>
@@ -31,6 +35,67 @@ namespace picoscan {
 
 namespace detail {
 
+bool is_sliver(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+    const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+    const double height = longest > 0 ? cv::norm((b - a).cross(c - a)) / longest : 0;
+    return !(height >= 1e-4 * longest) || longest == 0;
+}
+
+namespace {
+
+// Pairs of a sliver and a face it shares no corner with that come within float noise of each
+// other (8 to 16 units in the last place of the float coordinates; FreeCAD's check found a
+// sliver 1e-7 mm off another face's edge at 1 mm from the origin, not 1e-6 mm). A
+// sliver is about its longest edge: the nearest points of that segment and a triangle are an
+// end of the segment and the triangle, or the segment and an edge of the triangle, or the
+// segment passes through the triangle.
+void add_touching_slivers(const Mesh& mesh, std::vector<int>& faces) {
+    auto corner = [&](int f, int k) { return cv::Vec3d(mesh.vertices[mesh.faces[f][k]]); };
+    auto point = [](const cv::Vec3d& x) { return Point3(x[0], x[1], x[2]); };
+    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, int>;
+    std::vector<Box> slivers, all;
+    std::vector<double> reach(mesh.faces.size(), 0);
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+        const int face = static_cast<int>(f);
+        const cv::Vec3d a = corner(face, 0), b = corner(face, 1), c = corner(face, 2);
+        CGAL::Bbox_3 box = point(a).bbox() + point(b).bbox() + point(c).bbox();
+        all.emplace_back(box, face);
+        if (!is_sliver(a, b, c)) continue;
+        const double largest = std::max({cv::norm(a, cv::NORM_INF), cv::norm(b, cv::NORM_INF), cv::norm(c, cv::NORM_INF)});
+        reach[f] = std::ldexp(largest, -20);
+        box.dilate(1);  // ulps, then the reach
+        slivers.emplace_back(CGAL::Bbox_3(box.xmin() - reach[f], box.ymin() - reach[f], box.zmin() - reach[f],
+                                          box.xmax() + reach[f], box.ymax() + reach[f], box.zmax() + reach[f]),
+                             face);
+    }
+    if (slivers.empty()) return;
+    auto test = [&](const Box& sliver_box, const Box& other_box) {
+        const int s = sliver_box.info(), o = other_box.info();
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                if (mesh.faces[s][i] == mesh.faces[o][j]) return;
+        // The sliver's longest edge.
+        int k = 0;
+        for (int e = 1; e < 3; ++e)
+            if (cv::norm(corner(s, (e + 1) % 3) - corner(s, e)) > cv::norm(corner(s, (k + 1) % 3) - corner(s, k))) k = e;
+        const Kernel::Segment_3 segment(point(corner(s, k)), point(corner(s, (k + 1) % 3)));
+        const Kernel::Triangle_3 triangle(point(corner(o, 0)), point(corner(o, 1)), point(corner(o, 2)));
+        const double near = reach[s] * reach[s];
+        bool touching = !triangle.is_degenerate() && !segment.is_degenerate() && CGAL::do_intersect(segment, triangle);
+        for (int i = 0; i < 3 && !touching; ++i) {
+            touching = (!triangle.is_degenerate() && CGAL::squared_distance(point(corner(s, i)), triangle) < near) ||
+                       CGAL::squared_distance(segment, Kernel::Segment_3(point(corner(o, i)), point(corner(o, (i + 1) % 3)))) < near;
+        }
+        if (touching) {
+            faces.push_back(s);
+            faces.push_back(o);
+        }
+    };
+    CGAL::box_intersection_d(slivers.begin(), slivers.end(), all.begin(), all.end(), test);
+}
+
+}  // namespace
+
 std::vector<int> self_intersecting_faces(const Mesh& mesh) {
     const SurfaceMesh surface = to_surface_mesh(mesh);
     std::vector<std::pair<SurfaceMesh::Face_index, SurfaceMesh::Face_index>> pairs;
@@ -40,6 +105,7 @@ std::vector<int> self_intersecting_faces(const Mesh& mesh) {
         faces.push_back(static_cast<int>(a));
         faces.push_back(static_cast<int>(b));
     }
+    add_touching_slivers(mesh, faces);
     return faces;
 }
 
@@ -462,7 +528,7 @@ MeshCheck check_mesh(const Mesh& mesh) {
         check.filled_fraction = total > 0 ? filled / total : 0;
     }
     if (check.watertight()) {
-        check.self_intersecting = CGAL::Polygon_mesh_processing::does_self_intersect(detail::to_surface_mesh(mesh));
+        check.self_intersecting = !detail::self_intersecting_faces(mesh).empty();
         double volume = 0;  // divergence theorem over outward-facing triangles
         for (const cv::Vec3i& f : mesh.faces) {
             const cv::Vec3d a(mesh.vertices[f[0]]), b(mesh.vertices[f[1]]), c(mesh.vertices[f[2]]);

@@ -923,9 +923,10 @@ size_t fill_hole_walls(const Mesh& mesh, const Regions& regions, const std::vect
     return moved;
 }
 
-}  // namespace
-
-SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
+// One pass of sharpen_edges. Two cuts of a face on one line close together become one vertex,
+// unless one of them is in `kept_apart` (a cut vertex's index, as the pass numbers them).
+SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm,
+                                 const std::set<int>& kept_apart) {
     SharpenReport report;
     if (mesh.vertices.empty() || points.size() < kLeastRegionPoints || !(spacing_mm > 0)) return report;
     std::vector<cv::Vec3d> positions, normals;
@@ -1301,10 +1302,13 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         for (int k = 0; k < 3; ++k) {
             const int a = cut[k], b = cut[(k + 1) % 3];
             if (a < 0 || b < 0 || split_line[a - vertex_count] != split_line[b - vertex_count] ||
-                cv::norm(target[a] - target[b]) > coincident)
+                cv::norm(target[a] - target[b]) > coincident || kept_apart.count(a) || kept_apart.count(b))
                 continue;
             const int ra = merged_into(a), rb = merged_into(b);
-            if (ra != rb) same_as[std::max(ra, rb)] = std::min(ra, rb);
+            if (ra != rb) {
+                same_as[std::max(ra, rb)] = std::min(ra, rb);
+                ++report.merged_cuts;
+            }
         }
     }
 
@@ -1436,7 +1440,10 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         return pulled;
     };
     // A folded face first pulls back only the one vertex whose pulling back unfolds it most (the
-    // others keep their edge); the whole face goes back when that is not enough.
+    // others keep their edge); the whole face goes back when that is not enough. So does a face
+    // left of no area (its corners put on one line: cuts kept apart, or a cut between two vertices
+    // put on its line), which touches the faces along that line: pulled back, the vertex that
+    // widens it most.
     auto facing = [&](const cv::Vec3i& face, size_t f) {
         const cv::Vec3d normal = (position[face[1]] - position[face[0]]).cross(position[face[2]] - position[face[0]]);
         return normal.dot(reference_normal(f));
@@ -1457,11 +1464,18 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         const double flat = share[v] * unmoved / (unmoved - folded);
         return std::max(half_way, flat - kUnfoldMarginMm / cv::norm(target[v] - safe[v]));
     };
+    auto sliver = [&](const cv::Vec3i& face) { return is_sliver(position[face[0]], position[face[1]], position[face[2]]); };
+    auto width = [&](const cv::Vec3i& face) {  // height over longest edge
+        const cv::Vec3d a = position[face[0]], b = position[face[1]], c = position[face[2]];
+        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+        return longest > 0 ? cv::norm((b - a).cross(c - a)) / (longest * longest) : 0.0;
+    };
     for (int round = 0; round < 60; ++round) {
         bool changed = false;
         for (size_t f = 0; f < faces.size(); ++f) {
             const cv::Vec3i& face = faces[f];
-            if (facing(face, f) >= 0) continue;
+            const bool folded = facing(face, f) < 0;
+            if (!folded && !sliver(face)) continue;
             int best = -1;
             double best_facing = -1e300;
             for (int k = 0; round < 30 && k < 3; ++k) {
@@ -1469,7 +1483,7 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
                 if (!movable(v)) continue;
                 const cv::Vec3d kept = position[v];
                 position[v] = safe[v] + pulled_share(v) * (target[v] - safe[v]);
-                const double after = facing(face, f);
+                const double after = folded ? facing(face, f) : width(face);
                 position[v] = kept;
                 if (after > best_facing) best_facing = after, best = v;
             }
@@ -1527,13 +1541,43 @@ SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& poin
         }
     compact.faces = std::move(out.faces);
     // Last self-check, on the whole stage (the rebuilt walls too): faces crossing that did not
-    // cross before undo the sharpening; the mesh goes on as it came in.
+    // cross before (a face of no area touching another counts) undo the sharpening; the mesh
+    // goes on as it came in. Faces of no area it could not widen that touch nothing else stay
+    // (undoing for them undid the whole sharpening of the one-placement model at 0.4 mm).
     if (self_intersecting_faces(compact).size() > crossing_before) {
+        // The merged cuts among the crossing faces' vertices, and the cuts merged into them.
+        std::vector<int> original(compact.vertices.size());
+        for (size_t v = 0; v < renumber.size(); ++v)
+            if (renumber[v] >= 0) original[renumber[v]] = static_cast<int>(v);
+        std::set<int> merged;
+        for (int f : self_intersecting_faces(compact))
+            for (int k = 0; k < 3; ++k)
+                if (original[compact.faces[f][k]] >= static_cast<int>(vertex_count)) merged.insert(original[compact.faces[f][k]]);
+        std::set<int> apart;
+        for (int v = static_cast<int>(vertex_count); v < static_cast<int>(same_as.size()); ++v)
+            if (merged_into(v) != v && merged.count(merged_into(v))) apart.insert({v, merged_into(v)});
+        report.crossing_merged_cuts.assign(apart.begin(), apart.end());
         mesh = unsharpened;
         report.undone = true;
         return report;
     }
     mesh = std::move(compact);
+    return report;
+}
+
+}  // namespace
+
+// Merged cuts can make faces cross where no vertex moved (the faces around the vertex kept are
+// no longer flat on the faces they came from: 3 pairs beside the boss of FreeCAD's eight-view
+// walkthrough, which undid every edge): the pass is run again with those cuts kept apart (the
+// others still merged: apart, close cuts leave faces of no area, which the pass widens).
+SharpenReport sharpen_edges(Mesh& mesh, const std::vector<PointWithNormal>& points, double spacing_mm) {
+    SharpenReport report = sharpen_edges_pass(mesh, points, spacing_mm, {});
+    std::set<int> kept_apart;
+    for (int pass = 1; pass < 5 && report.undone && !report.crossing_merged_cuts.empty(); ++pass) {
+        kept_apart.insert(report.crossing_merged_cuts.begin(), report.crossing_merged_cuts.end());
+        report = sharpen_edges_pass(mesh, points, spacing_mm, kept_apart);
+    }
     return report;
 }
 

@@ -13,8 +13,10 @@ struct SharpenReport {
     size_t cut_edges = 0;        // mesh edges split where they cross a feature line
     size_t corners = 0;          // vertices put on the meeting point of three planes
     size_t hole_vertices = 0;    // vertices made on a hole's fitted wall where Poisson guessed it
+    size_t merged_cuts = 0;      // cuts of a face on one line close together, made one vertex
     size_t reverted = 0;         // moves undone (all the way back) because they folded triangles
     bool undone = false;         // the whole sharpening undone: its mesh had faces crossing that did not before
+    std::vector<int> crossing_merged_cuts;  // when undone: merged cuts among the crossing faces' vertices
 };
 
 // The planar regions of the points are found (region growing); where the mesh runs near two
