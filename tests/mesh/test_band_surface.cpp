@@ -241,3 +241,16 @@ TEST(BandSurface, CancelStopsTheMeshing) {
     cloud.normals.clear();
     EXPECT_NE(test_support::error_of([&] { band_surface(cloud, 0.3); }).find("normals"), std::string::npos);
 }
+
+// A cloud too wide for the voxel grid's 2^20 cells an axis is refused naming its width, also
+// when the width does not fit an int (1e20 mm, reachable by calling band_surface directly: the
+// message converted it to int, undefined behaviour that printed -2147483648 mm).
+TEST(BandSurface, ACloudTooWideForTheVoxelIsRefusedNamingItsWidth) {
+    PointCloud cloud;
+    for (const float x : {0.f, 1e20f}) {
+        cloud.points.emplace_back(x, 0.f, 0.f);
+        cloud.normals.emplace_back(0.f, 0.f, 1.f);
+    }
+    const std::string message = test_support::error_of([&] { band_surface(cloud, 1.0); });
+    EXPECT_NE(message.find("too fine for a cloud 1e+20 mm across"), std::string::npos) << message;
+}

@@ -199,6 +199,24 @@ TEST(RegionFit, GrowingFromASeedStopsAtTheEdge) {
     EXPECT_THROW(select_region(PointCloud{}, cv::Vec3d(0, 0, 0)), Error);
 }
 
+// A gap too fine for the points' distance from the origin is refused naming max_gap_mm: the
+// flood's cube numbers (coordinate / gap, 1e10 here) did not fit an int, undefined behaviour.
+TEST(RegionFit, AGapTooFineForThePointsIsRefused) {
+    const Scan scan = floor_and_wall();
+    RegionSelection selection;
+    selection.radius_mm = 100;
+    selection.grow = true;
+    selection.max_gap_mm = 1e-9;
+    try {
+        select_region(scan.cloud, cv::Vec3d(5, 5, 0.1), selection);
+        ADD_FAILURE() << "a gap of 1e-9 mm was taken";
+    } catch (const Error& error) {
+        EXPECT_EQ(error.subject(), "max_gap_mm") << error.what();
+    }
+    selection.max_gap_mm = 0.5;
+    EXPECT_EQ(select_region(scan.cloud, cv::Vec3d(5, 5, 0.1), selection).size(), 51u * 51u);
+}
+
 TEST(RegionFit, BoxAndLassoSelectExactlyThePointsInsideAndTheRecipeFitsThem) {
     Scan scan = floor_and_wall();
     // A box 2 x 1 x 0.5 mm (half sizes) turned 90 degrees about z around (5, 5, 0): x spans 1 mm

@@ -10,6 +10,7 @@
 // which neighbouring cubes share face by face, so that every crossing point is one vertex of
 // the mesh and the result is a manifold whose only borders lie at the band's edge. Triangles
 // farther than kKeptReach voxels from every point are cut: nothing is invented.
+#include "common/text_format.h"
 #include "picoscan/error.h"
 #include "picoscan/mesh.h"
 #include "register/point_grid.h"
@@ -90,8 +91,8 @@ public:
         origin_ = low - cv::Vec3d::all(3 * voxel_);
         for (int k = 0; k < 3; ++k)
             if ((high[k] - origin_[k]) / voxel_ + 3 >= double(kAxisLimit))
-                throw Error("voxel", "of " + std::to_string(voxel_) + " mm is too fine for a cloud " +
-                                         std::to_string(int(high[k] - low[k])) + " mm across");
+                throw Error("voxel", "of " + format("%.3g", voxel_) + " mm is too fine for a cloud " +
+                                         format("%.3g", high[k] - low[k]) + " mm across");
     }
 
     Mesh run() {

@@ -624,6 +624,16 @@ GrownFace grow_face(const PointCloud& cloud, const cv::Vec3d& seed, const Region
     if (points.size() < 24)
         throw Error("region", std::to_string(points.size()) + " points within " + std::to_string(selection.radius_mm) +
                                   " mm of the picked point " + where.str() + ": too few to fit");
+    // The flood's cube keys hold 2^20 cubes each way from the origin (below): a point beyond
+    // them would share its cube with others, and its cube number would not fit an int.
+    double farthest = 0;
+    for (const cv::Vec3d& p : points) farthest = std::max(farthest, cv::norm(p, cv::NORM_INF));
+    if (!(farthest / selection.max_gap_mm < double(1 << 20))) {
+        std::ostringstream message;
+        message << "of " << selection.max_gap_mm << " mm is too fine for points " << farthest
+                << " mm from the origin: the growing reaches 2^20 gaps from it";
+        throw Error("max_gap_mm", message.str());
+    }
     const detail::PointGrid grid(points, selection.max_gap_mm);
     GrownFace face;
     face.noise_mm = fit.noise_mm > 0 ? fit.noise_mm : median_noise(points, grid);
