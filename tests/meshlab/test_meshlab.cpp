@@ -1383,6 +1383,17 @@ TEST(MeshlabPlugin, StereoReconstructRefusesWrongCombinations) {
     EXPECT_FALSE(std::ifstream(root + "/never.ply").good());
 }
 
+// The exact demo part as part.ply and its scan as scan.ply (points over its surface with 20 um of
+// noise); returns the scan.
+PointCloud write_part_and_its_scan(const std::string& directory) {
+    const Mesh part = mechanical_part();
+    write_ply(part, directory + "/part.ply");
+    PointCloud scan;
+    scan.points = test_support::noisy_surface_points(part.vertices, part.faces, 10, 0.02, 5);
+    write_ply(scan, directory + "/scan.ply");
+    return scan;
+}
+
 // A flattened mesh (the exact demo part: its cut has no noise) and the scan it stands for (points
 // over its surface with 20 um of noise, a point cloud layer): with the scan layer chosen, the
 // section's tolerance is 5 x the noise read on the scan's points; with the mesh itself chosen (no
@@ -1390,11 +1401,7 @@ TEST(MeshlabPlugin, StereoReconstructRefusesWrongCombinations) {
 // tolerance, or a plane off the mesh, is refused naming the parameter.
 TEST(MeshlabPlugin, SectionToleranceComesFromTheScanLayer) {
     const std::string directory = make_temp_dir("meshlab_section");
-    const Mesh part = mechanical_part();
-    write_ply(part, directory + "/part.ply");
-    PointCloud scan;
-    scan.points = test_support::noisy_surface_points(part.vertices, part.faces, 10, 0.02, 5);
-    write_ply(scan, directory + "/scan.ply");
+    write_part_and_its_scan(directory);
     const std::string dxf = directory + "/outline.dxf";
     const ServerRun run = run_meshlabserver(
         directory,
@@ -1434,11 +1441,7 @@ TEST(MeshlabPlugin, SectionToleranceComesFromTheScanLayer) {
 // noise could set the tolerance; the right one (layer 1) still sets it.
 TEST(MeshlabPlugin, SectionRefusesAScanLayerThatIsNotTheMeshs) {
     const std::string directory = make_temp_dir("meshlab_section_scan");
-    const Mesh part = mechanical_part();
-    write_ply(part, directory + "/part.ply");
-    PointCloud scan;
-    scan.points = test_support::noisy_surface_points(part.vertices, part.faces, 10, 0.02, 5);
-    write_ply(scan, directory + "/scan.ply");
+    const PointCloud scan = write_part_and_its_scan(directory);
     PointCloud shifted = scan;  // along the block's length: its top, bottom, front and back still touch the mesh
     for (cv::Vec3f& p : shifted.points) p[0] += 10;
     write_ply(shifted, directory + "/shifted.ply");
