@@ -10,6 +10,7 @@ import Part
 import picoscan
 from picoscan_wb.objects import cloud_of, is_scan_view, is_stitch
 from picoscan_wb.operations import tessellate_shape
+from picoscan_wb.operations.placement import placed_points
 from picoscan_wb.progress import run_freecad_process
 
 
@@ -74,10 +75,7 @@ def scan_points(obj):
     if is_scan_view(obj) or is_stitch(obj):
         # The core's cloud is in the scan's own frame: the object's placement moves it.
         points = numpy.asarray(cloud_of(obj).points, dtype=numpy.float32)
-        if not obj.Placement.isIdentity():
-            matrix = numpy.array(obj.Placement.toMatrix().A).reshape(4, 4)
-            points = (points @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
-        return points
+        return placed_points(points, obj.Placement).astype(numpy.float32, copy=False)
     # FreeCAD's Points and Mesh data come with the object's placement applied.
     if hasattr(obj, "Points") and obj.Points.CountPoints > 0:
         from picoscan_wb.property_content import points_from_content

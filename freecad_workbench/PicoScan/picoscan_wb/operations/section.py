@@ -8,6 +8,7 @@ import Part
 from FreeCAD import Placement, Rotation, Vector
 
 import picoscan
+from picoscan_wb.operations.placement import placed_points
 from picoscan_wb.progress import cancel_point, run_in_background
 
 AXES = {"X": Vector(1, 0, 0), "Y": Vector(0, 1, 0), "Z": Vector(0, 0, 1)}
@@ -48,13 +49,13 @@ def placed_cloud(cloud, placement):
     """The cloud moved by `placement`, into the frame of the mesh made from it (a ScanMesh takes its
     Source's Placement): the core checks that the scan lies on the mesh before its noise sets the
     tolerance (check_scan_of_mesh)."""
-    matrix = numpy.array(placement.toMatrix().A, dtype=float).reshape(4, 4)
-    if numpy.array_equal(matrix, numpy.eye(4)):
+    if placement.isIdentity():
         return cloud
     moved = picoscan.PointCloud()
-    moved.points = (numpy.asarray(cloud.points, dtype=float) @ matrix[:3, :3].T + matrix[:3, 3]).astype(numpy.float32)
+    moved.points = placed_points(numpy.asarray(cloud.points, dtype=float), placement).astype(numpy.float32)
     if len(cloud.normals):
-        moved.normals = (numpy.asarray(cloud.normals, dtype=float) @ matrix[:3, :3].T).astype(numpy.float32)
+        turn = Placement(Vector(), placement.Rotation)
+        moved.normals = placed_points(numpy.asarray(cloud.normals, dtype=float), turn).astype(numpy.float32)
     return moved
 
 
@@ -298,9 +299,7 @@ def profile_points(view, axis, position_mm, half_width_mm, placement=None):
     document's coordinates when the scan's `placement` is given."""
     index = "XYZ".index(axis)
     points = view.points.reshape(-1, 3)
-    if placement is not None and not placement.isIdentity():
-        matrix = numpy.array(placement.toMatrix().A).reshape(4, 4)
-        points = points @ matrix[:3, :3].T + matrix[:3, 3]
+    points = placed_points(points, placement)
     near = numpy.abs(points[:, index] - position_mm) < half_width_mm
     return points[near & numpy.isfinite(points).all(axis=1)]
 

@@ -10,6 +10,7 @@ from PySide import QtCore, QtGui
 import picoscan
 from picoscan_wb.commands.base import run_guarded
 from picoscan_wb.operations import region_fit
+from picoscan_wb.operations.placement import placed_points
 from picoscan_wb.progress import run_in_background
 
 REGIONS = (("Face grown from the point", "grown"), ("Ball around the point", "ball"),
@@ -260,8 +261,7 @@ class FitRegionTaskPanel:
         points = numpy.asarray(self.points().points)[numpy.asarray(region)]
         if len(points) > 200000:
             points = points[:: len(points) // 200000 + 1]
-        matrix = numpy.array(self.source.Placement.toMatrix().A).reshape(4, 4)
-        points = points @ matrix[:3, :3].T + matrix[:3, 3]
+        points = placed_points(points, self.source.Placement)
         self.preview = coin.SoSeparator()
         material = coin.SoMaterial()
         material.diffuseColor = (1.0, 0.35, 0.1)
