@@ -45,6 +45,20 @@ double scan_noise(const PointCloud& scan, const SectionFitOptions& options) {
     }
 }
 
+std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions& options) {
+    const double tolerance = result.fits.tolerance_mm;
+    switch (result.tolerance_source) {
+    case SectionToleranceSource::Given: return format("tolerance %.4f mm: given", tolerance);
+    case SectionToleranceSource::ScanNoise:
+        return format("tolerance %.4f mm: 5 x the noise of the scan the mesh was made from, %.4f mm (measured on its points)",
+                      tolerance, result.scan_noise_mm);
+    case SectionToleranceSource::CutNoise: break;
+    }
+    return format("tolerance %.4f mm: from the cut of the mesh (5 x its noise, %.4f mm, at least %.4f mm), which says "
+                  "nothing of the scan when the mesher flattened the faces; no scan given: set it yourself",
+                  tolerance, result.fits.noise_mm, options.min_tolerance_mm);
+}
+
 }  // namespace
 
 void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_noise_mm) {
@@ -79,25 +93,6 @@ void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_no
                                100 * share, distances.size(), limit, kScanOfMeshNoiseWidths, scan_noise_mm,
                                kScanOfMeshDiagonalFraction, diagonal, 100 * kScanOfMeshShare, distances[distances.size() / 2]));
 }
-
-namespace {
-
-std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions& options) {
-    const double tolerance = result.fits.tolerance_mm;
-    switch (result.tolerance_source) {
-    case SectionToleranceSource::Given: return format("tolerance %.4f mm: given", tolerance);
-    case SectionToleranceSource::ScanNoise:
-        return format("tolerance %.4f mm: 5 x the noise of the scan the mesh was made from, %.4f mm (measured on its points)",
-                      tolerance, result.scan_noise_mm);
-    case SectionToleranceSource::CutNoise: break;
-    }
-    return format("tolerance %.4f mm: from the cut of the mesh (5 x its noise, %.4f mm, at least %.4f mm), which says "
-                  "nothing of the scan when the mesher flattened the faces; no scan given: set it yourself",
-                  tolerance, result.fits.noise_mm, options.min_tolerance_mm);
-}
-
-
-}  // namespace
 
 std::string section_element_text(const SectionElement& e) {
     std::string text;
