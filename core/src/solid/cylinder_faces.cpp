@@ -501,7 +501,10 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 }
             if (ring.ends.size() != 2 || other_faces > 0) return Ring{};
             std::sort(ring.faces.begin(), ring.faces.end());
-            // The tilt of each face's normal from square to the axis, by area (the median of the tilted ones').
+            // The tilt of each face's normal from square to the axis, signed (a hole's chamfered mouth
+            // and its rounded foot tilt opposite ways), by area (the median of those tilted more than 15 degrees).
+            const cv::Vec3d first_normal = cv::normalize(model.faces[ring.ends[0]].normal);
+            auto tilt_of = [&](size_t f) { return std::asin(std::clamp(cv::normalize(model.faces[f].normal).dot(first_normal), -1.0, 1.0)) * 180 / kPi; };
             std::vector<std::pair<double, double>> tilts;
             double tilted_area = 0;
             for (size_t f : ring.faces) {
@@ -510,7 +513,7 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 for (const cv::Vec3i& t : model.faces[f].triangles)
                     area += 0.5 * cv::norm((model.vertices[size_t(t[1])] - model.vertices[size_t(t[0])])
                                                .cross(model.vertices[size_t(t[2])] - model.vertices[size_t(t[0])]));
-                tilts.emplace_back(std::asin(std::min(1.0, along(f))) * 180 / kPi, area);
+                tilts.emplace_back(tilt_of(f), area);
                 tilted_area += area;
             }
             std::sort(tilts.begin(), tilts.end());
@@ -521,19 +524,18 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     break;
                 }
             for (size_t f : ring.faces)
-                if (along(f) >= kSquareToAxis && std::abs(std::asin(std::min(1.0, along(f))) * 180 / kPi - median) <= kRingSpreadDeg)
-                    ring.cone_faces.push_back(f);
+                if (along(f) >= kSquareToAxis && std::abs(tilt_of(f) - median) <= kRingSpreadDeg) ring.cone_faces.push_back(f);
             if (ring.cone_faces.empty()) return Ring{};
             // The wall's own plane: the one on the far side of the wall from the cone.
-            const cv::Vec3d ring_axis = cv::normalize(model.faces[ring.ends[0]].normal), &origin = model.faces[ring.ends[0]].origin;
+            const cv::Vec3d& origin = model.faces[ring.ends[0]].origin;
             auto mean_level = [&](const std::vector<size_t>& faces) {
                 const std::vector<int> vertices = vertices_of(model, faces);
                 double sum = 0;
-                for (int v : vertices) sum += (model.vertices[size_t(v)] - origin).dot(ring_axis);
+                for (int v : vertices) sum += (model.vertices[size_t(v)] - origin).dot(first_normal);
                 return sum / double(vertices.size());
             };
             const double towards_cone = mean_level(ring.cone_faces) - mean_level(from);
-            const double second_level = level_of(model.faces[ring.ends[1]], origin, ring_axis);
+            const double second_level = level_of(model.faces[ring.ends[1]], origin, first_normal);
             if ((towards_cone > 0) != (second_level >= 0)) std::swap(ring.ends[0], ring.ends[1]);
             return ring;
         };
