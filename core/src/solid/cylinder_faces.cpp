@@ -350,17 +350,24 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
     CylinderRegion bent = region;
     bent.bent = true;
     bent.far_slope = slope;
+    // The middles of its facets' sides, less the sagitta a chord of the true cone has there (its
+    // facets are small against its radius, as a chamfer's are: that sagitta is most of what a
+    // pyramid's flat faces would add).
+    const cv::Vec3d x_axis = square_to(region.axis), y_axis = region.axis.cross(x_axis);
+    auto azimuth = [&](const cv::Vec3d& p) { return std::atan2((p - region.origin).dot(y_axis), (p - region.origin).dot(x_axis)); };
     double side_off = 0;
     for (size_t f : cone_faces)
         for (const cv::Vec3i& t : model.faces[f].triangles)
             for (int k = 0; k < 3; ++k) {
-                const cv::Vec3d middle = 0.5 * (model.vertices[size_t(t[k])] + model.vertices[size_t(t[(k + 1) % 3])]) - region.origin;
-                const double h = middle.dot(region.axis);
-                side_off = std::max(side_off, std::abs(cv::norm(middle - h * region.axis) - radius0 - slope * h) / std::sqrt(1 + slope * slope));
+                const cv::Vec3d &a = model.vertices[size_t(t[k])], &b = model.vertices[size_t(t[(k + 1) % 3])];
+                const cv::Vec3d middle = 0.5 * (a + b) - region.origin;
+                const double h = middle.dot(region.axis), radius = radius0 + slope * h;
+                const double sagitta = radius * (1 - std::cos(0.5 * std::remainder(azimuth(b) - azimuth(a), 2 * kPi)));
+                side_off = std::max(side_off, std::abs(cv::norm(middle - h * region.axis) - radius + sagitta) / std::sqrt(1 + slope * slope));
             }
     if (!(half_angle >= kMinConeDeg && half_angle <= kMaxConeDeg && turn >= kMinConeDeg && rms <= limits.rms && side_off <= limits.distance)) {
         std::snprintf(text, sizeof text, "its ring is not a cone about the cylinder's axis (half-angle %.2f degrees, %g to %g made, "
-                      "%.2f from the cylinder's; RMS %.4f mm, sides of its facets up to %.4f mm from it, at most %.4f and %.4f mm)",
+                      "%.2f from the cylinder's; RMS %.4f mm, sides of its facets up to %.4f mm from its chords, at most %.4f and %.4f mm)",
                       half_angle, kMinConeDeg, kMaxConeDeg, turn, rms, side_off, limits.rms, limits.distance);
         return text;
     }
@@ -523,8 +530,30 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     median = tilt;
                     break;
                 }
+            // Of those tilted as the median, the ones joined to each other over the most area (a sliver's
+            // normal, tipped by the noise, may tilt as a cone's anywhere).
+            std::vector<char> tilted_as_cone(face_count, 0);
             for (size_t f : ring.faces)
-                if (along(f) >= kSquareToAxis && std::abs(tilt_of(f) - median) <= kRingSpreadDeg) ring.cone_faces.push_back(f);
+                tilted_as_cone[f] = along(f) >= kSquareToAxis && std::abs(tilt_of(f) - median) <= kRingSpreadDeg;
+            double largest = 0;
+            for (size_t start : ring.faces) {
+                if (!tilted_as_cone[start]) continue;
+                std::vector<size_t> joined{start};
+                tilted_as_cone[start] = 0;
+                double area = 0;
+                for (size_t next = 0; next < joined.size(); ++next) {
+                    for (const cv::Vec3i& t : model.faces[joined[next]].triangles)
+                        area += cv::norm((model.vertices[size_t(t[1])] - model.vertices[size_t(t[0])])
+                                             .cross(model.vertices[size_t(t[2])] - model.vertices[size_t(t[0])]));
+                    for (size_t g : neighbours(joined[next]))
+                        if (tilted_as_cone[g]) {
+                            tilted_as_cone[g] = 0;
+                            joined.push_back(g);
+                        }
+                }
+                if (area > largest) largest = area, ring.cone_faces = joined;
+            }
+            std::sort(ring.cone_faces.begin(), ring.cone_faces.end());
             if (ring.cone_faces.empty()) return Ring{};
             // The wall's own plane: the one on the far side of the wall from the cone.
             const cv::Vec3d& origin = model.faces[ring.ends[0]].origin;
