@@ -163,19 +163,23 @@ Circle2 circle_along(const PlanarFaceModel& model, const std::vector<int>& verti
     return circle;
 }
 
-// The cone about an axis parallel to `axis` (unit) the vertices lie nearest, its heights from `from`.
-Circle2 cone_along(const PlanarFaceModel& model, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
+// The cone about an axis parallel to `axis` (unit) the vertices lie nearest (at `positions`), its heights from `from`.
+Circle2 cone_along(const std::vector<cv::Vec3d>& positions, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
     const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
     std::vector<cv::Vec2d> seen;
     std::vector<double> heights;
     for (int v : vertices) {
-        const cv::Vec3d p = model.vertices[size_t(v)] - from;
+        const cv::Vec3d p = positions[size_t(v)] - from;
         seen.emplace_back(p.dot(x_axis), p.dot(y_axis));
         heights.push_back(p.dot(axis));
     }
     Circle2 cone = fit_cone(seen, heights);
     cone.origin = from + cone.center[0] * x_axis + cone.center[1] * y_axis;
     return cone;
+}
+
+Circle2 cone_along(const PlanarFaceModel& model, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
+    return cone_along(model.vertices, vertices, from, axis);
 }
 
 // How far a point is from a circle's cylinder or cone about `axis` (unit), square to its surface.
@@ -323,9 +327,13 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
                       const std::vector<size_t>& cone_faces, const std::vector<size_t>& square_planes, double ring,
                       const Tolerances& limits, bool check_bunching) {
     char text[400];
+    // The scan's own vertices (the mesh's, before any was moved onto a plane: a chamfer's strips
+    // may have been merged into planes, flat within the noise).
+    std::vector<cv::Vec3d> positions(model.vertices);
+    std::copy(model.mesh_vertices.begin(), model.mesh_vertices.end(), positions.begin());
     const std::vector<int> cone_vertices = vertices_of(model, cone_faces);
     const cv::Vec3d from = model.faces[region.planes[0]].origin;
-    const Circle2 own = cone_along(model, cone_vertices, from, region.axis);
+    const Circle2 own = cone_along(positions, cone_vertices, from, region.axis);
     const double apart = cv::norm(own.origin - region.origin);
     if (!(apart <= limits.distance)) {
         std::snprintf(text, sizeof text, "its cone's own axis is %.4f mm from its cylinder's (at most %.4f mm)", apart, limits.distance);
@@ -334,7 +342,7 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
     double sum_h = 0, sum_hh = 0, sum_d = 0, sum_hd = 0;
     std::vector<cv::Vec2d> height_distance;
     for (int v : cone_vertices) {
-        const cv::Vec3d offset = model.vertices[size_t(v)] - region.origin;
+        const cv::Vec3d offset = positions[size_t(v)] - region.origin;
         const double h = offset.dot(region.axis), d = cv::norm(offset - h * region.axis);
         sum_h += h, sum_hh += h * h, sum_d += d, sum_hd += h * d;
         height_distance.emplace_back(h, d);
@@ -359,7 +367,7 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
     for (size_t f : cone_faces)
         for (const cv::Vec3i& t : model.faces[f].triangles)
             for (int k = 0; k < 3; ++k) {
-                const cv::Vec3d &a = model.vertices[size_t(t[k])], &b = model.vertices[size_t(t[(k + 1) % 3])];
+                const cv::Vec3d &a = positions[size_t(t[k])], &b = positions[size_t(t[(k + 1) % 3])];
                 const cv::Vec3d middle = 0.5 * (a + b) - region.origin;
                 const double h = middle.dot(region.axis), radius = radius0 + slope * h;
                 const double sagitta = radius * (1 - std::cos(0.5 * std::remainder(azimuth(b) - azimuth(a), 2 * kPi)));
@@ -631,6 +639,35 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                         members.push_back(g);
                     }
                 const std::vector<size_t> wall_faces(members.begin(), members.begin() + std::ptrdiff_t(wall_count));
+                // When its facets square to the axis (within 15 degrees) make a cylinder, its facets tilted
+                // further (a smooth mesh's rounded ends; a shallow chamfer ring, which would otherwise be
+                // taken into the cylinder unseen) are held to the same: within `ring` of that cylinder or
+                // of a plane square to it, their volume counted with those next to it.
+                size_t tilted_facets = 0;
+                double tilted_farthest = 0;
+                if (!steep) {
+                    std::vector<size_t> square_wall, tilted_wall;
+                    for (size_t f : wall_faces) (along(f) < kSquareToAxis ? square_wall : tilted_wall).push_back(f);
+                    const Circle2 square_fit = square_wall.empty() || tilted_wall.empty() ? Circle2{}
+                                                                                          : circle_along(model, vertices_of(model, square_wall), from, axis);
+                    if (square_fit.radius > 0 && square_fit.rms <= limits.rms)
+                        for (size_t f : tilted_wall)
+                            for (const cv::Vec3i& t : model.faces[f].triangles) {
+                                const cv::Vec3d &p = model.vertices[size_t(t[0])], &q = model.vertices[size_t(t[1])], &r = model.vertices[size_t(t[2])];
+                                auto off_fit = [&](const cv::Vec3d& at) {
+                                    double off = off_cone(square_fit, axis, at);
+                                    for (size_t h : square_planes)
+                                        off = std::min(off, std::abs((at - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+                                    return off;
+                                };
+                                const double sides[3] = {off_fit((p + q) / 2), off_fit((q + r) / 2), off_fit((r + p) / 2)};
+                                double off = std::max({sides[0], sides[1], sides[2]});
+                                for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_fit(at));
+                                ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+                                tilted_farthest = std::max(tilted_farthest, off);
+                                ++tilted_facets;
+                            }
+                }
                 size_t facets = 0;
                 for (size_t f : members) facets += model.faces[f].triangles.size();
                 std::vector<size_t> ends;
@@ -662,7 +699,12 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 std::string name = text;
                 auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
                 std::string ends_problem;
-                if (ends.size() != 2 || other_faces > 0) {
+                if (tilted_farthest > ring) {
+                    std::snprintf(text, sizeof text,
+                                  "%zu facets of its wall tilted more than 15 degrees from its axis are up to %.4f mm from the cylinder "
+                                  "of the rest and its planes (at most %.4f mm): a cone or chamfer on it", tilted_facets, tilted_farthest, ring);
+                    ends_problem = text;
+                } else if (ends.size() != 2 || other_faces > 0) {
                     std::snprintf(text, sizeof text,
                                   "its wall does not end in two planar faces square to it (it meets %zu such planes and %zu other "
                                   "faces: a cone or chamfer, a plane cut obliquely, a flat on it, or triangles beyond it)",
@@ -672,7 +714,7 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     std::snprintf(text, sizeof text,
                                   "the %zu facets where its wall meets its ends are too far from the cylinder and the planes continued "
                                   "to it: the volume would change by up to %.3g mm3 (at most %.2g %% of the mesh's, %.3g mm3)",
-                                  members.size() - wall_count, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
+                                  members.size() - wall_count + tilted_facets, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
                     ends_problem = text;
                 }
                 // Not so, but a chamfer ring beyond it: the wall's cylinder is fitted below as any, then the ring's cone.
