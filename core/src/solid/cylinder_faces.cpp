@@ -327,6 +327,7 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
                       const std::vector<size_t>& cone_faces, const std::vector<size_t>& square_planes, double ring,
                       const Tolerances& limits, bool check_bunching) {
     char text[400];
+    if (region.slope != 0 || near_faces.empty()) return "its wall is not a cylinder (a ring beyond a cone is not made)";
     // The scan's own vertices (the mesh's, before any was moved onto a plane: a chamfer's strips
     // may have been merged into planes, flat within the noise).
     std::vector<cv::Vec3d> positions(model.vertices);

@@ -39,14 +39,17 @@ struct CylinderRegion {
 // them while that changes the volume by at most 0.01 %), bounded by two planar faces square to the
 // axis and nothing else, whose facets' normals face away from the axis wherever they are (a prism's
 // flat sides bunch them into one direction each); only faces marked in `eligible` (all when it is
-// empty: the normals are then read on the mesh's own vertices, not checked again). Each wall near a
+// empty: the normals are then read on the mesh's own vertices, not checked again). A cylinder's wall
+// that goes on into a cone before it meets one of its planes (a chamfer ring) gives one bent region:
+// the cylinder, the cone about its axis and the circle where they meet. Each wall near a
 // cylinder but refused is said in `notes` with the reason.
 std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
                                              const std::vector<char>& eligible, std::vector<std::string>& notes);
 
 // Replaces each region's facets by its cylinder: one cylindrical face (at the end of the faces), a
 // circle in each planar face instead of the loop it bounded (those planar faces lose their
-// triangulations, which do not follow the circles), and the seam between the circles.
+// triangulations, which do not follow the circles), and the seam between the circles. A bent
+// region gives two faces (each with its seam) sharing the circle at its bend.
 void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion>& regions);
 
 }  // namespace picoscan::detail
