@@ -314,8 +314,8 @@ double off_wall(const CylinderRegion& region, const cv::Vec3d& p) {
     return std::abs(cv::norm(offset - height * region.axis) - region.radius_at(height)) / std::sqrt(1 + slope * slope);
 }
 
-// A chamfer ring's cone, its facets in cone_faces, about the axis of the cylinder (or cone) already
-// fitted to `region`'s wall (its facets square to the axis in near_faces): the radius a straight
+// A chamfer ring's cone, its facets in cone_faces, about the axis of the cylinder already fitted to
+// `region`'s wall (its facets square to the axis in near_faces): the radius a straight
 // line in the height about that axis (least squares), then where the two meet, the circle both faces
 // end at. Makes `region` bent and answers "" when the cone is one (half-angle, RMS and its facets'
 // sides as for a cone between two planes, its own free fit's axis within the distance limit of the
@@ -355,7 +355,6 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
     for (const cv::Vec2d& hd : height_distance) sum += std::pow(hd[1] - radius0 - slope * hd[0], 2);
     const double rms = std::sqrt(sum / n) / std::sqrt(1 + slope * slope);
     const double half_angle = std::atan(std::abs(slope)) * 180 / kPi;
-    const double turn = std::abs(std::atan(slope) - std::atan(region.slope)) * 180 / kPi;
     CylinderRegion bent = region;
     bent.bent = true;
     bent.far_slope = slope;
@@ -374,10 +373,10 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
                 const double sagitta = radius * (1 - std::cos(0.5 * std::remainder(azimuth(b) - azimuth(a), 2 * kPi)));
                 side_off = std::max(side_off, std::abs(cv::norm(middle - h * region.axis) - radius + sagitta) / std::sqrt(1 + slope * slope));
             }
-    if (!(half_angle >= kMinConeDeg && half_angle <= kMaxConeDeg && turn >= kMinConeDeg && rms <= limits.rms && side_off <= limits.distance)) {
-        std::snprintf(text, sizeof text, "its ring is not a cone about the cylinder's axis (half-angle %.2f degrees, %g to %g made, "
-                      "%.2f from the cylinder's; RMS %.4f mm, sides of its facets up to %.4f mm from its chords, at most %.4f and %.4f mm)",
-                      half_angle, kMinConeDeg, kMaxConeDeg, turn, rms, side_off, limits.rms, limits.distance);
+    if (!(half_angle >= kMinConeDeg && half_angle <= kMaxConeDeg && rms <= limits.rms && side_off <= limits.distance)) {
+        std::snprintf(text, sizeof text, "its ring is not a cone about the cylinder's axis (half-angle %.2f degrees, %g to %g made; "
+                      "RMS %.4f mm, sides of its facets up to %.4f mm from its chords, at most %.4f and %.4f mm)",
+                      half_angle, kMinConeDeg, kMaxConeDeg, rms, side_off, limits.rms, limits.distance);
         return text;
     }
     if (check_bunching) {
@@ -389,7 +388,7 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
         }
     }
     // The circle where the two meet, and how far the facets of each reach towards the other.
-    bent.bend_level = (region.radius_mm - radius0) / (slope - region.slope);
+    bent.bend_level = (region.radius_mm - radius0) / slope;
     double near_mean = 0, cone_mean = sum_h / n;
     const std::vector<int> near_vertices = vertices_of(model, near_faces);
     for (int v : near_vertices) near_mean += (model.vertices[size_t(v)] - region.origin).dot(region.axis) / double(near_vertices.size());
@@ -403,7 +402,7 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
           towards * far_level - bend > limits.distance)) {
         std::snprintf(text, sizeof text, "the circle where they meet (%.4f mm along the axis from the cylinder's plane, radius %.4f mm) "
                       "is not between the cylinder's facets (to %.4f mm) and the cone's (from %.4f mm; %.4f mm across the cone allowed) "
-                      "and apart from the planes (the other at %.4f mm)", bend, region.radius_mm + region.slope * bent.bend_level,
+                      "and apart from the planes (the other at %.4f mm)", bend, region.radius_mm,
                       near_reach, cone_reach, along_cone, towards * far_level);
         return text;
     }
