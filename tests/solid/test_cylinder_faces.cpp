@@ -1,7 +1,9 @@
 // Cylindrical faces: a plate with a boss and a hole through both, meshed and noisy, must give
 // the hole and the boss as cylinders of the true radius and axis (each bounded by circles on the
 // planar faces), and a hole that is slightly oval or drilled obliquely must stay triangles with
-// the reason. (FreeCAD reads these B-reps back in the freecad_headless suite.)
+// the reason; a chamfer ring (a hole's chamfered or countersunk mouth, a boss's chamfered edge) must
+// give a cylinder and a cone sharing one circle, and rings built to fool it must stay facets with the
+// reason. (FreeCAD reads these B-reps back in the freecad_headless suite.)
 #include "picoscan/solid.h"
 #include "support/test_support.h"
 

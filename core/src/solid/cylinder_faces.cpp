@@ -650,16 +650,16 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     for (size_t f : wall_faces) (along(f) < kSquareToAxis ? square_wall : tilted_wall).push_back(f);
                     const Circle2 square_fit = square_wall.empty() || tilted_wall.empty() ? Circle2{}
                                                                                           : circle_along(model, vertices_of(model, square_wall), from, axis);
+                    auto off_fit = [&](const cv::Vec3d& at) {
+                        double off = off_cone(square_fit, axis, at);
+                        for (size_t h : square_planes)
+                            off = std::min(off, std::abs((at - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+                        return off;
+                    };
                     if (square_fit.radius > 0 && square_fit.rms <= limits.rms)
                         for (size_t f : tilted_wall)
                             for (const cv::Vec3i& t : model.faces[f].triangles) {
                                 const cv::Vec3d &p = model.vertices[size_t(t[0])], &q = model.vertices[size_t(t[1])], &r = model.vertices[size_t(t[2])];
-                                auto off_fit = [&](const cv::Vec3d& at) {
-                                    double off = off_cone(square_fit, axis, at);
-                                    for (size_t h : square_planes)
-                                        off = std::min(off, std::abs((at - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
-                                    return off;
-                                };
                                 const double sides[3] = {off_fit((p + q) / 2), off_fit((q + r) / 2), off_fit((r + p) / 2)};
                                 double off = std::max({sides[0], sides[1], sides[2]});
                                 for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_fit(at));
