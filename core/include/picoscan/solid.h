@@ -38,7 +38,10 @@ struct PlanarFaceOptions {
                                      // A wall whose facets' normals bunch into a few directions round the
                                      // axis (a prism's flat sides, its corners on the circle) is not one.
                                      // Such a region on a cone about that axis (half-angle 2 to 64 degrees:
-                                     // a countersink, a chamfered boss, a tapered hole) becomes one conical face
+                                     // a countersink, a chamfered boss, a tapered hole) becomes one conical face.
+                                     // A chamfer ring (plane, cylinder, cone, plane along one axis: a hole's
+                                     // chamfered or countersunk mouth, a boss's chamfered edge) becomes a
+                                     // cylindrical and a conical face sharing the circle where they meet
 };
 
 struct BrepEdge {

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
+#include <string>
 
 namespace picoscan::detail {
 
@@ -42,6 +44,10 @@ constexpr double kMinConeDeg = 2, kMaxConeDeg = 64;
 // cylinder's (bunched_normals: a scanned cylinder's up to about 0.1, a prism's of 12 to 24 sides
 // 0.2 to 0.8 once each side spans a few facets).
 constexpr double kMaxBunchedNormals = 0.2;
+// A chamfer ring's cone: the facets whose normals tilt from square to the axis within this of the
+// median tilt of those tilted more than 15 degrees (the rest, a smooth mesh's rounded crease, are
+// continued over as a cylinder's rounded ends are).
+constexpr double kRingSpreadDeg = 10;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -157,19 +163,23 @@ Circle2 circle_along(const PlanarFaceModel& model, const std::vector<int>& verti
     return circle;
 }
 
-// The cone about an axis parallel to `axis` (unit) the vertices lie nearest, its heights from `from`.
-Circle2 cone_along(const PlanarFaceModel& model, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
+// The cone about an axis parallel to `axis` (unit) the vertices lie nearest (at `positions`), its heights from `from`.
+Circle2 cone_along(const std::vector<cv::Vec3d>& positions, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
     const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
     std::vector<cv::Vec2d> seen;
     std::vector<double> heights;
     for (int v : vertices) {
-        const cv::Vec3d p = model.vertices[size_t(v)] - from;
+        const cv::Vec3d p = positions[size_t(v)] - from;
         seen.emplace_back(p.dot(x_axis), p.dot(y_axis));
         heights.push_back(p.dot(axis));
     }
     Circle2 cone = fit_cone(seen, heights);
     cone.origin = from + cone.center[0] * x_axis + cone.center[1] * y_axis;
     return cone;
+}
+
+Circle2 cone_along(const PlanarFaceModel& model, const std::vector<int>& vertices, const cv::Vec3d& from, const cv::Vec3d& axis) {
+    return cone_along(model.vertices, vertices, from, axis);
 }
 
 // How far a point is from a circle's cylinder or cone about `axis` (unit), square to its surface.
@@ -297,6 +307,143 @@ Loops loops_of(const PlanarFaceModel& model, const CylinderRegion& region) {
     return loops;
 }
 
+// How far a point is from a region's wall (its cylinder or cone, beyond a bend the other one), square to it.
+double off_wall(const CylinderRegion& region, const cv::Vec3d& p) {
+    const cv::Vec3d offset = p - region.origin;
+    const double height = offset.dot(region.axis), slope = region.slope_at(height);
+    return std::abs(cv::norm(offset - height * region.axis) - region.radius_at(height)) / std::sqrt(1 + slope * slope);
+}
+
+// A chamfer ring's cone, its facets in cone_faces, about the axis of the cylinder already fitted to
+// `region`'s wall (its facets square to the axis in near_faces): the radius a straight
+// line in the height about that axis (least squares), then where the two meet, the circle both faces
+// end at. Makes `region` bent and answers "" when the cone is one (half-angle, RMS and its facets'
+// sides as for a cone between two planes, its own free fit's axis within the distance limit of the
+// cylinder's), the circle lies between the cylinder's facets and the cone's (within the distance
+// limit across the cone) and clear of both planes, and the facets between (a smooth mesh's rounded
+// crease) lie within `ring` of the two faces or the planes square to the axis, changing the volume
+// by at most kRingVolumeShare; otherwise why not.
+std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, const std::vector<size_t>& near_faces,
+                      const std::vector<size_t>& cone_faces, const std::vector<size_t>& square_planes, double ring,
+                      const Tolerances& limits, bool check_bunching) {
+    char text[400];
+    if (region.slope != 0 || near_faces.empty()) return "its wall is not a cylinder (a ring beyond a cone is not made)";
+    // The scan's own vertices (the mesh's, before any was moved onto a plane: a chamfer's strips
+    // may have been merged into planes, flat within the noise).
+    std::vector<cv::Vec3d> positions(model.vertices);
+    std::copy(model.mesh_vertices.begin(), model.mesh_vertices.end(), positions.begin());
+    const std::vector<int> cone_vertices = vertices_of(model, cone_faces);
+    const cv::Vec3d from = model.faces[region.planes[0]].origin;
+    const Circle2 own = cone_along(positions, cone_vertices, from, region.axis);
+    const double apart = cv::norm(own.origin - region.origin);
+    if (!(apart <= limits.distance)) {
+        std::snprintf(text, sizeof text, "its cone's own axis is %.4f mm from its cylinder's (at most %.4f mm)", apart, limits.distance);
+        return text;
+    }
+    double sum_h = 0, sum_hh = 0, sum_d = 0, sum_hd = 0;
+    std::vector<cv::Vec2d> height_distance;
+    for (int v : cone_vertices) {
+        const cv::Vec3d offset = positions[size_t(v)] - region.origin;
+        const double h = offset.dot(region.axis), d = cv::norm(offset - h * region.axis);
+        sum_h += h, sum_hh += h * h, sum_d += d, sum_hd += h * d;
+        height_distance.emplace_back(h, d);
+    }
+    const double n = double(cone_vertices.size()), spread = n * sum_hh - sum_h * sum_h;
+    if (!(spread > 0)) return "its cone's facets lie at one height";
+    const double slope = (n * sum_hd - sum_h * sum_d) / spread, radius0 = (sum_d - slope * sum_h) / n;
+    double sum = 0;
+    for (const cv::Vec2d& hd : height_distance) sum += std::pow(hd[1] - radius0 - slope * hd[0], 2);
+    const double rms = std::sqrt(sum / n) / std::sqrt(1 + slope * slope);
+    const double half_angle = std::atan(std::abs(slope)) * 180 / kPi;
+    CylinderRegion bent = region;
+    bent.bent = true;
+    bent.far_slope = slope;
+    // The middles of its facets' sides, less the sagitta a chord of the true cone has there (its
+    // facets are small against its radius, as a chamfer's are: that sagitta is most of what a
+    // pyramid's flat faces would add).
+    const cv::Vec3d x_axis = square_to(region.axis), y_axis = region.axis.cross(x_axis);
+    auto azimuth = [&](const cv::Vec3d& p) { return std::atan2((p - region.origin).dot(y_axis), (p - region.origin).dot(x_axis)); };
+    double side_off = 0;
+    for (size_t f : cone_faces)
+        for (const cv::Vec3i& t : model.faces[f].triangles)
+            for (int k = 0; k < 3; ++k) {
+                const cv::Vec3d &a = positions[size_t(t[k])], &b = positions[size_t(t[(k + 1) % 3])];
+                const cv::Vec3d middle = 0.5 * (a + b) - region.origin;
+                const double h = middle.dot(region.axis), radius = radius0 + slope * h;
+                const double sagitta = radius * (1 - std::cos(0.5 * std::remainder(azimuth(b) - azimuth(a), 2 * kPi)));
+                side_off = std::max(side_off, std::abs(cv::norm(middle - h * region.axis) - radius + sagitta) / std::sqrt(1 + slope * slope));
+            }
+    if (!(half_angle >= kMinConeDeg && half_angle <= kMaxConeDeg && rms <= limits.rms && side_off <= limits.distance)) {
+        std::snprintf(text, sizeof text, "its ring is not a cone about the cylinder's axis (half-angle %.2f degrees, %g to %g made; "
+                      "RMS %.4f mm, sides of its facets up to %.4f mm from its chords, at most %.4f and %.4f mm)",
+                      half_angle, kMinConeDeg, kMaxConeDeg, rms, side_off, limits.rms, limits.distance);
+        return text;
+    }
+    if (check_bunching) {
+        const double bunched = bunched_normals(model, cone_faces, region.origin, region.axis, radius0 + slope * own.mean_height);
+        if (bunched > kMaxBunchedNormals) {
+            std::snprintf(text, sizeof text, "its ring's facets' normals bunch into a few directions round the axis (%.0f %% of its area "
+                          "faces elsewhere than a cone's would, at most %.0f %%): a pyramid", 100 * bunched, 100 * kMaxBunchedNormals);
+            return text;
+        }
+    }
+    // The circle where the two meet, and how far the facets of each reach towards the other.
+    bent.bend_level = (region.radius_mm - radius0) / slope;
+    double near_mean = 0, cone_mean = sum_h / n;
+    const std::vector<int> near_vertices = vertices_of(model, near_faces);
+    for (int v : near_vertices) near_mean += (model.vertices[size_t(v)] - region.origin).dot(region.axis) / double(near_vertices.size());
+    const double towards = cone_mean > near_mean ? 1 : -1;  // from the cylinder to the cone along the axis
+    double near_reach = -1e300, cone_reach = 1e300;       // the farthest towards the other, as towards x height
+    for (int v : near_vertices) near_reach = std::max(near_reach, towards * (model.vertices[size_t(v)] - region.origin).dot(region.axis));
+    for (const cv::Vec2d& hd : height_distance) cone_reach = std::min(cone_reach, towards * hd[0]);
+    const double far_level = level_of(model.faces[region.planes[1]], region.origin, region.axis);
+    const double bend = towards * bent.bend_level, along_cone = limits.distance / std::sin(std::atan(std::abs(slope)));
+    if (!(near_reach <= bend + along_cone && bend <= cone_reach + along_cone && bend > limits.distance &&
+          towards * far_level - bend > limits.distance)) {
+        std::snprintf(text, sizeof text, "the circle where they meet (%.4f mm along the axis from the cylinder's plane, radius %.4f mm) "
+                      "is not between the cylinder's facets (to %.4f mm) and the cone's (from %.4f mm; %.4f mm across the cone allowed) "
+                      "and apart from the planes (the other at %.4f mm)", bend, region.radius_mm,
+                      near_reach, cone_reach, along_cone, towards * far_level);
+        return text;
+    }
+    // The facets neither on the cylinder nor on the cone: the two faces and the planes are continued over them.
+    std::vector<size_t> crease;
+    std::set_difference(region.faces.begin(), region.faces.end(), cone_faces.begin(), cone_faces.end(), std::back_inserter(crease));
+    std::vector<size_t> near_sorted(near_faces);
+    std::sort(near_sorted.begin(), near_sorted.end());
+    crease.erase(std::remove_if(crease.begin(), crease.end(), [&](size_t f) { return std::binary_search(near_sorted.begin(), near_sorted.end(), f); }),
+                 crease.end());
+    auto off_surface = [&](const cv::Vec3d& p) {
+        double off = off_wall(bent, p);
+        for (size_t h : square_planes) off = std::min(off, std::abs((p - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+        return off;
+    };
+    size_t crease_facets = 0;
+    double volume = 0, farthest = 0;
+    for (size_t f : crease)
+        for (const cv::Vec3i& t : model.faces[f].triangles) {
+            const cv::Vec3d &p = model.vertices[size_t(t[0])], &q = model.vertices[size_t(t[1])], &r = model.vertices[size_t(t[2])];
+            const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
+            double off = std::max({sides[0], sides[1], sides[2]});
+            for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
+            farthest = std::max(farthest, off);
+            volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+            ++crease_facets;
+        }
+    if (!(farthest <= ring) || volume > kRingVolumeShare * model.mesh_volume_mm3) {
+        std::snprintf(text, sizeof text, "the %zu facets between its faces and planes are up to %.4f mm from them (at most %.4f mm) and "
+                      "would change the volume by up to %.3g mm3 (at most %.3g mm3)", crease_facets, farthest, ring, volume,
+                      kRingVolumeShare * model.mesh_volume_mm3);
+        return text;
+    }
+    bent.rms_mm = std::max(region.rms_mm, rms);
+    bent.end_facets = crease_facets;
+    bent.end_mm = farthest;
+    bent.end_volume_mm3 = volume;
+    region = bent;
+    return "";
+}
+
 }  // namespace
 
 std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
@@ -343,6 +490,92 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
         std::vector<size_t> square_planes;
         for (size_t f = 0; f < face_count; ++f)
             if (model.faces[f].merged && along(f) > 0.9) square_planes.push_back(f);
+        // A chamfer ring: a wall (`from`: its facets and those next to it) that does not end in two
+        // planar faces square to the axis may go on into a cone before it meets one (a chamfered or
+        // countersunk hole's mouth, a chamfered boss's top edge). The faces that reach from it to such
+        // planes, through any faces but those of other walls: when they meet exactly two and nothing
+        // else, `ends` (the wall's own plane first: the one the tilted facets are away from) and their
+        // faces, with the cone's among them (tilted within kRingSpreadDeg of the median tilt of those
+        // not within 15 degrees of square to the axis). Empty `ends`: no such ring.
+        struct Ring {
+            std::vector<size_t> faces, cone_faces, ends;
+        };
+        auto ring_beyond = [&](const std::vector<size_t>& from) {
+            Ring ring;
+            ring.faces = from;
+            std::vector<char> seen_face(face_count, 0);
+            for (size_t f : from) seen_face[f] = 1;
+            size_t other_faces = 0;
+            for (size_t next = 0; next < ring.faces.size(); ++next)
+                for (size_t g : neighbours(ring.faces[next])) {
+                    if (seen_face[g]) continue;
+                    seen_face[g] = 1;
+                    if (model.faces[g].merged && along(g) > 0.9) ring.ends.push_back(g);
+                    else if (!taken[g] && allowed(g)) ring.faces.push_back(g);
+                    else ++other_faces;
+                }
+            if (ring.ends.size() != 2 || other_faces > 0) return Ring{};
+            std::sort(ring.faces.begin(), ring.faces.end());
+            // The tilt of each face's normal from square to the axis, signed (a hole's chamfered mouth
+            // and its rounded foot tilt opposite ways), by area (the median of those tilted more than 15 degrees).
+            const cv::Vec3d first_normal = cv::normalize(model.faces[ring.ends[0]].normal);
+            auto tilt_of = [&](size_t f) { return std::asin(std::clamp(cv::normalize(model.faces[f].normal).dot(first_normal), -1.0, 1.0)) * 180 / kPi; };
+            std::vector<std::pair<double, double>> tilts;
+            double tilted_area = 0;
+            for (size_t f : ring.faces) {
+                if (along(f) < kSquareToAxis) continue;
+                double area = 0;
+                for (const cv::Vec3i& t : model.faces[f].triangles)
+                    area += 0.5 * cv::norm((model.vertices[size_t(t[1])] - model.vertices[size_t(t[0])])
+                                               .cross(model.vertices[size_t(t[2])] - model.vertices[size_t(t[0])]));
+                tilts.emplace_back(tilt_of(f), area);
+                tilted_area += area;
+            }
+            std::sort(tilts.begin(), tilts.end());
+            double median = 0, below = 0;
+            for (const auto& [tilt, area] : tilts)
+                if ((below += area) >= tilted_area / 2) {
+                    median = tilt;
+                    break;
+                }
+            // Of those tilted as the median, the ones joined to each other over the most area (a sliver's
+            // normal, tipped by the noise, may tilt as a cone's anywhere).
+            std::vector<char> tilted_as_cone(face_count, 0);
+            for (size_t f : ring.faces)
+                tilted_as_cone[f] = along(f) >= kSquareToAxis && std::abs(tilt_of(f) - median) <= kRingSpreadDeg;
+            double largest = 0;
+            for (size_t start : ring.faces) {
+                if (!tilted_as_cone[start]) continue;
+                std::vector<size_t> joined{start};
+                tilted_as_cone[start] = 0;
+                double area = 0;
+                for (size_t next = 0; next < joined.size(); ++next) {
+                    for (const cv::Vec3i& t : model.faces[joined[next]].triangles)
+                        area += cv::norm((model.vertices[size_t(t[1])] - model.vertices[size_t(t[0])])
+                                             .cross(model.vertices[size_t(t[2])] - model.vertices[size_t(t[0])]));
+                    for (size_t g : neighbours(joined[next]))
+                        if (tilted_as_cone[g]) {
+                            tilted_as_cone[g] = 0;
+                            joined.push_back(g);
+                        }
+                }
+                if (area > largest) largest = area, ring.cone_faces = joined;
+            }
+            std::sort(ring.cone_faces.begin(), ring.cone_faces.end());
+            if (ring.cone_faces.empty()) return Ring{};
+            // The wall's own plane: the one on the far side of the wall from the cone.
+            const cv::Vec3d& origin = model.faces[ring.ends[0]].origin;
+            auto mean_level = [&](const std::vector<size_t>& faces) {
+                const std::vector<int> vertices = vertices_of(model, faces);
+                double sum = 0;
+                for (int v : vertices) sum += (model.vertices[size_t(v)] - origin).dot(first_normal);
+                return sum / double(vertices.size());
+            };
+            const double towards_cone = mean_level(ring.cone_faces) - mean_level(from);
+            const double second_level = level_of(model.faces[ring.ends[1]], origin, first_normal);
+            if ((towards_cone > 0) != (second_level >= 0)) std::swap(ring.ends[0], ring.ends[1]);
+            return ring;
+        };
         // First the walls within 60 degrees of square to the axis (cylinders, cones up to 30 degrees), then
         // those steeper (cones up to 64 degrees: a countersink, a chamfer), which no cylinder's wall holds.
         for (const bool steep_walls : {false, true}) {
@@ -406,6 +639,35 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                         members.push_back(g);
                     }
                 const std::vector<size_t> wall_faces(members.begin(), members.begin() + std::ptrdiff_t(wall_count));
+                // When its facets square to the axis (within 15 degrees) make a cylinder, its facets tilted
+                // further (a smooth mesh's rounded ends; a shallow chamfer ring, which would otherwise be
+                // taken into the cylinder unseen) are held to the same: within `ring` of that cylinder or
+                // of a plane square to it, their volume counted with those next to it.
+                size_t tilted_facets = 0;
+                double tilted_farthest = 0;
+                if (!steep) {
+                    std::vector<size_t> square_wall, tilted_wall;
+                    for (size_t f : wall_faces) (along(f) < kSquareToAxis ? square_wall : tilted_wall).push_back(f);
+                    const Circle2 square_fit = square_wall.empty() || tilted_wall.empty() ? Circle2{}
+                                                                                          : circle_along(model, vertices_of(model, square_wall), from, axis);
+                    auto off_fit = [&](const cv::Vec3d& at) {
+                        double off = off_cone(square_fit, axis, at);
+                        for (size_t h : square_planes)
+                            off = std::min(off, std::abs((at - model.faces[h].origin).dot(cv::normalize(model.faces[h].normal))));
+                        return off;
+                    };
+                    if (square_fit.radius > 0 && square_fit.rms <= limits.rms)
+                        for (size_t f : tilted_wall)
+                            for (const cv::Vec3i& t : model.faces[f].triangles) {
+                                const cv::Vec3d &p = model.vertices[size_t(t[0])], &q = model.vertices[size_t(t[1])], &r = model.vertices[size_t(t[2])];
+                                const double sides[3] = {off_fit((p + q) / 2), off_fit((q + r) / 2), off_fit((r + p) / 2)};
+                                double off = std::max({sides[0], sides[1], sides[2]});
+                                for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_fit(at));
+                                ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+                                tilted_farthest = std::max(tilted_farthest, off);
+                                ++tilted_facets;
+                            }
+                }
                 size_t facets = 0;
                 for (size_t f : members) facets += model.faces[f].triangles.size();
                 std::vector<size_t> ends;
@@ -436,21 +698,38 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                                   point_text(seen.origin).c_str(), point_text(axis).c_str());
                 std::string name = text;
                 auto refuse = [&](const std::string& why) { notes.push_back(name + " stay as they were: " + why); };
-                if (ends.size() != 2 || other_faces > 0) {
+                std::string ends_problem;
+                if (tilted_farthest > ring) {
+                    std::snprintf(text, sizeof text,
+                                  "%zu facets of its wall tilted more than 15 degrees from its axis are up to %.4f mm from the cylinder "
+                                  "of the rest and its planes (at most %.4f mm): a cone or chamfer on it", tilted_facets, tilted_farthest, ring);
+                    ends_problem = text;
+                } else if (ends.size() != 2 || other_faces > 0) {
                     std::snprintf(text, sizeof text,
                                   "its wall does not end in two planar faces square to it (it meets %zu such planes and %zu other "
                                   "faces: a cone or chamfer, a plane cut obliquely, a flat on it, or triangles beyond it)",
                                   ends.size(), other_faces);
-                    refuse(text);
-                    continue;
-                }
-                if (ring_volume > kRingVolumeShare * model.mesh_volume_mm3) {
+                    ends_problem = text;
+                } else if (ring_volume > kRingVolumeShare * model.mesh_volume_mm3) {
                     std::snprintf(text, sizeof text,
                                   "the %zu facets where its wall meets its ends are too far from the cylinder and the planes continued "
                                   "to it: the volume would change by up to %.3g mm3 (at most %.2g %% of the mesh's, %.3g mm3)",
-                                  members.size() - wall_count, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
-                    refuse(text);
-                    continue;
+                                  members.size() - wall_count + tilted_facets, ring_volume, 100 * kRingVolumeShare, kRingVolumeShare * model.mesh_volume_mm3);
+                    ends_problem = text;
+                }
+                // Not so, but a chamfer ring beyond it: the wall's cylinder is fitted below as any, then the ring's cone.
+                Ring chamfer;
+                if (!ends_problem.empty()) {
+                    if (!steep) chamfer = ring_beyond(members);
+                    if (chamfer.ends.empty()) {
+                        refuse(ends_problem);
+                        continue;
+                    }
+                    for (size_t f : chamfer.faces) taken[f] = 1;
+                    region.faces = chamfer.faces;
+                    ends = chamfer.ends;
+                    facets = 0;
+                    for (size_t f : chamfer.faces) facets += model.faces[f].triangles.size();
                 }
                 region.planes[0] = ends[0];
                 region.planes[1] = ends[1];
@@ -522,6 +801,13 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 region.slope = circle.slope;
                 region.rms_mm = circle.surface_rms();
                 region.origin = circle.origin;
+                if (!chamfer.ends.empty()) {
+                    const std::string why = bend_onto(model, region, square_facets, chamfer.cone_faces, square_planes, ring, limits, eligible.empty());
+                    if (!why.empty()) {
+                        refuse("its wall goes on into a ring that is not made a cone meeting it: " + why);
+                        continue;
+                    }
+                }
 
                 // Each plane must meet the region along one whole loop of its own.
                 bool whole_loops = true;
@@ -629,66 +915,75 @@ void add_cylinder_faces(PlanarFaceModel& model, const std::vector<CylinderRegion
     std::vector<BrepFace> cylinders;
     for (const CylinderRegion& region : regions) {
         const Loops loops = loops_of(model, region);
-        const cv::Vec3d low_centre = region.origin + loops.low_level * region.axis;
-        const cv::Vec3d high_centre = low_centre + loops.length * region.axis;
-        // A cone's circles differ in radius; its surface starts at the low circle.
-        const double low_radius = region.radius_at(loops.low_level), high_radius = region.radius_at(loops.low_level + loops.length);
-        const int low_vertex = int(model.vertices.size()), high_vertex = low_vertex + 1;
-        model.vertices.push_back(low_centre + low_radius * region.x_axis);
-        model.vertices.push_back(high_centre + high_radius * region.x_axis);
-        // Each circle lies in the plane square to the axis; its tolerance covers the plane it is
-        // in (tilted from that by at most the limit cylinder_regions allows).
-        int circle_edges[2];
-        for (int i = 0; i < 2; ++i) {
-            const bool low = size_t(i) == loops.low;
-            const BrepFace& plane = model.faces[region.planes[i]];
-            const cv::Vec3d centre = low ? low_centre : high_centre;
-            const double radius = low ? low_radius : high_radius;
-            const double off_plane = std::abs((centre - plane.origin).dot(plane.normal)) +
-                                     radius * cv::norm(region.axis.cross(cv::normalize(plane.normal)));
+        // The circles along the axis, low to high: one on each plane and, bent, the one the two faces share.
+        std::vector<double> levels{loops.low_level, loops.low_level + loops.length};
+        if (region.bent) levels.insert(levels.begin() + 1, region.bend_level);
+        std::vector<int> circle_edges, circle_vertices;
+        for (size_t k = 0; k < levels.size(); ++k) {
+            const cv::Vec3d centre = region.origin + levels[k] * region.axis;
+            const double radius = region.radius_at(levels[k]);
+            const int vertex = int(model.vertices.size());
+            model.vertices.push_back(centre + radius * region.x_axis);
             BrepEdge circle;
-            circle.start = circle.end = low ? low_vertex : high_vertex;
-            circle.tolerance_mm = off_plane * 1.01 + 1e-7;
+            circle.start = circle.end = vertex;
             circle.radius_mm = radius;
             circle.center = centre;
             circle.axis = region.axis;
             circle.x_axis = region.x_axis;
-            model.edges.push_back(circle);
-            circle_edges[i] = int(model.edges.size());
-            model.faces[region.planes[i]].wires[region.wires[i]] = {loops.plane_sign[i] * circle_edges[i]};
-            model.faces[region.planes[i]].triangles.clear();
+            if (k == 0 || k + 1 == levels.size()) {
+                // On a plane, in the plane square to the axis; its tolerance covers the plane it is in
+                // (tilted from that by at most the limit cylinder_regions allows).
+                const size_t end = k == 0 ? loops.low : 1 - loops.low;
+                const BrepFace& plane = model.faces[region.planes[end]];
+                const double off_plane = std::abs((centre - plane.origin).dot(plane.normal)) +
+                                         radius * cv::norm(region.axis.cross(cv::normalize(plane.normal)));
+                circle.tolerance_mm = off_plane * 1.01 + 1e-7;
+                model.edges.push_back(circle);
+                model.faces[region.planes[end]].wires[region.wires[end]] = {loops.plane_sign[end] * int(model.edges.size())};
+                model.faces[region.planes[end]].triangles.clear();
+            } else {
+                model.edges.push_back(circle);  // on both faces' surfaces, where they meet
+            }
+            circle_edges.push_back(int(model.edges.size()));
+            circle_vertices.push_back(vertex);
+            model.vertex_tolerance_mm.push_back(std::max(1e-7, circle.tolerance_mm));
         }
-        model.edges.push_back({low_vertex, high_vertex, 1e-7, {}});
-        const int seam = int(model.edges.size());
-        model.vertex_tolerance_mm.push_back(std::max(1e-7, model.edges[size_t(circle_edges[loops.low]) - 1].tolerance_mm));
-        model.vertex_tolerance_mm.push_back(std::max(1e-7, model.edges[size_t(circle_edges[1 - loops.low]) - 1].tolerance_mm));
-
-        BrepFace face;
-        face.origin = low_centre;
-        face.normal = region.axis;
-        face.facet_count = 0;
+        // One face between each two circles (the wall's facets counted on the piece their centres are in).
+        for (size_t k = 0; k + 1 < levels.size(); ++k) {
+            model.edges.push_back({circle_vertices[k], circle_vertices[k + 1], 1e-7, {}});
+            const int seam = int(model.edges.size());
+            const double middle = 0.5 * (levels[k] + levels[k + 1]), slope = region.slope_at(middle);
+            BrepFace face;
+            face.origin = region.origin + levels[k] * region.axis;
+            face.normal = region.axis;
+            face.facet_count = 0;
+            for (size_t f : region.faces)
+                for (const cv::Vec3i& t : model.faces[f].triangles) {
+                    const double level = ((model.vertices[size_t(t[0])] + model.vertices[size_t(t[1])] + model.vertices[size_t(t[2])]) / 3.0 -
+                                          region.origin).dot(region.axis);
+                    face.facet_count += region.beyond_bend(level) == region.beyond_bend(middle) ? 1 : 0;
+                }
+            face.rms_mm = region.rms_mm;
+            face.radius_mm = region.radius_at(levels[k]);
+            face.semi_angle_rad = std::atan(slope);
+            face.x_axis = region.x_axis;
+            face.reversed = region.hole;
+            face.wires = {{circle_edges[k], seam, -circle_edges[k + 1], -seam}};
+            cylinders.push_back(face);
+            if (slope != 0) {
+                ++model.cone_faces;
+                model.cone_facets += size_t(face.facet_count);
+            } else {
+                ++model.cylinder_faces;
+                model.cylinder_facets += size_t(face.facet_count);
+            }
+        }
         for (size_t f : region.faces) {
-            const BrepFace& replaced_face = model.faces[f];
-            face.facet_count += int(replaced_face.triangles.size());
-            if (replaced_face.merged) {  // a strip of its wall
+            if (model.faces[f].merged) {  // a strip of its wall
                 --model.merged_faces;
-                model.merged_facets -= size_t(replaced_face.facet_count);
+                model.merged_facets -= size_t(model.faces[f].facet_count);
             }
             replaced[f] = 1;
-        }
-        face.rms_mm = region.rms_mm;
-        face.radius_mm = low_radius;
-        face.semi_angle_rad = std::atan(region.slope);
-        face.x_axis = region.x_axis;
-        face.reversed = region.hole;
-        face.wires = {{circle_edges[loops.low], seam, -circle_edges[1 - loops.low], -seam}};
-        cylinders.push_back(face);
-        if (region.slope != 0) {
-            ++model.cone_faces;
-            model.cone_facets += size_t(face.facet_count);
-        } else {
-            ++model.cylinder_faces;
-            model.cylinder_facets += size_t(face.facet_count);
         }
         model.cylinder_end_facets += region.end_facets;
         model.cylinder_end_mm = std::max(model.cylinder_end_mm, region.end_mm);
