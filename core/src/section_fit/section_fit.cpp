@@ -471,24 +471,63 @@ private:
     double tolerance_;
 };
 
-// The noise of the polyline: the median RMS of line (or circle) fits over short windows (corners and curves
-// only raise a few windows, so the median sees the straight, noisy runs). A window spans at least
-// window_mm and 9 points: a cut through a mesh has many points per facet, whose noise is shared by
-// neighbours, so a window of a few points would see too little of it.
-// The RMS of each window is appended to `rms` (pooled over several polylines by the caller).
+double median(std::vector<double> values) {
+    if (values.empty()) return 0;
+    std::nth_element(values.begin(), values.begin() + long(values.size() / 2), values.end());
+    return values[values.size() / 2];
+}
+
+// Sums of points' coordinates and their products: the smallest eigenvalue of their scatter is the
+// squared sum of their distances to the line that fits them best.
+struct Moments {
+    double n = 0, x = 0, y = 0, xx = 0, xy = 0, yy = 0;
+    Moments operator-(const Moments& o) const { return {n - o.n, x - o.x, y - o.y, xx - o.xx, xy - o.xy, yy - o.yy}; }
+    Moments plus(const cv::Vec2d& p) const { return {n + 1, x + p[0], y + p[1], xx + p[0] * p[0], xy + p[0] * p[1], yy + p[1] * p[1]}; }
+    double line_squared_sum() const {
+        if (n < 2) return 0;
+        const double sxx = xx - x * x / n, sxy = xy - x * y / n, syy = yy - y * y / n;
+        return std::max(0.0, 0.5 * (sxx + syy) - std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy));
+    }
+};
+
+// The squared sums of a run's distances to lines meeting at corners (at its points, each line fitted
+// to at least 3 points, the corner one of them), for the corners that fit best: one corner (two
+// lines) and two corners (three lines). HUGE_VAL where the run is too short.
+std::pair<double, double> corner_squared_sums(const Points& pts, long first, long count) {
+    std::vector<Moments> prefix(size_t(count) + 1);  // prefix[k]: the run's first k points
+    for (long k = 0; k < count; ++k) prefix[size_t(k) + 1] = prefix[size_t(k)].plus(pts[first + k]);
+    const auto line = [&](long from, long to) { return (prefix[size_t(to) + 1] - prefix[size_t(from)]).line_squared_sum(); };
+    double one = HUGE_VAL, two = HUGE_VAL;
+    for (long a = 2; a + 2 < count; ++a) {
+        one = std::min(one, line(0, a) + line(a, count - 1));
+        for (long b = a + 2; b + 2 < count; ++b) two = std::min(two, line(0, a) + line(a, b) + line(b, count - 1));
+    }
+    return {one, two};
+}
+
+// The noise of a polyline, point by point: the lowest RMS of the short runs it lies in (a run spans at
+// least window_mm and 5 points; a cut through a mesh has many points per facet, whose noise is shared
+// by neighbours, so a run of a few points would see too little of it). Each run is read by a line,
+// a circle where it fits at least twice as well (on a small hole or a fillet a line's residuals are
+// the curve's sagitta, not noise: a 10 mm hole read as 0.17 mm), or two lines meeting at a corner
+// where they fit twice as well as either (a run across a polygon's corner). A run across two
+// corners reads neither: on a polygon whose sides are shorter than the runs (a 12-gon of 5 mm sides
+// sampled at its corners and their middles: 24 points) every run took in corners, which read as
+// 0.2 mm of noise and let one circle pass for the polygon. Each point takes its best run, so a point
+// next to a corner is read by a run on its own side or one across that corner alone.
+// The points' noises are appended to `rms` (pooled over several polylines by the caller).
 void window_noises(const Points& pts, double window_mm, std::vector<double>& rms) {
+    constexpr long kFewestRunPoints = 7;
     const long n = long(pts.size());
-    for (long i = 0; i < n; ) {
+    std::vector<std::vector<double>> runs_of(static_cast<size_t>(n));  // the noises of the runs each point lies in
+    for (long i = 0; i < n;) {
         long count = 1;
         double length = 0;
-        while ((count < 9 || length < window_mm) && count < n && (pts.closed || i + count < n)) {
+        while ((count < kFewestRunPoints || length < window_mm) && count < n && (pts.closed || i + count < n)) {
             length += cv::norm(pts[i + count] - pts[i + count - 1]);
             ++count;
         }
-        if (count < 9 || (!pts.closed && i + count > n)) break;
-        // A line, or a circle where it fits at least twice as well: on a small hole or a fillet a
-        // line's residuals are the curve's sagitta, not noise (a 10 mm hole read as 0.17 mm of
-        // noise); on a straight run a circle would follow the waviness and read too little.
+        if (count < kFewestRunPoints || (!pts.closed && i + count > n)) break;
         double line_rms = HUGE_VAL, circle_rms = HUGE_VAL;
         for (const Shape& shape : {fit_line(pts, i, count), fit_circle(pts, i, count)}) {
             if (!shape.ok) continue;
@@ -496,16 +535,21 @@ void window_noises(const Points& pts, double window_mm, std::vector<double>& rms
             for (long k = i; k < i + count; ++k) sum += std::pow(shape.distance(pts[k]), 2);
             (shape.circle ? circle_rms : line_rms) = std::sqrt(sum / double(count - (shape.circle ? 3 : 2)));
         }
-        const double best = circle_rms < 0.5 * line_rms ? circle_rms : line_rms;
-        if (best < HUGE_VAL) rms.push_back(best);
+        double best = circle_rms < 0.5 * line_rms ? circle_rms : line_rms;
+        const auto [one_corner, two_corners] = corner_squared_sums(pts, i, count);
+        for (const auto& [sum, parameters] : {std::pair{one_corner, 4L}, std::pair{two_corners, 6L}})
+            if (count > parameters && std::sqrt(sum / double(count - parameters)) < 0.5 * best)
+                best = std::sqrt(sum / double(count - parameters));
+        if (best < HUGE_VAL)
+            for (long k = i; k < i + count; ++k) runs_of[size_t(k % n)].push_back(best);
         i += std::max<long>(1, count / 3);
     }
-}
-
-double median(std::vector<double> values) {
-    if (values.empty()) return 0;
-    std::nth_element(values.begin(), values.begin() + long(values.size() / 2), values.end());
-    return values[values.size() / 2];
+    for (std::vector<double>& values : runs_of) {
+        if (values.empty()) continue;
+        const double lowest = *std::min_element(values.begin(), values.end());
+        values.erase(std::remove_if(values.begin(), values.end(), [&](double v) { return v > 2 * lowest; }), values.end());
+        rms.push_back(median(values));
+    }
 }
 
 double estimate_noise(const Points& pts, double window_mm) {
