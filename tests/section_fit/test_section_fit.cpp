@@ -1258,6 +1258,8 @@ TEST(SectionFit, SectionMeshTakesItsToleranceFromTheScanBehindTheMesh) {
     EXPECT_EQ(with_scan.tolerance_from.find("5 x the noise of the scan the mesh was made from"), 21u) << with_scan.tolerance_from;
     ASSERT_EQ(with_scan.fits.fits.size(), 1u);
     EXPECT_EQ(count(with_scan.fits.fits[0], SectionElementKind::Line), 4);
+    // The outline is fitted with that tolerance too (it got the cut's 0.005 mm floor).
+    EXPECT_DOUBLE_EQ(with_scan.fits.fits[0].tolerance_mm, with_scan.fits.tolerance_mm);
 
     const MeshSectionFit from_cut = section_mesh(box, origin, u, v, 0);
     EXPECT_EQ(from_cut.tolerance_source, SectionToleranceSource::CutNoise);

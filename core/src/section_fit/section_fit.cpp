@@ -541,7 +541,8 @@ std::pair<double, double> corner_squared_sums(const Points& pts, long first, lon
 // lowest (runs across more corners than that). Over runs alone, a polygon whose sides are shorter
 // than the runs read its corners as noise: a 12-gon of r 10 mm cut at its corners and the middles of
 // its sides (24 points), every run of 9 points taking in 4 corners, read 0.23 mm, and one circle
-// passed for it within 5 x that. The demo scan's cuts read 0.0057-0.0079 mm (0.0062-0.0080 over runs alone).
+// passed for it within 5 x that. The demo scan's cuts at 15 heights read 0.0058-0.0079 mm (0.0062-0.0084
+// over runs alone).
 // The points' noises are appended to `rms` (pooled over several polylines by the caller).
 void window_noises(const Points& pts, double window_mm, std::vector<double>& rms) {
     constexpr long kFewestRunPoints = 7;
@@ -1699,8 +1700,12 @@ SectionFits fit_section_polylines(const std::vector<SectionPolyline>& input,
         } else {
             try {
                 // Noisier than the section (a measured hole in a mesh whose sides were flattened):
-                // fitted with its own noise's tolerance.
-                const double noise = own > result.tolerance_mm ? own : result.noise_mm;
+                // fitted with its own noise's tolerance. Else with the section's, the scan's noise's
+                // when given (fitted with the cut's, a Poisson mesh's outline got the 0.005 mm floor
+                // while the report gave the scan's 0.08 mm).
+                const double noise = own > result.tolerance_mm ? own
+                                     : options.scan_noise_mm > 0 ? options.scan_noise_mm
+                                                                 : result.noise_mm;
                 result.fits.push_back(fit_section_with(points, closed, options, parallel_cuts, noise));
                 result.fitted_index.push_back(int(k));
                 continue;
