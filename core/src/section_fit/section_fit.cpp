@@ -503,8 +503,8 @@ struct Moments {
 
 // A corner turns by more than a scan's waviness bends a side (a bump of 10 um over 1 mm: half a
 // degree), and lines meeting at corners are only taken where they fit kCornerGain times as well as a
-// line or circle: the demo scan's bumps, fitted by lines meeting at slight corners, read 20-45 % less
-// noise at a gain of 2.
+// line or circle: at a gain of 2, lines meeting at corners fitted the demo scan's bumps and its
+// cuts at 6 heights read up to 22 % less noise (0.0062 mm at z = 1.5 mm, 0.0079 at a gain of 4).
 constexpr double kSmallestCornerDeg = 5;
 constexpr double kCornerGain = 4;
 // The squared sums of a run's distances to lines meeting at corners (at its points, each line fitted
