@@ -208,6 +208,105 @@ TEST(SectionFit, APolygonIsNotMistakenForACircle) {
     EXPECT_EQ(count(fit, SectionElementKind::Line), 12);
 }
 
+namespace {
+// A regular polygon of `sides` round the origin (corners at `radius`) cut with `per_side` points a
+// side (its first corner and points evenly along it), each `sigma` across the side at random.
+std::vector<cv::Vec2d> polygon_cut(int sides, double radius, int per_side, double sigma, unsigned seed) {
+    std::mt19937 random(seed);
+    std::normal_distribution<double> noise;
+    std::vector<cv::Vec2d> points;
+    for (int k = 0; k < sides; ++k) {
+        const cv::Vec2d a = radius * cv::Vec2d(std::cos(2 * kPi * k / sides), std::sin(2 * kPi * k / sides));
+        const cv::Vec2d b = radius * cv::Vec2d(std::cos(2 * kPi * (k + 1) / sides), std::sin(2 * kPi * (k + 1) / sides));
+        const cv::Vec2d across = cv::Vec2d(a[1] - b[1], b[0] - a[0]) / cv::norm(b - a);
+        for (int i = 0; i < per_side; ++i) points.push_back(a + (b - a) * (double(i) / per_side) + sigma * noise(random) * across);
+    }
+    return points;
+}
+}  // namespace
+
+// Built to fool the noise estimate: a 12-sided prism cut with one point in the middle of each side
+// (24 points, r 10 mm) came back as one circle. Every run of 9 points took in 4 corners, which read
+// as 0.23 mm of noise, and the circle passed within 5 x that. Polygons of 6, 8, 12 and 16 sides
+// (sides of 3.9-20 mm), sparse (2 or 3 points a side) and dense (5, 20), with and without noise:
+// never a circle or arc. Dense, they are their lines; sparse, a side of 3 points (its corners and
+// middle) is too few for a line (min_line_points), so the fit is refused, saying so. The estimate
+// itself sees the noise, not the corners.
+TEST(SectionFit, APolygonsCornersAreNoNoiseSparseOrDense) {
+    double worst_noise_free = 0;
+    for (const int sides : {6, 8, 12, 16})
+        for (const double radius : {10.0, 20.0})
+            for (const int per_side : {2, 3, 5, 20})
+                for (const double sigma : {0.0, 0.002, 0.01}) {
+                    SCOPED_TRACE(std::to_string(sides) + " sides, r " + std::to_string(radius) + ", " + std::to_string(per_side) +
+                                 " points a side, sigma " + std::to_string(sigma));
+                    const std::vector<cv::Vec2d> points = polygon_cut(sides, radius, per_side, sigma, unsigned(sides + per_side));
+                    SectionFit fit;
+                    const std::string why = test_support::error_of([&] { fit = fit_section(points, true); });
+                    EXPECT_EQ(count(fit, SectionElementKind::Circle) + count(fit, SectionElementKind::Arc), 0);
+                    if (per_side >= 5) {
+                        EXPECT_EQ(why, "");
+                        EXPECT_EQ(count(fit, SectionElementKind::Line), sides);
+                        EXPECT_LT(fit.noise_mm, 1.7 * sigma + 1e-6);
+                        if (sigma == 0) worst_noise_free = std::max(worst_noise_free, fit.noise_mm);
+                    } else {
+                        // 2 a side: no line of min_line_points starts anywhere; 3: the one that does is off its points.
+                        EXPECT_EQ(why.rfind(per_side == 2 ? "polyline: no line of 4 points or more (min_line_points)" : "polyline: ", 0), 0u) << why;
+                    }
+                }
+    EXPECT_LT(worst_noise_free, 1e-6);
+    // The case of the issue: the noise seen is the cut's own, not the corners'.
+    SectionFitOptions given;
+    given.tolerance_mm = 0.05;
+    for (const double sigma : {0.0, 0.002, 0.01}) {
+        const std::vector<cv::Vec2d> sparse = polygon_cut(12, 10, 2, sigma, 3);
+        std::vector<SectionPolyline> polylines{{sparse, true}};
+        std::string why = test_support::error_of([&] { fit_section_polylines(polylines, {}, SectionFitOptions{}); });
+        EXPECT_NE(why, "");  // too few points a side for lines; never a circle
+        // Noise-free: below 1e-6 (was 0.23 mm); with noise: within 40 % of it.
+        const double noise = [&] {
+            SectionFitOptions options;
+            options.tolerance_mm = 10;  // the noise is still measured; a tolerance this loose fits anything
+            return fit_section(sparse, true, options).noise_mm;
+        }();
+        std::printf("12-gon of 24 points, sigma %.3f: noise %.4f mm; %s\n", sigma, noise, why.c_str());
+        EXPECT_LT(noise, sigma == 0 ? 1e-6 : 1.4 * sigma);
+        // A tolerance set by the user below the polygon's bulge from its circle: still no circle.
+        SectionFit loose;
+        why = test_support::error_of([&] { loose = fit_section(sparse, true, given); });
+        EXPECT_EQ(why.rfind("polyline: ", 0), 0u) << why;
+        EXPECT_EQ(count(loose, SectionElementKind::Circle), 0);
+    }
+}
+
+// The other side of it: a true circle sampled as sparsely (24 points, r 10 mm) stays one circle, of
+// its radius, with or without noise, whatever the seed; its noise is read, not its sagitta.
+TEST(SectionFit, ASparseCircleStaysACircle) {
+    int circles = 0, cases = 0;
+    double worst_radius = 0;
+    for (const int n : {24, 48})
+        for (const double sigma : {0.0, 0.002, 0.01})
+            for (unsigned seed = 1; seed <= 10; ++seed) {
+                std::mt19937 random(seed);
+                std::normal_distribution<double> noise;
+                std::vector<cv::Vec2d> points;
+                for (int i = 0; i < n; ++i)
+                    points.push_back((10 + sigma * noise(random)) * cv::Vec2d(std::cos(2 * kPi * i / n), std::sin(2 * kPi * i / n)));
+                SectionFit fit;
+                const std::string why = test_support::error_of([&] { fit = fit_section(points, true); });
+                ++cases;
+                if (!why.empty() || fit.elements.size() != 1 || fit.elements[0].kind != SectionElementKind::Circle) continue;
+                ++circles;
+                worst_radius = std::max(worst_radius, std::abs(fit.elements[0].radius_mm - 10));
+                if (sigma > 0) {
+                    EXPECT_GT(fit.noise_mm, 0.5 * sigma);
+                }
+            }
+    std::printf("sparse circles: %d of %d one circle, radius within %.4f mm\n", circles, cases, worst_radius);
+    EXPECT_EQ(circles, cases);
+    EXPECT_LT(worst_radius, 0.01);
+}
+
 TEST(SectionFit, RefusesBadInput) {
     const auto message = [](const std::vector<cv::Vec2d>& points, double tolerance) {
         SectionFitOptions options;
@@ -1159,6 +1258,8 @@ TEST(SectionFit, SectionMeshTakesItsToleranceFromTheScanBehindTheMesh) {
     EXPECT_EQ(with_scan.tolerance_from.find("5 x the noise of the scan the mesh was made from"), 21u) << with_scan.tolerance_from;
     ASSERT_EQ(with_scan.fits.fits.size(), 1u);
     EXPECT_EQ(count(with_scan.fits.fits[0], SectionElementKind::Line), 4);
+    // The outline is fitted with that tolerance too (it got the cut's 0.005 mm floor).
+    EXPECT_DOUBLE_EQ(with_scan.fits.fits[0].tolerance_mm, with_scan.fits.tolerance_mm);
 
     const MeshSectionFit from_cut = section_mesh(box, origin, u, v, 0);
     EXPECT_EQ(from_cut.tolerance_source, SectionToleranceSource::CutNoise);
@@ -1510,4 +1611,42 @@ TEST(SectionFit, AHoleCutThroughOneFacetsMiddleIsNoArcOffItsPoints) {
         }
     // 40 chords on 20 mm, seed 1: main's arc swept 351 degrees at 0.0095 mm RMS, tolerance 0.0050 mm.
     EXPECT_EQ(refused, 10);
+}
+
+// The same with 48 facets (r 5 mm, 1 um of noise): main gave a circle's worth of arc (339 deg, 45
+// points) and a second arc of 19 deg over 4 points, below min_arc_points: moving the splits
+// (refine) let an arc shrink to min_line_points. Now no element has fewer points than its kind
+// needs, and the hole is one circle of its radius or refused with the reason.
+TEST(SectionFit, AFacetedHoleGivesNoArcOfTooFewPoints) {
+    int circles = 0, refused = 0;
+    for (const int sides : {36, 48, 64})
+        for (const double radius : {5.0, 10.0, 20.0})
+            for (const unsigned seed : {1u, 2u, 3u}) {
+                std::mt19937 random(seed);
+                std::normal_distribution<double> noise(0.0, 0.001);
+                std::vector<cv::Vec2d> points;
+                for (int i = 0; i < sides; ++i) {
+                    const double a = 2 * kPi * i / sides, b = 2 * kPi * (i + 1) / sides;
+                    const cv::Vec2d from(std::cos(a), std::sin(a)), to(std::cos(b), std::sin(b));
+                    points.push_back((radius + noise(random)) * from);
+                    if (i == 0) points.push_back(radius * 0.5 * (from + to));  // the facet's middle point
+                }
+                SCOPED_TRACE(std::to_string(sides) + " facets on r " + std::to_string(radius) + ", seed " + std::to_string(seed));
+                SectionFit fit;
+                const std::string why = test_support::error_of([&] { fit = fit_section(points, true); });
+                if (!why.empty()) {
+                    ++refused;
+                    EXPECT_NE(why.find("no circle within the tolerance"), std::string::npos) << why;
+                    continue;
+                }
+                for (const SectionElement& e : fit.elements)
+                    EXPECT_GE(e.point_count, e.kind == SectionElementKind::Line ? 4 : 8) << section_element_text(e);
+                ASSERT_EQ(fit.elements.size(), 1u);
+                EXPECT_EQ(fit.elements[0].kind, SectionElementKind::Circle);
+                EXPECT_NEAR(fit.elements[0].radius_mm, radius, 0.005);
+                ++circles;
+            }
+    std::printf("faceted holes cut through one facet's middle: %d circles, %d refused\n", circles, refused);
+    EXPECT_EQ(circles + refused, 27);
+    EXPECT_GE(circles, 9);
 }

@@ -61,19 +61,9 @@ std::string tolerance_text(const MeshSectionFit& result, const SectionFitOptions
 
 }  // namespace
 
-void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_noise_mm) {
+ScanOfMeshCheck check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_noise_mm) {
     // An evenly spread subset is plenty for a median and keeps the check to a fraction of a second.
     constexpr size_t kMostPoints = 4000;
-    std::vector<cv::Vec3f> sample;
-    const size_t stride = std::max<size_t>(1, scan.points.size() / kMostPoints);
-    for (size_t i = 0; i < scan.points.size(); i += stride)
-        if (std::isfinite(scan.points[i][0]) && std::isfinite(scan.points[i][1]) && std::isfinite(scan.points[i][2]))
-            sample.push_back(scan.points[i]);
-    if (sample.empty()) throw Error("scan", "has no finite points");
-    const DeviationMap map = measure_deviation(sample, mesh);
-    std::vector<double> distances;
-    for (const float d : map.distances_mm)
-        if (std::isfinite(d)) distances.push_back(std::abs(double(d)));
     cv::Vec3f low(HUGE_VALF, HUGE_VALF, HUGE_VALF), high(-HUGE_VALF, -HUGE_VALF, -HUGE_VALF);
     for (const cv::Vec3f& v : mesh.vertices)
         for (int axis = 0; axis < 3; ++axis) {
@@ -81,17 +71,50 @@ void check_scan_of_mesh(const PointCloud& scan, const Mesh& mesh, double scan_no
             high[axis] = std::max(high[axis], v[axis]);
         }
     const double diagonal = cv::norm(cv::Vec3d(high - low));
-    const double limit = std::max(kScanOfMeshNoiseWidths * scan_noise_mm, kScanOfMeshDiagonalFraction * diagonal);
-    const double share = double(std::count_if(distances.begin(), distances.end(), [&](double d) { return d <= limit; })) /
-                         double(distances.size());
-    if (share >= kScanOfMeshShare) return;
+    ScanOfMeshCheck check;
+    check.margin_mm = kScanOfMeshMarginFraction * diagonal;
+    check.limit_mm = std::max(kScanOfMeshNoiseWidths * scan_noise_mm, kScanOfMeshDiagonalFraction * diagonal);
+    // Only the points near the mesh's box are judged: a stitched scan keeps the table or turntable
+    // round the part, which the mesh left out (and a scan in another frame has none near it).
+    std::vector<size_t> near_box;
+    size_t finite = 0;
+    for (size_t i = 0; i < scan.points.size(); ++i) {
+        const cv::Vec3f& p = scan.points[i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+        ++finite;
+        bool inside = true;
+        for (int axis = 0; axis < 3; ++axis)
+            inside = inside && p[axis] >= low[axis] - check.margin_mm && p[axis] <= high[axis] + check.margin_mm;
+        if (inside) near_box.push_back(i);
+    }
+    if (finite == 0) throw Error("scan", "has no finite points");
+    check.outside_box = finite - near_box.size();
+    if (near_box.size() < kScanOfMeshFewestPoints)
+        throw Error("scan", format("is not the scan this mesh was made from: %zu of its %zu points lie within %.2f mm of the "
+                                   "mesh's bounding box (%g of its %.1f mm diagonal), fewer than the %zu a check needs. "
+                                   "A scan in another frame? Choose the scan the mesh was made from",
+                                   near_box.size(), finite, check.margin_mm, kScanOfMeshMarginFraction, diagonal,
+                                   kScanOfMeshFewestPoints));
+    std::vector<cv::Vec3f> sample;
+    const size_t stride = std::max<size_t>(1, near_box.size() / kMostPoints);
+    for (size_t k = 0; k < near_box.size(); k += stride) sample.push_back(scan.points[near_box[k]]);
+    const DeviationMap map = measure_deviation(sample, mesh);
+    std::vector<double> distances;
+    for (const float d : map.distances_mm)
+        if (std::isfinite(d)) distances.push_back(std::abs(double(d)));
+    check.checked = distances.size();
+    check.share = double(std::count_if(distances.begin(), distances.end(), [&](double d) { return d <= check.limit_mm; })) /
+                  double(std::max<size_t>(distances.size(), 1));
+    if (check.share >= kScanOfMeshShare) return check;
     std::nth_element(distances.begin(), distances.begin() + long(distances.size() / 2), distances.end());
-    throw Error("scan", format("is not the scan this mesh was made from: %.0f %% of its points (%zu checked) lie within %.4f mm "
-                               "of the mesh (%.0f x its noise of %.4f mm, at least %g of the mesh's %.1f mm diagonal), "
-                               "where a scan of it has %.0f %% or more; half lie more than %.4f mm off. Another part's "
-                               "scan, or one in another frame? Choose the scan the mesh was made from",
-                               100 * share, distances.size(), limit, kScanOfMeshNoiseWidths, scan_noise_mm,
-                               kScanOfMeshDiagonalFraction, diagonal, 100 * kScanOfMeshShare, distances[distances.size() / 2]));
+    throw Error("scan", format("is not the scan this mesh was made from: %.0f %% of its points (%zu checked, of the %zu within "
+                               "%.2f mm of the mesh's bounding box; %zu outside it not judged) lie within %.4f mm of the "
+                               "mesh (%.0f x its noise of %.4f mm, at least %g of the mesh's %.1f mm diagonal), where a "
+                               "scan of it has %.0f %% or more; half lie more than %.4f mm off. Another part's scan, or one "
+                               "in another frame? Choose the scan the mesh was made from",
+                               100 * check.share, distances.size(), near_box.size(), check.margin_mm, check.outside_box,
+                               check.limit_mm, kScanOfMeshNoiseWidths, scan_noise_mm, kScanOfMeshDiagonalFraction, diagonal,
+                               100 * kScanOfMeshShare, distances[distances.size() / 2]));
 }
 
 std::string section_element_text(const SectionElement& e) {
@@ -156,7 +179,8 @@ MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv:
                                                               : SectionToleranceSource::CutNoise;
     if (scan == nullptr) result.scan_noise_mm = options.scan_noise_mm;
     result.section = cut_mesh_section(mesh, origin, u_axis, v_axis, band_mm, part_of(progress, 0, 0.5));
-    if (scan != nullptr) check_scan_of_mesh(*scan, mesh, result.scan_noise_mm);  // the cut has checked the mesh
+    ScanOfMeshCheck scan_check;
+    if (scan != nullptr) scan_check = check_scan_of_mesh(*scan, mesh, result.scan_noise_mm);  // the cut has checked the mesh
     result.fits = fit_section_polylines(result.section.polylines, result.section.parallel_cuts, fit_options,
                                         part_of(progress, 0.5, 0.5));
     if (progress && !progress(1.0, "fitting lines and arcs")) throw Error("cancelled", "the section fit was cancelled");
@@ -170,6 +194,11 @@ MeshSectionFit section_mesh(const Mesh& mesh, const cv::Vec3d& origin, const cv:
     report.push_back(format("cut: %zu polylines; band +- %.3f mm: %zu parallel cuts' polylines", section.polylines.size(),
                             band_mm, section.parallel_cuts.size()));
     report.push_back(format("noise of the cut %.4f mm; ", fits.noise_mm) + result.tolerance_from);
+    if (scan != nullptr)
+        report.push_back(format("scan: %.0f %% of %zu points checked lie within %.4f mm of the mesh; %zu points more than "
+                                "%.2f mm outside its bounding box (a table or turntable the mesh left out) not judged",
+                                100 * scan_check.share, scan_check.checked, scan_check.limit_mm, scan_check.outside_box,
+                                scan_check.margin_mm));
     for (size_t k = 0; k < fits.fits.size(); ++k) {
         const SectionFit& fit = fits.fits[k];
         const SectionPolyline& polyline = section.polylines[size_t(fits.fitted_index[k])];
