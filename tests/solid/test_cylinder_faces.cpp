@@ -663,3 +663,17 @@ TEST(CylinderFaces, APrismaticHoleIsNoCylinder) {
         EXPECT_NE(notes_of(model).find("normals bunch"), std::string::npos) << notes_of(model);
     }
 }
+
+TEST(CylinderFaces, DISABLED_StudyColumns) {
+    const char* env = std::getenv("STUDY");
+    double radius = 20, sigma = 0.005;
+    int sides = 0;
+    unsigned seeds = 4;
+    if (env) std::sscanf(env, "%d %lf %lf %u", &sides, &radius, &sigma, &seeds);
+    for (unsigned seed = 1; seed <= seeds; ++seed) {
+        const PlanarFaceModel model = planar_face_model(scanned_column(sides, radius, sigma, seed));
+        std::printf("sides %d r %g sigma %g seed %u: %s\n%s", sides, radius, sigma, seed, model.summary().c_str(), notes_of(model).c_str());
+        if (!model.refused_merges.empty()) std::printf("  merges undone %zu, last: %s\n", model.refused_merges.size(), model.refused_merges.back().c_str());
+
+    }
+}

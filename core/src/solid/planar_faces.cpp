@@ -368,14 +368,18 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
     // line: they carry the noise across the line as well as along the normal (2-D, so more).
     const double straight_limit = 1.5 * distance_limit;
     // A small facet's normal is only known to about 2 sigma over its shortest altitude: its
-    // normal may stray from the plane's by max_normal_deg plus three times that.
+    // normal may stray from the plane's by max_normal_deg plus three times that, either way: a
+    // narrow facet whose corners lie within the noise of the plane may be folded over by it (a
+    // fan of many facets round one vertex), its normal turned round. A facet narrower than 2 sigma
+    // has no normal to speak of: its corners' distances from the plane alone decide.
     std::vector<double> min_cosine(facet_count);
     for (int f = 0; f < facet_count; ++f) {
         const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
         const double twice_area = cv::norm((b - a).cross(c - a));
         const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
-        const double spread_deg = 3 * std::atan(2 * model.noise_mm / (twice_area / longest)) * 180 / kPi;
-        min_cosine[f] = std::cos(std::min(options.max_normal_deg + spread_deg, 80.0) * kPi / 180);
+        const double altitude = twice_area / longest;
+        const double spread_deg = 3 * std::atan(2 * model.noise_mm / altitude) * 180 / kPi;
+        min_cosine[f] = altitude <= 2 * model.noise_mm ? 0.0 : std::cos(std::min(options.max_normal_deg + spread_deg, 80.0) * kPi / 180);
     }
 
     std::vector<int> region(facet_count, -1);
@@ -441,7 +445,7 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
                 const int f = queue[next];
                 for (int k = 0; k < 3; ++k) {
                     const int g = twin[f * 3 + k] / 3;
-                    if (claim[g] == attempt || region[g] >= 0 || normals[g].dot(plane.normal) < min_cosine[g]) continue;
+                    if (claim[g] == attempt || region[g] >= 0 || std::abs(normals[g].dot(plane.normal)) < min_cosine[g]) continue;
                     bool near = true;
                     for (int c = 0; c < 3 && near; ++c) near = std::abs(plane.distance(positions[facets[g][c]])) <= distance_limit;
                     if (!near) continue;
@@ -495,17 +499,33 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
             region_rms.push_back(rms);
             if (s % 4096 == 0) report(0.2 + 0.5 * double(s) / double(facet_count), "solid: planar regions");
         }
-        // Facets left alone inside a region (noise tipped their normal) join it.
-        for (int pass = 0; pass < 3; ++pass)
-            for (int f = 0; f < facet_count; ++f) {
-                if (region[f] >= 0) continue;
-                const int r = region[twin[f * 3] / 3];
-                if (r < 0 || region[twin[f * 3 + 1] / 3] != r || region[twin[f * 3 + 2] / 3] != r) continue;
-                bool near = true;
+        // Holes in a region that lie in its plane join it: the facets left out of regions that only
+        // that region surrounds, all their corners within the distance limit of its plane (noise tipped
+        // their normals, or folded a fan of narrow facets round one vertex over).
+        std::vector<int> hole_stamp(facet_count, -1), hole;
+        for (int start = 0; start < facet_count; ++start) {
+            if (region[start] >= 0 || hole_stamp[start] >= 0) continue;
+            hole.assign(1, start);
+            hole_stamp[start] = start;
+            int around = -1;  // the one region round it; -2: more than one
+            for (size_t next = 0; next < hole.size(); ++next)
+                for (int k = 0; k < 3; ++k) {
+                    const int g = twin[hole[next] * 3 + k] / 3;
+                    if (region[g] >= 0) {
+                        around = around == -1 || around == region[g] ? region[g] : -2;
+                    } else if (hole_stamp[g] < 0) {
+                        hole_stamp[g] = start;
+                        hole.push_back(g);
+                    }
+                }
+            if (around < 0) continue;
+            bool near = true;
+            for (size_t i = 0; i < hole.size() && near; ++i)
                 for (int c = 0; c < 3 && near; ++c)
-                    near = std::abs(region_planes[r].distance(positions[facets[f][c]])) <= distance_limit;
-                if (near) region[f] = r;
-            }
+                    near = std::abs(region_planes[around].distance(positions[facets[hole[i]][c]])) <= distance_limit;
+            if (near)
+                for (int f : hole) region[f] = around;
+        }
     }
     report(0.7, "solid: boundaries");
 
