@@ -674,6 +674,16 @@ TEST(CylinderFaces, DISABLED_StudyColumns) {
         const PlanarFaceModel model = planar_face_model(scanned_column(sides, radius, sigma, seed));
         std::printf("sides %d r %g sigma %g seed %u: %s\n%s", sides, radius, sigma, seed, model.summary().c_str(), notes_of(model).c_str());
         if (!model.refused_merges.empty()) std::printf("  merges undone %zu, last: %s\n", model.refused_merges.size(), model.refused_merges.back().c_str());
+        if (std::getenv("STUDY_DEBUG")) {
+            PlanarFaceOptions o; o.simplify = false; o.check_faces = false; o.cylinders = false;
+            const PlanarFaceModel raw = planar_face_model(scanned_column(sides, radius, sigma, seed), o);
+            for (const BrepFace& f : raw.faces) {
+                if (f.merged && std::abs(f.normal[2]) > 0.9) { std::printf("  region %d facets at %s\n", f.facet_count, cv::format(cv::Mat(f.origin), cv::Formatter::FMT_CSV)->next()); continue; }
+                if (f.merged) continue;
+                const cv::Vec3d c = (raw.vertices[size_t(f.triangles[0][0])] + raw.vertices[size_t(f.triangles[0][1])] + raw.vertices[size_t(f.triangles[0][2])]) / 3 - kCentre;
+                if (std::hypot(c[0], c[1]) < radius - 1) std::printf("  triangle at %.3f %.3f %.3f normal z %.3f\n", c[0], c[1], c[2], f.normal[2]);
+            }
+        }
 
     }
 }

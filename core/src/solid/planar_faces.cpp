@@ -368,18 +368,14 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
     // line: they carry the noise across the line as well as along the normal (2-D, so more).
     const double straight_limit = 1.5 * distance_limit;
     // A small facet's normal is only known to about 2 sigma over its shortest altitude: its
-    // normal may stray from the plane's by max_normal_deg plus three times that, either way: a
-    // narrow facet whose corners lie within the noise of the plane may be folded over by it (a
-    // fan of many facets round one vertex), its normal turned round. A facet narrower than 2 sigma
-    // has no normal to speak of: its corners' distances from the plane alone decide.
+    // normal may stray from the plane's by max_normal_deg plus three times that.
     std::vector<double> min_cosine(facet_count);
     for (int f = 0; f < facet_count; ++f) {
         const cv::Vec3d &a = positions[facets[f][0]], &b = positions[facets[f][1]], &c = positions[facets[f][2]];
         const double twice_area = cv::norm((b - a).cross(c - a));
         const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
-        const double altitude = twice_area / longest;
-        const double spread_deg = 3 * std::atan(2 * model.noise_mm / altitude) * 180 / kPi;
-        min_cosine[f] = altitude <= 2 * model.noise_mm ? 0.0 : std::cos(std::min(options.max_normal_deg + spread_deg, 80.0) * kPi / 180);
+        const double spread_deg = 3 * std::atan(2 * model.noise_mm / (twice_area / longest)) * 180 / kPi;
+        min_cosine[f] = std::cos(std::min(options.max_normal_deg + spread_deg, 80.0) * kPi / 180);
     }
 
     std::vector<int> region(facet_count, -1);
@@ -445,7 +441,7 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
                 const int f = queue[next];
                 for (int k = 0; k < 3; ++k) {
                     const int g = twin[f * 3 + k] / 3;
-                    if (claim[g] == attempt || region[g] >= 0 || std::abs(normals[g].dot(plane.normal)) < min_cosine[g]) continue;
+                    if (claim[g] == attempt || region[g] >= 0 || normals[g].dot(plane.normal) < min_cosine[g]) continue;
                     bool near = true;
                     for (int c = 0; c < 3 && near; ++c) near = std::abs(plane.distance(positions[facets[g][c]])) <= distance_limit;
                     if (!near) continue;
@@ -499,33 +495,64 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
             region_rms.push_back(rms);
             if (s % 4096 == 0) report(0.2 + 0.5 * double(s) / double(facet_count), "solid: planar regions");
         }
-        // Holes in a region that lie in its plane join it: the facets left out of regions that only
-        // that region surrounds, all their corners within the distance limit of its plane (noise tipped
-        // their normals, or folded a fan of narrow facets round one vertex over).
-        std::vector<int> hole_stamp(facet_count, -1), hole;
-        for (int start = 0; start < facet_count; ++start) {
-            if (region[start] >= 0 || hole_stamp[start] >= 0) continue;
-            hole.assign(1, start);
-            hole_stamp[start] = start;
-            int around = -1;  // the one region round it; -2: more than one
-            for (size_t next = 0; next < hole.size(); ++next)
-                for (int k = 0; k < 3; ++k) {
-                    const int g = twin[hole[next] * 3 + k] / 3;
-                    if (region[g] >= 0) {
-                        around = around == -1 || around == region[g] ? region[g] : -2;
-                    } else if (hole_stamp[g] < 0) {
-                        hole_stamp[g] = start;
-                        hole.push_back(g);
+        // What a region encloses that lies in its plane joins it: the facets (left out, or smaller
+        // regions of their own) that only it surrounds, all their corners near its plane (noise tipped
+        // their normals, or folded a fan of narrow facets round one vertex over, which also pinches
+        // the region there: the region then leaves the whole fan, and smaller regions grow in it,
+        // their boundaries with it crossing). The limit grows with the region as the largest
+        // of its vertices' noise does (about sigma x sqrt(2 ln n) for n vertices, here 1 sigma more:
+        // a vertex of a face of 20000 that Gaussian noise alone puts beyond 4 sigma, and its fan of
+        // facets, is no hole in it). Searched from each region's rim, given up at the first corner
+        // off its plane.
+        std::vector<double> region_facets(region_planes.size(), 0), enclosed_limit(region_planes.size());
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0) ++region_facets[size_t(region[f])];
+        for (size_t r = 0; r < region_planes.size(); ++r) {
+            const double vertices = std::max(2.0, region_facets[r] / 2);  // a triangulated surface has half as many
+            enclosed_limit[r] = std::max(distance_limit, (std::sqrt(2 * std::log(vertices)) + 1) * model.noise_mm);
+        }
+        std::vector<int> stamp(facet_count, -1), enclosed;
+        for (int f = 0; f < facet_count; ++f) {
+            const int r = region[f];
+            if (r < 0) continue;
+            for (int k = 0; k < 3; ++k) {
+                const int start = twin[f * 3 + k] / 3;
+                if (region[start] == r || stamp[start] == r) continue;
+                enclosed.assign(1, start);
+                stamp[start] = r;
+                bool in_plane = true;
+                for (size_t next = 0; next < enclosed.size() && in_plane; ++next) {
+                    const int g = enclosed[next];
+                    for (int c = 0; c < 3 && in_plane; ++c)
+                        in_plane = std::abs(region_planes[r].distance(positions[facets[g][c]])) <= enclosed_limit[size_t(r)];
+                    for (int j = 0; j < 3 && in_plane; ++j) {
+                        const int h = twin[g * 3 + j] / 3;
+                        if (region[h] != r && stamp[h] != r) {
+                            stamp[h] = r;
+                            enclosed.push_back(h);
+                        }
                     }
                 }
-            if (around < 0) continue;
-            bool near = true;
-            for (size_t i = 0; i < hole.size() && near; ++i)
-                for (int c = 0; c < 3 && near; ++c)
-                    near = std::abs(region_planes[around].distance(positions[facets[hole[i]][c]])) <= distance_limit;
-            if (near)
-                for (int f : hole) region[f] = around;
+                if (in_plane)
+                    for (int g : enclosed) region[g] = r;
+            }
         }
+        // Regions wholly taken into others go.
+        std::vector<int> renumbered(region_planes.size(), -1);
+        std::vector<Plane> kept_planes;
+        std::vector<double> kept_rms;
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0 && renumbered[size_t(region[f])] < 0) renumbered[size_t(region[f])] = 0;
+        for (size_t r = 0; r < region_planes.size(); ++r)
+            if (renumbered[r] == 0) {
+                renumbered[r] = int(kept_planes.size());
+                kept_planes.push_back(region_planes[r]);
+                kept_rms.push_back(region_rms[r]);
+            }
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0) region[f] = renumbered[size_t(region[f])];
+        region_planes.swap(kept_planes);
+        region_rms.swap(kept_rms);
     }
     report(0.7, "solid: boundaries");
 
