@@ -42,6 +42,11 @@ constexpr double kMinConeDeg = 2, kMaxConeDeg = 64;
 // cylinder's (bunched_normals: a scanned cylinder's up to about 0.1, a prism's of 12 to 24 sides
 // 0.2 to 0.8 once each side spans a few facets).
 constexpr double kMaxBunchedNormals = 0.2;
+// At most this share of the variance of a cylinder's vertices' distances from its axis may follow
+// the pattern of a prism's flat sides (polygon_pattern: a scanned cylinder's up to about 0.05, a
+// noise-free one's 0.1; prisms of 32 and 48 sides, 0.02 to 0.03 mm deep, at 5 to 10 um of noise 0.4
+// to 0.75).
+constexpr double kMaxPolygonShare = 0.25;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -257,6 +262,62 @@ double bunched_normals(const PlanarFaceModel& model, const std::vector<size_t>& 
     double distance = 0;
     for (size_t b = 0; b < bins; ++b) distance += std::abs(by_centre[b] - by_normal[b]);
     return 0.5 * distance / total;
+}
+
+// A prism of n flat sides, its corners on a circle of radius R, lies at R cos(180 / n) / cos(psi)
+// from the axis, psi the azimuth from the middle of the nearest side: a parabola in the azimuth that
+// repeats n times round, as deep as the sides' sagitta R (1 - cos(180 / n)). A cylinder's vertices
+// lie off its circle by noise, which no such pattern follows. The pattern that best follows the
+// vertices' radial residuals from the circle (n from 3 to 128, turned by any angle: least squares
+// on the residuals' means in 1024 bins of azimuth, 32 turns per side), the share of the residuals'
+// variance it explains, and how deep its sides are.
+struct PolygonPattern {
+    int sides = 0;
+    double explained = 0, depth_mm = 0;
+};
+
+PolygonPattern polygon_pattern(const PlanarFaceModel& model, const std::vector<size_t>& faces, const Circle2& circle, const cv::Vec3d& axis) {
+    const std::vector<cv::Vec3d>& positions = model.mesh_vertices.empty() ? model.vertices : model.mesh_vertices;
+    const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
+    constexpr int kBins = 1024, kTurns = 32, kMostSides = 128;
+    std::vector<double> bin_sum(kBins, 0), bin_count(kBins, 0);
+    double sum = 0, sum_squares = 0, count = 0;
+    for (int v : vertices_of(model, faces)) {
+        const cv::Vec3d p = positions[size_t(v)] - circle.origin;
+        const double x = p.dot(x_axis), y = p.dot(y_axis), residual = std::hypot(x, y) - circle.radius;
+        const int b = std::min(kBins - 1, int((std::atan2(y, x) + kPi) / (2 * kPi) * kBins));
+        bin_sum[size_t(b)] += residual, bin_count[size_t(b)] += 1;
+        sum += residual, sum_squares += residual * residual, count += 1;
+    }
+    PolygonPattern best;
+    const double variance_sum = sum_squares - sum * sum / std::max(count, 1.0);  // of the residuals about their mean
+    if (!(variance_sum > 0)) return best;
+    double best_explained_sum = 0;
+    for (int n = 3; n <= kMostSides; ++n) {
+        const double side = 2 * kPi / n;
+        for (int turn = 0; turn < kTurns; ++turn) {
+            const double start = side * turn / kTurns;
+            // Weighted least squares of the bins' means on the pattern g: mean = a g + c.
+            double w = 0, wg = 0, wgg = 0, wm = 0, wgm = 0;
+            for (int b = 0; b < kBins; ++b) {
+                if (bin_count[size_t(b)] == 0) continue;
+                const double azimuth = -kPi + (b + 0.5) * 2 * kPi / kBins;
+                const double psi = std::fmod(azimuth - start + 4 * kPi, side) - side / 2;
+                const double g = std::cos(side / 2) / std::cos(psi), n_b = bin_count[size_t(b)], mean = bin_sum[size_t(b)] / n_b;
+                w += n_b, wg += n_b * g, wgg += n_b * g * g, wm += n_b * mean, wgm += n_b * g * mean;
+            }
+            const double spread = wgg - wg * wg / w, covariance = wgm - wg * wm / w;
+            if (!(spread > 0) || !(covariance > 0)) continue;  // sides bowing out: no prism
+            const double a = covariance / spread, explained_sum = a * covariance;
+            if (explained_sum > best_explained_sum) {
+                best_explained_sum = explained_sum;
+                best.sides = n;
+                best.depth_mm = a * (1 - std::cos(side / 2));
+            }
+        }
+    }
+    best.explained = best_explained_sum / variance_sum;
+    return best;
 }
 
 struct Tolerances {
@@ -515,6 +576,19 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                                   "its facets' normals bunch into a few directions round the axis (%.0f %% of its area faces elsewhere "
                                   "than a %s's would, at most %.0f %%): flat sides with creases between them, a prism or pyramid",
                                   100 * bunched, circle.slope == 0 ? "cylinder" : "cone", 100 * kMaxBunchedNormals);
+                    refuse(text);
+                    continue;
+                }
+                // A prism of many small sides (1.2 mm sides of a 32-sided prism of radius 6 mm) bunches
+                // its normals less than the noise spreads them, but its vertices' distances from the axis
+                // follow its sides. Tested as the normals are.
+                const PolygonPattern pattern = circle.slope != 0 || !eligible.empty() ? PolygonPattern{}
+                                                                                      : polygon_pattern(model, square_facets, circle, region.axis);
+                if (pattern.explained >= kMaxPolygonShare && pattern.depth_mm > model.noise_mm) {
+                    std::snprintf(text, sizeof text,
+                                  "its vertices' distances from the axis follow a prism of %d flat sides, %.4f mm deep (the pattern holds "
+                                  "%.0f %% of their variance about the cylinder, at most %.0f %% when deeper than the noise, %.4f mm)",
+                                  pattern.sides, pattern.depth_mm, 100 * pattern.explained, 100 * kMaxPolygonShare, model.noise_mm);
                     refuse(text);
                     continue;
                 }
