@@ -15,6 +15,7 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <chrono>
 
 using namespace picoscan;
 
@@ -664,26 +665,28 @@ TEST(CylinderFaces, APrismaticHoleIsNoCylinder) {
     }
 }
 
+// A cylinder of radius 10 mm whose ends are cones rising `rise` mm to a point: no planar face at either end.
+Mesh pointed_column(double rise, double sigma, unsigned seed) {
+    Mesh mesh = scanned_column(0, 10, sigma, seed);
+    for (cv::Vec3f& p : mesh.vertices) {
+        const cv::Vec3d offset = cv::Vec3d(p) - kCentre;
+        const double share = 1 - std::hypot(offset[0], offset[1]) / 10, height = offset[2];
+        if (height > 9.9) p[2] += float(rise * share);
+        if (height < 0.1) p[2] -= float(rise * share);
+    }
+    return mesh;
+}
+
 TEST(CylinderFaces, DISABLED_StudyColumns) {
     const char* env = std::getenv("STUDY");
-    double radius = 20, sigma = 0.005;
+    double radius = 20, sigma = 0.005, rise = 0;
     int sides = 0;
     unsigned seeds = 4;
-    if (env) std::sscanf(env, "%d %lf %lf %u", &sides, &radius, &sigma, &seeds);
+    if (env) std::sscanf(env, "%d %lf %lf %u %lf", &sides, &radius, &sigma, &seeds, &rise);
     for (unsigned seed = 1; seed <= seeds; ++seed) {
-        const PlanarFaceModel model = planar_face_model(scanned_column(sides, radius, sigma, seed));
-        std::printf("sides %d r %g sigma %g seed %u: %s\n%s", sides, radius, sigma, seed, model.summary().c_str(), notes_of(model).c_str());
-        if (!model.refused_merges.empty()) std::printf("  merges undone %zu, last: %s\n", model.refused_merges.size(), model.refused_merges.back().c_str());
-        if (std::getenv("STUDY_DEBUG")) {
-            PlanarFaceOptions o; o.simplify = false; o.check_faces = false; o.cylinders = false;
-            const PlanarFaceModel raw = planar_face_model(scanned_column(sides, radius, sigma, seed), o);
-            for (const BrepFace& f : raw.faces) {
-                if (f.merged && std::abs(f.normal[2]) > 0.9) { std::printf("  region %d facets at %s\n", f.facet_count, cv::format(cv::Mat(f.origin), cv::Formatter::FMT_CSV)->next()); continue; }
-                if (f.merged) continue;
-                const cv::Vec3d c = (raw.vertices[size_t(f.triangles[0][0])] + raw.vertices[size_t(f.triangles[0][1])] + raw.vertices[size_t(f.triangles[0][2])]) / 3 - kCentre;
-                if (std::hypot(c[0], c[1]) < radius - 1) std::printf("  triangle at %.3f %.3f %.3f normal z %.3f\n", c[0], c[1], c[2], f.normal[2]);
-            }
-        }
-
+        const auto start = std::chrono::steady_clock::now();
+        const PlanarFaceModel model = planar_face_model(rise > 0 ? pointed_column(rise, sigma, seed) : scanned_column(sides, radius, sigma, seed));
+        std::printf("sides %d r %g sigma %g seed %u (%.2f s): %s\n%s", sides, radius, sigma, seed,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), model.summary().c_str(), notes_of(model).c_str());
     }
 }

@@ -43,10 +43,10 @@ constexpr double kMinConeDeg = 2, kMaxConeDeg = 64;
 // 0.2 to 0.8 once each side spans a few facets).
 constexpr double kMaxBunchedNormals = 0.2;
 // At most this share of the variance of a cylinder's vertices' distances from its axis may follow
-// the pattern of a prism's flat sides (polygon_pattern: a scanned cylinder's up to about 0.05, a
-// noise-free one's 0.1; prisms of 32 and 48 sides, 0.02 to 0.03 mm deep, at 5 to 10 um of noise 0.4
-// to 0.75).
-constexpr double kMaxPolygonShare = 0.25;
+// the pattern of a prism's flat sides (polygon_pattern: scanned cylinders' up to about 0.05, a
+// noise-free one's 0.1 with its sides no deeper than the noise; a 32-sided prism of radius 6 mm,
+// its sides 0.029 mm deep, 0.74 at 5 um of noise, 0.4 at 10, 0.24 at 15, 0.15 at 20).
+constexpr double kMaxPolygonShare = 0.15;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -693,6 +693,67 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 }
                 regions.push_back(region);
             }
+        }
+    }
+    // A wall along no planar face's normal (its ends are not planar faces: the planar merge left
+    // them triangles, or they are not flat) was not looked at above. Each piece of the surface left
+    // (facets and planar faces that no cylinder found above holds) whose facets within 15 degrees of square to
+    // one of the main directions of its facets' normals lie near a cylinder about it, all round it,
+    // is said in `notes`.
+    if (!eligible.empty()) return regions;
+    // Whether a face's normal is known to within 15 degrees: a planar face's, or a facet's whose
+    // shortest altitude is 2 sigma / sin(15 degrees) or more (not the narrow facets at a point).
+    auto normal_known = [&](size_t f) {
+        if (model.faces[f].merged) return true;
+        const cv::Vec3i& t = model.faces[f].triangles[0];
+        const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+        return longest > 0 && cv::norm((b - a).cross(c - a)) / longest * kSquareToAxis >= 2 * model.noise_mm;
+    };
+    std::vector<char> seen_face(face_count, 0);
+    for (size_t start = 0; start < face_count; ++start) {
+        if (seen_face[start] || taken[start] || !one_facet(start)) continue;
+        std::vector<size_t> piece{start};
+        seen_face[start] = 1;
+        for (size_t next = 0; next < piece.size(); ++next)
+            for (size_t g : neighbours(piece[next]))
+                if (!seen_face[g] && !taken[g] && allowed(g) && (one_facet(g) || model.faces[g].merged)) {
+                    seen_face[g] = 1;
+                    piece.push_back(g);
+                }
+        size_t facets = 0;
+        cv::Matx33d spread = cv::Matx33d::zeros();
+        for (size_t f : piece)
+            for (const cv::Vec3i& t : model.faces[f].triangles) {
+                const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+                const cv::Vec3d area = (b - a).cross(c - a);
+                const double twice_area = cv::norm(area);
+                if (twice_area > 0) spread += (area * area.t()) * (0.5 / twice_area);
+                ++facets;
+            }
+        if (int(facets) < options.min_facets) continue;
+        cv::Mat values, directions;
+        cv::eigen(cv::Mat(spread), values, directions);
+        for (int k = 0; k < 3; ++k) {
+            const cv::Vec3d axis = cv::normalize(cv::Vec3d(directions.at<double>(k, 0), directions.at<double>(k, 1), directions.at<double>(k, 2)));
+            std::vector<size_t> wall_faces;
+            size_t wall_facets = 0;
+            for (size_t f : piece)
+                if (std::abs(cv::normalize(model.faces[f].normal).dot(axis)) < kSquareToAxis && normal_known(f)) {
+                    wall_faces.push_back(f);
+                    wall_facets += model.faces[f].triangles.size();
+                }
+            if (int(wall_facets) < options.min_facets) continue;
+            const std::vector<int> wall_vertices = vertices_of(model, wall_faces);
+            const Circle2 circle = circle_along(model, wall_vertices, model.vertices[size_t(wall_vertices[0])], axis);
+            if (!(circle.radius > 0) || !(circle.rms < 0.05 * circle.radius) || !all_round(model, wall_vertices, circle, axis)) continue;
+            char text[400];
+            std::snprintf(text, sizeof text, "%zu facets near a cylinder of radius %.3f mm (RMS %.4f mm) about the axis through %s along %s "
+                          "stay as they were: no planar face square to its axis (the planar merge left its ends as triangles, "
+                          "or they are not flat)", wall_facets, circle.radius, circle.rms, point_text(circle.origin).c_str(),
+                          point_text(axis).c_str());
+            notes.push_back(text);
+            break;
         }
     }
     return regions;
