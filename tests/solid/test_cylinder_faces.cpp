@@ -665,6 +665,34 @@ TEST(CylinderFaces, APrismaticHoleIsNoCylinder) {
     }
 }
 
+// The number after `label` in `text` (NaN when it is not there).
+double number_after(const std::string& text, const std::string& label) {
+    const size_t at = text.find(label);
+    return at == std::string::npos ? std::nan("") : std::atof(text.c_str() + at + label.size());
+}
+
+TEST(CylinderFaces, ColumnsAtScannerNoiseBecomeOneCylinderBetweenTwoPlanarCaps) {
+    // Sampled every 0.5 mm, the caps' rings fan into their centres: the innermost ring's 126 to 251
+    // vertices lie 12 to 25 um apart, which noise of 5 to 20 um folds over. The caps must each be one
+    // planar face all the same (once they broke into triangles, and with no planar face along its
+    // axis the wall was not looked at, nor said), and the wall one cylinder of the true radius.
+    struct Case {
+        double radius, sigma;
+    };
+    for (const Case c : {Case{20, 0.005}, Case{10, 0.010}, Case{10, 0.020}, Case{6, 0.005}})
+        for (const unsigned seed : {1u, 2u}) {
+            SCOPED_TRACE("radius " + std::to_string(c.radius) + " mm, noise " + std::to_string(c.sigma) + " mm, seed " + std::to_string(seed));
+            const PlanarFaceModel model = planar_face_model(scanned_column(0, c.radius, c.sigma, seed));
+            EXPECT_EQ(model.merged_faces, 2u) << model.summary();
+            EXPECT_TRUE(model.refused_merges.empty()) << model.summary();
+            ASSERT_EQ(model.cylinder_faces, 1u) << notes_of(model);
+            EXPECT_EQ(model.faces.size(), 3u) << model.summary();
+            EXPECT_NEAR(model.faces.back().radius_mm, c.radius, 0.01);
+            EXPECT_LE(model.faces.back().rms_mm, 1.2 * c.sigma);
+            EXPECT_TRUE(model.cylinder_notes.empty()) << notes_of(model);
+        }
+}
+
 // A cylinder of radius 10 mm whose ends are cones rising `rise` mm to a point: no planar face at either end.
 Mesh pointed_column(double rise, double sigma, unsigned seed) {
     Mesh mesh = scanned_column(0, 10, sigma, seed);
@@ -675,6 +703,47 @@ Mesh pointed_column(double rise, double sigma, unsigned seed) {
         if (height < 0.1) p[2] -= float(rise * share);
     }
     return mesh;
+}
+
+TEST(CylinderFaces, AColumnWithPointedEndsIsSaidWhyItIsNoCylinder) {
+    // Its ends are cones 5 mm high: no planar face along its axis to bound it. Its wall stays
+    // facets, and the notes say which cylinder it was near and why it was not made.
+    for (const double sigma : {0.005, 0.02}) {
+        SCOPED_TRACE("noise " + std::to_string(sigma) + " mm");
+        const PlanarFaceModel model = planar_face_model(pointed_column(5, sigma, 1));
+        EXPECT_EQ(model.cylinder_faces + model.cone_faces, 0u) << notes_of(model);
+        ASSERT_EQ(model.cylinder_notes.size(), 1u) << notes_of(model);
+        const std::string& note = model.cylinder_notes[0];
+        EXPECT_NE(note.find("no planar face square to its axis"), std::string::npos) << note;
+        EXPECT_NEAR(number_after(note, "near a cylinder of radius "), 10, 0.01) << note;
+        EXPECT_LE(number_after(note, "(RMS "), 1.2 * sigma) << note;
+        EXPECT_EQ(number_after(note, ""), 5040) << note;  // the wall's facets, all of them
+    }
+}
+
+TEST(CylinderFaces, APrismOfSmallSidesIsNoCylinder) {
+    // Sides 1.2 mm wide (32 round a radius of 6 mm) or 1.3 and 1 mm (48 and 64 round 10 mm), 2 or 3
+    // facets across, bowing in by only 0.029, 0.021 and 0.012 mm: within the roundness allowed and
+    // their normals no more bunched than a scanned cylinder's, but their vertices' distances from the
+    // axis follow the sides' pattern. The cylinders of the same radii are made (ColumnsAtScannerNoise...).
+    struct Case {
+        int sides;
+        double radius, sigma;
+    };
+    for (const Case c : {Case{32, 6, 0.005}, Case{32, 6, 0.010}, Case{48, 10, 0.005}, Case{64, 10, 0.005}})
+        for (const unsigned seed : {1u, 2u}) {
+            SCOPED_TRACE(std::to_string(c.sides) + " sides, radius " + std::to_string(c.radius) + " mm, noise " +
+                         std::to_string(c.sigma) + " mm, seed " + std::to_string(seed));
+            const PlanarFaceModel model = planar_face_model(scanned_column(c.sides, c.radius, c.sigma, seed));
+            EXPECT_EQ(model.cylinder_faces + model.cone_faces, 0u) << notes_of(model);
+            ASSERT_EQ(model.cylinder_notes.size(), 1u) << notes_of(model);
+            const std::string& note = model.cylinder_notes[0];
+            const double depth = c.radius * (1 - std::cos(kPi / c.sides));
+            EXPECT_NEAR(number_after(note, "flat sides, "), depth, 0.15 * depth) << note;
+            if (c.sigma <= 0.005) {  // the sides counted (62 for 64 sides 2 facets across)
+                EXPECT_NEAR(number_after(note, "follow a prism of "), c.sides, 0.05 * c.sides) << note;
+            }
+        }
 }
 
 TEST(CylinderFaces, DISABLED_StudyColumns) {
