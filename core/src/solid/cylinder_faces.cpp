@@ -697,9 +697,8 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
     }
     // A wall along no planar face's normal (its ends are not planar faces: the planar merge left
     // them triangles, or they are not flat) was not looked at above. Each piece of the surface left
-    // (facets and planar faces that no cylinder found above holds) whose facets within 15 degrees of square to
-    // one of the main directions of its facets' normals lie near a cylinder about it, all round it,
-    // is said in `notes`.
+    // (the faces of no wall found above) whose facets within 15 degrees of square to one of the main
+    // directions of its facets' normals lie near a cylinder about it, all round it, is said in `notes`.
     if (!eligible.empty()) return regions;
     // Whether a face's normal is known to within 15 degrees: a planar face's, or a facet's whose
     // shortest altitude is 2 sigma / sin(15 degrees) or more (not the narrow facets at a point).
@@ -717,7 +716,7 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
         seen_face[start] = 1;
         for (size_t next = 0; next < piece.size(); ++next)
             for (size_t g : neighbours(piece[next]))
-                if (!seen_face[g] && !taken[g] && allowed(g) && (one_facet(g) || model.faces[g].merged)) {
+                if (!seen_face[g] && !taken[g] && allowed(g)) {
                     seen_face[g] = 1;
                     piece.push_back(g);
                 }
