@@ -1712,7 +1712,10 @@ class PicoScanBigSolidTest(unittest.TestCase):
 
         unchecked = solid.face_options()
         unchecked.check_faces = False
-        for seed in (1, 2):
+        # Seeds where the chamfer itself breaks the unchecked merge: in seeds 2, 4 and 8 only an end's fan
+        # did (a sliver from the chamfer to the end's centre, folded by the noise), which the planar merge
+        # now takes into the end's plane as a region takes what it encloses.
+        for seed in (1, 3):
             mesh = self.sliver_chamfer_block(0.005, 0.01, seed)
             old = picoscan.planar_face_model(mesh, unchecked)
             model = picoscan.planar_face_model(mesh, solid.face_options())
