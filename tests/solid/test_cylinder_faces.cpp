@@ -756,7 +756,18 @@ TEST(CylinderFaces, DISABLED_StudyColumns) {
     unsigned seeds = 4;
     if (env) std::sscanf(env, "%d %lf %lf %u %lf", &sides, &radius, &sigma, &seeds, &rise);
     for (unsigned seed = 1; seed <= seeds; ++seed) {
-        const PlanarFaceModel model = planar_face_model(rise > 0 ? pointed_column(rise, sigma, seed) : scanned_column(sides, radius, sigma, seed));
+        Mesh mesh = rise > 0 ? pointed_column(rise, sigma, seed) : scanned_column(sides, radius, sigma, seed);
+        if (const char* lobes = std::getenv("STUDY_LOBES")) {  // 'N AMPLITUDE': the radius varies by +- AMPLITUDE mm N times round
+            int n = 3;
+            double amplitude = 0;
+            std::sscanf(lobes, "%d %lf", &n, &amplitude);
+            for (cv::Vec3f& p : mesh.vertices) {
+                const cv::Vec3d offset = cv::Vec3d(p) - kCentre;
+                const double scale = 1 + amplitude * std::cos(n * std::atan2(offset[1], offset[0])) / radius;
+                p = cv::Vec3f(kCentre + cv::Vec3d(offset[0] * scale, offset[1] * scale, offset[2]));
+            }
+        }
+        const PlanarFaceModel model = planar_face_model(mesh);
         std::printf("sides %d r %g sigma %g seed %u: %s\n%s", sides, radius, sigma, seed, model.summary().c_str(), notes_of(model).c_str());
     }
 }
