@@ -43,10 +43,12 @@ constexpr double kMinConeDeg = 2, kMaxConeDeg = 64;
 // 0.2 to 0.8 once each side spans a few facets).
 constexpr double kMaxBunchedNormals = 0.2;
 // At most this share of the variance of a cylinder's vertices' distances from its axis may follow
-// the pattern of a prism's flat sides (polygon_pattern: scanned cylinders' up to about 0.05, a
-// noise-free one's 0.1 with its sides no deeper than the noise; a 32-sided prism of radius 6 mm,
-// its sides 0.029 mm deep, 0.74 at 5 um of noise, 0.4 at 10, 0.24 at 15, 0.15 at 20).
-constexpr double kMaxPolygonShare = 0.15;
+// the pattern of a prism's flat sides when that pattern follows them better than a wave of as many
+// lobes by this chi-square (polygon_pattern: scanned cylinders' share up to about 0.05, a noise-free
+// one's 0.1 with its sides no deeper than the noise, their chi-square -31 to 4; a 32-sided prism of
+// radius 6 mm, its sides 0.029 mm deep, 0.74 at 5 um of noise, 0.4 at 10, 0.24 at 15, 0.15 at 20,
+// chi-square 31 to 374 from 5 to 15 um; a round wall lobed 3 to 8 times, 5 to 10 um deep, -100 to -660).
+constexpr double kMaxPolygonShare = 0.15, kMinCreases = 25;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -266,14 +268,17 @@ double bunched_normals(const PlanarFaceModel& model, const std::vector<size_t>& 
 
 // A prism of n flat sides, its corners on a circle of radius R, lies at R cos(180 / n) / cos(psi)
 // from the axis, psi the azimuth from the middle of the nearest side: a parabola in the azimuth that
-// repeats n times round, as deep as the sides' sagitta R (1 - cos(180 / n)). A cylinder's vertices
-// lie off its circle by noise, which no such pattern follows. The pattern that best follows the
-// vertices' radial residuals from the circle (n from 3 to 128, turned by any angle: least squares
-// on the residuals' means in 1024 bins of azimuth, 32 turns per side), the share of the residuals'
-// variance it explains, and how deep its sides are.
+// repeats n times round, as deep as the sides' sagitta R (1 - cos(180 / n)), with a crease at each
+// corner. A cylinder's vertices lie off its circle by noise, which no such pattern follows; a round
+// wall's lobes (n of them) follow it too, but smoothly: a wave cos(n x azimuth) follows them better.
+// The pattern and the wave that best follow the vertices' radial residuals from the circle (n from 3
+// to 128 and to half the azimuths sampled, turned by any angle: least squares on the residuals' means
+// in 1024 bins of azimuth, 32 turns per side), the shares of the residuals' variance they explain,
+// how deep the pattern's sides are, and how much better than the wave it follows them, over the
+// variance the pattern leaves per vertex (the chi-square of that one more degree of freedom).
 struct PolygonPattern {
     int sides = 0;
-    double explained = 0, depth_mm = 0;
+    double explained = 0, wave_explained = 0, depth_mm = 0, creases = 0;
 };
 
 PolygonPattern polygon_pattern(const PlanarFaceModel& model, const std::vector<size_t>& faces, const Circle2& circle, const cv::Vec3d& axis) {
@@ -292,31 +297,40 @@ PolygonPattern polygon_pattern(const PlanarFaceModel& model, const std::vector<s
     PolygonPattern best;
     const double variance_sum = sum_squares - sum * sum / std::max(count, 1.0);  // of the residuals about their mean
     if (!(variance_sum > 0)) return best;
-    double best_explained_sum = 0;
-    for (int n = 3; n <= kMostSides; ++n) {
+    // A mesh sampled at a few azimuths (a ring of 126 vertices) sees a pattern of more than half as
+    // many sides as a few lobes (123 sides as 3).
+    const int sampled = int(std::count_if(bin_count.begin(), bin_count.end(), [](double c) { return c > 0; }));
+    // The share of the bins' means' variance a shape g (over the bins' azimuths) explains: mean = a g + c, a > 0.
+    auto explained_by = [&](auto&& shape) {
+        double w = 0, wg = 0, wgg = 0, wm = 0, wgm = 0;
+        for (int b = 0; b < kBins; ++b) {
+            if (bin_count[size_t(b)] == 0) continue;
+            const double g = shape(-kPi + (b + 0.5) * 2 * kPi / kBins), n_b = bin_count[size_t(b)], mean = bin_sum[size_t(b)] / n_b;
+            w += n_b, wg += n_b * g, wgg += n_b * g * g, wm += n_b * mean, wgm += n_b * g * mean;
+        }
+        const double spread = wgg - wg * wg / w, covariance = wgm - wg * wm / w;
+        return std::make_pair(spread > 0 && covariance > 0 ? covariance * covariance / spread : 0.0, spread > 0 ? covariance / spread : 0.0);
+    };
+    double best_sum = 0, best_wave_sum = 0;
+    for (int n = 3; n <= std::min(kMostSides, sampled / 2); ++n) {
         const double side = 2 * kPi / n;
         for (int turn = 0; turn < kTurns; ++turn) {
-            const double start = side * turn / kTurns;
-            // Weighted least squares of the bins' means on the pattern g: mean = a g + c.
-            double w = 0, wg = 0, wgg = 0, wm = 0, wgm = 0;
-            for (int b = 0; b < kBins; ++b) {
-                if (bin_count[size_t(b)] == 0) continue;
-                const double azimuth = -kPi + (b + 0.5) * 2 * kPi / kBins;
-                const double psi = std::fmod(azimuth - start + 4 * kPi, side) - side / 2;
-                const double g = std::cos(side / 2) / std::cos(psi), n_b = bin_count[size_t(b)], mean = bin_sum[size_t(b)] / n_b;
-                w += n_b, wg += n_b * g, wgg += n_b * g * g, wm += n_b * mean, wgm += n_b * g * mean;
-            }
-            const double spread = wgg - wg * wg / w, covariance = wgm - wg * wm / w;
-            if (!(spread > 0) || !(covariance > 0)) continue;  // sides bowing out: no prism
-            const double a = covariance / spread, explained_sum = a * covariance;
-            if (explained_sum > best_explained_sum) {
-                best_explained_sum = explained_sum;
+            const double start = side * turn / kTurns;  // a corner's azimuth
+            const auto [pattern_sum, a] = explained_by([&](double azimuth) {
+                return std::cos(side / 2) / std::cos(std::fmod(azimuth - start + 4 * kPi, side) - side / 2);
+            });
+            const double wave_sum = explained_by([&](double azimuth) { return std::cos(n * (azimuth - start)); }).first;
+            best_wave_sum = std::max(best_wave_sum, wave_sum);
+            if (pattern_sum > best_sum) {
+                best_sum = pattern_sum;
                 best.sides = n;
                 best.depth_mm = a * (1 - std::cos(side / 2));
             }
         }
     }
-    best.explained = best_explained_sum / variance_sum;
+    best.explained = best_sum / variance_sum;
+    best.wave_explained = best_wave_sum / variance_sum;
+    best.creases = (best_sum - best_wave_sum) / std::max((variance_sum - best_sum) / count, 1e-300);
     return best;
 }
 
@@ -584,11 +598,14 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 // follow its sides. Tested as the normals are.
                 const PolygonPattern pattern = circle.slope != 0 || !eligible.empty() ? PolygonPattern{}
                                                                                       : polygon_pattern(model, square_facets, circle, region.axis);
-                if (pattern.explained >= kMaxPolygonShare && pattern.depth_mm > model.noise_mm) {
+                if (pattern.explained >= kMaxPolygonShare && pattern.depth_mm > model.noise_mm && pattern.creases >= kMinCreases) {
                     std::snprintf(text, sizeof text,
-                                  "its vertices' distances from the axis follow a prism of %d flat sides, %.4f mm deep (the pattern holds "
-                                  "%.0f %% of their variance about the cylinder, at most %.0f %% when deeper than the noise, %.4f mm)",
-                                  pattern.sides, pattern.depth_mm, 100 * pattern.explained, 100 * kMaxPolygonShare, model.noise_mm);
+                                  "its vertices' distances from the axis follow a prism of %d flat sides, %.4f mm deep, creased at its "
+                                  "corners (the pattern holds %.0f %% of their variance about the cylinder, a smooth wave of as many lobes "
+                                  "%.0f %%; at most %.0f %% when deeper than the noise, %.4f mm, and ahead of the wave by a chi-square "
+                                  "of %.0f, at least %.0f)",
+                                  pattern.sides, pattern.depth_mm, 100 * pattern.explained, 100 * pattern.wave_explained,
+                                  100 * kMaxPolygonShare, model.noise_mm, pattern.creases, kMinCreases);
                     refuse(text);
                     continue;
                 }
