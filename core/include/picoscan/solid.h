@@ -36,7 +36,8 @@ struct PlanarFaceOptions {
                                      // lie within max_rms_factor x the noise (RMS) of a cylinder square to
                                      // both planes (a drilled hole, a boss, a shaft); its loops become circles.
                                      // A wall whose facets' normals bunch into a few directions round the
-                                     // axis (a prism's flat sides, its corners on the circle) is not one.
+                                     // axis (a prism's flat sides, its corners on the circle) is not one,
+                                     // nor one whose vertices' distances from the axis follow such sides.
                                      // Such a region on a cone about that axis (half-angle 2 to 64 degrees:
                                      // a countersink, a chamfered boss, a tapered hole) becomes one conical face.
                                      // A chamfer ring (plane, cylinder, cone, plane along one axis: a hole's

@@ -48,6 +48,13 @@ constexpr double kMaxBunchedNormals = 0.2;
 // median tilt of those tilted more than 15 degrees (the rest, a smooth mesh's rounded crease, are
 // continued over as a cylinder's rounded ends are).
 constexpr double kRingSpreadDeg = 10;
+// At most this share of the variance of a cylinder's vertices' distances from its axis may follow
+// the pattern of a prism's flat sides when that pattern follows them better than a wave of as many
+// lobes by this chi-square (polygon_pattern: scanned cylinders' share up to about 0.05, a noise-free
+// one's 0.1 with its sides no deeper than the noise, their chi-square -31 to 4; a 32-sided prism of
+// radius 6 mm, its sides 0.029 mm deep, 0.74 at 5 um of noise, 0.4 at 10, 0.24 at 15, 0.15 at 20,
+// chi-square 31 to 374 from 5 to 15 um; a round wall lobed 3 to 8 times, 5 to 10 um deep, -100 to -660).
+constexpr double kMaxPolygonShare = 0.15, kMinCreases = 25;
 
 // Least-squares circle through 2-D points: the algebraic fit (Kasa) as the start, then Gauss-Newton
 // on the points' distances from the circle.
@@ -267,6 +274,74 @@ double bunched_normals(const PlanarFaceModel& model, const std::vector<size_t>& 
     double distance = 0;
     for (size_t b = 0; b < bins; ++b) distance += std::abs(by_centre[b] - by_normal[b]);
     return 0.5 * distance / total;
+}
+
+// A prism of n flat sides, its corners on a circle of radius R, lies at R cos(180 / n) / cos(psi)
+// from the axis, psi the azimuth from the middle of the nearest side: a parabola in the azimuth that
+// repeats n times round, as deep as the sides' sagitta R (1 - cos(180 / n)), with a crease at each
+// corner. A cylinder's vertices lie off its circle by noise, which no such pattern follows; a round
+// wall's lobes (n of them) follow it too, but smoothly: a wave cos(n x azimuth) follows them better.
+// The pattern and the wave that best follow the vertices' radial residuals from the circle (n from 3
+// to 128 and to half the azimuths sampled, turned by any angle: least squares on the residuals' means
+// in 1024 bins of azimuth, 32 turns per side), the shares of the residuals' variance they explain,
+// how deep the pattern's sides are, and how much better than the wave it follows them, over the
+// variance the pattern leaves per vertex (the chi-square of that one more degree of freedom).
+struct PolygonPattern {
+    int sides = 0;
+    double explained = 0, wave_explained = 0, depth_mm = 0, creases = 0;
+};
+
+PolygonPattern polygon_pattern(const PlanarFaceModel& model, const std::vector<size_t>& faces, const Circle2& circle, const cv::Vec3d& axis) {
+    const std::vector<cv::Vec3d>& positions = model.mesh_vertices.empty() ? model.vertices : model.mesh_vertices;
+    const cv::Vec3d x_axis = square_to(axis), y_axis = axis.cross(x_axis);
+    constexpr int kBins = 1024, kTurns = 32, kMostSides = 128;
+    std::vector<double> bin_sum(kBins, 0), bin_count(kBins, 0);
+    double sum = 0, sum_squares = 0, count = 0;
+    for (int v : vertices_of(model, faces)) {
+        const cv::Vec3d p = positions[size_t(v)] - circle.origin;
+        const double x = p.dot(x_axis), y = p.dot(y_axis), residual = std::hypot(x, y) - circle.radius;
+        const int b = std::min(kBins - 1, int((std::atan2(y, x) + kPi) / (2 * kPi) * kBins));
+        bin_sum[size_t(b)] += residual, bin_count[size_t(b)] += 1;
+        sum += residual, sum_squares += residual * residual, count += 1;
+    }
+    PolygonPattern best;
+    const double variance_sum = sum_squares - sum * sum / std::max(count, 1.0);  // of the residuals about their mean
+    if (!(variance_sum > 0)) return best;
+    // A mesh sampled at a few azimuths (a ring of 126 vertices) sees a pattern of more than half as
+    // many sides as a few lobes (123 sides as 3).
+    const int sampled = int(std::count_if(bin_count.begin(), bin_count.end(), [](double c) { return c > 0; }));
+    // The share of the bins' means' variance a shape g (over the bins' azimuths) explains: mean = a g + c, a > 0.
+    auto explained_by = [&](auto&& shape) {
+        double w = 0, wg = 0, wgg = 0, wm = 0, wgm = 0;
+        for (int b = 0; b < kBins; ++b) {
+            if (bin_count[size_t(b)] == 0) continue;
+            const double g = shape(-kPi + (b + 0.5) * 2 * kPi / kBins), n_b = bin_count[size_t(b)], mean = bin_sum[size_t(b)] / n_b;
+            w += n_b, wg += n_b * g, wgg += n_b * g * g, wm += n_b * mean, wgm += n_b * g * mean;
+        }
+        const double spread = wgg - wg * wg / w, covariance = wgm - wg * wm / w;
+        return std::make_pair(spread > 0 && covariance > 0 ? covariance * covariance / spread : 0.0, spread > 0 ? covariance / spread : 0.0);
+    };
+    double best_sum = 0, best_wave_sum = 0;
+    for (int n = 3; n <= std::min(kMostSides, sampled / 2); ++n) {
+        const double side = 2 * kPi / n;
+        for (int turn = 0; turn < kTurns; ++turn) {
+            const double start = side * turn / kTurns;  // a corner's azimuth
+            const auto [pattern_sum, a] = explained_by([&](double azimuth) {
+                return std::cos(side / 2) / std::cos(std::fmod(azimuth - start + 4 * kPi, side) - side / 2);
+            });
+            const double wave_sum = explained_by([&](double azimuth) { return std::cos(n * (azimuth - start)); }).first;
+            best_wave_sum = std::max(best_wave_sum, wave_sum);
+            if (pattern_sum > best_sum) {
+                best_sum = pattern_sum;
+                best.sides = n;
+                best.depth_mm = a * (1 - std::cos(side / 2));
+            }
+        }
+    }
+    best.explained = best_sum / variance_sum;
+    best.wave_explained = best_wave_sum / variance_sum;
+    best.creases = (best_sum - best_wave_sum) / std::max((variance_sum - best_sum) / count, 1e-300);
+    return best;
 }
 
 struct Tolerances {
@@ -797,6 +872,22 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     refuse(text);
                     continue;
                 }
+                // A prism of many small sides (1.2 mm sides of a 32-sided prism of radius 6 mm) bunches
+                // its normals less than the noise spreads them, but its vertices' distances from the axis
+                // follow its sides. Tested as the normals are.
+                const PolygonPattern pattern = circle.slope != 0 || !eligible.empty() ? PolygonPattern{}
+                                                                                      : polygon_pattern(model, square_facets, circle, region.axis);
+                if (pattern.explained >= kMaxPolygonShare && pattern.depth_mm > model.noise_mm && pattern.creases >= kMinCreases) {
+                    std::snprintf(text, sizeof text,
+                                  "its vertices' distances from the axis follow a prism of %d flat sides, %.4f mm deep, creased at its "
+                                  "corners (the pattern holds %.0f %% of their variance about the cylinder, a smooth wave of as many lobes "
+                                  "%.0f %%; at most %.0f %% when deeper than the noise, %.4f mm, and ahead of the wave by a chi-square "
+                                  "of %.0f, at least %.0f)",
+                                  pattern.sides, pattern.depth_mm, 100 * pattern.explained, 100 * pattern.wave_explained,
+                                  100 * kMaxPolygonShare, model.noise_mm, pattern.creases, kMinCreases);
+                    refuse(text);
+                    continue;
+                }
                 region.radius_mm = circle.radius;
                 region.slope = circle.slope;
                 region.rms_mm = circle.surface_rms();
@@ -905,6 +996,66 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 }
                 regions.push_back(region);
             }
+        }
+    }
+    // A wall along no planar face's normal (its ends are not planar faces: the planar merge left
+    // them triangles, or they are not flat) was not looked at above. Each piece of the surface left
+    // (the faces of no wall found above) whose facets within 15 degrees of square to one of the main
+    // directions of its facets' normals lie near a cylinder about it, all round it, is said in `notes`.
+    if (!eligible.empty()) return regions;
+    // Whether a face's normal is known to within 15 degrees: a planar face's, or a facet's whose
+    // shortest altitude is 2 sigma / sin(15 degrees) or more (not the narrow facets at a point).
+    auto normal_known = [&](size_t f) {
+        if (model.faces[f].merged) return true;
+        const cv::Vec3i& t = model.faces[f].triangles[0];
+        const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
+        return longest > 0 && cv::norm((b - a).cross(c - a)) / longest * kSquareToAxis >= 2 * model.noise_mm;
+    };
+    std::vector<char> seen_face(face_count, 0);
+    for (size_t start = 0; start < face_count; ++start) {
+        if (seen_face[start] || taken[start] || !one_facet(start)) continue;
+        std::vector<size_t> piece{start};
+        seen_face[start] = 1;
+        for (size_t next = 0; next < piece.size(); ++next)
+            for (size_t g : neighbours(piece[next]))
+                if (!seen_face[g] && !taken[g] && allowed(g)) {
+                    seen_face[g] = 1;
+                    piece.push_back(g);
+                }
+        size_t facets = 0;
+        cv::Matx33d spread = cv::Matx33d::zeros();
+        for (size_t f : piece)
+            for (const cv::Vec3i& t : model.faces[f].triangles) {
+                const cv::Vec3d &a = model.vertices[size_t(t[0])], &b = model.vertices[size_t(t[1])], &c = model.vertices[size_t(t[2])];
+                const cv::Vec3d area = (b - a).cross(c - a);
+                const double twice_area = cv::norm(area);
+                if (twice_area > 0) spread += (area * area.t()) * (0.5 / twice_area);
+                ++facets;
+            }
+        if (int(facets) < options.min_facets) continue;
+        cv::Mat values, directions;
+        cv::eigen(cv::Mat(spread), values, directions);
+        for (int k = 0; k < 3; ++k) {
+            const cv::Vec3d axis = cv::normalize(cv::Vec3d(directions.at<double>(k, 0), directions.at<double>(k, 1), directions.at<double>(k, 2)));
+            std::vector<size_t> wall_faces;
+            size_t wall_facets = 0;
+            for (size_t f : piece)
+                if (std::abs(cv::normalize(model.faces[f].normal).dot(axis)) < kSquareToAxis && normal_known(f)) {
+                    wall_faces.push_back(f);
+                    wall_facets += model.faces[f].triangles.size();
+                }
+            if (int(wall_facets) < options.min_facets) continue;
+            const std::vector<int> wall_vertices = vertices_of(model, wall_faces);
+            const Circle2 circle = circle_along(model, wall_vertices, model.vertices[size_t(wall_vertices[0])], axis);
+            if (!(circle.radius > 0) || !(circle.rms < 0.05 * circle.radius) || !all_round(model, wall_vertices, circle, axis)) continue;
+            char text[400];
+            std::snprintf(text, sizeof text, "%zu facets near a cylinder of radius %.3f mm (RMS %.4f mm) about the axis through %s along %s "
+                          "stay as they were: no planar face square to its axis (the planar merge left its ends as triangles, "
+                          "or they are not flat)", wall_facets, circle.radius, circle.rms, point_text(circle.origin).c_str(),
+                          point_text(axis).c_str());
+            notes.push_back(text);
+            break;
         }
     }
     return regions;

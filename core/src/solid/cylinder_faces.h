@@ -38,11 +38,13 @@ struct CylinderRegion {
 // plane square to it (a smooth mesh's rounded ends: the cylinder and the planes are continued over
 // them while that changes the volume by at most 0.01 %), bounded by two planar faces square to the
 // axis and nothing else, whose facets' normals face away from the axis wherever they are (a prism's
-// flat sides bunch them into one direction each); only faces marked in `eligible` (all when it is
-// empty: the normals are then read on the mesh's own vertices, not checked again). A cylinder's wall
-// that goes on into a cone before it meets one of its planes (a chamfer ring) gives one bent region:
-// the cylinder, the cone about its axis and the circle where they meet. Each wall near a
-// cylinder but refused is said in `notes` with the reason.
+// flat sides bunch them into one direction each) and whose vertices' distances from the axis do not
+// follow a prism's sides; only faces marked in `eligible` (all when it is empty: the normals and
+// distances are then read on the mesh's own vertices, not checked again). A cylinder's wall that goes
+// on into a cone before it meets one of its planes (a chamfer ring) gives one bent region: the
+// cylinder, the cone about its axis and the circle where they meet. Each wall near a cylinder but
+// refused is said in `notes` with the reason, as is each piece of the surface left that lies near a
+// cylinder along no planar face's normal.
 std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const PlanarFaceOptions& options,
                                              const std::vector<char>& eligible, std::vector<std::string>& notes);
 

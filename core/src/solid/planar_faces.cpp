@@ -495,17 +495,64 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
             region_rms.push_back(rms);
             if (s % 4096 == 0) report(0.2 + 0.5 * double(s) / double(facet_count), "solid: planar regions");
         }
-        // Facets left alone inside a region (noise tipped their normal) join it.
-        for (int pass = 0; pass < 3; ++pass)
-            for (int f = 0; f < facet_count; ++f) {
-                if (region[f] >= 0) continue;
-                const int r = region[twin[f * 3] / 3];
-                if (r < 0 || region[twin[f * 3 + 1] / 3] != r || region[twin[f * 3 + 2] / 3] != r) continue;
-                bool near = true;
-                for (int c = 0; c < 3 && near; ++c)
-                    near = std::abs(region_planes[r].distance(positions[facets[f][c]])) <= distance_limit;
-                if (near) region[f] = r;
+        // What a region encloses that lies in its plane joins it: the facets (left out, or smaller
+        // regions of their own) that only it surrounds, all their corners near its plane (noise tipped
+        // their normals, or folded a fan of narrow facets round one vertex over, which also pinches
+        // the region there: the region then leaves the whole fan, and smaller regions grow in it,
+        // their boundaries with it crossing). The limit grows with the region as the largest
+        // of its vertices' noise does (about sigma x sqrt(2 ln n) for n vertices, here 1 sigma more:
+        // a vertex of a face of 20000 that Gaussian noise alone puts beyond 4 sigma, and its fan of
+        // facets, is no hole in it). Searched from each region's rim, given up at the first corner
+        // off its plane.
+        std::vector<double> region_facets(region_planes.size(), 0), enclosed_limit(region_planes.size());
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0) ++region_facets[size_t(region[f])];
+        for (size_t r = 0; r < region_planes.size(); ++r) {
+            const double vertices = std::max(2.0, region_facets[r] / 2);  // a triangulated surface has half as many
+            enclosed_limit[r] = std::max(distance_limit, (std::sqrt(2 * std::log(vertices)) + 1) * model.noise_mm);
+        }
+        std::vector<int> stamp(facet_count, -1), enclosed;
+        for (int f = 0; f < facet_count; ++f) {
+            const int r = region[f];
+            if (r < 0) continue;
+            for (int k = 0; k < 3; ++k) {
+                const int start = twin[f * 3 + k] / 3;
+                if (region[start] == r || stamp[start] == r) continue;
+                enclosed.assign(1, start);
+                stamp[start] = r;
+                bool in_plane = true;
+                for (size_t next = 0; next < enclosed.size() && in_plane; ++next) {
+                    const int g = enclosed[next];
+                    for (int c = 0; c < 3 && in_plane; ++c)
+                        in_plane = std::abs(region_planes[r].distance(positions[facets[g][c]])) <= enclosed_limit[size_t(r)];
+                    for (int j = 0; j < 3 && in_plane; ++j) {
+                        const int h = twin[g * 3 + j] / 3;
+                        if (region[h] != r && stamp[h] != r) {
+                            stamp[h] = r;
+                            enclosed.push_back(h);
+                        }
+                    }
+                }
+                if (in_plane)
+                    for (int g : enclosed) region[g] = r;
             }
+        }
+        // Regions wholly taken into others go.
+        std::vector<int> renumbered(region_planes.size(), -1);
+        std::vector<Plane> kept_planes;
+        std::vector<double> kept_rms;
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0 && renumbered[size_t(region[f])] < 0) renumbered[size_t(region[f])] = 0;
+        for (size_t r = 0; r < region_planes.size(); ++r)
+            if (renumbered[r] == 0) {
+                renumbered[r] = int(kept_planes.size());
+                kept_planes.push_back(region_planes[r]);
+                kept_rms.push_back(region_rms[r]);
+            }
+        for (int f = 0; f < facet_count; ++f)
+            if (region[f] >= 0) region[f] = renumbered[size_t(region[f])];
+        region_planes.swap(kept_planes);
+        region_rms.swap(kept_rms);
     }
     report(0.7, "solid: boundaries");
 

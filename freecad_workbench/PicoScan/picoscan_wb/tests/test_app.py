@@ -1712,7 +1712,10 @@ class PicoScanBigSolidTest(unittest.TestCase):
 
         unchecked = solid.face_options()
         unchecked.check_faces = False
-        for seed in (1, 2):
+        # Seeds where the chamfer itself breaks the unchecked merge: in seeds 2, 4 and 8 only an end's fan
+        # did (a sliver from the chamfer to the end's centre, folded by the noise), which the planar merge
+        # now takes into the end's plane as a region takes what it encloses.
+        for seed in (1, 3):
             mesh = self.sliver_chamfer_block(0.005, 0.01, seed)
             old = picoscan.planar_face_model(mesh, unchecked)
             model = picoscan.planar_face_model(mesh, solid.face_options())
@@ -2061,11 +2064,11 @@ class PicoScanFacetedColumnSolidTest(unittest.TestCase):
     def tearDown(self):
         FreeCAD.closeDocument(self.doc.Name)
 
-    def truth(self, sides):
+    def truth(self, sides, radius_mm=RADIUS_MM):
         if sides == 0:
-            return Part.makeCylinder(self.RADIUS_MM, self.HEIGHT_MM)
-        ring = [FreeCAD.Vector(self.RADIUS_MM * math.cos(2 * math.pi * k / sides),
-                               self.RADIUS_MM * math.sin(2 * math.pi * k / sides), 0) for k in range(sides)]
+            return Part.makeCylinder(radius_mm, self.HEIGHT_MM)
+        ring = [FreeCAD.Vector(radius_mm * math.cos(2 * math.pi * k / sides),
+                               radius_mm * math.sin(2 * math.pi * k / sides), 0) for k in range(sides)]
         return Part.Face(Part.makePolygon(ring + ring[:1])).extrude(FreeCAD.Vector(0, 0, self.HEIGHT_MM))
 
     def test_prisms_keep_their_flat_sides_and_a_cylinder_is_one(self):
@@ -2105,6 +2108,26 @@ class PicoScanFacetedColumnSolidTest(unittest.TestCase):
             FreeCAD.Console.PrintMessage("  %d of its %d sides planar faces (%.2f to %.2f of their area)\n" % (
                 kept, sides, min(shares), max(shares)))
             self.assertGreaterEqual(kept, sides - 1)
+
+    def test_a_prism_of_small_sides_is_no_cylinder(self):
+        """32 sides round a radius of 6 mm: sides 1.2 mm wide, 2 or 3 facets across, bowing in by
+        0.029 mm. Their normals bunch no more than a scanned cylinder's, and Make solid took the prism
+        for a cylinder; its vertices' distances from the axis follow the sides (polygon_pattern)."""
+        import collections
+        obj = self.doc.addObject("Mesh::Feature", "Column32")
+        obj.Mesh = scan_mesh.freecad_mesh(scanned_column_mesh(32, 6.0, 0.005, self.HEIGHT_MM))
+        shape, model, note = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
+        report, truth = model.summary(), self.truth(32, 6.0)
+        kinds = collections.Counter(type(f.Surface).__name__ for f in shape.Faces)
+        FreeCAD.Console.PrintMessage("column of 32 sides, radius 6 mm: %s; solid volume %.3f mm3, true part %.3f mm3 (%+.4f %%); %s\n" % (
+            dict(kinds), shape.Volume, truth.Volume, 100 * (shape.Volume / truth.Volume - 1), report))
+        self.assertEqual(note, "")
+        self.assertTrue(shape.isValid())
+        self.assertEqual(kinds["Cylinder"] + kinds["Cone"], 0, report)
+        self.assertIn("follow a prism of 32 flat sides", report)  # what SolidReport says
+        # The mesh's volume; the true prism's within 0.2 % (the scan cuts each crease by a chord).
+        self.assertLess(abs(shape.Volume / obj.Mesh.Volume - 1), 1e-3)
+        self.assertLess(abs(shape.Volume / truth.Volume - 1), 2e-3)
 
 
 class PicoScanRegionFitTest(unittest.TestCase):
