@@ -172,7 +172,15 @@ class Stitch(DocumentObjectProxy):
 
     def onDocumentRestored(self, obj):
         super().onDocumentRestored(obj)
+        unlit = not hasattr(obj, "Normal")  # saved before Stitches were drawn lit by their normals
         _add_placement_properties(obj, restored=True)
+        if unlit:
+            # Its normals need the views stitched again (seconds, and it may not align as saved):
+            # left to the user's recompute, which draws it lit; touched, so the tree shows it.
+            obj.touch()
+            FreeCAD.Console.PrintWarning("%s: saved without normals, so drawn unlit until recomputed\n" % obj.Label)
+            if FreeCAD.GuiUp:
+                obj.ViewObject.DisplayMode = "Shaded"  # FreeCAD draws it flat while it has no normals
 
     @brief_input_errors
     def execute(self, obj):

@@ -342,6 +342,34 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertEqual(view.PointCount, points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
 
+    def test_scan_view_saved_before_normals_gets_them_on_reopen_from_its_stored_view(self):
+        """A ScanView saved before views had normals (no Normal property) gets them when reopened, from the
+        view kept in the document when its capture folder is gone; saved before views were kept too,
+        with nothing to recompute from, it opens without them (drawn flat, a warning) and stays valid."""
+        view = self.scan()
+        points, name = view.PointCount, view.Name
+        view.removeProperty("Normal")
+        view.CaptureFolder = os.path.join(self.folder, "moved_away")
+        view.purgeTouched()
+        path = os.path.join(self.folder, "saved_before_normals.FCStd")
+        self.doc.saveAs(path)
+        view.removeProperty("StoredView")
+        view.removeProperty("StoredDecoding")
+        older = os.path.join(self.folder, "saved_before_stored_views.FCStd")
+        self.doc.saveAs(older)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        view = self.doc.getObject(name)
+        self.assertEqual(len(view.Normal), points)
+        self.assertNotIn("Touched", view.State)
+        self.check_normals(view)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(older)
+        view = self.doc.getObject(name)
+        self.assertEqual(len(view.Normal), 0)
+        self.assertEqual(view.Points.CountPoints, points)
+        self.assertTrue(view.isValid())
+
     def test_part_frame_on_the_base_plane_and_what_follows_it(self):
         """The shaft's scan stands on the wall behind it: Z along the wall's normal towards the camera,
         the wall at z = 0, the shaft's axis 60 mm above it; meshes and fitted primitives follow, and a
@@ -732,6 +760,7 @@ class PicoScanStitchTest(unittest.TestCase):
         merged.removeProperty("Mode")
         merged.addProperty("App::PropertyBool", "TurntableRound", "Registration", "")
         merged.TurntableRound = True
+        merged.removeProperty("Normal")  # and from before Stitches were drawn lit
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
         # The capture folders are gone when the document is reopened: it stitches from the views kept in it.
@@ -743,6 +772,8 @@ class PicoScanStitchTest(unittest.TestCase):
             self.assertEqual(merged.Points.CountPoints, count)
             self.assertEqual(merged.Mode, "Turntable round")  # the old property became the mode
             self.assertFalse(hasattr(merged, "TurntableRound"))
+            self.assertEqual(len(merged.Normal), 0)
+            self.assertIn("Touched", merged.State)  # the recompute brings its normals
             merged.Mode = "Automatic"  # three views 45 degrees apart are not a full round
             for view in merged.Views:
                 view.touch()
@@ -750,6 +781,7 @@ class PicoScanStitchTest(unittest.TestCase):
             self.doc.recompute()
             self.assertTrue(merged.isValid(), merged.getStatusString())
             self.assertEqual(merged.PointCount, count)
+            self.assertEqual(len(merged.Normal), count)
             for placement, pose in zip(merged.ViewPoses, poses):
                 difference = numpy.abs(numpy.array(placement.toMatrix().A) - numpy.array(pose.A))
                 self.assertLess(difference.max(), 1e-6)

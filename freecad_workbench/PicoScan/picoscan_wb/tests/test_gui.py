@@ -659,6 +659,29 @@ class PicoScanGuiTest(unittest.TestCase):
         self.assertIn("Shaded", shaded.ViewObject.listDisplayModes())
         self.assertEqual(shaded.ViewObject.DisplayMode, "Shaded")
 
+    def test_j4_scan_view_saved_before_it_was_drawn_lit_is_lit_when_reopened(self):
+        """A ScanView saved before views were drawn lit by their normals (no Normal property, the plain
+        view provider, DisplayMode Points) is drawn lit when reopened, and opening it leaves the
+        document unmodified and the view not touched."""
+        from picoscan_wb.viewproviders.view_provider import ViewProvider
+
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        view.removeProperty("Normal")
+        ViewProvider(view.ViewObject, "picoscan_scan")  # the view provider those documents saved
+        view.ViewObject.DisplayMode = "Points"
+        view.purgeTouched()  # removing a property touches the view; such documents were saved recomputed
+        path = os.path.join(self.folder, "saved_before_lit_views.FCStd")
+        self.doc.saveAs(path)
+        name = view.Name
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        view = self.doc.getObject(name)
+        self.assertFalse(FreeCADGui.getDocument(self.doc.Name).Modified)
+        self.assertNotIn("Touched", view.State)
+        self.assertEqual(view.ViewObject.listDisplayModes().count("Shaded"), 1)
+        # The shaft turned 30 degrees: 12 grey levels p10-p90 as a new view, the same reopened, 0 flat.
+        self.check_shading(view, "freecad-scanview-reopened-shaded.png", tilt_deg=30, min_spread=8)
+
     def test_j2_datum_alignment_command_moves_a_model_into_its_part_frame(self):
         """Three faces of a turned box picked in the 3D view (bottom, back, left): the box's corner goes
         to the origin with its edges along the axes, as one undo step; parallel faces give a message."""
