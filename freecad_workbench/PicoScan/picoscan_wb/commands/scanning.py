@@ -7,7 +7,7 @@ import FreeCADGui
 
 import picoscan
 from picoscan_wb.commands.base import Command, active_document, selected_scan_views
-from picoscan_wb.objects import scan_view
+from picoscan_wb.objects import recompute_now, scan_view
 
 
 class CalibrateCommand(Command):
@@ -94,7 +94,6 @@ class CleanCommand(Command):
     def run(self):
         for view in selected_scan_views():
             view.Clean = True
-            view.recompute()
-            if not view.isValid():
+            if not recompute_now(view):
                 raise picoscan.Error("%s: cleaning failed: %s" % (view.Label, view.getStatusString()))
             FreeCAD.Console.PrintMessage("%s: %s\n" % (view.Label, view.CleanReport))

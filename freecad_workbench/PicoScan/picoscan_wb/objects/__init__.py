@@ -111,6 +111,16 @@ def cloud_of(obj):
     raise picoscan.Error("%s: not a ScanView or a Stitch" % getattr(obj, "Label", obj))
 
 
+def recompute_now(obj):
+    """Recomputes obj alone and, when that worked, clears its Touched mark as the document's recompute
+    does (obj.recompute() leaves it: the tree would show a fresh object as needing a recompute).
+    Returns whether it worked."""
+    if obj.recompute() and obj.isValid():
+        obj.purgeTouched()
+        return True
+    return False
+
+
 def add_or_remove(doc, type_name, name, setup):
     """The one way PicoScan adds a computed object: add it, let setup(obj) set its proxy and
     properties, recompute it, and remove it again when that failed, so bad input leaves the
@@ -120,7 +130,7 @@ def add_or_remove(doc, type_name, name, setup):
     obj = doc.addObject(type_name, name)
     try:
         setup(obj)
-        obj.recompute()
+        recompute_now(obj)
         restore_tracebacks()
         if not obj.isValid():
             raise picoscan.Error(obj.getStatusString())

@@ -8,7 +8,7 @@ import Points
 
 import picoscan
 from picoscan_wb import property_content
-from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors, input_errors, restore_tracebacks
+from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors, input_errors, recompute_now, restore_tracebacks
 from picoscan_wb.operations.reconstruct import check_second_folder, read_any_calibration, reconstruct, stereo_summary
 from picoscan_wb.progress import run_in_background
 
@@ -236,12 +236,13 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
     if FreeCAD.GuiUp:
         from picoscan_wb.viewproviders.view_provider import ShadedPointsViewProvider
         ShadedPointsViewProvider(obj.ViewObject, "picoscan_scan")
-    obj.recompute()
+    recompute_now(obj)
     if part_frame:
         from picoscan_wb.operations import datum
 
         try:
             datum.place_in_part_frame(obj)
+            obj.purgeTouched()  # the new Placement moves its points at once: nothing left to recompute
         except picoscan.Error as error:
             FreeCAD.Console.PrintWarning("%s: left in the camera's frame: %s\n" % (obj.Label, error))
     if FreeCAD.GuiUp:

@@ -276,6 +276,7 @@ def create(doc, views, name="Stitch", part_frame=True, placement_of_view=(), mod
 
         try:
             datum.place_in_part_frame(obj)
+            obj.purgeTouched()  # the new Placement moves its points at once: nothing left to recompute
         except picoscan.Error as error:  # the camera frame of the first view stays; say why
             FreeCAD.Console.PrintWarning("%s: left in the first camera's frame: %s\n" % (obj.Label, error))
     if FreeCAD.GuiUp:

@@ -1357,15 +1357,19 @@ class PicoScanGuiTest(unittest.TestCase):
         view = panel.created
         points = view.PointCount
         self.assertGreater(points, 100000)
+        # Up to date as FreeCAD's own commands leave what they make (the tree showed it as needing a recompute).
+        self.assertNotIn("Touched", view.State)
         self.walkthrough_screenshot("1-scan", [view])
         run("PicoScan_Clean", view)
         self.assertTrue(view.Clean)
         self.assertIn("removed", view.CleanReport)
         self.assertLess(view.PointCount, points)
+        self.assertNotIn("Touched", view.State)
         panel = run("PicoScan_Mesh", view).panel
         self.assertTrue(panel.accept(), self.messages)
         grid = panel.created
         self.assertGreater(grid.Mesh.CountFacets, 50000)
+        self.assertEqual([o.Name for o in self.doc.Objects if "Touched" in o.State], [])
         self.walkthrough_screenshot("2-mesh", [grid])
         run("PicoScan_PartFrame", view)
         self.doc.recompute()
