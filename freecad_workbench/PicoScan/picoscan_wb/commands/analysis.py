@@ -319,10 +319,12 @@ class PartFrameCommand(Command):
 class ShowRigCommand(Command):
     icon = "picoscan_rig"
     menu = "Show rig"
-    tooltip = "Camera and projector frusta at their calibrated poses (of the selected ScanView's calibration)"
+    tooltip = ("Camera and projector frusta at their calibrated poses: of the selected ScanView's calibration "
+               "(while its file is on disk), or of a calibration file chosen when no ScanView is selected")
 
     def IsActive(self):
-        return FreeCAD.ActiveDocument is not None
+        views = selected_scan_views()
+        return FreeCAD.ActiveDocument is not None and (not views or os.path.isfile(views[0].CalibrationFile or ""))
 
     def run(self):
         views = selected_scan_views()
@@ -338,16 +340,22 @@ class ShowRigCommand(Command):
         return rig.show_rig(FreeCAD.ActiveDocument, calibration)
 
 
+def _views_with_captures():
+    """The selected ScanViews whose capture folder is still there (a reopened document's may be gone)."""
+    return [view for view in selected_scan_views() if os.path.isdir(view.CaptureFolder or "")]
+
+
 class EncodingViewCommand(Command):
     icon = "picoscan_encoding"
     menu = "Encoding view"
-    tooltip = "False-colour pictures of the decoded projector codes, modulation and pixel status"
+    tooltip = ("False-colour pictures of the selected ScanView's decoded projector codes, modulation and pixel "
+               "status, from its capture folder (while that is on disk)")
 
     def IsActive(self):
-        return bool(selected_scan_views())
+        return bool(_views_with_captures())
 
     def run(self):
-        view = selected_scan_views()[0]
+        view = _views_with_captures()[0]
         folder = output_folder(view.Document, view.Name + "_encoding")
         paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile)
         for path in paths.values():

@@ -126,6 +126,13 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(mesh)
         self.expect_active(ALWAYS_ACTIVE | FOR_MESHES)
+        # A reopened document's view whose capture folder and calibration are gone: Encoding view and
+        # Show rig read them, so they are greyed out (they used to run into a message box).
+        second.CaptureFolder = os.path.join(self.folder, "deleted_captures")
+        second.CalibrationFile = os.path.join(self.folder, "deleted_captures", "calibration.yml")
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(second)
+        self.expect_active((ALWAYS_ACTIVE | FOR_SCAN_VIEWS) - {"PicoScan_EncodingView", "PicoScan_ShowRig"})
 
     def test_d_calibrate_panel_opens_reports_bad_input_and_calibrates(self):
         FreeCADGui.runCommand("PicoScan_Calibrate")
@@ -1244,6 +1251,7 @@ class PicoScanGuiTest(unittest.TestCase):
         process_events()
         sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
         self.assertEqual(len(sections), 1, self.messages)
+        self.assertNotIn("Touched", sections[0].State)  # its profile plot, set last, needs no recompute
         self.assertGreaterEqual(len(sections[0].FitReport), 3)  # fitted lines and arcs
         self.assertEqual(len(sections[0].FitReport), sections[0].GeometryCount)
         self.assertTrue(os.path.isfile(sections[0].ProfilePlot))
