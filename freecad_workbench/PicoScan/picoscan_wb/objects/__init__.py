@@ -48,16 +48,46 @@ def restore_tracebacks():
         _brief.active = False
 
 
+# The core names an option it refuses as a config file would ("decode.min_contrast: must be 0..255");
+# in FreeCAD the user set a property, so the message names that instead.
+PROPERTY_OF_OPTION = {
+    "decode.min_contrast": "MinContrast",
+    "decode.min_modulation": "MinModulation",
+    "mesh.grid.pixel_step": "PixelStep",
+    "mesh.grid.max_edge_factor": "MaxEdgeFactor",
+    "mesh.sample_spacing_mm": "SampleSpacing",
+    "mesh.max_hole_diameter_mm": "MaxHoleDiameter",
+    "mesh.target_faces": "TargetFaces",
+    "registration.icp_max_distance_mm": "IcpMaxDistance",
+    "registration.min_overlap": "MinOverlap",
+}
+
+
+def _naming_the_property(obj, error):
+    """The error, with the core's option name replaced by obj's property (and obj's label) when it names one."""
+    import picoscan
+
+    option, _, rest = str(error).partition(":")
+    prop = PROPERTY_OF_OPTION.get(option)
+    if isinstance(error, picoscan.Error) and prop and hasattr(obj, prop):
+        return picoscan.Error("%s: %s:%s" % (obj.Label, prop, rest))
+    return error
+
+
 def brief_input_errors(execute):
-    """Decorates a proxy's execute: bad input is reported in one line, without a traceback."""
+    """Decorates a proxy's execute: bad input is reported in one line, without a traceback, naming the
+    property at fault."""
     @functools.wraps(execute)
     def wrapper(self, obj):
         restore_tracebacks()  # a new computation: real bugs keep their traceback
         try:
             return execute(self, obj)
-        except input_errors():
+        except input_errors() as error:
             _shorten_tracebacks()
-            raise
+            named = _naming_the_property(obj, error)
+            if named is error:
+                raise
+            raise named from None
     return wrapper
 
 

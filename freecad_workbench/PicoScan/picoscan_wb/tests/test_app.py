@@ -306,7 +306,7 @@ class PicoScanAppTest(unittest.TestCase):
             self.assertGreater(os.path.getsize(path), 1000)
 
     def test_bad_input_leaves_document_unchanged(self):
-        self.scan()
+        view = self.scan()
         names = [o.Name for o in self.doc.Objects]
         missing = os.path.join(self.folder, "no_such_folder")
         with self.assertRaisesRegex(picoscan.Error, "no_such_folder: capture folder does not exist"):
@@ -322,6 +322,15 @@ class PicoScanAppTest(unittest.TestCase):
             scan_view.create(self.doc, self.captures, garbage)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
         self.assertTrue(all(o.isValid() for o in self.doc.Objects))
+        # A property out of the core's range: the error names the property, not the core's option.
+        view.MinContrast = 300
+        self.doc.recompute()
+        self.assertEqual(view.getStatusString(), "%s: MinContrast: must be 0..255" % view.Label)
+        view.MinContrast = 15
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        mesh.MaxEdgeFactor = -1
+        self.doc.recompute()
+        self.assertEqual(mesh.getStatusString(), "%s: MaxEdgeFactor: must be 0.01..10000" % mesh.Label)
 
     def test_save_reopen_recompute(self):
         view = self.scan(part_frame=True)
