@@ -53,6 +53,7 @@ def restore_tracebacks():
 PROPERTY_OF_OPTION = {
     "decode.min_contrast": "MinContrast",
     "decode.min_modulation": "MinModulation",
+    "cleaning.max_grazing_deg": "MaxGrazingAngle",
     "mesh.grid.pixel_step": "PixelStep",
     "mesh.grid.max_edge_factor": "MaxEdgeFactor",
     "mesh.sample_spacing_mm": "SampleSpacing",

@@ -327,6 +327,10 @@ class PicoScanAppTest(unittest.TestCase):
         self.doc.recompute()
         self.assertEqual(view.getStatusString(), "%s: MinContrast: must be 0..255" % view.Label)
         view.MinContrast = 15
+        view.Clean, view.MaxGrazingAngle = True, 200
+        self.doc.recompute()
+        self.assertEqual(view.getStatusString(), "%s: MaxGrazingAngle: must be 0..180" % view.Label)
+        view.Clean, view.MaxGrazingAngle = False, 80
         mesh = scan_mesh.create(self.doc, view, pixel_step=4)
         mesh.MaxEdgeFactor = -1
         self.doc.recompute()
