@@ -8,7 +8,7 @@ import FreeCADGui
 
 import picoscan
 
-from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views, show_message
+from picoscan_wb.commands.base import Command, captures_on_disk, selected_meshes, selected_scan_views, show_message
 from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
 
@@ -340,11 +340,6 @@ class ShowRigCommand(Command):
         return rig.show_rig(FreeCAD.ActiveDocument, calibration)
 
 
-def _views_with_captures():
-    """The selected ScanViews whose capture folder is still there (a reopened document's may be gone)."""
-    return [view for view in selected_scan_views() if os.path.isdir(view.CaptureFolder or "")]
-
-
 class EncodingViewCommand(Command):
     icon = "picoscan_encoding"
     menu = "Encoding view"
@@ -352,10 +347,10 @@ class EncodingViewCommand(Command):
                "status, from its capture folder (while that is on disk)")
 
     def IsActive(self):
-        return bool(_views_with_captures())
+        return any(captures_on_disk(view) for view in selected_scan_views())
 
     def run(self):
-        view = _views_with_captures()[0]
+        view = [view for view in selected_scan_views() if captures_on_disk(view)][0]
         folder = output_folder(view.Document, view.Name + "_encoding")
         paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile)
         for path in paths.values():

@@ -59,6 +59,7 @@ PROPERTY_OF_OPTION = {
     "mesh.sample_spacing_mm": "SampleSpacing",
     "mesh.max_hole_diameter_mm": "MaxHoleDiameter",
     "mesh.target_faces": "TargetFaces",
+    "mesh.fill": "Fill",
     "registration.icp_max_distance_mm": "IcpMaxDistance",
     "registration.min_overlap": "MinOverlap",
 }

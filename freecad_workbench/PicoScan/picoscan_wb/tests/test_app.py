@@ -335,6 +335,12 @@ class PicoScanAppTest(unittest.TestCase):
         mesh.MaxEdgeFactor = -1
         self.doc.recompute()
         self.assertEqual(mesh.getStatusString(), "%s: MaxEdgeFactor: must be 0.01..10000" % mesh.Label)
+        # The Mesh panel's "Unseen side" Table refused (a Stitch of too few views): named as the Fill property.
+        from picoscan_wb.objects import _naming_the_property
+
+        refused = picoscan.Error("mesh.fill: table: the edge of the unseen side does not lie on one plane")
+        self.assertEqual(str(_naming_the_property(mesh, refused)),
+                         "%s: Fill: table: the edge of the unseen side does not lie on one plane" % mesh.Label)
 
     def test_save_reopen_recompute(self):
         view = self.scan(part_frame=True)

@@ -126,13 +126,17 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(mesh)
         self.expect_active(ALWAYS_ACTIVE | FOR_MESHES)
-        # A reopened document's view whose capture folder and calibration are gone: Encoding view and
-        # Show rig read them, so they are greyed out (they used to run into a message box).
+        # A reopened document's view whose capture folder and calibration are gone: Encoding view, Show
+        # rig and Clean (it decodes again) read them, so they are greyed out (they ran into a message box).
         second.CaptureFolder = os.path.join(self.folder, "deleted_captures")
         second.CalibrationFile = os.path.join(self.folder, "deleted_captures", "calibration.yml")
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(second)
-        self.expect_active((ALWAYS_ACTIVE | FOR_SCAN_VIEWS) - {"PicoScan_EncodingView", "PicoScan_ShowRig"})
+        self.expect_active((ALWAYS_ACTIVE | FOR_SCAN_VIEWS) - {"PicoScan_EncodingView", "PicoScan_ShowRig", "PicoScan_Clean"})
+        view.Clean = True  # cleaned already: nothing for Clean to do
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        self.expect_active((ALWAYS_ACTIVE | FOR_SCAN_VIEWS) - {"PicoScan_Clean"})
 
     def test_d_calibrate_panel_opens_reports_bad_input_and_calibrates(self):
         FreeCADGui.runCommand("PicoScan_Calibrate")
