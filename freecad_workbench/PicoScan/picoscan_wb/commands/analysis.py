@@ -299,7 +299,7 @@ class MeasurementsCommand(Command):
 
 
 class PartFrameCommand(Command):
-    icon = "picoscan_datum"
+    icon = "picoscan_part_frame"
     menu = "Part frame (Z up)"
     tooltip = ("Place the selected ScanViews and Stitches in their part frame: Z up on the turntable's axis, else on "
                "the base plane they stand on (replaces their Placement)")

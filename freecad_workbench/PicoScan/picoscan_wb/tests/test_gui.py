@@ -98,6 +98,9 @@ class PicoScanGuiTest(unittest.TestCase):
             self.assertTrue(os.path.isfile(info["pixmap"]), info["pixmap"])
             self.assertTrue(info["pixmap"].endswith(".svg"))
             self.assertFalse(FreeCADGui.Command.get(name).getAction()[0].icon().isNull(), name)
+        # One icon per command: Part frame and Datum alignment shared one, two alike buttons side by side.
+        icons = [FreeCADGui.Command.get(name).getInfo()["pixmap"] for name in COMMANDS]
+        self.assertEqual(len(set(icons)), len(icons), icons)
 
     def expect_active(self, active):
         for name, command in COMMANDS.items():
