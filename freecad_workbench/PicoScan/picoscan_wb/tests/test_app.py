@@ -290,6 +290,14 @@ class PicoScanAppTest(unittest.TestCase):
         with self.assertRaisesRegex(picoscan.Error, "none lies within"):
             deviation_map.create(self.doc, view, far, max_distance_mm=1.0)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
+        # Set to 0 in the property editor: the map's Deflection is named, not as if it were the model's.
+        result.Deflection = 0
+        self.doc.recompute()
+        self.assertEqual(result.getStatusString(), "Deflection: must be positive, is 0 mm (how far the tessellated "
+                                                   "ShaftModel may lie from its true surface)")
+        result.Deflection = 0.005
+        self.doc.recompute()
+        self.assertTrue(result.isValid())
 
     def test_show_rig(self):
         group, camera, projector = rig.show_rig(self.doc, self.calibration, depth_mm=450)
