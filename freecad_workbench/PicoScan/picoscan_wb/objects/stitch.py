@@ -176,9 +176,11 @@ class Stitch(DocumentObjectProxy):
         _add_placement_properties(obj, restored=True)
         if unlit:
             # Its normals need the views stitched again (seconds, and it may not align as saved):
-            # left to the user's recompute, which draws it lit; touched, so the tree shows it.
+            # left to the user's recompute, which draws it lit. Touched (headless it stays so; the
+            # GUI clears it once the document is open, so the warning says how to ask for it).
             obj.touch()
-            FreeCAD.Console.PrintWarning("%s: saved without normals, so drawn unlit until recomputed\n" % obj.Label)
+            FreeCAD.Console.PrintWarning("%s: saved without normals, so drawn unlit until recomputed (Mark to recompute, "
+                                         "then Recompute)\n" % obj.Label)
             if FreeCAD.GuiUp:
                 obj.ViewObject.DisplayMode = "Shaded"  # FreeCAD draws it flat while it has no normals
 
