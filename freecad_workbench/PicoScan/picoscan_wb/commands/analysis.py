@@ -8,7 +8,7 @@ import FreeCADGui
 
 import picoscan
 
-from picoscan_wb.commands.base import Command, selected_meshes, selected_scan_views, show_message
+from picoscan_wb.commands.base import Command, captures_on_disk, selected_meshes, selected_scan_views, show_message
 from picoscan_wb.objects import cloud_of, deviation_map, is_scan_view, is_stitch
 from picoscan_wb.operations import encoding, primitives, rig, section, solid
 
@@ -299,7 +299,7 @@ class MeasurementsCommand(Command):
 
 
 class PartFrameCommand(Command):
-    icon = "picoscan_datum"
+    icon = "picoscan_part_frame"
     menu = "Part frame (Z up)"
     tooltip = ("Place the selected ScanViews and Stitches in their part frame: Z up on the turntable's axis, else on "
                "the base plane they stand on (replaces their Placement)")
@@ -319,10 +319,12 @@ class PartFrameCommand(Command):
 class ShowRigCommand(Command):
     icon = "picoscan_rig"
     menu = "Show rig"
-    tooltip = "Camera and projector frusta at their calibrated poses (of the selected ScanView's calibration)"
+    tooltip = ("Camera and projector frusta at their calibrated poses: of the selected ScanView's calibration "
+               "(while its file is on disk), or of a calibration file chosen when no ScanView is selected")
 
     def IsActive(self):
-        return FreeCAD.ActiveDocument is not None
+        views = selected_scan_views()
+        return FreeCAD.ActiveDocument is not None and (not views or os.path.isfile(views[0].CalibrationFile or ""))
 
     def run(self):
         views = selected_scan_views()
@@ -341,13 +343,14 @@ class ShowRigCommand(Command):
 class EncodingViewCommand(Command):
     icon = "picoscan_encoding"
     menu = "Encoding view"
-    tooltip = "False-colour pictures of the decoded projector codes, modulation and pixel status"
+    tooltip = ("False-colour pictures of the selected ScanView's decoded projector codes, modulation and pixel "
+               "status, from its capture folder (while that is on disk)")
 
     def IsActive(self):
-        return bool(selected_scan_views())
+        return any(captures_on_disk(view) for view in selected_scan_views())
 
     def run(self):
-        view = selected_scan_views()[0]
+        view = [view for view in selected_scan_views() if captures_on_disk(view)][0]
         folder = output_folder(view.Document, view.Name + "_encoding")
         paths = encoding.encoding_images(view.CaptureFolder, folder, view.ManifestFile)
         for path in paths.values():

@@ -1,5 +1,7 @@
 """What every PicoScan command shares: resources with an icon, selection helpers, and running an
 action so that bad input shows a message box and leaves the document as it was."""
+import os
+
 import FreeCAD
 import FreeCADGui
 
@@ -51,6 +53,13 @@ def selected(predicate):
 
 def selected_scan_views():
     return selected(is_scan_view)
+
+
+def captures_on_disk(view):
+    """Whether a ScanView's capture folders are still there (a reopened document's may be gone: it then
+    recomputes from the view kept in it, but cannot decode again or show the captures)."""
+    folders = [view.CaptureFolder] + ([view.SecondCaptureFolder] if view.SecondCaptureFolder else [])
+    return all(os.path.isdir(folder or "") for folder in folders)
 
 
 def selected_meshes():

@@ -6,8 +6,8 @@ import FreeCAD
 import FreeCADGui
 
 import picoscan
-from picoscan_wb.commands.base import Command, active_document, selected_scan_views
-from picoscan_wb.objects import scan_view
+from picoscan_wb.commands.base import Command, active_document, captures_on_disk, selected_scan_views
+from picoscan_wb.objects import recompute_now, scan_view
 
 
 class CalibrateCommand(Command):
@@ -83,18 +83,22 @@ class ImportCapturesCommand(Command):
         return view
 
 
+def _cleanable(views):
+    return [view for view in views if not view.Clean and captures_on_disk(view)]
+
+
 class CleanCommand(Command):
     icon = "picoscan_clean"
     menu = "Clean scan"
-    tooltip = "Remove stray-light outliers, grazing points and small clusters from the selected ScanViews"
+    tooltip = ("Remove stray-light outliers, grazing points and small clusters from the selected ScanViews not "
+               "cleaned yet (decoded again: their capture folders must be on disk)")
 
     def IsActive(self):
-        return bool(selected_scan_views())
+        return bool(_cleanable(selected_scan_views()))
 
     def run(self):
-        for view in selected_scan_views():
+        for view in _cleanable(selected_scan_views()):
             view.Clean = True
-            view.recompute()
-            if not view.isValid():
+            if not recompute_now(view):
                 raise picoscan.Error("%s: cleaning failed: %s" % (view.Label, view.getStatusString()))
             FreeCAD.Console.PrintMessage("%s: %s\n" % (view.Label, view.CleanReport))

@@ -48,16 +48,48 @@ def restore_tracebacks():
         _brief.active = False
 
 
+# The core names an option it refuses as a config file would ("decode.min_contrast: must be 0..255");
+# in FreeCAD the user set a property, so the message names that instead.
+PROPERTY_OF_OPTION = {
+    "decode.min_contrast": "MinContrast",
+    "decode.min_modulation": "MinModulation",
+    "cleaning.max_grazing_deg": "MaxGrazingAngle",
+    "mesh.grid.pixel_step": "PixelStep",
+    "mesh.grid.max_edge_factor": "MaxEdgeFactor",
+    "mesh.sample_spacing_mm": "SampleSpacing",
+    "mesh.max_hole_diameter_mm": "MaxHoleDiameter",
+    "mesh.target_faces": "TargetFaces",
+    "mesh.fill": "Fill",
+    "registration.icp_max_distance_mm": "IcpMaxDistance",
+    "registration.min_overlap": "MinOverlap",
+}
+
+
+def _naming_the_property(obj, error):
+    """The error, with the core's option name replaced by obj's property (and obj's label) when it names one."""
+    import picoscan
+
+    option, _, rest = str(error).partition(":")
+    prop = PROPERTY_OF_OPTION.get(option)
+    if isinstance(error, picoscan.Error) and prop and hasattr(obj, prop):
+        return picoscan.Error("%s: %s:%s" % (obj.Label, prop, rest))
+    return error
+
+
 def brief_input_errors(execute):
-    """Decorates a proxy's execute: bad input is reported in one line, without a traceback."""
+    """Decorates a proxy's execute: bad input is reported in one line, without a traceback, naming the
+    property at fault."""
     @functools.wraps(execute)
     def wrapper(self, obj):
         restore_tracebacks()  # a new computation: real bugs keep their traceback
         try:
             return execute(self, obj)
-        except input_errors():
+        except input_errors() as error:
             _shorten_tracebacks()
-            raise
+            named = _naming_the_property(obj, error)
+            if named is error:
+                raise
+            raise named from None
     return wrapper
 
 
@@ -111,6 +143,16 @@ def cloud_of(obj):
     raise picoscan.Error("%s: not a ScanView or a Stitch" % getattr(obj, "Label", obj))
 
 
+def recompute_now(obj):
+    """Recomputes obj alone and, when that worked, clears its Touched mark as the document's recompute
+    does (obj.recompute() leaves it: the tree would show a fresh object as needing a recompute).
+    Returns whether it worked."""
+    if obj.recompute() and obj.isValid():
+        obj.purgeTouched()
+        return True
+    return False
+
+
 def add_or_remove(doc, type_name, name, setup):
     """The one way PicoScan adds a computed object: add it, let setup(obj) set its proxy and
     properties, recompute it, and remove it again when that failed, so bad input leaves the
@@ -120,7 +162,7 @@ def add_or_remove(doc, type_name, name, setup):
     obj = doc.addObject(type_name, name)
     try:
         setup(obj)
-        obj.recompute()
+        recompute_now(obj)
         restore_tracebacks()
         if not obj.isValid():
             raise picoscan.Error(obj.getStatusString())

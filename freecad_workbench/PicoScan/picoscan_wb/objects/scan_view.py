@@ -8,7 +8,7 @@ import Points
 
 import picoscan
 from picoscan_wb import property_content
-from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors
+from picoscan_wb.objects import DocumentObjectProxy, brief_input_errors, input_errors, recompute_now, restore_tracebacks
 from picoscan_wb.operations.reconstruct import check_second_folder, read_any_calibration, reconstruct, stereo_summary
 from picoscan_wb.progress import run_in_background
 
@@ -151,10 +151,28 @@ class ScanView(DocumentObjectProxy):
     def onDocumentRestored(self, obj):
         super().onDocumentRestored(obj)
         _add_stereo_properties(obj)
-        # A view saved before it had normals stays drawn flat: FreeCAD has built its display modes by now.
-        add_normal_property(obj, "The view's normals, from its pixel grid")
         if not hasattr(obj, "StoredView"):  # a document saved before views were kept in it
             _add_storage(obj)
+        if not hasattr(obj, "Normal"):  # a document saved before views were drawn lit by their normals
+            add_normal_property(obj, "The view's normals, from its pixel grid")
+            self._light_restored_view(obj)
+
+    def _light_restored_view(self, obj):
+        """Computes the normals of a view saved without them (from its stored view or captures) and draws
+        it lit, as a new one. The document is not marked modified by this: FreeCAD clears that mark once
+        the whole document is restored. Without its captures or stored view it stays flat, with the reason."""
+        touched = "Touched" in obj.State
+        try:
+            self.scan_view(obj)  # recomputes the view: show_cloud sets Normal one per point
+        except input_errors() as error:  # captures and stored view gone: opening goes on
+            restore_tracebacks()
+            FreeCAD.Console.PrintWarning("%s: saved without normals and not recomputed, so drawn unlit: %s\n" % (
+                obj.Label, error))
+            return
+        if not touched:
+            obj.purgeTouched()
+        if FreeCAD.GuiUp:
+            obj.ViewObject.DisplayMode = "Shaded"
 
     @brief_input_errors
     def execute(self, obj):
@@ -218,12 +236,13 @@ def create(doc, capture_folder, calibration_file, name="ScanView", clean=False, 
     if FreeCAD.GuiUp:
         from picoscan_wb.viewproviders.view_provider import ShadedPointsViewProvider
         ShadedPointsViewProvider(obj.ViewObject, "picoscan_scan")
-    obj.recompute()
+    recompute_now(obj)
     if part_frame:
         from picoscan_wb.operations import datum
 
         try:
             datum.place_in_part_frame(obj)
+            obj.purgeTouched()  # the new Placement moves its points at once: nothing left to recompute
         except picoscan.Error as error:
             FreeCAD.Console.PrintWarning("%s: left in the camera's frame: %s\n" % (obj.Label, error))
     if FreeCAD.GuiUp:

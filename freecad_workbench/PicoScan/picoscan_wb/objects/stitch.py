@@ -172,7 +172,17 @@ class Stitch(DocumentObjectProxy):
 
     def onDocumentRestored(self, obj):
         super().onDocumentRestored(obj)
+        unlit = not hasattr(obj, "Normal")  # saved before Stitches were drawn lit by their normals
         _add_placement_properties(obj, restored=True)
+        if unlit:
+            # Its normals need the views stitched again (seconds, and it may not align as saved):
+            # left to the user's recompute, which draws it lit. Touched (headless it stays so; the
+            # GUI clears it once the document is open, so the warning says how to ask for it).
+            obj.touch()
+            FreeCAD.Console.PrintWarning("%s: saved without normals, so drawn unlit until recomputed (Mark to recompute, "
+                                         "then Recompute)\n" % obj.Label)
+            if FreeCAD.GuiUp:
+                obj.ViewObject.DisplayMode = "Shaded"  # FreeCAD draws it flat while it has no normals
 
     @brief_input_errors
     def execute(self, obj):
@@ -268,6 +278,7 @@ def create(doc, views, name="Stitch", part_frame=True, placement_of_view=(), mod
 
         try:
             datum.place_in_part_frame(obj)
+            obj.purgeTouched()  # the new Placement moves its points at once: nothing left to recompute
         except picoscan.Error as error:  # the camera frame of the first view stays; say why
             FreeCAD.Console.PrintWarning("%s: left in the first camera's frame: %s\n" % (obj.Label, error))
     if FreeCAD.GuiUp:

@@ -9,6 +9,7 @@ import numpy
 import FreeCAD
 
 import picoscan
+from picoscan_wb.operations import primitives
 
 
 def _label(feature):
@@ -43,7 +44,7 @@ def plane_of(feature):
     inward = -outward
     obj = feature[0]
     return picoscan.PlaneFit(numpy.array([inward.x, inward.y, inward.z]), float(inward.dot(point)),
-                             float(getattr(obj, "FitRmsMm", 0.0)), int(getattr(obj, "InlierCount", 0)))
+                             primitives.fit_rms_mm(obj), int(getattr(obj, "InlierCount", 0)))
 
 
 def point_of(feature):

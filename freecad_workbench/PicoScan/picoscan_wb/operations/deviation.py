@@ -33,7 +33,9 @@ def reference_reader(obj, deflection_mm=0.01):
     if not (hasattr(obj, "Shape") and not obj.Shape.isNull() and obj.Shape.Faces):
         raise picoscan.Error("%s: the reference has no faces or triangles to measure against" % label)
     if deflection_mm <= 0:
-        raise picoscan.Error("%s: Deflection must be positive" % label)
+        # The map's own property (how closely the model is tessellated), not one of the model's.
+        raise picoscan.Error("Deflection: must be positive, is %g mm (how far the tessellated %s may lie from "
+                             "its true surface)" % (deflection_mm, label))
     shape = obj.Shape  # carries the placement
     if all(isinstance(face.Surface, Part.Plane) for face in shape.Faces):
         # Planes only: a few triangles whatever the deflection (a box: 12, in 0.03 s at load 10),

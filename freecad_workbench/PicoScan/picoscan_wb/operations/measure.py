@@ -14,6 +14,7 @@ import os
 import FreeCAD
 
 import picoscan
+from picoscan_wb.operations import primitives
 
 KINDS = ("Plane", "Cylinder", "Sphere")
 PARALLEL_DEG = 2.0  # features nearer to parallel than this also get a distance
@@ -31,7 +32,7 @@ class Feature:
         self.kind = kind
         placement = obj.Placement
         self.direction = placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
-        sigma, count = float(obj.FitRmsMm), max(int(obj.InlierCount), 3)
+        sigma, count = primitives.fit_rms_mm(obj), max(int(obj.InlierCount), 3)
         if kind == "Plane":
             self.point = obj.Shape.Faces[0].CenterOfMass
             extent = math.hypot(obj.Length.Value, obj.Width.Value) / math.sqrt(2)

@@ -25,11 +25,19 @@ def _rotation_to(direction, x_direction=None):
 
 def _add_fit_properties(obj, shape):
     obj.addProperty("App::PropertyString", "FitKind", "Fit", "Shape kind detected", 1)
-    obj.addProperty("App::PropertyFloat", "FitRmsMm", "Fit", "RMS distance of the inliers to the shape (mm)", 1)
+    obj.addProperty("App::PropertyLength", "FitRms", "Fit", "RMS distance of the inliers to the shape", 1)
     obj.addProperty("App::PropertyInteger", "InlierCount", "Fit", "Points of the scan on this shape", 1)
     obj.FitKind = str(shape.kind).split(".")[-1]
-    obj.FitRmsMm = float(shape.rms_mm)
+    obj.FitRms = float(shape.rms_mm)
     obj.InlierCount = int(shape.inlier_count)
+
+
+def fit_rms_mm(obj):
+    """A fitted primitive's RMS in mm: FitRms, or FitRmsMm (a plain number) in documents saved before
+    it had a unit; 0 for a face that was not fitted."""
+    if hasattr(obj, "FitRms"):
+        return float(obj.FitRms.Value)
+    return float(getattr(obj, "FitRmsMm", 0.0))
 
 
 def _add_plane(doc, shape, points):

@@ -120,7 +120,7 @@ def fit_in_lasso(cloud, document_to_screen, polygon, options, placement=None, pr
 
 def add_fitted(doc, cloud, fit, placement=None, label=None):
     """Adds the Part primitive of a picoscan.RegionFit (in the scan's frame, moved by `placement`),
-    with FitKind, FitRmsMm, InlierCount and FitReport. Returns the object."""
+    with FitKind, FitRms, InlierCount and FitReport. Returns the object."""
     shape = fit.shape
     points = cloud.points
     if shape.kind == picoscan.ShapeKind.Plane:

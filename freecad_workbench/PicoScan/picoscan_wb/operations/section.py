@@ -262,7 +262,9 @@ def cross_section(doc, mesh_object, axis="Y", offset_mm=None, name="Section", to
                     line, fit.noise_mm, fit.tolerance_mm) for line in lines]
             report += lines
         sketch.addProperty("App::PropertyLink", "SourceMesh", "Section", "The mesh that was cut")
-        sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)")
+        # Set after the sketch is made, it changes no geometry: an output (8: Prop_Output), which does not
+        # mark the sketch as needing a recompute.
+        sketch.addProperty("App::PropertyFile", "ProfilePlot", "Section", "Plot of the profile (hybrid vs binary)", 8)
         sketch.addProperty("App::PropertyLength", "FitTolerance", "Section", "Largest distance of a section point to its element")
         sketch.addProperty("App::PropertyLength", "FitNoise", "Section",
                            "Noise (sigma) of the scan the mesh was made from, measured on its points; 0: none known")

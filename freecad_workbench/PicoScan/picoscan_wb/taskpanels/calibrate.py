@@ -32,9 +32,12 @@ class CalibrateTaskPanel:
         buttons.addWidget(remove)
         layout.addRow("", buttons)
         self.output = QtGui.QLineEdit(os.path.join(os.path.expanduser("~"), "picoscan_calibration.yml"))
+        self.output.setToolTip("Where the calibration (.yml) is written, with an HTML report beside it; "
+                               "Scan and Import capture set read it")
         layout.addRow("Output file", self.output)
         self.report = QtGui.QPlainTextEdit()
         self.report.setReadOnly(True)
+        self.report.setToolTip("What each pose gave and the calibration's reprojection errors")
         layout.addRow("Report", self.report)
         self.result = None
         self.report_lines = []  # the report's text, also after the panel has closed

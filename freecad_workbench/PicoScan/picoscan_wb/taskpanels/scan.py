@@ -44,6 +44,9 @@ class ScanTaskPanel:
         layout.addRow("Calibration", self.calibration)
         self.scene = QtGui.QComboBox()
         self.scene.addItems(list(simulate.SCENES))
+        self.scene.setToolTip("Simulate: what the virtual rig scans. Demo part: a block with a through hole and a boss, "
+                              "and a ball, before a wall. Shaft: a cylinder before a wall. Scene file: your own "
+                              "scene (YAML/JSON)")
         layout.addRow("Scene", self.scene)
         self.scene_file = QtGui.QLineEdit()
         self.scene_file.setToolTip("Scene description (YAML/JSON) when Scene is 'Scene file'")
@@ -54,6 +57,8 @@ class ScanTaskPanel:
                                 "between them only labelling pixels), reconstructed with its stereo calibration")
         layout.addRow("Cameras", self.cameras)
         self.folder = QtGui.QLineEdit(tempfile.mkdtemp(prefix="picoscan_scan_"))
+        self.folder.setToolTip("Where the capture set (images + sequence.json) is written; the ScanView reads it "
+                               "from there (and keeps its decoded view in the document)")
         layout.addRow("Capture folder", self.folder)
         self.second_folder = QtGui.QLineEdit()
         self.second_folder.setToolTip("Two cameras: where the second camera's capture set is written "

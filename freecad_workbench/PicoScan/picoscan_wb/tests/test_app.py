@@ -166,7 +166,7 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertGreaterEqual(len(planes), 1)
         shaft = cylinders[0]
         FreeCAD.Console.PrintMessage("shaft radius %.4f mm (error %.1f um), rms %.4f mm, %d inliers\n" % (
-            shaft.Radius.Value, (shaft.Radius.Value - SHAFT_RADIUS_MM) * 1000, shaft.FitRmsMm, shaft.InlierCount))
+            shaft.Radius.Value, (shaft.Radius.Value - SHAFT_RADIUS_MM) * 1000, shaft.FitRms.Value, shaft.InlierCount))
         self.assertAlmostEqual(shaft.Radius.Value, SHAFT_RADIUS_MM, delta=0.020)
         axis = shaft.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
         self.assertGreater(abs(axis.y), math.cos(math.radians(0.2)))
@@ -177,10 +177,11 @@ class PicoScanAppTest(unittest.TestCase):
         wall = planes[0]
         normal = wall.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, 1))
         FreeCAD.Console.PrintMessage("wall plane z %.4f mm (true %.1f), normal off by %.4f deg, rms %.4f mm\n" % (
-            wall.Placement.Base.z, BACKGROUND_Z_MM, math.degrees(normal.getAngle(FreeCAD.Vector(0, 0, -1))), wall.FitRmsMm))
+            wall.Placement.Base.z, BACKGROUND_Z_MM, math.degrees(normal.getAngle(FreeCAD.Vector(0, 0, -1))), wall.FitRms.Value))
         self.assertGreater(-normal.z, math.cos(math.radians(0.05)))
         self.assertAlmostEqual(wall.Placement.Base.z, BACKGROUND_Z_MM, delta=0.05)
-        self.assertLess(wall.FitRmsMm, 0.1)
+        self.assertLess(wall.FitRms.Value, 0.1)
+        self.assertEqual(wall.FitRms.Unit, FreeCAD.Units.Length)  # shown in mm in the property editor
         self.assertGreater(wall.Shape.Area, 100 * 100)
 
     def test_cross_section_sketch_and_profile_plot(self):
@@ -289,6 +290,14 @@ class PicoScanAppTest(unittest.TestCase):
         with self.assertRaisesRegex(picoscan.Error, "none lies within"):
             deviation_map.create(self.doc, view, far, max_distance_mm=1.0)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
+        # Set to 0 in the property editor: the map's Deflection is named, not as if it were the model's.
+        result.Deflection = 0
+        self.doc.recompute()
+        self.assertEqual(result.getStatusString(), "Deflection: must be positive, is 0 mm (how far the tessellated "
+                                                   "ShaftModel may lie from its true surface)")
+        result.Deflection = 0.005
+        self.doc.recompute()
+        self.assertTrue(result.isValid())
 
     def test_show_rig(self):
         group, camera, projector = rig.show_rig(self.doc, self.calibration, depth_mm=450)
@@ -305,7 +314,7 @@ class PicoScanAppTest(unittest.TestCase):
             self.assertGreater(os.path.getsize(path), 1000)
 
     def test_bad_input_leaves_document_unchanged(self):
-        self.scan()
+        view = self.scan()
         names = [o.Name for o in self.doc.Objects]
         missing = os.path.join(self.folder, "no_such_folder")
         with self.assertRaisesRegex(picoscan.Error, "no_such_folder: capture folder does not exist"):
@@ -321,10 +330,31 @@ class PicoScanAppTest(unittest.TestCase):
             scan_view.create(self.doc, self.captures, garbage)
         self.assertEqual([o.Name for o in self.doc.Objects], names)
         self.assertTrue(all(o.isValid() for o in self.doc.Objects))
+        # A property out of the core's range: the error names the property, not the core's option.
+        view.MinContrast = 300
+        self.doc.recompute()
+        self.assertEqual(view.getStatusString(), "%s: MinContrast: must be 0..255" % view.Label)
+        view.MinContrast = 15
+        view.Clean, view.MaxGrazingAngle = True, 200
+        self.doc.recompute()
+        self.assertEqual(view.getStatusString(), "%s: MaxGrazingAngle: must be 0..180" % view.Label)
+        view.Clean, view.MaxGrazingAngle = False, 80
+        mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        mesh.MaxEdgeFactor = -1
+        self.doc.recompute()
+        self.assertEqual(mesh.getStatusString(), "%s: MaxEdgeFactor: must be 0.01..10000" % mesh.Label)
+        # The Mesh panel's "Unseen side" Table refused (a Stitch of too few views): named as the Fill property.
+        from picoscan_wb.objects import _naming_the_property
+
+        refused = picoscan.Error("mesh.fill: table: the edge of the unseen side does not lie on one plane")
+        self.assertEqual(str(_naming_the_property(mesh, refused)),
+                         "%s: Fill: table: the edge of the unseen side does not lie on one plane" % mesh.Label)
 
     def test_save_reopen_recompute(self):
-        view = self.scan()
+        view = self.scan(part_frame=True)
         mesh = scan_mesh.create(self.doc, view, pixel_step=4)
+        # Up to date as FreeCAD's own tools leave what they make, not marked as needing a recompute.
+        self.assertEqual([o.Name for o in self.doc.Objects if "Touched" in o.State], [])
         points, facets = view.PointCount, mesh.Mesh.CountFacets
         view_name, mesh_name = view.Name, mesh.Name
         path = os.path.join(self.folder, "scan.FCStd")
@@ -341,6 +371,34 @@ class PicoScanAppTest(unittest.TestCase):
         self.assertTrue(view.isValid() and mesh.isValid())
         self.assertEqual(view.PointCount, points)
         self.assertEqual(mesh.Mesh.CountFacets, facets)
+
+    def test_scan_view_saved_before_normals_gets_them_on_reopen_from_its_stored_view(self):
+        """A ScanView saved before views had normals (no Normal property) gets them when reopened, from the
+        view kept in the document when its capture folder is gone; saved before views were kept too,
+        with nothing to recompute from, it opens without them (drawn flat, a warning) and stays valid."""
+        view = self.scan()
+        points, name = view.PointCount, view.Name
+        view.removeProperty("Normal")
+        view.CaptureFolder = os.path.join(self.folder, "moved_away")
+        view.purgeTouched()
+        path = os.path.join(self.folder, "saved_before_normals.FCStd")
+        self.doc.saveAs(path)
+        view.removeProperty("StoredView")
+        view.removeProperty("StoredDecoding")
+        older = os.path.join(self.folder, "saved_before_stored_views.FCStd")
+        self.doc.saveAs(older)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        view = self.doc.getObject(name)
+        self.assertEqual(len(view.Normal), points)
+        self.assertNotIn("Touched", view.State)
+        self.check_normals(view)
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(older)
+        view = self.doc.getObject(name)
+        self.assertEqual(len(view.Normal), 0)
+        self.assertEqual(view.Points.CountPoints, points)
+        self.assertTrue(view.isValid())
 
     def test_part_frame_on_the_base_plane_and_what_follows_it(self):
         """The shaft's scan stands on the wall behind it: Z along the wall's normal towards the camera,
@@ -732,6 +790,7 @@ class PicoScanStitchTest(unittest.TestCase):
         merged.removeProperty("Mode")
         merged.addProperty("App::PropertyBool", "TurntableRound", "Registration", "")
         merged.TurntableRound = True
+        merged.removeProperty("Normal")  # and from before Stitches were drawn lit
         self.doc.saveAs(path)
         FreeCAD.closeDocument(self.doc.Name)
         # The capture folders are gone when the document is reopened: it stitches from the views kept in it.
@@ -743,6 +802,8 @@ class PicoScanStitchTest(unittest.TestCase):
             self.assertEqual(merged.Points.CountPoints, count)
             self.assertEqual(merged.Mode, "Turntable round")  # the old property became the mode
             self.assertFalse(hasattr(merged, "TurntableRound"))
+            self.assertEqual(len(merged.Normal), 0)
+            self.assertIn("Touched", merged.State)  # the recompute brings its normals
             merged.Mode = "Automatic"  # three views 45 degrees apart are not a full round
             for view in merged.Views:
                 view.touch()
@@ -750,6 +811,7 @@ class PicoScanStitchTest(unittest.TestCase):
             self.doc.recompute()
             self.assertTrue(merged.isValid(), merged.getStatusString())
             self.assertEqual(merged.PointCount, count)
+            self.assertEqual(len(merged.Normal), count)
             for placement, pose in zip(merged.ViewPoses, poses):
                 difference = numpy.abs(numpy.array(placement.toMatrix().A) - numpy.array(pose.A))
                 self.assertLess(difference.max(), 1e-6)
@@ -1449,6 +1511,18 @@ class PicoScanDatumTest(unittest.TestCase):
         self.assertEqual(len(moved), 1, table.Table)
         self.assertAlmostEqual(float(moved[0].split("axis distance ")[1].split()[0]), math.hypot(24, 2), delta=0.02)
         boss.Placement = before
+        # A hole fitted before FitRms had a unit (a plain FitRmsMm) keeps its uncertainty.
+        diameter = [row for row in table.Table if row.startswith("%s: diameter" % hole.Label)]
+        rms = hole.FitRms.Value
+        hole.removeProperty("FitRms")
+        hole.addProperty("App::PropertyFloat", "FitRmsMm", "Fit", "")
+        hole.FitRmsMm = rms
+        table.touch()
+        self.doc.recompute()
+        self.assertEqual([row for row in table.Table if row.startswith("%s: diameter" % hole.Label)], diameter)
+        hole.removeProperty("FitRmsMm")  # as it was, for the other tests of the fitted part
+        hole.addProperty("App::PropertyLength", "FitRms", "Fit", "")
+        hole.FitRms = rms
         names = [o.Name for o in self.doc.Objects]
         with self.assertRaisesRegex(picoscan.Error, "needs two or more fitted features"):
             measurements.create(self.doc, features[:1])

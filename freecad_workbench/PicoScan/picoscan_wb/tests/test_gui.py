@@ -98,6 +98,9 @@ class PicoScanGuiTest(unittest.TestCase):
             self.assertTrue(os.path.isfile(info["pixmap"]), info["pixmap"])
             self.assertTrue(info["pixmap"].endswith(".svg"))
             self.assertFalse(FreeCADGui.Command.get(name).getAction()[0].icon().isNull(), name)
+        # One icon per command: Part frame and Datum alignment shared one, two alike buttons side by side.
+        icons = [FreeCADGui.Command.get(name).getInfo()["pixmap"] for name in COMMANDS]
+        self.assertEqual(len(set(icons)), len(icons), icons)
 
     def expect_active(self, active):
         for name, command in COMMANDS.items():
@@ -126,6 +129,17 @@ class PicoScanGuiTest(unittest.TestCase):
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(mesh)
         self.expect_active(ALWAYS_ACTIVE | FOR_MESHES)
+        # A reopened document's view whose capture folder and calibration are gone: Encoding view, Show
+        # rig and Clean (it decodes again) read them, so they are greyed out (they ran into a message box).
+        second.CaptureFolder = os.path.join(self.folder, "deleted_captures")
+        second.CalibrationFile = os.path.join(self.folder, "deleted_captures", "calibration.yml")
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(second)
+        self.expect_active((ALWAYS_ACTIVE | FOR_SCAN_VIEWS) - {"PicoScan_EncodingView", "PicoScan_ShowRig", "PicoScan_Clean"})
+        view.Clean = True  # cleaned already: nothing for Clean to do
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(view)
+        self.expect_active((ALWAYS_ACTIVE | FOR_SCAN_VIEWS) - {"PicoScan_Clean"})
 
     def test_d_calibrate_panel_opens_reports_bad_input_and_calibrates(self):
         FreeCADGui.runCommand("PicoScan_Calibrate")
@@ -658,6 +672,29 @@ class PicoScanGuiTest(unittest.TestCase):
             self.assertLess(numpy.abs(image[row, column].astype(int) - expected).max(), 12, distance)
         self.assertIn("Shaded", shaded.ViewObject.listDisplayModes())
         self.assertEqual(shaded.ViewObject.DisplayMode, "Shaded")
+
+    def test_j4_scan_view_saved_before_it_was_drawn_lit_is_lit_when_reopened(self):
+        """A ScanView saved before views were drawn lit by their normals (no Normal property, the plain
+        view provider, DisplayMode Points) is drawn lit when reopened, and opening it leaves the
+        document unmodified and the view not touched."""
+        from picoscan_wb.viewproviders.view_provider import ViewProvider
+
+        view = scan_view.create(self.doc, self.captures, self.calibration)
+        view.removeProperty("Normal")
+        ViewProvider(view.ViewObject, "picoscan_scan")  # the view provider those documents saved
+        view.ViewObject.DisplayMode = "Points"
+        view.purgeTouched()  # removing a property touches the view; such documents were saved recomputed
+        path = os.path.join(self.folder, "saved_before_lit_views.FCStd")
+        self.doc.saveAs(path)
+        name = view.Name
+        FreeCAD.closeDocument(self.doc.Name)
+        self.doc = FreeCAD.openDocument(path)
+        view = self.doc.getObject(name)
+        self.assertFalse(FreeCADGui.getDocument(self.doc.Name).Modified)
+        self.assertNotIn("Touched", view.State)
+        self.assertEqual(view.ViewObject.listDisplayModes().count("Shaded"), 1)
+        # The shaft turned 30 degrees: 12 grey levels p10-p90 as a new view, the same reopened, 0 flat.
+        self.check_shading(view, "freecad-scanview-reopened-shaded.png", tilt_deg=30, min_spread=8)
 
     def test_j2_datum_alignment_command_moves_a_model_into_its_part_frame(self):
         """Three faces of a turned box picked in the 3D view (bottom, back, left): the box's corner goes
@@ -1221,6 +1258,7 @@ class PicoScanGuiTest(unittest.TestCase):
         process_events()
         sections = [o for o in self.doc.Objects if o.TypeId == "Sketcher::SketchObject"]
         self.assertEqual(len(sections), 1, self.messages)
+        self.assertNotIn("Touched", sections[0].State)  # its profile plot, set last, needs no recompute
         self.assertGreaterEqual(len(sections[0].FitReport), 3)  # fitted lines and arcs
         self.assertEqual(len(sections[0].FitReport), sections[0].GeometryCount)
         self.assertTrue(os.path.isfile(sections[0].ProfilePlot))
@@ -1334,15 +1372,19 @@ class PicoScanGuiTest(unittest.TestCase):
         view = panel.created
         points = view.PointCount
         self.assertGreater(points, 100000)
+        # Up to date as FreeCAD's own commands leave what they make (the tree showed it as needing a recompute).
+        self.assertNotIn("Touched", view.State)
         self.walkthrough_screenshot("1-scan", [view])
         run("PicoScan_Clean", view)
         self.assertTrue(view.Clean)
         self.assertIn("removed", view.CleanReport)
         self.assertLess(view.PointCount, points)
+        self.assertNotIn("Touched", view.State)
         panel = run("PicoScan_Mesh", view).panel
         self.assertTrue(panel.accept(), self.messages)
         grid = panel.created
         self.assertGreater(grid.Mesh.CountFacets, 50000)
+        self.assertEqual([o.Name for o in self.doc.Objects if "Touched" in o.State], [])
         self.walkthrough_screenshot("2-mesh", [grid])
         run("PicoScan_PartFrame", view)
         self.doc.recompute()

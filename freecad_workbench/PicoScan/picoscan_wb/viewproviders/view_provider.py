@@ -13,6 +13,15 @@ class ViewProvider:
     def getIcon(self):
         return icon_path(self.icon)
 
+    def getDisplayModes(self, vobj):
+        """FreeCAD's own modes, and "Shaded" for a ScanView or Stitch of a document saved before they
+        were drawn lit: FreeCAD builds that mode when it attaches the view provider, only if the object
+        has its Normal property by then, and such an object gets it later (in onDocumentRestored)."""
+        from picoscan_wb.objects import is_scan_view, is_stitch
+
+        obj = vobj.Object
+        return ["Shaded"] if (is_scan_view(obj) or is_stitch(obj)) and not hasattr(obj, "Normal") else []
+
     def claimChildren(self):
         source = getattr(self.Object, "Source", None)
         return [source] if source is not None else []
