@@ -326,6 +326,8 @@ int run_stitch(const Arguments& arguments) {
     warn_about_duplicate_views(inputs);
     StitchOptions options;
     options.registration.sample_spacing_mm = arguments.number("--spacing-mm", options.registration.sample_spacing_mm);
+    if (arguments.has("--step-deg") && !arguments.has("--turntable"))
+        throw Error("--step-deg", "goes with --turntable (without an axis, --mode turntable-round estimates the step)");
     if (arguments.has("--turntable")) {
         const std::vector<double> axis = arguments.numbers("--turntable", 6);
         options.turntable = TurntableAxis{{axis[0], axis[1], axis[2]}, {axis[3], axis[4], axis[5]}, 360.0 / placement_sizes.front()};

@@ -78,7 +78,8 @@ int run_patterns(const Arguments& arguments) {
                                  : cv::Mat();
     const int flat_levels = arguments.integer("--flat-levels", 0);
     arguments.reject_unknown();
-    if (arguments.has("--flat-levels") && flat_levels < 3) throw Error("--flat-levels", "must be at least 3");
+    if (arguments.has("--flat-levels") && (flat_levels < 3 || flat_levels > 256))
+        throw Error("--flat-levels", "must be 3..256 (grey levels of an 8-bit frame)");
     require_pattern_folder(directory);
     if (flat_levels > 0) {
         std::error_code ignored;
@@ -106,6 +107,7 @@ int run_manifest(const Arguments& arguments) {
     preset.preset = arguments.required("--preset");
     preset.projector_size = arguments.size("--projector");
     const std::string out = arguments.required("--out");
+    check_extension(out, {".json"}, "manifest (sequence.json)");
     preset.file_prefix = arguments.text("--prefix", preset.file_prefix);
     preset.file_suffix = arguments.text("--suffix", preset.file_suffix);
     preset.first_index = arguments.integer("--first-index", preset.first_index);

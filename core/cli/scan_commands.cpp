@@ -258,6 +258,9 @@ int reconstruct_and_write(const ReconstructRequest& request) {
         throw Error("--projector-calibration", "goes with a stereo calibration of two cameras as --calibration");
     if (request.second_calibration.empty() != request.second_captures.empty())
         throw Error("--second-captures", "--second-calibration and --second-captures go together");
+    // The same frames twice would "confirm" every point: the check would pass without checking.
+    if (!request.second_captures.empty() && absolute_path(request.second_captures) == absolute_path(request.captures))
+        throw Error("--second-captures", "is the --captures folder again: give the second camera's own captures");
     const auto start = std::chrono::steady_clock::now();
     // Refuse bad output names before any work, so nothing is half done.
     check_reconstruct_outputs(request);
