@@ -274,6 +274,16 @@ TurntableAxis known_turntable_axis(const RichParameterList& parameters, const st
     return axis;
 }
 
+// The DXF's name is checked before the cut, which may take a while: a wrong one would otherwise
+// fail only after all the work, and a name without .dxf (a slip, or the mesh's own file) is no
+// drawing to write over.
+void check_section_dxf(const std::string& dxf) {
+    const QFileInfo file(QString::fromStdString(dxf));
+    if (file.suffix().compare("dxf", Qt::CaseInsensitive) != 0) throw Error(kSectionDxf, "'" + dxf + "' must end in .dxf");
+    if (!file.absoluteDir().exists())
+        throw Error(kSectionDxf, "the folder '" + file.absolutePath().toStdString() + "' does not exist");
+}
+
 }  // namespace
 
 PicoScanFilterPlugin::PicoScanFilterPlugin() {
@@ -967,6 +977,8 @@ void PicoScanFilterPlugin::save_views(MeshDocument& document, const RichParamete
 }
 
 void PicoScanFilterPlugin::section(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    const std::string dxf = parameter_text(parameters.getString(kSectionDxf));
+    if (!dxf.empty()) check_section_dxf(dxf);
     MeshModel& layer = *document.mm();
     const Mesh mesh = layer_mesh(layer, true);
     if (mesh.faces.empty())
@@ -996,7 +1008,6 @@ void PicoScanFilterPlugin::section(MeshDocument& document, const RichParameterLi
         if (error.subject() == "band_mm") throw Error(kSectionBand, why);
         throw;
     }
-    const std::string dxf = parameter_text(parameters.getString(kSectionDxf));
     if (!dxf.empty()) write_file_atomically(dxf, section_dxf(result.fits));
 
     const std::string name = layer_name(layer);

@@ -1436,6 +1436,25 @@ TEST(MeshlabPlugin, SectionToleranceComesFromTheScanLayer) {
     refused({{"at", "500"}}, "at: ");
 }
 
+// The DXF's name is checked before the cut: the mesh's own file (no .dxf) is refused and stays as it
+// was, and a folder that does not exist is named, not made; neither run cuts or writes anything.
+TEST(MeshlabPlugin, SectionChecksItsDxfBeforeTheCut) {
+    const std::string directory = make_temp_dir("meshlab_section_dxf");
+    write_part_and_its_scan(directory);
+    const std::string part = directory + "/part.ply", part_bytes = test_support::read_file_bytes(part);
+    for (const auto& [dxf, message] :
+         {std::pair{part, "dxfFile: '" + part + "' must end in .dxf"},
+          std::pair{directory + "/missing/outline.dxf", "dxfFile: the folder '" + directory + "/missing' does not exist"}}) {
+        const ServerRun run =
+            run_meshlabserver(directory, make_current(0) + section({{"at", "12"}, {"dxfFile", dxf}}), "-i part.ply");
+        EXPECT_NE(run.exit_code, 0) << run.log;
+        EXPECT_NE(run.log.find("PicoScan: Fit Cross-section error: " + message), std::string::npos) << run.log;
+        EXPECT_EQ(run.log.find("PicoScan section of part.ply"), std::string::npos) << run.log;
+    }
+    EXPECT_TRUE(test_support::read_file_bytes(part) == part_bytes) << "the layer's own file was written over";
+    EXPECT_FALSE(std::filesystem::exists(directory + "/missing"));
+}
+
 // The scan layer is the user's pick among all point layers: one that is not the mesh's scan (the
 // right scan moved 10 mm, or another part's scan) is refused with one line naming the layer, before its
 // noise could set the tolerance; the right one (layer 1) still sets it.
