@@ -31,6 +31,10 @@ each as DIR/level_LLL.png (the same names). Patterns made with 'picoscan pattern
   --captures DIR       the flat-frame captures (level_000.png ... level_255.png)
   --calibration FILE   the rig's calibration (not modified)
   --out FILE           the calibration with the response table added
+
+Example:
+  picoscan patterns --projector 854x480 --flat-levels 17 --out levels/   # show and capture these
+  picoscan response --captures shots/ --calibration rig.yml --out rig-corrected.yml
 )";
 
 const char* kCalibrateHelp = R"(picoscan calibrate --board SPEC --captures POSE_DIR... --out CALIBRATION.yml [options]
@@ -60,6 +64,9 @@ picoscan calibrate --stereo --board SPEC --captures POSE_DIR... --second-capture
                        Each pose folder holds a capture set (its white frame is used) or just one
                        image of the board; no projector is needed.
   --report FILE        an HTML report: errors per pose and camera, the epipolar error, the rig
+
+Example (a 9x6 chessboard of 20 mm squares, one capture folder per pose):
+  picoscan calibrate --board chessboard:9x6:20 --captures pose_*/ --out rig.yml --report rig.html
 )";
 int run_response(const Arguments& arguments) {
     const std::string directory = arguments.required("--captures");

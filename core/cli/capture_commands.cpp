@@ -29,6 +29,9 @@ const char* kScreensHelp = R"(picoscan screens
 Lists the screens the window system has, with their index, size and position. Plug the
 projector in as a second display (not mirrored), then pass its index to
 'picoscan capture --projector-screen N'. Needs a display (DISPLAY).
+
+Example:
+  picoscan screens
 )";
 
 const char* kCaptureHelp = R"(picoscan capture --projector-screen N --camera SOURCE [--camera SOURCE2] --out DIR [options]

@@ -28,9 +28,12 @@ inverse), phase-shifted sinusoids of the columns, then the same for the rows.
   --rows | --no-rows   also encode projector rows (default --rows; rows allow ray-ray triangulation)
   --calibration FILE   apply the projector response correction stored in this calibration
                        (see 'picoscan response'), so the projected fringes are truly sinusoidal
-  --flat-levels N      instead, write N flat grey frames level_LLL.png from black to white, for
-                       measuring the projector's response
-  --out DIR            output folder (created if needed)
+  --flat-levels N      instead, write N (3..256) flat grey frames level_LLL.png from black to
+                       white, for measuring the projector's response ('picoscan response')
+  --out DIR            output folder (created if needed; must be empty or hold only patterns)
+
+Example (show the frames full screen on the projector, in file-name order):
+  picoscan patterns --projector 854x480 --out patterns/
 )";
 
 const char* kManifestHelp = R"(picoscan manifest --preset NAME --projector WxH --out FILE [options]
@@ -49,7 +52,12 @@ Writes a sequence.json that describes a capture set made by another system, so t
   --preset slmaster-cgc      SLMaster sinusoid + complementary Gray code
            --shifts K --periods N   (defaults 12 and 32)
   --projector WxH            the projector resolution of that system
-  --out FILE                 the manifest to write
+  --out FILE                 the manifest to write (.json)
+
+Example (OpenCV's structured_light pattern_cam1_im1.jpg ...; then reconstruct in place):
+  picoscan manifest --preset opencv-graycode --projector 1280x800 \
+                    --prefix pattern_cam1_im --suffix .jpg --out cam1.json
+  picoscan reconstruct --calibration rig.yml --captures images/ --manifest cam1.json --out view.ply
 )";
 
 // Patterns and captures share file names, so a pattern folder is written only where it is
