@@ -857,7 +857,7 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
         const ViewAlignment& view = result.alignment.views[i];
         if (view.aligned)
             Log("PicoScan aligned %s by %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(),
-                result.method_of_view[i].c_str(), view.rms_mm, 100 * view.overlap);
+                result.method_of_view[i].c_str(), view.rms_mm, 100 * std::min(1.0, view.overlap));
         else if (placements.empty() || placements[size_t(view.placement)].aligned)
             failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
     }

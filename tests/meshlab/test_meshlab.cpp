@@ -441,6 +441,14 @@ TEST(MeshlabPlugin, AlignAndFuseTurntableViewsIntoWatertightPart) {
     EXPECT_LT(worst_rotation, 0.15);
     EXPECT_LT(worst_translation, 0.1);
     EXPECT_NE(run.log.find("PicoScan aligned " + std::to_string(part_to_camera.size()) + " layers"), std::string::npos);
+    // Overlap is a share of a layer's points: at most 100 % (the core's ratio can pass 1), as the CLI prints it.
+    for (size_t at = run.log.find("overlap "); at != std::string::npos; at = run.log.find("overlap ", at + 1)) {
+        std::istringstream share(run.log.substr(at + 8));
+        double percent = -1;
+        if (share >> percent) {
+            EXPECT_LE(percent, 100.0) << run.log.substr(at, 40);
+        }
+    }
 
     // The fused mesh, as MeshLab saved it: closed, and on the true part.
     for (const std::string file : {"fused.ply", "fused.stl"}) {
