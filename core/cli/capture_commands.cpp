@@ -12,6 +12,7 @@
 #include "picoscan/stereo.h"
 
 #include <algorithm>
+#include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -140,6 +141,7 @@ CameraSettings camera_settings(const Arguments& arguments) {
     settings.focus = arguments.number("--focus", settings.focus);
     settings.white_balance_k = arguments.number("--white-balance", settings.white_balance_k);
     settings.flush_frames = arguments.integer("--flush", settings.flush_frames);
+    if (settings.flush_frames < 0 || settings.flush_frames > 100) throw Error("--flush", "must be 0..100 frames");
     return settings;
 }
 
@@ -153,6 +155,13 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     if (sources.empty()) throw Error("--camera", "is required (see --help)");
     const bool all_virtual = std::all_of(sources.begin(), sources.end(), [](const std::string& s) { return s == "virtual"; });
     const bool has_virtual = std::count(sources.begin(), sources.end(), "virtual") > 0;
+    // A camera given as a file or device that is not there is named first, before what else is missing.
+    for (const std::string& source : sources) {
+        const bool by_name = source == "virtual" || source == "screen" ||
+                             std::all_of(source.begin(), source.end(), [](unsigned char c) { return std::isdigit(c); });
+        if (!by_name && source.find('%') == std::string::npos && !fs::exists(source))
+            throw Error(source, "no such video file or camera device (--camera)");
+    }
     const bool has_screen_index = arguments.has("--projector-screen");
     const int screen_index = arguments.integer("--projector-screen", -1);
     if (!has_screen_index && !all_virtual)

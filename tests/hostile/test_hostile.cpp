@@ -646,6 +646,11 @@ std::vector<Case> hostile_cases() {
                          return arguments;
                      },
                      1, {"--second-captures", "the --captures folder again"}, 10, 0, 0, {}, {"cloud.ply"}});
+    // Named before the missing --projector-screen (which a missing file made the only complaint).
+    cases.push_back({"capture --camera a video file that is not there", [](const fs::path&) {
+                         return std::vector<std::string>{"capture", "--camera", "missing.mp4", "--out", "cap"};
+                     },
+                     1, {"missing.mp4", "no such video file or camera device"}, 30, 0, 0, {}, {"cap"}});
     for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "calibrate", "response", "clean",
                                 "stitch", "mesh", "demo", "capture", "scan"}) {
         cases.push_back({std::string(command) + " -h", [command](const fs::path&) {

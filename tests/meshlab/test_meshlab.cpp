@@ -573,6 +573,9 @@ TEST(MeshlabPlugin, RangeErrorsNameMeshlabParameters) {
          "PicoScan: Align Layers error: turntableAxisDirection: is used in mode 'Turntable axis' only"},
         {align({{"mode", "3"}}), "-i plain.ply",
          "PicoScan: Align Layers error: turntableAxisDirection: must not be zero in mode 'Turntable axis'"},
+        // A script may give any number for a choice or a distance: neither runs a guess.
+        {fuse({{"method", "7"}}), "-i plain.ply", "PicoScan: Fuse and Mesh error: method: must be 0..1, is 7"},
+        {section({{"at", "nan"}}), "-i plain.ply", "PicoScan: Fit Cross-section error: at: must be a finite position in mm"},
     };
     for (const auto& [script, input, message] : cases) {
         const ServerRun run = run_meshlabserver(directory, script, input + " -o never.ply");
