@@ -249,11 +249,16 @@ TEST(CliCalibrate, SimulatedPosesCalibrateAndAFailedRunKeepsTheOldFile) {
     EXPECT_NEAR(found.camera_matrix(0, 0), 2500, 25);  // 4 poses: within 1 %
     EXPECT_NEAR(cv::norm(found.T), 150, 3);
 
-    // Two poses are too few: an error naming the problem, and the existing file is untouched.
+    // Two poses are too few, and no pose can meet a limit of 0 px: refused before the boards are
+    // searched for, naming the option, and the existing file is untouched.
     const std::string before = read_file(out);
     result = run_picoscan("calibrate --board chessboard:9x6:18 --captures " + root + "/pose0 " + root + "/pose1 --out " + out);
     EXPECT_EQ(result.exit_code, 1);
-    EXPECT_NE(result.output.find("only 2 usable board poses"), std::string::npos) << result.output;
+    EXPECT_NE(result.output.find("--captures: gives 2 board pose(s); at least 3 are needed"), std::string::npos) << result.output;
+    result = run_picoscan("calibrate --board chessboard:9x6:18 --captures" + poses + " --out " + out + " --max-pose-error 0");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("--max-pose-error: must be a positive"), std::string::npos) << result.output;
+    EXPECT_EQ(result.output.find("pose " + root), std::string::npos) << "boards were searched for: " << result.output;
     EXPECT_EQ(read_file(out), before);
     // A board that is not in the images.
     result = run_picoscan("calibrate --board chessboard:7x5:18 --captures" + poses + " --out " + root + "/other.yml");
