@@ -68,7 +68,7 @@ camera K writes DIR/camera_K (K from 1).
                         (by default the latency is measured first: black, then a white flash,
                         timing the first camera frame that sees it; the wait is the slowest of
                         3 flashes + 20 % + 10 ms)
-  --flush N             frames dropped before each grab (default 5: a webcam's buffer queue)
+  --flush N             frames dropped before each grab, 0..100 (default 5: a webcam's buffer queue)
   --resolution WxH      ask the webcam for this frame size (an error if it gives another)
   --exposure E, --gain G, --focus F, --white-balance K
                         manual webcam settings in driver units (exposure in 100 us on V4L2);
