@@ -98,6 +98,15 @@ const MeshFill kFills[] = {MeshFill::Poisson, MeshFill::Table, MeshFill::Open};
 
 std::string parameter_text(const QString& value) { return value.trimmed().toStdString(); }
 
+// An enum parameter's value: a script (meshlabserver's .mlx) can give any number, and one out of
+// range must not quietly run one of the choices.
+int enum_choice(const RichParameterList& parameters, const char* name, int count) {
+    const int value = parameters.getEnum(name);
+    if (value < 0 || value >= count)
+        throw Error(name, "must be 0.." + std::to_string(count - 1) + ", is " + std::to_string(value));
+    return value;
+}
+
 // Reports core progress through MeshLab's callback, only when the percentage or stage changes.
 ProgressCallback meshlab_progress(vcg::CallBackPos* callback) {
     if (callback == nullptr) return nullptr;
@@ -193,7 +202,7 @@ struct LayerRequest {
 
 LayerRequest layer_request(const RichParameterList& parameters) {
     LayerRequest request;
-    request.output = OutputKind(parameters.getEnum(kOutput));
+    request.output = OutputKind(enum_choice(parameters, kOutput, 2));
     request.grid_mesh.method = MeshMethod::Grid;
     request.grid_mesh.grid.pixel_step = parameters.getInt(kMeshStep);
     validate(request.grid_mesh);
@@ -245,8 +254,7 @@ std::vector<int> placement_of_layers(const QString& text, size_t layer_count) {
 
 // Align Layers' mode, checked with the known axis' parameters, which only mode "Turntable axis" uses.
 AlignMode align_mode(const RichParameterList& parameters) {
-    const int mode = parameters.getEnum(kAlignMode);
-    if (mode < AutomaticAlign || mode > TurntableAxisAlign) throw Error(kAlignMode, "must be 0..3");
+    const int mode = enum_choice(parameters, kAlignMode, TurntableAxisAlign + 1);
     const vcg::Point3f direction = parameters.getPoint3f(kTurntableAxisDirection);
     if (mode == TurntableAxisAlign && direction.Norm() == 0)
         throw Error(kTurntableAxisDirection, "must not be zero in mode 'Turntable axis': give the known axis' direction");
@@ -272,6 +280,16 @@ TurntableAxis known_turntable_axis(const RichParameterList& parameters, const st
         axis.step_deg = 360.0 / double(sizes.front());
     }
     return axis;
+}
+
+// The DXF's name is checked before the cut, which may take a while: a wrong one would otherwise
+// fail only after all the work, and a name without .dxf (a slip, or the mesh's own file) is no
+// drawing to write over.
+void check_section_dxf(const std::string& dxf) {
+    const QFileInfo file(QString::fromStdString(dxf));
+    if (file.suffix().compare("dxf", Qt::CaseInsensitive) != 0) throw Error(kSectionDxf, "'" + dxf + "' must end in .dxf");
+    if (!file.absoluteDir().exists())
+        throw Error(kSectionDxf, "the folder '" + file.absolutePath().toStdString() + "' does not exist");
 }
 
 }  // namespace
@@ -675,7 +693,7 @@ void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParamet
                                                   "capture folder");
         if (!QFileInfo(QString::fromStdString(second_folder)).isDir())
             throw Error(second_folder, "second capture folder not found");
-        if (options.manifest_path.empty() && parameters.getEnum(kSequence) != OwnManifest)
+        if (options.manifest_path.empty() && enum_choice(parameters, kSequence, SlstudioGray + 1) != OwnManifest)
             throw Error(kSequence, "the presets take the projector's size from a camera-projector calibration; with "
                                    "the stereo calibration " + calibration_file + " give a manifest file");
         StereoReconstructOptions stereo_options;
@@ -700,7 +718,7 @@ void PicoScanFilterPlugin::reconstruct(MeshDocument& document, const RichParamet
     const Calibration calibration = read_calibration(calibration_file);
     // Presets describe foreign capture sets: their manifest is written to a temporary folder.
     QTemporaryDir preset_folder;
-    const int sequence = parameters.getEnum(kSequence);
+    const int sequence = enum_choice(parameters, kSequence, SlstudioGray + 1);
     if (options.manifest_path.empty() && sequence != OwnManifest) {
         ForeignPresetOptions preset;
         preset.preset = sequence == SlmasterCgc ? "slmaster-cgc" : "slstudio-gray";
@@ -847,7 +865,7 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
         const ViewAlignment& view = result.alignment.views[i];
         if (view.aligned)
             Log("PicoScan aligned %s by %s: residual %.4f mm RMS, overlap %.1f %%", view.name.c_str(),
-                result.method_of_view[i].c_str(), view.rms_mm, 100 * view.overlap);
+                result.method_of_view[i].c_str(), view.rms_mm, 100 * std::min(1.0, view.overlap));
         else if (placements.empty() || placements[size_t(view.placement)].aligned)
             failures += (failures.empty() ? "" : "; ") + view.name + ": " + view.problem;
     }
@@ -873,15 +891,15 @@ void PicoScanFilterPlugin::align(MeshDocument& document, const RichParameterList
 
 void PicoScanFilterPlugin::fuse(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
     MeshOptions options;
-    options.method = parameters.getEnum(kMethod) == AdvancingFrontMethod ? MeshMethod::AdvancingFront : MeshMethod::Poisson;
+    options.method =
+        enum_choice(parameters, kMethod, AdvancingFrontMethod + 1) == AdvancingFrontMethod ? MeshMethod::AdvancingFront : MeshMethod::Poisson;
     options.sample_spacing_mm = parameters.getFloat(kMeshSpacing);
     options.poisson_triangle_size = parameters.getFloat(kPoissonTriangleSize);
     options.poisson_distance = parameters.getFloat(kPoissonDistance);
     options.advancing_front_max_radius = parameters.getFloat(kFrontMaxRadius);
     options.max_hole_diameter_mm = parameters.getFloat(kMaxHole);
     options.target_faces = parameters.getInt(kTargetFaces);
-    const int fill = parameters.getEnum(kFill);
-    if (fill < 0 || fill >= kFillNames.size()) throw Error(kFill, "must be 0.." + std::to_string(kFillNames.size() - 1));
+    const int fill = enum_choice(parameters, kFill, int(kFillNames.size()));
     options.fill = kFills[fill];
     validate(options);
     const std::vector<MeshModel*> layers = visible_scan_layers(document);
@@ -905,7 +923,7 @@ void PicoScanFilterPlugin::measure(MeshDocument& document, const RichParameterLi
     const std::vector<cv::Vec3f> points = layer_points(layer, parameters.getBool(kModelFrame), selected_only);
     const std::string subject = layer.label().toStdString() + (selected_only ? " (selection)" : "");
     if (points.empty()) throw Error(subject, selected_only ? "no vertex is selected" : "the layer has no vertices");
-    if (parameters.getEnum(kShape) == SphereShape) {
+    if (enum_choice(parameters, kShape, PlaneShape + 1) == SphereShape) {
         const SphereFit fit = fit_sphere(points);
         Log("PicoScan sphere fit of %s: centre %.4f %.4f %.4f mm, radius %.4f mm (diameter %.4f mm), RMS %.4f mm over "
             "%zu points",
@@ -967,6 +985,9 @@ void PicoScanFilterPlugin::save_views(MeshDocument& document, const RichParamete
 }
 
 void PicoScanFilterPlugin::section(MeshDocument& document, const RichParameterList& parameters, vcg::CallBackPos* callback) {
+    const std::string dxf = parameter_text(parameters.getString(kSectionDxf));
+    if (!dxf.empty()) check_section_dxf(dxf);
+    if (!std::isfinite(parameters.getFloat(kSectionAt))) throw Error(kSectionAt, "must be a finite position in mm");
     MeshModel& layer = *document.mm();
     const Mesh mesh = layer_mesh(layer, true);
     if (mesh.faces.empty())
@@ -996,7 +1017,6 @@ void PicoScanFilterPlugin::section(MeshDocument& document, const RichParameterLi
         if (error.subject() == "band_mm") throw Error(kSectionBand, why);
         throw;
     }
-    const std::string dxf = parameter_text(parameters.getString(kSectionDxf));
     if (!dxf.empty()) write_file_atomically(dxf, section_dxf(result.fits));
 
     const std::string name = layer_name(layer);

@@ -19,7 +19,7 @@ bool looks_like_option(const std::string& word) { return word.rfind("--", 0) == 
 // option an empty value is a mistake, such as an unset shell variable.
 const std::set<std::string> kMayBeEmpty{"--prefix", "--suffix"};
 // Options that name files or folders PicoScan writes: checked here, before any work.
-const std::set<std::string> kOutputOptions{"--out", "--mesh", "--preview", "--report"};
+const std::set<std::string> kOutputOptions{"--out", "--mesh", "--preview", "--report", "--svg", "--dxf"};
 
 }  // namespace
 
@@ -55,7 +55,7 @@ Arguments::Arguments(int argc, char** argv, int first, const ArgumentRules& rule
 // A file output's folder must exist (or be --out, which the command creates): otherwise the
 // write would fail only after all the work.
 void Arguments::require_output_folders() const {
-    static const std::set<std::string> file_extensions{".ply", ".stl", ".obj", ".png", ".yml", ".yaml",
+    static const std::set<std::string> file_extensions{".ply", ".stl", ".obj", ".3mf", ".png", ".svg", ".dxf", ".yml", ".yaml",
                                                        ".xml", ".json", ".html", ".htm", ".txt"};
     const auto out = values_.find("--out");
     const std::string made_folder = out != values_.end() && !out->second.empty() ? out->second.back() : "";

@@ -31,6 +31,10 @@ each as DIR/level_LLL.png (the same names). Patterns made with 'picoscan pattern
   --captures DIR       the flat-frame captures (level_000.png ... level_255.png)
   --calibration FILE   the rig's calibration (not modified)
   --out FILE           the calibration with the response table added
+
+Example:
+  picoscan patterns --projector 854x480 --flat-levels 17 --out levels/   # show and capture these
+  picoscan response --captures shots/ --calibration rig.yml --out rig-corrected.yml
 )";
 
 const char* kCalibrateHelp = R"(picoscan calibrate --board SPEC --captures POSE_DIR... --out CALIBRATION.yml [options]
@@ -60,7 +64,21 @@ picoscan calibrate --stereo --board SPEC --captures POSE_DIR... --second-capture
                        Each pose folder holds a capture set (its white frame is used) or just one
                        image of the board; no projector is needed.
   --report FILE        an HTML report: errors per pose and camera, the epipolar error, the rig
+
+Example (a 9x6 chessboard of 20 mm squares, one capture folder per pose):
+  picoscan calibrate --board chessboard:9x6:20 --captures pose_*/ --out rig.yml --report rig.html
 )";
+// The pose options, checked before the boards are searched for (seconds a pose): too few poses,
+// or a limit no pose can meet, would fail only at the end.
+double max_pose_error(const Arguments& arguments, double fallback, size_t poses, int min_views) {
+    if (poses < size_t(min_views))
+        throw Error("--captures", "gives " + std::to_string(poses) + " board pose(s); at least " +
+                                      std::to_string(min_views) + " are needed (10 or more advised)");
+    const double limit = arguments.number("--max-pose-error", fallback);
+    if (!(limit > 0)) throw Error("--max-pose-error", "must be a positive reprojection error in pixels (default 1.0)");
+    return limit;
+}
+
 int run_response(const Arguments& arguments) {
     const std::string directory = arguments.required("--captures");
     const std::string input = arguments.required("--calibration");
@@ -99,7 +117,7 @@ int run_calibrate_stereo(const Arguments& arguments) {
     const std::string report_path = arguments.text("--report");
     check_extension(report_path, {".html", ".htm"}, "report file");
     StereoCalibrateOptions options;
-    options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
+    options.max_view_rms_px = max_pose_error(arguments, options.max_view_rms_px, first.size(), options.min_views);
     arguments.reject_unknown();
     check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file (YAML, XML or JSON)");
     std::vector<std::string> folders = first;
@@ -144,7 +162,7 @@ int run_calibrate(const Arguments& arguments) {
     const std::string report_path = arguments.text("--report");
     check_extension(report_path, {".html", ".htm"}, "report file");
     CalibrateOptions options;
-    options.max_view_rms_px = arguments.number("--max-pose-error", options.max_view_rms_px);
+    options.max_view_rms_px = max_pose_error(arguments, options.max_view_rms_px, pose_directories.size(), options.min_views);
     arguments.reject_unknown();
     check_extension(out, {".yml", ".yaml", ".xml", ".json"}, "calibration file (YAML, XML or JSON)");
     for (const std::string& directory : pose_directories)

@@ -12,6 +12,7 @@
 #include "picoscan/stereo.h"
 
 #include <algorithm>
+#include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -29,6 +30,9 @@ const char* kScreensHelp = R"(picoscan screens
 Lists the screens the window system has, with their index, size and position. Plug the
 projector in as a second display (not mirrored), then pass its index to
 'picoscan capture --projector-screen N'. Needs a display (DISPLAY).
+
+Example:
+  picoscan screens
 )";
 
 const char* kCaptureHelp = R"(picoscan capture --projector-screen N --camera SOURCE [--camera SOURCE2] --out DIR [options]
@@ -64,7 +68,7 @@ camera K writes DIR/camera_K (K from 1).
                         (by default the latency is measured first: black, then a white flash,
                         timing the first camera frame that sees it; the wait is the slowest of
                         3 flashes + 20 % + 10 ms)
-  --flush N             frames dropped before each grab (default 5: a webcam's buffer queue)
+  --flush N             frames dropped before each grab, 0..100 (default 5: a webcam's buffer queue)
   --resolution WxH      ask the webcam for this frame size (an error if it gives another)
   --exposure E, --gain G, --focus F, --white-balance K
                         manual webcam settings in driver units (exposure in 100 us on V4L2);
@@ -137,6 +141,7 @@ CameraSettings camera_settings(const Arguments& arguments) {
     settings.focus = arguments.number("--focus", settings.focus);
     settings.white_balance_k = arguments.number("--white-balance", settings.white_balance_k);
     settings.flush_frames = arguments.integer("--flush", settings.flush_frames);
+    if (settings.flush_frames < 0 || settings.flush_frames > 100) throw Error("--flush", "must be 0..100 frames");
     return settings;
 }
 
@@ -150,6 +155,13 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     if (sources.empty()) throw Error("--camera", "is required (see --help)");
     const bool all_virtual = std::all_of(sources.begin(), sources.end(), [](const std::string& s) { return s == "virtual"; });
     const bool has_virtual = std::count(sources.begin(), sources.end(), "virtual") > 0;
+    // A camera given as a file or device that is not there is named first, before what else is missing.
+    for (const std::string& source : sources) {
+        const bool by_name = source == "virtual" || source == "screen" ||
+                             std::all_of(source.begin(), source.end(), [](unsigned char c) { return std::isdigit(c); });
+        if (!by_name && source.find('%') == std::string::npos && !fs::exists(source))
+            throw Error(source, "no such video file or camera device (--camera)");
+    }
     const bool has_screen_index = arguments.has("--projector-screen");
     const int screen_index = arguments.integer("--projector-screen", -1);
     if (!has_screen_index && !all_virtual)

@@ -35,12 +35,16 @@ Options:
                              or behind it are removed
   --background-tolerance-mm  how close to the background counts as background (default 1)
   --box X0,Y0,Z0,X1,Y1,Z1    keep only points inside this camera-frame box (mm)
-  --min-quality Q            drop points whose fringe modulation is below Q
+  --min-quality Q            drop points whose fringe modulation is below Q grey levels
+                             (default 0: none)
   --max-grazing-deg A        drop points seen more obliquely than A degrees (default 80)
   --outlier-sigma S          statistical outliers: beyond S robust sigmas (default 4)
   --min-cluster N            drop disconnected clusters smaller than N points (default 100)
   --calibration rig.yml      the rig's calibration, only for views written before PicoScan
                              stored the camera in the view
+
+Example:
+  picoscan clean view.ply --out view-clean.ply --max-grazing-deg 70
 )";
 
 const char* kStitchHelp = R"(picoscan stitch VIEW.ply VIEW.ply ... [--then VIEW.ply ...] --out MERGED.ply [options]
@@ -94,7 +98,10 @@ Options:
   --initial-poses P.txt      start ICP from these view->model poses (the format stitch writes
                              to MERGED.poses.txt, views in the same order) instead of features
                              (no --mode)
-  --spacing-mm S             points are thinned to about S mm for ICP (default 0.7)
+  --spacing-mm S             points are thinned to about S mm for ICP, 0.1..20 (default 0.7)
+
+Example (one turntable round of cleaned views, in order):
+  picoscan stitch views/view_*.ply --out merged.ply
 )";
 
 const char* kMeshHelp = R"(picoscan mesh CLOUD.ply --out PART.stl|PART.3mf|PART.ply [--method poisson|advancing-front|grid]
@@ -128,7 +135,11 @@ Options:
   --max-hole-mm D      advancing front: fill holes up to D mm across (default 10)
   --mesh-step N        grid: join every N-th pixel only (default 1)
   --preview P.png      a contact sheet: the mesh from top, bottom and four sides, filled-in
-                   surface in orange
+                       surface in orange
+
+Examples:
+  picoscan mesh merged.ply --out part.stl --preview part.png     # watertight, for printing
+  picoscan mesh view.ply --method grid --mesh-step 2 --out view.stl
 )";
 
 const char* kDemo360Help = R"(picoscan demo [--out DIR] [--single-view]
@@ -150,6 +161,9 @@ Default DIR: demo-output.
 An interrupted demo is restarted by running the same command again: the demo marks
 DIR/captures/ (.picoscan-demo) before writing into it and replaces only a folder so marked
 (or an empty one), never one it did not make. The other outputs are replaced whole.
+
+Example (about 2 minutes of CPU time; then open demo/part.stl or demo/part.png):
+  picoscan demo --out demo/
 )";
 
 int run_clean(const Arguments& arguments) {
@@ -326,6 +340,8 @@ int run_stitch(const Arguments& arguments) {
     warn_about_duplicate_views(inputs);
     StitchOptions options;
     options.registration.sample_spacing_mm = arguments.number("--spacing-mm", options.registration.sample_spacing_mm);
+    if (arguments.has("--step-deg") && !arguments.has("--turntable"))
+        throw Error("--step-deg", "goes with --turntable (without an axis, --mode turntable-round estimates the step)");
     if (arguments.has("--turntable")) {
         const std::vector<double> axis = arguments.numbers("--turntable", 6);
         options.turntable = TurntableAxis{{axis[0], axis[1], axis[2]}, {axis[3], axis[4], axis[5]}, 360.0 / placement_sizes.front()};

@@ -28,9 +28,12 @@ inverse), phase-shifted sinusoids of the columns, then the same for the rows.
   --rows | --no-rows   also encode projector rows (default --rows; rows allow ray-ray triangulation)
   --calibration FILE   apply the projector response correction stored in this calibration
                        (see 'picoscan response'), so the projected fringes are truly sinusoidal
-  --flat-levels N      instead, write N flat grey frames level_LLL.png from black to white, for
-                       measuring the projector's response
-  --out DIR            output folder (created if needed)
+  --flat-levels N      instead, write N (3..256) flat grey frames level_LLL.png from black to
+                       white, for measuring the projector's response ('picoscan response')
+  --out DIR            output folder (created if needed; must be empty or hold only patterns)
+
+Example (show the frames full screen on the projector, in file-name order):
+  picoscan patterns --projector 854x480 --out patterns/
 )";
 
 const char* kManifestHelp = R"(picoscan manifest --preset NAME --projector WxH --out FILE [options]
@@ -49,7 +52,12 @@ Writes a sequence.json that describes a capture set made by another system, so t
   --preset slmaster-cgc      SLMaster sinusoid + complementary Gray code
            --shifts K --periods N   (defaults 12 and 32)
   --projector WxH            the projector resolution of that system
-  --out FILE                 the manifest to write
+  --out FILE                 the manifest to write (.json)
+
+Example (OpenCV's structured_light pattern_cam1_im1.jpg ...; then reconstruct in place):
+  picoscan manifest --preset opencv-graycode --projector 1280x800 \
+                    --prefix pattern_cam1_im --suffix .jpg --out cam1.json
+  picoscan reconstruct --calibration rig.yml --captures images/ --manifest cam1.json --out view.ply
 )";
 
 // Patterns and captures share file names, so a pattern folder is written only where it is
@@ -78,7 +86,8 @@ int run_patterns(const Arguments& arguments) {
                                  : cv::Mat();
     const int flat_levels = arguments.integer("--flat-levels", 0);
     arguments.reject_unknown();
-    if (arguments.has("--flat-levels") && flat_levels < 3) throw Error("--flat-levels", "must be at least 3");
+    if (arguments.has("--flat-levels") && (flat_levels < 3 || flat_levels > 256))
+        throw Error("--flat-levels", "must be 3..256 (grey levels of an 8-bit frame)");
     require_pattern_folder(directory);
     if (flat_levels > 0) {
         std::error_code ignored;
@@ -106,6 +115,7 @@ int run_manifest(const Arguments& arguments) {
     preset.preset = arguments.required("--preset");
     preset.projector_size = arguments.size("--projector");
     const std::string out = arguments.required("--out");
+    check_extension(out, {".json"}, "manifest (sequence.json)");
     preset.file_prefix = arguments.text("--prefix", preset.file_prefix);
     preset.file_suffix = arguments.text("--suffix", preset.file_suffix);
     preset.first_index = arguments.integer("--first-index", preset.first_index);

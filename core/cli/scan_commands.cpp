@@ -27,10 +27,13 @@ Writes the images, DIR/sequence.json and the exact rig as DIR/calibration.yml.
   --scene FILE         scene description (YAML/JSON, see docs/formats.md); default: built-in part
   --calibration FILE   rig to simulate (default: the seed-like rig)
   --shifts K, --period-bits N, --rows | --no-rows    pattern options as for 'patterns'
-  --noise SIGMA        camera noise in grey levels (default 1)
-  --gamma G            projector response exponent (default 1)
-  --blur SIGMA         defocus blur in camera pixels (default 0.7)
+  --noise SIGMA        camera noise in grey levels, 0..100 (default 1)
+  --gamma G            projector response exponent, 0.1..10 (default 1)
+  --blur SIGMA         defocus blur in camera pixels, 0..20 (default 0.7)
   --seed N             noise seed (default 1)
+
+Example (then reconstruct it as 'picoscan reconstruct --help' shows):
+  picoscan simulate --out scan/ --noise 2
 )";
 
 const char* kReconstructHelp = R"(picoscan reconstruct --calibration FILE --captures DIR --out CLOUD.ply [options]
@@ -49,8 +52,8 @@ quality, and optionally a grid mesh that does not bridge depth jumps.
   --preview FILE       shaded PNG preview of the scan
   --binary-only        Gray code only, ignore the phase frames (for comparison)
   --ascii              write ASCII PLY/STL instead of binary
-  --min-contrast DN    white-black contrast below this is shadow (default 15)
-  --min-modulation DN  fringe amplitude below this is rejected (default 4)
+  --min-contrast DN    white-black contrast below this is shadow, 0..255 grey levels (default 15)
+  --min-modulation DN  fringe amplitude below this is rejected, 0..255 grey levels (default 4)
   --clean              remove unreliable points before writing: stray-light outliers, points seen
                        at grazing angles (> 80 deg), small disconnected clusters; prints what
                        each filter removed
@@ -74,6 +77,10 @@ left-right and triangulated. The cloud is in the first camera's frame.
                        each point is then triangulated from three views (both cameras and the
                        projector) instead of two; refused when the projector's columns do not
                        fit the points
+
+Example (a capture set from 'picoscan simulate --out scan/' or 'picoscan capture'):
+  picoscan reconstruct --calibration scan/calibration.yml --captures scan/ --out view.ply \
+                       --mesh view.stl --preview view.png
 )";
 
 // Writes the view and what was asked of it: the cloud, a grid mesh, a preview.
@@ -258,6 +265,9 @@ int reconstruct_and_write(const ReconstructRequest& request) {
         throw Error("--projector-calibration", "goes with a stereo calibration of two cameras as --calibration");
     if (request.second_calibration.empty() != request.second_captures.empty())
         throw Error("--second-captures", "--second-calibration and --second-captures go together");
+    // The same frames twice would "confirm" every point: the check would pass without checking.
+    if (!request.second_captures.empty() && absolute_path(request.second_captures) == absolute_path(request.captures))
+        throw Error("--second-captures", "is the --captures folder again: give the second camera's own captures");
     const auto start = std::chrono::steady_clock::now();
     // Refuse bad output names before any work, so nothing is half done.
     check_reconstruct_outputs(request);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -80,11 +81,21 @@ TEST_F(Cli, HelpTeachesAndUsageErrorsExit2) {
     EXPECT_EQ(result.exit_code, 0);
     EXPECT_NE(result.output.find("reconstruct"), std::string::npos);
     EXPECT_NE(result.output.find("typical session"), std::string::npos);
-    for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "demo"}) {
-        result = run_picoscan(std::string(command) + " --help");
-        EXPECT_EQ(result.exit_code, 0) << command;
-        EXPECT_NE(result.output.find("picoscan " + std::string(command)), std::string::npos) << command;
+    // Every command listed teaches by an example: a line of its own that runs it.
+    std::istringstream listing(result.output.substr(result.output.find("Commands:")));
+    std::string line;
+    int commands = 0;
+    for (std::getline(listing, line); std::getline(listing, line) && line.rfind("  ", 0) == 0; ++commands) {
+        const std::string command = line.substr(2, line.find(' ', 2) - 2);
+        const Result help = run_picoscan(command + " --help");
+        EXPECT_EQ(help.exit_code, 0) << command;
+        EXPECT_EQ(help.output.rfind("picoscan " + command, 0), 0u) << command << " --help starts with its usage";
+        EXPECT_NE(help.output.find("\nExample"), std::string::npos) << command << " --help has no example";
+        const std::string example = "\n  picoscan " + command;
+        const size_t at = help.output.find(example);
+        EXPECT_TRUE(at != std::string::npos && std::isspace(help.output[at + example.size()])) << command << ": no example runs it";
     }
+    EXPECT_EQ(commands, 14) << result.output;
     EXPECT_EQ(run_picoscan("").exit_code, 2);
     EXPECT_EQ(run_picoscan("frobnicate").exit_code, 2);
     result = run_picoscan("patterns --projector 854x480 --out /tmp/x --shifs 4");
@@ -238,11 +249,16 @@ TEST(CliCalibrate, SimulatedPosesCalibrateAndAFailedRunKeepsTheOldFile) {
     EXPECT_NEAR(found.camera_matrix(0, 0), 2500, 25);  // 4 poses: within 1 %
     EXPECT_NEAR(cv::norm(found.T), 150, 3);
 
-    // Two poses are too few: an error naming the problem, and the existing file is untouched.
+    // Two poses are too few, and no pose can meet a limit of 0 px: refused before the boards are
+    // searched for, naming the option, and the existing file is untouched.
     const std::string before = read_file(out);
     result = run_picoscan("calibrate --board chessboard:9x6:18 --captures " + root + "/pose0 " + root + "/pose1 --out " + out);
     EXPECT_EQ(result.exit_code, 1);
-    EXPECT_NE(result.output.find("only 2 usable board poses"), std::string::npos) << result.output;
+    EXPECT_NE(result.output.find("--captures: gives 2 board pose(s); at least 3 are needed"), std::string::npos) << result.output;
+    result = run_picoscan("calibrate --board chessboard:9x6:18 --captures" + poses + " --out " + out + " --max-pose-error 0");
+    EXPECT_EQ(result.exit_code, 1);
+    EXPECT_NE(result.output.find("--max-pose-error: must be a positive"), std::string::npos) << result.output;
+    EXPECT_EQ(result.output.find("pose " + root), std::string::npos) << "boards were searched for: " << result.output;
     EXPECT_EQ(read_file(out), before);
     // A board that is not in the images.
     result = run_picoscan("calibrate --board chessboard:7x5:18 --captures" + poses + " --out " + root + "/other.yml");

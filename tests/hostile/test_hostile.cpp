@@ -601,6 +601,56 @@ std::vector<Case> hostile_cases() {
                          return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--spacing-mm", "-1"};
                      },
                      1, {"--spacing-mm"}});
+    // Outputs into a missing folder are refused before any work, whatever the extension says.
+    cases.push_back({"mesh --out into a missing folder (.3mf)", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                         write_cloud(dir / "cloud.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "cloud.ply", "--out", "missing/part.3mf"};
+                     },
+                     1, {"--out", "the folder 'missing' does not exist"}, 10, 0, 0, {}, {"missing"}});
+    for (const char* drawing : {"--svg", "--dxf"})
+        cases.push_back({std::string("section ") + drawing + " into a missing folder", [drawing](const fs::path& dir) {
+                             write_text(dir / "part.stl", binary_stl({{0, 0, 0}, {10, 0, 0}, {0, 10, 10}}));
+                             const std::string name = std::string("missing/outline.") + (drawing + 2);
+                             return std::vector<std::string>{"section", "part.stl", "--axis", "z", drawing, name};
+                         },
+                         1, {drawing, "the folder 'missing' does not exist"}, 10, 0, 0, {}, {"missing"}});
+    // A manifest written over a file that is not one (a scan) would destroy it.
+    cases.push_back({"manifest --out an existing scan (.ply)", [](const fs::path& dir) {
+                         write_text(dir / "scan.ply", "ply\nformat ascii 1.0\nend_header\n");
+                         return std::vector<std::string>{"manifest", "--preset", "opencv-graycode", "--projector",
+                                                         "854x480", "--out", "scan.ply"};
+                     },
+                     1, {"scan.ply", "must end in .json"}, 5});
+    cases.push_back({"patterns --flat-levels 1000 (an 8-bit frame has 256)", [](const fs::path&) {
+                         return std::vector<std::string>{"patterns", "--projector", "854x480", "--flat-levels", "1000",
+                                                         "--out", "levels"};
+                     },
+                     1, {"--flat-levels", "3..256"}, 5, 0, 0, {}, {"levels"}});
+    cases.push_back({"stitch --step-deg without --turntable", [](const fs::path& dir) {
+                         for (const char* name : {"a.ply", "b.ply"}) {
+                             std::vector<cv::Vec3f> points, normals;
+                             add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                             write_cloud(dir / name, points, normals);
+                         }
+                         return std::vector<std::string>{"stitch", "a.ply", "b.ply", "--out", "m.ply", "--step-deg", "45"};
+                     },
+                     1, {"--step-deg", "goes with --turntable"}, 5, 0, 0, {}, {"m.ply"}});
+    // The same frames as the "second camera" would confirm every point: a check that checks nothing.
+    cases.push_back({"reconstruct --second-captures the --captures folder again", [](const fs::path& dir) {
+                         copy_fixture(dir);
+                         std::vector<std::string> arguments = reconstruct_arguments();
+                         for (const char* extra : {"--second-calibration", "rig.yml", "--second-captures", "./caps/"})
+                             arguments.push_back(extra);
+                         return arguments;
+                     },
+                     1, {"--second-captures", "the --captures folder again"}, 10, 0, 0, {}, {"cloud.ply"}});
+    // Named before the missing --projector-screen (which a missing file made the only complaint).
+    cases.push_back({"capture --camera a video file that is not there", [](const fs::path&) {
+                         return std::vector<std::string>{"capture", "--camera", "missing.mp4", "--out", "cap"};
+                     },
+                     1, {"missing.mp4", "no such video file or camera device"}, 30, 0, 0, {}, {"cap"}});
     for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "calibrate", "response", "clean",
                                 "stitch", "mesh", "demo", "capture", "scan"}) {
         cases.push_back({std::string(command) + " -h", [command](const fs::path&) {

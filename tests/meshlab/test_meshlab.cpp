@@ -441,6 +441,14 @@ TEST(MeshlabPlugin, AlignAndFuseTurntableViewsIntoWatertightPart) {
     EXPECT_LT(worst_rotation, 0.15);
     EXPECT_LT(worst_translation, 0.1);
     EXPECT_NE(run.log.find("PicoScan aligned " + std::to_string(part_to_camera.size()) + " layers"), std::string::npos);
+    // Overlap is a share of a layer's points: at most 100 % (the core's ratio can pass 1), as the CLI prints it.
+    for (size_t at = run.log.find("overlap "); at != std::string::npos; at = run.log.find("overlap ", at + 1)) {
+        std::istringstream share(run.log.substr(at + 8));
+        double percent = -1;
+        if (share >> percent) {
+            EXPECT_LE(percent, 100.0) << run.log.substr(at, 40);
+        }
+    }
 
     // The fused mesh, as MeshLab saved it: closed, and on the true part.
     for (const std::string file : {"fused.ply", "fused.stl"}) {
@@ -565,6 +573,9 @@ TEST(MeshlabPlugin, RangeErrorsNameMeshlabParameters) {
          "PicoScan: Align Layers error: turntableAxisDirection: is used in mode 'Turntable axis' only"},
         {align({{"mode", "3"}}), "-i plain.ply",
          "PicoScan: Align Layers error: turntableAxisDirection: must not be zero in mode 'Turntable axis'"},
+        // A script may give any number for a choice or a distance: neither runs a guess.
+        {fuse({{"method", "7"}}), "-i plain.ply", "PicoScan: Fuse and Mesh error: method: must be 0..1, is 7"},
+        {section({{"at", "nan"}}), "-i plain.ply", "PicoScan: Fit Cross-section error: at: must be a finite position in mm"},
     };
     for (const auto& [script, input, message] : cases) {
         const ServerRun run = run_meshlabserver(directory, script, input + " -o never.ply");
@@ -1434,6 +1445,25 @@ TEST(MeshlabPlugin, SectionToleranceComesFromTheScanLayer) {
     };
     refused({{"at", "12"}, {"scanLayer", "1"}, {"tolerance", "0.05"}}, "scanLayer: sets the default tolerance");
     refused({{"at", "500"}}, "at: ");
+}
+
+// The DXF's name is checked before the cut: the mesh's own file (no .dxf) is refused and stays as it
+// was, and a folder that does not exist is named, not made; neither run cuts or writes anything.
+TEST(MeshlabPlugin, SectionChecksItsDxfBeforeTheCut) {
+    const std::string directory = make_temp_dir("meshlab_section_dxf");
+    write_part_and_its_scan(directory);
+    const std::string part = directory + "/part.ply", part_bytes = test_support::read_file_bytes(part);
+    for (const auto& [dxf, message] :
+         {std::pair{part, "dxfFile: '" + part + "' must end in .dxf"},
+          std::pair{directory + "/missing/outline.dxf", "dxfFile: the folder '" + directory + "/missing' does not exist"}}) {
+        const ServerRun run =
+            run_meshlabserver(directory, make_current(0) + section({{"at", "12"}, {"dxfFile", dxf}}), "-i part.ply");
+        EXPECT_NE(run.exit_code, 0) << run.log;
+        EXPECT_NE(run.log.find("PicoScan: Fit Cross-section error: " + message), std::string::npos) << run.log;
+        EXPECT_EQ(run.log.find("PicoScan section of part.ply"), std::string::npos) << run.log;
+    }
+    EXPECT_TRUE(test_support::read_file_bytes(part) == part_bytes) << "the layer's own file was written over";
+    EXPECT_FALSE(std::filesystem::exists(directory + "/missing"));
 }
 
 // The scan layer is the user's pick among all point layers: one that is not the mesh's scan (the
