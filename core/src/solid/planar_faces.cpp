@@ -343,7 +343,8 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
         }
     if (border)
         throw Error("mesh", "the mesh is not closed (" + std::to_string(border) +
-                                " border edges; a single scan is a surface): mesh stitched views with Poisson to get a closed one");
+                                " border edges; a single scan is a surface): close it with a Poisson mesh (which guesses"
+                                " the sides no view saw: stitch views from all round first)");
     report(0.2, "solid: mesh topology");
 
     // The noise: across each edge, the far corner of one facet against the other facet's plane.
