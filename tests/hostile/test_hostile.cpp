@@ -601,6 +601,25 @@ std::vector<Case> hostile_cases() {
                          return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--spacing-mm", "-1"};
                      },
                      1, {"--spacing-mm"}});
+    // The open surface's voxel cells are 64-bit keys of floor(coordinate / voxel): a point at
+    // 1e30 mm is refused before any cell is computed, and a tiny spacing only thins nothing.
+    cases.push_back({"mesh --fill open of a cloud with a point at 1e30 mm", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                         points.push_back({1e30f, 0, 0});
+                         normals.push_back({0, 0, 1});
+                         write_cloud(dir / "cloud.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--fill", "open"};
+                     },
+                     1, {"cloud.ply: point 500 lies 1e+30 mm from the origin, beyond 1 km"}});
+    cases.push_back({"mesh --fill open --spacing-mm 1e-12", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                         write_cloud(dir / "cloud.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--fill", "open",
+                                                         "--spacing-mm", "1e-12"};
+                     },
+                     0, {"triangles -> m.stl"}});
     for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "calibrate", "response", "clean",
                                 "stitch", "mesh", "demo", "capture", "scan"}) {
         cases.push_back({std::string(command) + " -h", [command](const fs::path&) {
