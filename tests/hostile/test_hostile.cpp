@@ -651,6 +651,25 @@ std::vector<Case> hostile_cases() {
                          return std::vector<std::string>{"capture", "--camera", "missing.mp4", "--out", "cap"};
                      },
                      1, {"missing.mp4", "no such video file or camera device"}, 30, 0, 0, {}, {"cap"}});
+    // The open surface's voxel cells are 64-bit keys of floor(coordinate / voxel): a point at
+    // 1e30 mm is refused before any cell is computed, and a tiny spacing only thins nothing.
+    cases.push_back({"mesh --fill open of a cloud with a point at 1e30 mm", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                         points.push_back({1e30f, 0, 0});
+                         normals.push_back({0, 0, 1});
+                         write_cloud(dir / "cloud.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--fill", "open"};
+                     },
+                     1, {"cloud.ply: point 500 lies 1e+30 mm from the origin, beyond 1 km"}});
+    cases.push_back({"mesh --fill open --spacing-mm 1e-12", [](const fs::path& dir) {
+                         std::vector<cv::Vec3f> points, normals;
+                         add_sphere(points, normals, {0, 0, 400}, 20, 500);
+                         write_cloud(dir / "cloud.ply", points, normals);
+                         return std::vector<std::string>{"mesh", "cloud.ply", "--out", "m.stl", "--fill", "open",
+                                                         "--spacing-mm", "1e-12"};
+                     },
+                     0, {"triangles -> m.stl"}});
     for (const char* command : {"patterns", "simulate", "reconstruct", "manifest", "calibrate", "response", "clean",
                                 "stitch", "mesh", "demo", "capture", "scan"}) {
         cases.push_back({std::string(command) + " -h", [command](const fs::path&) {
@@ -778,7 +797,7 @@ std::vector<Case> hostile_cases() {
                       return std::vector<std::string>{"scan", "--camera", "virtual", "--out", "scn", "--mesh",
                                                       "scn/captures/part.stl"};
                   },
-                  1, {"--mesh", "scn/captures"}, 5};
+                  1, {"--mesh", "scn/captures"}, 10};
         scan.absent = {"scn"};  // refused before the capture made anything
         cases.push_back(scan);
     }

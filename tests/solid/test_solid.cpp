@@ -285,6 +285,21 @@ TEST(PlanarFaces, MeshesThatBoundNoSolidAreRefused) {
     PlanarFaceOptions bad;
     bad.max_normal_deg = 95;
     EXPECT_THROW(planar_face_model(grid_box(2, 2, 2, 1.0, 0.0), bad), Error);
+    // An infinite noise, factor or simplification distance would let every facet fit every
+    // plane: refused, naming the option.
+    for (const auto& [name, value] : {std::pair{"noise_mm", &PlanarFaceOptions::noise_mm},
+                                      std::pair{"distance_factor", &PlanarFaceOptions::distance_factor},
+                                      std::pair{"distance_factor", &PlanarFaceOptions::max_rms_factor},
+                                      std::pair{"simplify_mm", &PlanarFaceOptions::simplify_mm}}) {
+        PlanarFaceOptions infinite;
+        infinite.*value = HUGE_VAL;
+        try {
+            planar_face_model(grid_box(2, 2, 2, 1.0, 0.0), infinite);
+            ADD_FAILURE() << name << " = inf was accepted";
+        } catch (const Error& error) {
+            EXPECT_EQ(error.subject(), name) << error.what();
+        }
+    }
 }
 
 namespace {

@@ -70,6 +70,9 @@ std::vector<PointWithNormal> prepare_points(const PointCloud& cloud, double spac
 void project_onto_points(Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
 // The fraction of the points within reach_mm of a mesh vertex (what the surface covers).
 double fraction_of_points_near(const Mesh& mesh, const std::vector<PointWithNormal>& points, double reach_mm);
+// A triangle's height over its longest edge, divided by that edge: sqrt(3)/2 for an equilateral
+// triangle, 0 for one whose corners lie on a line (or coincide, or are not finite).
+double height_over_longest_edge(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c);
 // A face of (almost) no area: its height under 1e-4 of its longest edge (its corners on one line).
 bool is_sliver(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c);
 // Indices of the faces that intersect another face, and of the slivers that touch a face they

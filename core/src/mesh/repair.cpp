@@ -35,10 +35,14 @@ namespace picoscan {
 
 namespace detail {
 
-bool is_sliver(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+double height_over_longest_edge(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
     const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
-    const double height = longest > 0 ? cv::norm((b - a).cross(c - a)) / longest : 0;
-    return !(height >= 1e-4 * longest) || longest == 0;
+    // The cross product's length is twice the area: the longest edge times its height.
+    return longest > 0 ? cv::norm((b - a).cross(c - a)) / (longest * longest) : 0.0;
+}
+
+bool is_sliver(const cv::Vec3d& a, const cv::Vec3d& b, const cv::Vec3d& c) {
+    return !(height_over_longest_edge(a, b, c) >= 1e-4);
 }
 
 namespace {

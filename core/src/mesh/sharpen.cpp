@@ -1465,10 +1465,8 @@ SharpenReport sharpen_edges_pass(Mesh& mesh, const std::vector<PointWithNormal>&
         return std::max(half_way, flat - kUnfoldMarginMm / cv::norm(target[v] - safe[v]));
     };
     auto sliver = [&](const cv::Vec3i& face) { return is_sliver(position[face[0]], position[face[1]], position[face[2]]); };
-    auto width = [&](const cv::Vec3i& face) {  // height over longest edge
-        const cv::Vec3d a = position[face[0]], b = position[face[1]], c = position[face[2]];
-        const double longest = std::max({cv::norm(b - a), cv::norm(c - b), cv::norm(a - c)});
-        return longest > 0 ? cv::norm((b - a).cross(c - a)) / (longest * longest) : 0.0;
+    auto width = [&](const cv::Vec3i& face) {
+        return height_over_longest_edge(position[face[0]], position[face[1]], position[face[2]]);
     };
     for (int round = 0; round < 60; ++round) {
         bool changed = false;

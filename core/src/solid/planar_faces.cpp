@@ -251,9 +251,12 @@ struct GivenRegions {
 // The faces of the solid bounded by `mesh`: its planar regions grown, or `given`.
 PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options, const ProgressCallback& progress,
                               const GivenRegions* given = nullptr) {
-    if (!(options.noise_mm >= 0)) throw Error("noise_mm", "must be 0 (estimate) or positive");
-    if (!(options.distance_factor > 0) || !(options.max_rms_factor > 0))
-        throw Error("distance_factor", "distance and RMS factors must be positive");
+    // Infinite values would pass the comparisons and let every facet fit every plane.
+    if (!(options.noise_mm >= 0 && std::isfinite(options.noise_mm)))
+        throw Error("noise_mm", "must be 0 (estimate) or a positive finite distance in mm");
+    if (!(options.distance_factor > 0 && std::isfinite(options.distance_factor)) ||
+        !(options.max_rms_factor > 0 && std::isfinite(options.max_rms_factor)))
+        throw Error("distance_factor", "distance and RMS factors must be positive and finite");
     if (!(options.max_normal_deg > 0 && options.max_normal_deg < 90)) throw Error("max_normal_deg", "must be in (0, 90)");
     if (options.min_facets < 2) throw Error("min_facets", "must be at least 2");
     if (mesh.faces.empty()) throw Error("mesh", "the mesh is empty");
@@ -830,7 +833,8 @@ PlanarFaceModel faces_of_mesh(const Mesh& mesh, const PlanarFaceOptions& options
 }  // namespace
 
 PlanarFaceModel planar_face_model(const Mesh& mesh, const PlanarFaceOptions& options, const ProgressCallback& progress) {
-    if (!(options.simplify_mm >= 0)) throw Error("simplify_mm", "must be 0 (from the noise) or positive");
+    if (!(options.simplify_mm >= 0 && std::isfinite(options.simplify_mm)))
+        throw Error("simplify_mm", "must be 0 (from the noise) or a positive finite distance in mm");
     if (!(options.simplify_max_volume_change >= 0)) throw Error("simplify_max_volume_change", "must be 0 or positive");
     const bool simplify = options.merge && options.simplify;
     auto share = [&](double from, double to) -> ProgressCallback {
