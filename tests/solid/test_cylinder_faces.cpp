@@ -361,6 +361,14 @@ OccAnswer occ_check(const PlanarFaceModel& model, const std::string& name) {
 
 bool freecad_installed() { return std::ifstream("/usr/lib/freecad/lib/FreeCAD.so").good(); }
 
+// OpenCASCADE's check of the model's B-rep: valid, and of the mesh's volume within 0.1 %.
+void expect_valid_solid_of_the_mesh_volume(const PlanarFaceModel& model, const std::string& name) {
+    const OccAnswer occ = occ_check(model, name);
+    std::printf("  mesh volume %.3f mm3; OpenCASCADE: %s", model.mesh_volume_mm3, occ.text.c_str());
+    EXPECT_TRUE(occ.valid) << occ.text;
+    EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+}
+
 }  // namespace
 
 TEST(CylinderFaces, SmoothMeshWithRoundedEdgesGivesHoleAndBossAsValidCylindersOfItsVolume) {
@@ -385,10 +393,7 @@ TEST(CylinderFaces, SmoothMeshWithRoundedEdgesGivesHoleAndBossAsValidCylindersOf
             EXPECT_LT(tilt_deg, 0.05);
             EXPECT_NEAR(std::hypot(off_axis[0], off_axis[1]), 0, 0.02);
         }
-        const OccAnswer occ = occ_check(model, "rounded_bushing");
-        std::printf("  OpenCASCADE: %s", occ.text.c_str());
-        EXPECT_TRUE(occ.valid) << occ.text;
-        EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+        expect_valid_solid_of_the_mesh_volume(model, "rounded_bushing");
     }
 }
 
@@ -504,10 +509,7 @@ TEST(ConeFaces, AFrustumBetweenTwoPlanesBecomesOneConeOfTheTrueAngle) {
         const double level = cone->origin[2] - kCentre[2];
         EXPECT_NEAR(cone->radius_mm, level < c.height / 2 ? c.r0 : c.r1, 0.02) << level;
         if (!freecad_installed() || half_angle < 30) continue;  // OpenCASCADE's check once (2 to 3 s)
-        const OccAnswer occ = occ_check(model, "frustum");
-        std::printf("  OpenCASCADE: %s", occ.text.c_str());
-        EXPECT_TRUE(occ.valid) << occ.text;
-        EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+        expect_valid_solid_of_the_mesh_volume(model, "frustum");
     }
 }
 
@@ -791,10 +793,7 @@ TEST(ChamferRing, AChamferedHoleBecomesACylinderAndAConeSharingOneCircle) {
         EXPECT_NEAR(mouth.radius_mm, c.radius + c.chamfer, 0.02);
         EXPECT_NEAR(mouth.center[2] - kCentre[2], 6, 1e-3);
         if (!c.occ || !freecad_installed()) continue;
-        const OccAnswer occ = occ_check(model, "chamfered_hole");
-        std::printf("  mesh volume %.3f mm3; OpenCASCADE: %s", model.mesh_volume_mm3, occ.text.c_str());
-        EXPECT_TRUE(occ.valid) << occ.text;
-        EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+        expect_valid_solid_of_the_mesh_volume(model, "chamfered_hole");
     }
 }
 
@@ -815,10 +814,7 @@ TEST(ChamferRing, AChamferedBossBecomesACylinderAndAConeSharingOneCircle) {
     EXPECT_FALSE(boss->reversed);
     EXPECT_FALSE(cone->reversed);
     if (!freecad_installed()) return;
-    const OccAnswer occ = occ_check(model, "chamfered_boss");
-    std::printf("  mesh volume %.3f mm3; OpenCASCADE: %s", model.mesh_volume_mm3, occ.text.c_str());
-    EXPECT_TRUE(occ.valid) << occ.text;
-    EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+    expect_valid_solid_of_the_mesh_volume(model, "chamfered_boss");
 }
 
 TEST(ChamferRing, RingsItMustNotMakeStayFacetsWithTheReason) {
@@ -868,10 +864,7 @@ TEST(ChamferRing, ASmoothMeshsChamferedHoleMouthBecomesACone) {
     // 5 um of noise, about 0.06 degrees (one sigma).
     EXPECT_NEAR(std::abs(cone->semi_angle_rad) * 180 / kPi, 45, 0.3);
     if (!freecad_installed()) return;
-    const OccAnswer occ = occ_check(model, "rounded_chamfered_hole");
-    std::printf("  mesh volume %.3f mm3; OpenCASCADE: %s", model.mesh_volume_mm3, occ.text.c_str());
-    EXPECT_TRUE(occ.valid) << occ.text;
-    EXPECT_NEAR(occ.volume, model.mesh_volume_mm3, 1e-3 * model.mesh_volume_mm3) << occ.text;
+    expect_valid_solid_of_the_mesh_volume(model, "rounded_chamfered_hole");
 }
 
 TEST(CylinderFaces, ColumnsAtScannerNoiseBecomeOneCylinderBetweenTwoPlanarCaps) {

@@ -389,6 +389,22 @@ double off_wall(const CylinderRegion& region, const cv::Vec3d& p) {
     return std::abs(cv::norm(offset - height * region.axis) - region.radius_at(height)) / std::sqrt(1 + slope * slope);
 }
 
+// How far a facet lies from a surface continued over it (`off`: a point's distance from it), at its
+// corners, the middles of its sides and its centre (a chamfer's facets have their corners on the
+// cylinder and the plane, and cut the corner between), and the volume between the two: its area
+// times the mean distance at the middles of its sides (the rule exact for quadratics).
+struct FacetOff {
+    double farthest, volume;
+};
+template <class Distance>
+FacetOff facet_off(const PlanarFaceModel& model, const cv::Vec3i& facet, Distance off) {
+    const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])], &r = model.vertices[size_t(facet[2])];
+    const double sides[3] = {off((p + q) / 2), off((q + r) / 2), off((r + p) / 2)};
+    double farthest = std::max({sides[0], sides[1], sides[2]});
+    for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) farthest = std::max(farthest, off(at));
+    return {farthest, 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3};
+}
+
 // A chamfer ring's cone, its facets in cone_faces, about the axis of the cylinder already fitted to
 // `region`'s wall (its facets square to the axis in near_faces): the radius a straight
 // line in the height about that axis (least squares), then where the two meet, the circle both faces
@@ -497,12 +513,9 @@ std::string bend_onto(const PlanarFaceModel& model, CylinderRegion& region, cons
     double volume = 0, farthest = 0;
     for (size_t f : crease)
         for (const cv::Vec3i& t : model.faces[f].triangles) {
-            const cv::Vec3d &p = model.vertices[size_t(t[0])], &q = model.vertices[size_t(t[1])], &r = model.vertices[size_t(t[2])];
-            const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
-            double off = std::max({sides[0], sides[1], sides[2]});
-            for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
-            farthest = std::max(farthest, off);
-            volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
+            const FacetOff off = facet_off(model, t, off_surface);
+            farthest = std::max(farthest, off.farthest);
+            volume += off.volume;
             ++crease_facets;
         }
     if (!(farthest <= ring) || volume > kRingVolumeShare * model.mesh_volume_mm3) {
@@ -696,20 +709,10 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                 for (size_t next = 0; next < members.size(); ++next)
                     for (size_t g : neighbours(members[next])) {
                         if (in_wall[g] || taken[g] || !one_facet(g)) continue;
-                        const cv::Vec3i& facet = model.faces[g].triangles[0];
-                        const cv::Vec3d &p = model.vertices[size_t(facet[0])], &q = model.vertices[size_t(facet[1])],
-                                        &r = model.vertices[size_t(facet[2])];
-                        // Its corners, the middles of its sides and its centre (a chamfer's facets have
-                        // their corners on the cylinder and the plane, and cut the corner between).
-                        double off = 0;
-                        for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_surface(at));
-                        const double sides[3] = {off_surface((p + q) / 2), off_surface((q + r) / 2), off_surface((r + p) / 2)};
-                        for (double side : sides) off = std::max(off, side);
-                        if (!(off <= ring)) continue;
-                        // The volume between the facet and that surface: its area times the mean distance
-                        // at the middles of its sides (the rule exact for quadratics).
-                        ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
-                        ring_farthest = std::max(ring_farthest, off);
+                        const FacetOff off = facet_off(model, model.faces[g].triangles[0], off_surface);
+                        if (!(off.farthest <= ring)) continue;
+                        ring_volume += off.volume;
+                        ring_farthest = std::max(ring_farthest, off.farthest);
                         in_wall[g] = 1;
                         members.push_back(g);
                     }
@@ -734,12 +737,9 @@ std::vector<CylinderRegion> cylinder_regions(const PlanarFaceModel& model, const
                     if (square_fit.radius > 0 && square_fit.rms <= limits.rms)
                         for (size_t f : tilted_wall)
                             for (const cv::Vec3i& t : model.faces[f].triangles) {
-                                const cv::Vec3d &p = model.vertices[size_t(t[0])], &q = model.vertices[size_t(t[1])], &r = model.vertices[size_t(t[2])];
-                                const double sides[3] = {off_fit((p + q) / 2), off_fit((q + r) / 2), off_fit((r + p) / 2)};
-                                double off = std::max({sides[0], sides[1], sides[2]});
-                                for (const cv::Vec3d& at : {p, q, r, (p + q + r) / 3}) off = std::max(off, off_fit(at));
-                                ring_volume += 0.5 * cv::norm((q - p).cross(r - p)) * (sides[0] + sides[1] + sides[2]) / 3;
-                                tilted_farthest = std::max(tilted_farthest, off);
+                                const FacetOff off = facet_off(model, t, off_fit);
+                                ring_volume += off.volume;
+                                tilted_farthest = std::max(tilted_farthest, off.farthest);
                                 ++tilted_facets;
                             }
                 }

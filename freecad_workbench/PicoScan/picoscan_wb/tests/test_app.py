@@ -1918,6 +1918,20 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
         return obj, shape, model
 
     @staticmethod
+    def scanned_mesh_of(shape, seed):
+        """The shape meshed by FreeCAD's mesher in triangles of at most 0.8 mm (about 1 mm all over, as a
+        scan's mesh has: a mesh within a deflection has planes of a few long triangles, which no plane
+        fit can tell from noise), every vertex moved by 5 um of Gaussian noise."""
+        import MeshPart
+
+        points, facets = MeshPart.meshFromShape(Shape=shape, MaxLength=0.8).Topology
+        scanned = picoscan.Mesh()
+        scanned.vertices = numpy.array([tuple(p) for p in points], dtype=numpy.float32) + \
+            numpy.random.default_rng(seed).normal(0, 0.005, (len(points), 3)).astype(numpy.float32)
+        scanned.faces = numpy.array(facets, dtype=numpy.int32)
+        return scanned
+
+    @staticmethod
     def cylinders_of(shape):
         return sorted((f for f in shape.Faces if isinstance(f.Surface, Part.Cylinder)), key=lambda f: f.Surface.Radius)
 
@@ -1977,7 +1991,6 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
         drilled hole (a cylinder, which a cone fit also fits with a half-angle near 0) must stay a
         cylinder, and a 12-sided pyramid frustum (its corners on a cone, its faces flat) must stay planes."""
         import collections
-        import MeshPart
 
         v = FreeCAD.Vector
         tapered = Part.makeCone(4, 8, 10, v(15, 20, 0))  # radius 4 at the bottom, 8 at the top: 21.80 degrees
@@ -1990,15 +2003,8 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
         truth = Part.makeBox(60, 40, 10).cut(tapered).cut(drilled).fuse(chamfered).fuse(pyramid).removeSplitter()
         kinds = lambda shape: collections.Counter(type(f.Surface).__name__ for f in shape.Faces)  # noqa: E731
         self.assertEqual(kinds(truth), {"Plane": 7 + 12 + 1, "Cone": 2, "Cylinder": 1})
-        # Triangles of about 1 mm all over, as a scan's mesh has (a mesh within a deflection has planes
-        # of a few long triangles, which no plane fit can tell from noise).
-        points, facets = MeshPart.meshFromShape(Shape=truth, MaxLength=0.8).Topology
-        scanned = picoscan.Mesh()
-        scanned.vertices = numpy.array([tuple(p) for p in points], dtype=numpy.float32) + \
-            numpy.random.default_rng(3).normal(0, 0.005, (len(points), 3)).astype(numpy.float32)
-        scanned.faces = numpy.array(facets, dtype=numpy.int32)
         obj = self.doc.addObject("Mesh::Feature", "ConePlate")
-        obj.Mesh = scan_mesh.freecad_mesh(scanned)
+        obj.Mesh = scan_mesh.freecad_mesh(self.scanned_mesh_of(truth, 3))
         started = time.perf_counter()
         shape, model, note = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
         FreeCAD.Console.PrintMessage("cone plate (%d facets, %.1f s): %s\n" % (
@@ -2029,7 +2035,6 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
         triangles of at most 0.8 mm with 5 um of noise: each chamfer ring becomes a cone and its
         bore or boss a cylinder, the two sharing one circle, the faces' kinds the Part model's."""
         import collections
-        import MeshPart
 
         v = FreeCAD.Vector
         chamfer_deg, countersink_deg = 45.0, 41.0
@@ -2043,13 +2048,8 @@ class PicoScanCylinderSolidTest(unittest.TestCase):
         self.assertEqual(kinds(truth), {"Plane": 7, "Cone": 3, "Cylinder": 3})
         # The mesher leaves slivers on the planes beside the small circles that 5 um of noise folds
         # into self-intersections with most seeds (Make solid then refuses the mesh); with this one none.
-        points, facets = MeshPart.meshFromShape(Shape=truth, MaxLength=0.8).Topology
-        scanned = picoscan.Mesh()
-        scanned.vertices = numpy.array([tuple(p) for p in points], dtype=numpy.float32) + \
-            numpy.random.default_rng(2).normal(0, 0.005, (len(points), 3)).astype(numpy.float32)
-        scanned.faces = numpy.array(facets, dtype=numpy.int32)
         obj = self.doc.addObject("Mesh::Feature", "ChamferPlate")
-        obj.Mesh = scan_mesh.freecad_mesh(scanned)
+        obj.Mesh = scan_mesh.freecad_mesh(self.scanned_mesh_of(truth, 2))
         shape, model, note = solid.solid_with_model(obj.Mesh, obj.Label, check_valid=True)
         FreeCAD.Console.PrintMessage("chamfer plate (%d facets): %s\n" % (obj.Mesh.CountFacets, model.summary()))
         self.assertEqual(note, "")
