@@ -156,12 +156,8 @@ CaptureRig open_capture_rig(const Arguments& arguments, const std::vector<std::s
     const bool all_virtual = std::all_of(sources.begin(), sources.end(), [](const std::string& s) { return s == "virtual"; });
     const bool has_virtual = std::count(sources.begin(), sources.end(), "virtual") > 0;
     // A camera given as a file or device that is not there is named first, before what else is missing.
-    for (const std::string& source : sources) {
-        const bool by_name = source == "virtual" || source == "screen" ||
-                             std::all_of(source.begin(), source.end(), [](unsigned char c) { return std::isdigit(c); });
-        if (!by_name && source.find('%') == std::string::npos && !fs::exists(source))
-            throw Error(source, "no such video file or camera device (--camera)");
-    }
+    for (const std::string& source : sources)
+        if (source != "virtual" && source != "screen") check_camera_source_exists(source);
     const bool has_screen_index = arguments.has("--projector-screen");
     const int screen_index = arguments.integer("--projector-screen", -1);
     if (!has_screen_index && !all_virtual)

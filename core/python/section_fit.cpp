@@ -190,6 +190,21 @@ void bind_section_fit(py::module_& m) {
         "made from when given, else from the cut, the mesh cut at the plane through origin spanned by u and v with its "
         "Band, the polylines fitted together, and the report (MeshSectionFit); progress hears the noise, the cut and the "
         "fit, Cancel raises Error('cancelled: ...')");
+    py::class_<ScanOfMeshCheck>(m, "ScanOfMeshCheck")
+        .def_readonly("checked", &ScanOfMeshCheck::checked, "Points measured against the mesh")
+        .def_readonly("outside_box", &ScanOfMeshCheck::outside_box, "Finite points beyond the mesh's grown box, not judged")
+        .def_readonly("share", &ScanOfMeshCheck::share, "Of those checked, the share within limit_mm of the mesh")
+        .def_readonly("limit_mm", &ScanOfMeshCheck::limit_mm, "How near the mesh a point must lie")
+        .def_readonly("margin_mm", &ScanOfMeshCheck::margin_mm, "How far the mesh's box was grown");
+    m.def(
+        "check_scan_of_mesh",
+        [](const PointCloud& scan, const Mesh& mesh, double scan_noise_mm) {
+            py::gil_scoped_release release;
+            return check_scan_of_mesh(scan, mesh, scan_noise_mm);
+        },
+        py::arg("scan"), py::arg("mesh"), py::arg("scan_noise_mm"),
+        "Checks that the scan is the mesh's (ScanOfMeshCheck); raises Error naming the scan when too few of its points "
+        "near the mesh's box lie on the mesh");
     m.def("section_element_text", &section_element_text, py::arg("element"), "One element's line of the report");
     m.def("left_out_text", &left_out_text, py::arg("left"), "One left-out polyline's line of the report (loop or chain, why)");
 }

@@ -650,7 +650,7 @@ std::vector<Case> hostile_cases() {
     cases.push_back({"capture --camera a video file that is not there", [](const fs::path&) {
                          return std::vector<std::string>{"capture", "--camera", "missing.mp4", "--out", "cap"};
                      },
-                     1, {"missing.mp4", "no such video file or camera device"}, 30, 0, 0, {}, {"cap"}});
+                     1, {"missing.mp4", "no such camera or video file"}, 30, 0, 0, {}, {"cap"}});
     // The open surface's voxel cells are 64-bit keys of floor(coordinate / voxel): a point at
     // 1e30 mm is refused before any cell is computed, and a tiny spacing only thins nothing.
     cases.push_back({"mesh --fill open of a cloud with a point at 1e30 mm", [](const fs::path& dir) {

@@ -94,6 +94,11 @@ struct CameraSettings {
     int flush_frames = 5;                    // frames flush() drops: at least the driver's buffer count
 };
 
+// Throws Error naming `source` when it is a device path, video file or folder that does not
+// exist; a device index or an image-sequence pattern ("frames/%03d.png") is left to opening.
+// Opens nothing, so a command can name a missing camera before anything else is checked.
+void check_camera_source_exists(const std::string& source);
+
 // A camera through OpenCV's VideoCapture. `source` is a V4L2 device index ("0"), a device
 // path ("/dev/video2"), or a video file or image sequence ("frames/%03d.png"), which stands in
 // for a device in tests. Throws Error naming the source when it cannot be opened, delivers no

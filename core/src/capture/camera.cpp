@@ -44,6 +44,13 @@ cv::Mat grab_average(Camera& camera, int count) {
     return mean;
 }
 
+void check_camera_source_exists(const std::string& source) {
+    // Image sequences name their files with a printf pattern; everything else must exist.
+    if (is_device_index(source) || source.find('%') != std::string::npos || fs::exists(source)) return;
+    throw Error(source, source.rfind("/dev/", 0) == 0 ? "no such camera (the device does not exist; is it plugged in?)"
+                                                      : "no such camera or video file");
+}
+
 // ---- VideoCaptureCamera --------------------------------------------------------------------
 
 struct VideoCaptureCamera::Impl {
@@ -57,10 +64,7 @@ VideoCaptureCamera::VideoCaptureCamera(const std::string& source, const CameraSe
     const bool index = is_device_index(source);
     const bool device_path = source.rfind("/dev/", 0) == 0;
     name_ = index ? "camera " + source : source;
-    // Image sequences name their files with a printf pattern; everything else must exist.
-    if (!index && source.find('%') == std::string::npos && !fs::exists(source))
-        throw Error(name_, device_path ? "no such camera (the device does not exist; is it plugged in?)"
-                                       : "no such camera or video file");
+    check_camera_source_exists(source);
     // OpenCV logs every backend it tries and fails with; the one-line Error below says it all.
     struct QuietOpenCvLog {
         cv::utils::logging::LogLevel previous = cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
