@@ -268,6 +268,18 @@ TEST(CylinderFaces, AnObliqueShaftBecomesOneCylinderBetweenItsEnds) {
 
 namespace {
 
+// The facets of a closed profile of `rings` points revolved in `segments` steps, its vertices ring
+// after ring (two triangles between each pair of neighbouring rings and segments).
+void add_revolved_faces(Mesh& mesh, size_t rings, int segments) {
+    for (size_t j = 0; j < rings; ++j)
+        for (int k = 0; k < segments; ++k) {
+            const int a = int(j * segments) + k, b = int(j * segments) + (k + 1) % segments;
+            const int c = int(((j + 1) % rings) * segments) + (k + 1) % segments, d = int(((j + 1) % rings) * segments) + k;
+            mesh.faces.emplace_back(a, c, b);
+            mesh.faces.emplace_back(a, d, c);
+        }
+}
+
 // A smooth mesh as Poisson makes of a scan: a round plate (radius 20 mm, 8 mm thick) with a boss
 // (radius 8 mm, 4 mm high) and a hole (radius 4 mm) through both, about the vertical axis through
 // kCentre, every edge rounded (radius 0.15 mm, 3 facets), 96 segments round; the rounded edges
@@ -309,7 +321,6 @@ Mesh rounded_bushing(double sigma, unsigned seed, Decoy decoy) {
     Mesh mesh;
     std::mt19937 random(seed);
     std::normal_distribution<double> unit_noise;
-    const size_t n = profile.size();
     for (const cv::Vec2d& point : profile)
         for (int k = 0; k < segments; ++k) {
             const double a = 2 * kPi * k / segments;
@@ -324,13 +335,7 @@ Mesh rounded_bushing(double sigma, unsigned seed, Decoy decoy) {
             p += kCentre + sigma * cv::Vec3d(unit_noise(random), unit_noise(random), unit_noise(random));
             mesh.vertices.emplace_back(p);
         }
-    for (size_t j = 0; j < n; ++j)
-        for (int k = 0; k < segments; ++k) {
-            const int a = int(j * segments) + k, b = int(j * segments) + (k + 1) % segments;
-            const int c = int(((j + 1) % n) * segments) + (k + 1) % segments, d = int(((j + 1) % n) * segments) + k;
-            mesh.faces.emplace_back(a, c, b);
-            mesh.faces.emplace_back(a, d, c);
-        }
+    add_revolved_faces(mesh, profile.size(), segments);
     return mesh;
 }
 
@@ -724,14 +729,7 @@ Mesh chamfered_part(const ChamferedPart& part, double sigma, unsigned seed) {
             p += kCentre + sigma * cv::Vec3d(unit_noise(random), unit_noise(random), unit_noise(random));
             mesh.vertices.emplace_back(p);
         }
-    const size_t n = profile.size();
-    for (size_t j = 0; j < n; ++j)
-        for (int k = 0; k < segments; ++k) {
-            const int a = int(j * segments) + k, b = int(j * segments) + (k + 1) % segments;
-            const int c = int(((j + 1) % n) * segments) + (k + 1) % segments, d = int(((j + 1) % n) * segments) + k;
-            mesh.faces.emplace_back(a, c, b);
-            mesh.faces.emplace_back(a, d, c);
-        }
+    add_revolved_faces(mesh, profile.size(), segments);
     return mesh;
 }
 
